@@ -247,12 +247,12 @@ class BagWriter:
     # ------------------------------------------------------------------ API
     @property
     def closed(self):
-        """Whether :meth:`close` has been called."""
+        """Return whether :meth:`close` has been called."""
         return self._closed
 
     @property
     def failed(self):
-        """The :class:`RecordingError` that stopped the recording, or None."""
+        """Return the :class:`RecordingError` that stopped the recording, or None."""
         return self._failed
 
     def add_topic(self, topic, type_name, qos=None):
@@ -494,7 +494,7 @@ class Bag:
 
     @property
     def finalised(self):
-        """True when the MCAP file has its summary and statistics and metadata.yaml exists."""
+        """Return True when the MCAP summary, its statistics and metadata.yaml are all there."""
         return (self.has_footer and self.statistics is not None and not self.truncated
                 and self.metadata_yaml is not None)
 
