@@ -21,8 +21,9 @@ pre-order with children in lexicographic order, each as
 ``'\n' + '=' * 80 + '\nMSG: pkg/Type\n'`` followed by its verbatim text.  The ``.msg`` files
 and the ``.json`` type descriptions (which carry the RIHS01 hashes) come from the installed
 interface packages' ``share/`` directories (the PyPI wheels install them under
-``<venv>/share``; a stock Jazzy install under each prefix of ``AMENT_PREFIX_PATH``).  If a package's files cannot be found, the ``rosbags`` typestore for
-Jazzy is used instead (same field layout and hash; comments stripped).
+``<venv>/share``; a stock Jazzy install under each prefix of ``AMENT_PREFIX_PATH``).  If a
+package's files cannot be found, the ``rosbags`` typestore for Jazzy is used instead (same
+field layout and hash; comments stripped).
 """
 
 import functools
