@@ -1,0 +1,509 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The node's parameters as data, and :class:`NodeConfig`, the validated configuration (no rclpy).
+
+:data:`PARAMETERS` is the one table of the public parameter interface: name, type, default,
+unit, description, allowed range and whether it is read-only.  The node declares its ROS
+parameters from it (descriptions, ``FloatingPointRange``/``IntegerRange``), the README tables are
+generated from it, and :meth:`NodeConfig.from_parameters` validates against it.
+
+:meth:`NodeConfig.from_parameters` takes a plain ``dict`` name → value (missing names take their
+default) and either returns a frozen :class:`NodeConfig` or raises :class:`ConfigError` /
+:class:`ModelError` with one line naming the parameter, its value, its unit and the rule.
+:meth:`NodeConfig.to_parameters` returns the plain ``dict`` back (round trip), which is what a
+recording stores so that replay can rebuild exactly the same configuration.
+
+Times are converted to integer nanoseconds here, rounded to the nearest nanosecond:
+``timestep_s`` must be a whole number of nanoseconds (to 0.001 ns, which absorbs the binary
+representation of decimal values such as 0.001), so that sim time is exact; the publish period
+is ``round(1e9 / publish_rate_hz)`` ns.
+"""
+
+from dataclasses import dataclass
+import math
+
+import numpy as np
+
+from rbd_ros import conversions
+from rbd_ros.core import BodyModel, BodyState, ConfigError, DEFAULT_INTEGRATOR, INTEGRATORS
+from rbd_ros.core import ModelError
+from rbd_ros.core import inertia as inertia_mod
+
+# ROS parameter types, by the names rcl_interfaces/ParameterType uses (lower case).
+BOOL = 'bool'
+INTEGER = 'integer'
+DOUBLE = 'double'
+STRING = 'string'
+DOUBLE_ARRAY = 'double_array'
+STRING_ARRAY = 'string_array'
+
+#: Frame keywords accepted by ``twist_frame``, ``default_wrench_frame`` and ``.frame``.
+FRAME_KEYWORDS = ('world', 'body')
+
+#: Name of the main wrench input (topic ``wrench``) in :class:`rbd_ros.inputs.WrenchInputs`.
+MAIN_INPUT = 'wrench'
+
+#: The box used when neither ``inertia`` nor ``shape`` is given (same as msg_config/default.yaml).
+DEFAULT_SHAPE = 'box'
+DEFAULT_DIMENSIONS_M = (0.2, 0.1, 0.05)
+
+_NS_PER_S = 1_000_000_000
+# A time in seconds must be within this many ns of a whole number of ns: float64 writes decimal
+# steps such as 0.001 s with a relative error <= 2^-53, i.e. far below 1e-3 ns for any step < 1e3 s.
+_NS_TOLERANCE = 1e-3
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """
+    One public parameter.
+
+    :param name: the ROS parameter name.
+    :param type: one of ``bool``, ``integer``, ``double``, ``string``, ``double_array``,
+        ``string_array``.
+    :param default: the default value (a tuple for arrays).
+    :param unit: SI unit ('' for none).
+    :param description: one sentence for ``ros2 param describe`` and the README.
+    :param range: ``(low, high)`` closed bounds for numbers (also advertised to ROS as
+        ``FloatingPointRange``/``IntegerRange``), or None.
+    :param read_only: True when a live change would make no sense.
+    :param rule: the rule beyond the range, in words (for the README), or ''.
+    """
+
+    name: str
+    type: str
+    default: object
+    unit: str
+    description: str
+    range: tuple = None
+    read_only: bool = True
+    rule: str = ''
+
+
+_BIG = 1e12  # upper bound advertised for quantities with no natural limit
+
+PARAMETERS = (
+    ParamSpec('mass_kg', DOUBLE, 1.0, 'kg', 'Mass of the body.', (0.0, _BIG), rule='> 0'),
+    ParamSpec('inertia', DOUBLE_ARRAY, (), 'kg·m²',
+              'Inertia about the COM in body coordinates, [ixx, iyy, izz, ixy, ixz, iyz] '
+              '(ROS order); [] = use shape.',
+              rule='6 values, positive definite, triangle inequality; not with shape'),
+    ParamSpec('shape', STRING, '', '',
+              "Alternative to inertia: a core shape ('box', 'sphere', 'cylinder', ...); "
+              "'' with inertia [] = a 0.2 x 0.1 x 0.05 m box.", rule='not with inertia'),
+    ParamSpec('dimensions_m', DOUBLE_ARRAY, (), 'm',
+              "Sizes of shape (box: [x, y, z]; sphere: [radius]; cylinder: [radius, length]).",
+              rule='as the shape needs'),
+    ParamSpec('initial_position', DOUBLE_ARRAY, (0.0, 0.0, 0.0), 'm',
+              'Initial COM position, world frame.', rule='3 finite values'),
+    ParamSpec('initial_orientation', DOUBLE_ARRAY, (0.0, 0.0, 0.0, 1.0), '',
+              'Initial orientation quaternion [x, y, z, w] (geometry_msgs order), body to '
+              'world.', rule='4 finite values, norm within 1e-3 of 1 (then normalised)'),
+    ParamSpec('initial_linear_velocity', DOUBLE_ARRAY, (0.0, 0.0, 0.0), 'm/s',
+              'Initial COM velocity, world frame.', rule='3 finite values'),
+    ParamSpec('initial_angular_velocity', DOUBLE_ARRAY, (0.0, 0.0, 0.0), 'rad/s',
+              'Initial angular velocity, body frame.', rule='3 finite values'),
+    ParamSpec('gravity', DOUBLE_ARRAY, (0.0, 0.0, 0.0), 'm/s²',
+              'Gravitational acceleration, world frame.', rule='3 finite values'),
+    ParamSpec('linear_damping', DOUBLE, 0.0, '1/s',
+              'Linear velocity decays as exp(-c t) (exact flow).', (0.0, _BIG)),
+    ParamSpec('angular_damping', DOUBLE, 0.0, '1/s',
+              'Angular velocity decays as exp(-c t) (exact flow).', (0.0, _BIG)),
+    ParamSpec('integrator', STRING, DEFAULT_INTEGRATOR, '',
+              'Integrator: ' + ', '.join(INTEGRATORS) + '.', rule='one of the names'),
+    ParamSpec('timestep_s', DOUBLE, 0.001, 's', 'Fixed physics step.', (0.0, 1.0),
+              rule='> 0, a whole number of ns'),
+    ParamSpec('publish_rate_hz', DOUBLE, 100.0, 'Hz',
+              'State publishing rate in sim time (at most once per physics step).',
+              (0.0, 1e9), rule='> 0'),
+    ParamSpec('real_time_factor', DOUBLE, 1.0, '',
+              'Sim seconds per wall second; 0 = as fast as possible.', (0.0, 1e6),
+              read_only=False),
+    ParamSpec('duration_s', DOUBLE, 0.0, 's',
+              'Stop and exit with status 0 after this much sim time; 0 = run until shut down.',
+              (0.0, 1e9)),
+    ParamSpec('start_paused', BOOL, False, '', 'Start paused (advance with ~/step or ~/pause).'),
+    ParamSpec('world_frame', STRING, 'world', '', 'Frame id of the world (inertial) frame.',
+              rule='non-empty, differs from body_frame'),
+    ParamSpec('body_frame', STRING, 'base_link', '', 'Frame id of the body frame (at the COM).',
+              rule='non-empty'),
+    ParamSpec('twist_frame', STRING, 'world', '',
+              "Frame of the twist topic: 'world' or 'body'.", rule="'world' or 'body'"),
+    ParamSpec('default_wrench_frame', STRING, 'world', '',
+              "How a wrench with an empty frame_id is read: 'world' or 'body'.",
+              rule="'world' or 'body'"),
+    ParamSpec('wrench_timeout_s', DOUBLE, 0.0, 's',
+              'A received wrench is held this long in sim time; 0 = until replaced.',
+              (0.0, 1e9)),
+    ParamSpec('max_force_n', DOUBLE, 1e6, 'N',
+              'Wrenches with a larger |force| are rejected and counted.', (0.0, _BIG),
+              rule='> 0'),
+    ParamSpec('max_torque_nm', DOUBLE, 1e6, 'N·m',
+              'Wrenches with a larger |torque| are rejected and counted.', (0.0, _BIG),
+              rule='> 0'),
+    ParamSpec('wrench_inputs', STRING_ARRAY, (), '',
+              'Names of extra wrench inputs, each with wrench_inputs.<name>.topic, .frame and '
+              '.point_b.', rule='distinct names of letters, digits and _'),
+    ParamSpec('publish_clock', BOOL, False, '', 'Publish /clock (sim time).'),
+    ParamSpec('publish_tf', BOOL, True, '',
+              'Broadcast world -> body on /tf (only when tf2_msgs is importable).'),
+    ParamSpec('record_path', STRING, '', '', "Record the run to this MCAP path; '' = off."),
+    ParamSpec('record_overwrite', BOOL, False, '',
+              'Allow record_path to replace an existing recording.'),
+)
+
+PARAMETERS_BY_NAME = {spec.name: spec for spec in PARAMETERS}
+
+# Parameters of the body model: their errors are ModelError, the others' ConfigError.
+_MODEL_PARAMETERS = frozenset((
+    'mass_kg', 'inertia', 'shape', 'dimensions_m', 'gravity', 'linear_damping',
+    'angular_damping'))
+
+
+def input_parameter_specs(name):
+    """
+    Return the three :class:`ParamSpec` of the extra wrench input ``name``.
+
+    ``wrench_inputs.<name>.topic`` (default ``wrench_<name>``, relative), ``.frame``
+    (``'world'``/``'body'``: how a message with an empty ``frame_id`` is read, default ``body``)
+    and ``.point_b`` (application point of the force in body coordinates, m, default the COM).
+    """
+    prefix = f'wrench_inputs.{name}.'
+    return (
+        ParamSpec(prefix + 'topic', STRING, f'wrench_{name}', '',
+                  f'Topic of wrench input {name!r} (relative name).', rule='non-empty'),
+        ParamSpec(prefix + 'frame', STRING, 'body', '',
+                  f"How wrench input {name!r} reads an empty frame_id: 'world' or 'body'.",
+                  rule="'world' or 'body'"),
+        ParamSpec(prefix + 'point_b', DOUBLE_ARRAY, (0.0, 0.0, 0.0), 'm',
+                  f'Application point of input {name!r}, body frame, relative to the COM.',
+                  rule='3 finite values'),
+    )
+
+
+@dataclass(frozen=True)
+class WrenchInputSpec:
+    """
+    One wrench input: its name, topic, default frame keyword and application point.
+
+    :param name: ``'wrench'`` for the main input, else the name listed in ``wrench_inputs``.
+    :param topic: the (relative) topic name.
+    :param frame: ``'world'`` or ``'body'``: how a message with an empty ``frame_id`` is read.
+    :param point_b: application point of the force, body frame relative to the COM, m.
+    """
+
+    name: str
+    topic: str
+    frame: str
+    point_b: tuple = (0.0, 0.0, 0.0)
+
+
+def _fmt(value):
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return '[' + ', '.join(_fmt(v) for v in value) + ']'
+    if isinstance(value, float):
+        return repr(value)
+    return repr(value)
+
+
+def _fail(spec, value, rule, error=None):
+    if error is None:
+        error = ModelError if spec.name in _MODEL_PARAMETERS else ConfigError
+    unit = f' {spec.unit}' if spec.unit else ''
+    raise error(f'parameter {spec.name} = {_fmt(value)}{unit}: {rule}')
+
+
+def _coerce(spec, value):
+    """Return ``value`` as the Python type of ``spec`` or raise ConfigError."""
+    kind = spec.type
+    if kind == BOOL:
+        if isinstance(value, (bool, np.bool_)):
+            return bool(value)
+        _fail(spec, value, 'must be true or false')
+    if kind == INTEGER:
+        if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+            return int(value)
+        _fail(spec, value, 'must be an integer')
+    if kind == DOUBLE:
+        if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+                value, bool):
+            value = float(value)
+            if not math.isfinite(value):
+                _fail(spec, value, 'must be finite')
+            return value
+        _fail(spec, value, 'must be a number')
+    if kind == STRING:
+        if isinstance(value, str):
+            return value
+        _fail(spec, value, 'must be a string')
+    if kind == DOUBLE_ARRAY:
+        if isinstance(value, (list, tuple, np.ndarray)) and all(
+                isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
+                for v in value):
+            out = tuple(float(v) for v in value)
+            if not all(math.isfinite(v) for v in out):
+                _fail(spec, value, 'must be finite')
+            return out
+        _fail(spec, value, 'must be a list of numbers')
+    if kind == STRING_ARRAY:
+        if isinstance(value, (list, tuple)) and all(isinstance(v, str) for v in value):
+            return tuple(value)
+        _fail(spec, value, 'must be a list of strings')
+    raise AssertionError(kind)  # pragma: no cover - the table only uses the kinds above
+
+
+def _check_range(spec, value):
+    if spec.range is not None:
+        low, high = spec.range
+        if value < low and spec.rule:
+            _fail(spec, value, f'must be {spec.rule}')
+        if not low <= value <= high:
+            _fail(spec, value, f'must be in [{low:g}, {high:g}]')
+
+
+def _to_ns(spec, seconds):
+    ns = seconds * _NS_PER_S
+    rounded = round(ns)
+    if abs(ns - rounded) > _NS_TOLERANCE:
+        _fail(spec, seconds, 'must be a whole number of nanoseconds')
+    return int(rounded)
+
+
+def _vector3(spec, values):
+    if len(values) != 3:
+        _fail(spec, list(values), 'must have 3 values')
+    return values
+
+
+@dataclass(frozen=True)
+class NodeConfig:
+    """
+    The validated configuration of a rigid-body node (frozen, ROS-free).
+
+    Build it with :meth:`from_parameters`; :meth:`to_parameters` gives the plain dict back.
+
+    :ivar model: the :class:`BodyModel` (mass, inertia about the COM, gravity, damping).
+    :ivar initial_state: the :class:`BodyState` at time 0 (quaternion w, x, y, z).
+    :ivar integrator: integrator name, a key of ``INTEGRATORS``.
+    :ivar timestep_ns: physics step, integer ns.
+    :ivar publish_period_ns: state publishing period in sim time, integer ns.
+    :ivar real_time_factor: sim s per wall s; 0 = as fast as possible.
+    :ivar duration_ns: stop after this sim time, integer ns; 0 = never.
+    :ivar wrench_timeout_ns: hold time of a received wrench in sim ns; 0 = until replaced.
+    :ivar wrench_inputs: :class:`WrenchInputSpec` tuple, the main input ``'wrench'`` first.
+    :ivar parameters: the validated parameter values (a name → value dict, arrays as tuples).
+    """
+
+    model: BodyModel
+    initial_state: BodyState
+    integrator: str
+    timestep_ns: int
+    publish_period_ns: int
+    real_time_factor: float
+    duration_ns: int
+    start_paused: bool
+    world_frame: str
+    body_frame: str
+    twist_frame: str
+    default_wrench_frame: str
+    wrench_timeout_ns: int
+    max_force_n: float
+    max_torque_nm: float
+    wrench_inputs: tuple
+    publish_clock: bool
+    publish_tf: bool
+    record_path: str
+    record_overwrite: bool
+    parameters: dict
+
+    @classmethod
+    def from_parameters(cls, params=None):
+        """
+        Validate ``params`` (name → value; missing names take their defaults) into a config.
+
+        :raises ConfigError: an unknown name, a wrong type, a value out of range, an unknown
+            integrator or frame keyword, a step that is not a whole number of ns, ...
+        :raises ModelError: a mass or inertia the core rejects (not positive definite,
+            triangle inequality), both ``inertia`` and ``shape`` given, ...
+        """
+        params = dict(params or {})
+        values = {}
+        for spec in PARAMETERS:
+            value = _coerce(spec, params.pop(spec.name, spec.default))
+            if spec.type in (DOUBLE, INTEGER):
+                _check_range(spec, value)
+            values[spec.name] = value
+        p = PARAMETERS_BY_NAME
+
+        names = values['wrench_inputs']
+        for name in names:
+            if not name or not (name.replace('_', 'a').isalnum() and name.isascii()):
+                _fail(p['wrench_inputs'], list(names),
+                      f'input name {name!r} must be letters, digits and _')
+            if name == MAIN_INPUT:
+                _fail(p['wrench_inputs'], list(names), f'{MAIN_INPUT!r} is the main input')
+        if len(set(names)) != len(names):
+            _fail(p['wrench_inputs'], list(names), 'names must be distinct')
+        extra_specs = []
+        for name in names:
+            for spec in input_parameter_specs(name):
+                value = _coerce(spec, params.pop(spec.name, spec.default))
+                values[spec.name] = value
+            extra_specs.append(name)
+        if params:
+            unknown = sorted(params)[0]
+            raise ConfigError(
+                f'parameter {unknown} = {_fmt(params[unknown])}: unknown parameter name '
+                f'(known: see README; wrench input parameters need their name in wrench_inputs)')
+
+        # Model.
+        mass_kg = values['mass_kg']
+        if not mass_kg > 0.0:
+            _fail(p['mass_kg'], mass_kg, 'must be > 0')
+        inertia = values['inertia']
+        shape = values['shape']
+        dims = values['dimensions_m']
+        if inertia and shape:
+            raise ModelError(
+                f'parameter inertia = {_fmt(inertia)} kg·m² and parameter shape = {shape!r}: '
+                'give either inertia or shape (with dimensions_m), not both')
+        if dims and not shape:
+            _fail(p['dimensions_m'], dims, 'needs shape (or remove it and give inertia)')
+        if inertia:
+            if len(inertia) != 6:
+                _fail(p['inertia'], inertia,
+                      'must have 6 values [ixx, iyy, izz, ixy, ixz, iyz]')
+            inertia_b = _reraise(p['inertia'], inertia,
+                                 inertia_mod.inertia_from_components, *inertia)
+        else:
+            if not shape:
+                shape, dims = DEFAULT_SHAPE, DEFAULT_DIMENSIONS_M
+            if shape not in inertia_mod.SHAPES:
+                _fail(p['shape'], shape, 'must be one of ' + ', '.join(inertia_mod.SHAPES),
+                      ModelError)
+            props = _reraise(p['dimensions_m'], dims, inertia_mod.from_shape,
+                             shape, dims, mass_kg)
+            inertia_b = props.inertia_b
+        gravity = _vector3(p['gravity'], values['gravity'])
+        model = _reraise(p['inertia'] if inertia else p['dimensions_m'],
+                         inertia or dims, BodyModel, mass_kg, inertia_b, gravity,
+                         values['linear_damping'], values['angular_damping'])
+
+        # Initial state.
+        position = _vector3(p['initial_position'], values['initial_position'])
+        q_xyzw = values['initial_orientation']
+        if len(q_xyzw) != 4:
+            _fail(p['initial_orientation'], q_xyzw, 'must have 4 values [x, y, z, w]')
+        norm = math.sqrt(sum(v * v for v in q_xyzw))
+        if abs(norm - 1.0) > 1e-3:
+            _fail(p['initial_orientation'], q_xyzw,
+                  f'norm {norm:.6g} must be within 1e-3 of 1 ([x, y, z, w] order)')
+        q_wxyz = np.asarray(conversions.xyzw_to_wxyz(q_xyzw)) / norm
+        velocity = _vector3(p['initial_linear_velocity'], values['initial_linear_velocity'])
+        omega_b = _vector3(p['initial_angular_velocity'], values['initial_angular_velocity'])
+        initial_state = BodyState(position_w=np.array(position), orientation_wb=q_wxyz,
+                                  linear_velocity_w=np.array(velocity),
+                                  angular_velocity_b=np.array(omega_b), time_ns=0)
+
+        # Integrator and time.
+        if values['integrator'] not in INTEGRATORS:
+            _fail(p['integrator'], values['integrator'],
+                  'must be one of ' + ', '.join(INTEGRATORS))
+        if not values['timestep_s'] > 0.0:
+            _fail(p['timestep_s'], values['timestep_s'], 'must be > 0')
+        timestep_ns = _to_ns(p['timestep_s'], values['timestep_s'])
+        if not values['publish_rate_hz'] > 0.0:
+            _fail(p['publish_rate_hz'], values['publish_rate_hz'], 'must be > 0')
+        publish_period_ns = max(1, round(_NS_PER_S / values['publish_rate_hz']))
+        duration_ns = _to_ns(p['duration_s'], values['duration_s'])
+        timeout_ns = _to_ns(p['wrench_timeout_s'], values['wrench_timeout_s'])
+
+        # Frames.
+        for name in ('world_frame', 'body_frame'):
+            if not values[name]:
+                _fail(p[name], values[name], 'must not be empty')
+        if values['world_frame'] == values['body_frame']:
+            _fail(p['body_frame'], values['body_frame'], 'must differ from world_frame')
+        for name in ('twist_frame', 'default_wrench_frame'):
+            if values[name] not in FRAME_KEYWORDS:
+                _fail(p[name], values[name], "must be 'world' or 'body'")
+        for name in ('max_force_n', 'max_torque_nm'):
+            if not values[name] > 0.0:
+                _fail(p[name], values[name], 'must be > 0')
+
+        # Wrench inputs.
+        inputs = [WrenchInputSpec(MAIN_INPUT, 'wrench', values['default_wrench_frame'])]
+        topics = {'wrench'}
+        for name in extra_specs:
+            topic_spec, frame_spec, point_spec = input_parameter_specs(name)
+            topic = values[topic_spec.name]
+            if not topic:
+                _fail(topic_spec, topic, 'must not be empty')
+            if topic in topics:
+                _fail(topic_spec, topic, 'is already used by another wrench input')
+            topics.add(topic)
+            frame = values[frame_spec.name]
+            if frame not in FRAME_KEYWORDS:
+                _fail(frame_spec, frame, "must be 'world' or 'body'")
+            point_b = _vector3(point_spec, values[point_spec.name])
+            inputs.append(WrenchInputSpec(name, topic, frame, point_b))
+
+        return cls(
+            model=model, initial_state=initial_state, integrator=values['integrator'],
+            timestep_ns=timestep_ns, publish_period_ns=publish_period_ns,
+            real_time_factor=values['real_time_factor'], duration_ns=duration_ns,
+            start_paused=values['start_paused'], world_frame=values['world_frame'],
+            body_frame=values['body_frame'], twist_frame=values['twist_frame'],
+            default_wrench_frame=values['default_wrench_frame'],
+            wrench_timeout_ns=timeout_ns, max_force_n=values['max_force_n'],
+            max_torque_nm=values['max_torque_nm'], wrench_inputs=tuple(inputs),
+            publish_clock=values['publish_clock'], publish_tf=values['publish_tf'],
+            record_path=values['record_path'], record_overwrite=values['record_overwrite'],
+            parameters=values)
+
+    def to_parameters(self):
+        """Return the parameters as a plain dict (lists for arrays), valid for from_parameters."""
+        return {name: list(value) if isinstance(value, tuple) else value
+                for name, value in self.parameters.items()}
+
+    def spec(self, name):
+        """Return the :class:`ParamSpec` of parameter ``name`` (including input parameters)."""
+        if name in PARAMETERS_BY_NAME:
+            return PARAMETERS_BY_NAME[name]
+        for input_name in self.parameters['wrench_inputs']:
+            for spec in input_parameter_specs(input_name):
+                if spec.name == name:
+                    return spec
+        raise ConfigError(f'parameter {name}: unknown parameter name')
+
+    def all_specs(self):
+        """Return the specs of every parameter of this config (table + wrench input ones)."""
+        specs = list(PARAMETERS)
+        for input_name in self.parameters['wrench_inputs']:
+            specs.extend(input_parameter_specs(input_name))
+        return tuple(specs)
+
+
+def _reraise(spec, value, func, *args):
+    """Call ``func(*args)``; re-raise a core ModelError/ConfigError naming the parameter."""
+    try:
+        return func(*args)
+    except (ModelError, ConfigError) as exc:
+        message = str(exc)
+        if not message.startswith((spec.name + ':', spec.name + ' ')):
+            unit = f' {spec.unit}' if spec.unit else ''
+            message = f'{spec.name} = {_fmt(value)}{unit}: {message}'
+        raise type(exc)(f'parameter {message}') from None

@@ -1,0 +1,202 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+:class:`SimSession`: one simulated body with its wrench inputs, stepped in sim time (no rclpy).
+
+The node and the replay tool drive exactly this class, so a replay of recorded wrench events
+reproduces the live run bit for bit. Usage::
+
+    session = SimSession(NodeConfig.from_parameters(params))
+    session.submit('wrench', 'world', (1.0, 0.0, 0.0), (0.0, 0.0, 0.0))  # next step start
+    while not session.finished:
+        report = session.advance(100)        # <= 100 steps; stops early at a sample time
+        for event in report.events:          # wrenches that took effect, with their step time
+            record(event.time_ns, event)
+        if report.sample_due:                # an output sample is due at session.time_ns
+            publish(session.state)
+
+Rules (all in sim time, integer ns):
+
+- A wrench passed to :meth:`submit` takes effect at the START of the next physics step, i.e.
+  at the step beginning at the current :attr:`time_ns`; the :class:`AppliedEvent` reports that
+  time. Expiries (``wrench_timeout_s``) are applied at the first step start at or after
+  ``t_effect + timeout``.
+- Output samples are due after the step ending at ``t`` when a multiple of the publish period
+  ``P`` lies in ``(t - h, t]``, and at ``t = 0``: :meth:`sample_due` is a pure function of sim
+  time, so replay finds the same sample times whatever the wall clock did.
+- :meth:`advance` honours :attr:`paused` (it does nothing while paused); :meth:`step` takes one
+  step regardless (the ``~/step`` service). Replay sets ``paused = False``.
+- :meth:`advance` stops at ``duration_s`` (:attr:`finished`).
+- Determinism: the simulator is stepped in chunks between events; the core guarantees that the
+  chunking does not change the result, so the same config and the same wrenches submitted at
+  the same sim times give bit-identical states.
+
+Not thread-safe: call it from one thread (the node uses a single-threaded executor).
+"""
+
+from dataclasses import dataclass, field
+
+from rbd_ros.core import NonFiniteError, Simulator
+from rbd_ros.inputs import WrenchInputs
+
+
+@dataclass(frozen=True)
+class StepReport:
+    """
+    What one :meth:`SimSession.advance` call did.
+
+    :ivar steps: physics steps taken.
+    :ivar events: :class:`rbd_ros.inputs.AppliedEvent` list, wrenches that took effect (each
+        with the sim time of the start of its step), in time order.
+    :ivar sample_due: True when an output sample is due at the session's current time (the
+        call stopped there).
+    """
+
+    steps: int = 0
+    events: list = field(default_factory=list)
+    sample_due: bool = False
+
+
+def _ceil_div(a, b):
+    return -(-a // b)
+
+
+class SimSession:
+    """
+    The simulator, the wrench inputs and the publish schedule of one node.
+
+    :param config: a :class:`rbd_ros.config.NodeConfig`.
+    """
+
+    def __init__(self, config):
+        self.config = config
+        self.simulator = Simulator(config.model, config.initial_state,
+                                   integrator=config.integrator,
+                                   timestep_ns=config.timestep_ns)
+        self.inputs = WrenchInputs(
+            config.wrench_inputs, world_frame=config.world_frame,
+            body_frame=config.body_frame, timeout_ns=config.wrench_timeout_ns,
+            max_force_n=config.max_force_n, max_torque_nm=config.max_torque_nm)
+        self.paused = config.start_paused
+        self.steps_total = 0  # physics steps taken since start, over resets
+        self.resets = 0
+        self.error = None  # message of the last NonFiniteError, if any
+
+    @property
+    def time_ns(self):
+        """Sim time, int ns."""
+        return self.simulator.time_ns
+
+    @property
+    def state(self):
+        """The current :class:`rbd_ros.core.BodyState`."""
+        return self.simulator.state
+
+    @property
+    def timestep_ns(self):
+        """The physics step, int ns."""
+        return self.config.timestep_ns
+
+    @property
+    def finished(self):
+        """True once sim time has reached ``duration_s`` (never when it is 0)."""
+        return 0 < self.config.duration_ns <= self.time_ns
+
+    def sample_due(self, time_ns):
+        """Return True if an output sample is due at sim time ``time_ns`` (a step end)."""
+        if time_ns == 0:
+            return True
+        period = self.config.publish_period_ns
+        return time_ns // period != (time_ns - self.config.timestep_ns) // period
+
+    def submit(self, input_name, frame_id, force, torque, tag=None):
+        """
+        Queue a received wrench for the start of the next step (see WrenchInputs.submit).
+
+        :param input_name: ``'wrench'`` or an extra input's name.
+        :param frame_id: the received ``header.frame_id``.
+        :param force: 3 numbers, N. :param torque: 3 numbers, N·m.
+        :param tag: returned in the :class:`AppliedEvent` (the node passes the message).
+        :raises rbd_ros.inputs.WrenchRejected: counted; nothing queued.
+        """
+        return self.inputs.submit(input_name, frame_id, force, torque, tag)
+
+    def advance(self, max_steps, until_ns=None):
+        """
+        Take up to ``max_steps`` steps; stop early when a sample is due or at the duration.
+
+        Also stops when sim time reaches ``until_ns`` (replay: advance to a recorded event).
+        Does nothing while :attr:`paused`.
+
+        :raises NonFiniteError: the state stays at its last finite value and the session
+            pauses itself (:attr:`error` holds the message).
+        """
+        if self.paused:
+            return StepReport()
+        return self._run(max_steps, until_ns)
+
+    def step(self):
+        """Take exactly one step, paused or not (the ``~/step`` service)."""
+        return self._run(1, None, ignore_duration=True)
+
+    def reset(self):
+        """Back to the initial state at time 0; pending and held wrenches are dropped."""
+        self.simulator.reset()
+        self.inputs.clear()
+        self.resets += 1
+        self.error = None
+
+    def _steps_to_next_sample(self, time_ns):
+        period = self.config.publish_period_ns
+        next_multiple = (time_ns // period + 1) * period
+        return _ceil_div(next_multiple - time_ns, self.config.timestep_ns)
+
+    def _run(self, max_steps, until_ns, ignore_duration=False):
+        h = self.config.timestep_ns
+        duration = self.config.duration_ns
+        events = []
+        done = 0
+        while done < max_steps:
+            t = self.time_ns
+            if duration and t >= duration and not ignore_duration:
+                break
+            if until_ns is not None and t >= until_ns:
+                break
+            expired = self.inputs.expire(t)
+            applied = self.inputs.apply_pending(t)
+            if applied or expired:
+                self.simulator.set_loads(self.inputs.loads())
+                events.extend(applied)
+            chunk = min(max_steps - done, self._steps_to_next_sample(t))
+            expiry = self.inputs.next_expiry_ns()
+            if expiry is not None:
+                chunk = min(chunk, max(1, _ceil_div(expiry - t, h)))
+            if duration and not ignore_duration:
+                chunk = min(chunk, max(1, _ceil_div(duration - t, h)))
+            if until_ns is not None:
+                chunk = min(chunk, max(1, _ceil_div(until_ns - t, h)))
+            try:
+                self.simulator.step(chunk)
+            except NonFiniteError as exc:
+                taken = (self.time_ns - t) // h
+                self.steps_total += taken
+                self.paused = True
+                self.error = str(exc)
+                raise
+            self.steps_total += chunk
+            done += chunk
+            if self.sample_due(self.time_ns):
+                return StepReport(done, events, True)
+        return StepReport(done, events, False)
