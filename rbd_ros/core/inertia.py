@@ -371,7 +371,7 @@ def from_shape(shape, dimensions_m, mass_kg):
         i = int(np.flatnonzero(bad)[0])
         raise ModelError(
             f'dimensions_m: {dims.tolist()} m for shape {shape!r} {expected}: {names[i]} = '
-            f'{dims[i]!r} m must be finite and > 0')
+            f'{float(dims[i])!r} m must be finite and > 0')
     return builder(mass_kg, dims)
 
 
