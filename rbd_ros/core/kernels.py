@@ -1,0 +1,559 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The compiled step kernel: one scalar per-body step, shared by every path that steps a body.
+
+Layout (structure of arrays, float64, ``N`` bodies in columns):
+
+* state ``x`` (13, N): rows 0–2 COM position ``p_w`` (m); 3–6 orientation ``q_wb``
+  ``(w, x, y, z)`` with ``v_w = R(q) v_b``; 7–9 COM velocity ``v_w`` (m/s); 10–12 angular
+  velocity ``ω_b`` in BODY coordinates (rad/s).
+* parameters ``prm`` (25, N), or (25, 1) when all bodies share one model: 0 mass ``M``;
+  1 ``1/M``; 2–10 ``I_b`` row-major; 11–19 ``I_b⁻¹`` row-major; 20–22 gravity ``g_w``;
+  23 linear damping ``c_v``; 24 angular damping ``c_ω`` (1/s).
+* loads ``ld`` (N, K, 12): one row per load, ``[kind, point_b(3), a(3), b(3), 0, 0]``;
+  kind 1 wrench in world coordinates (``a`` force N, ``b`` couple N·m), kind 2 the same in body
+  coordinates, kind 3 spring (``a`` anchor_w, ``b = (k, c, l0)``), kind 0 unused.
+* times ``t`` (N,) int64 nanoseconds.
+
+The single-body simulator, the batch, the node and the replay all go through :func:`advance`
+(or its parallel twin, which calls the same per-body function), so identical inputs give
+bit-identical states. ``fastmath`` is off: IEEE semantics, no reassociation.
+"""
+
+import math
+
+import numba as nb
+import numpy as np
+
+# Integrator ids; names, orders and documentation live in rbd_ros.core.integrators.
+SE_MATRIX = 0
+SE_AXIS_ANGLE = 1
+SE_QUAT_EXP = 2
+SE_QUAT_LINEAR = 3
+RK4 = 4
+MIDPOINT_CAYLEY = 5
+
+N_STATE = 13
+N_PARAM = 25
+N_LOAD = 12
+LOAD_WORLD = 1
+LOAD_BODY = 2
+LOAD_SPRING = 3
+
+# Newton iterations of the implicit midpoint solve stop when the update is below this many
+# units of round-off of |Π|; 4 ulp is the floor the iteration reaches in practice (the residual
+# itself carries ~1 ulp per term), and stopping there keeps the step energy-exact to round-off.
+_NEWTON_TOL_ULPS = 4.0 * 2.220446049250313e-16
+_NEWTON_MAX_ITER = 30
+
+_jit = nb.njit(cache=True, fastmath=False, nogil=True)
+
+
+@_jit
+def _cross(ax, ay, az, bx, by, bz):
+    return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+
+
+@_jit
+def _qmul(aw, ax, ay, az, bw, bx, by, bz):
+    """Hamilton product ``a ⊗ b`` (apply ``b`` first, then ``a``)."""
+    return (aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw)
+
+
+@_jit
+def _rotate(qw, qx, qy, qz, vx, vy, vz):
+    """``R(q) v`` for unit ``q``: ``v + 2w (u × v) + 2 u × (u × v)``, ``u = (x, y, z)``."""
+    tx, ty, tz = _cross(qx, qy, qz, vx, vy, vz)
+    tx, ty, tz = 2.0 * tx, 2.0 * ty, 2.0 * tz
+    cx, cy, cz = _cross(qx, qy, qz, tx, ty, tz)
+    return vx + qw * tx + cx, vy + qw * ty + cy, vz + qw * tz + cz
+
+
+@_jit
+def _rotate_inv(qw, qx, qy, qz, vx, vy, vz):
+    """``R(q)ᵀ v`` for unit ``q``."""
+    return _rotate(qw, -qx, -qy, -qz, vx, vy, vz)
+
+
+@_jit
+def _matvec(prm, off, j, x, y, z):
+    """Return ``A v`` for the row-major 3×3 ``A`` stored in ``prm[off:off + 9, j]``."""
+    return (prm[off, j] * x + prm[off + 1, j] * y + prm[off + 2, j] * z,
+            prm[off + 3, j] * x + prm[off + 4, j] * y + prm[off + 5, j] * z,
+            prm[off + 6, j] * x + prm[off + 7, j] * y + prm[off + 8, j] * z)
+
+
+@_jit
+def _normalize_q(qw, qx, qy, qz):
+    """``q / |q|``; NaN when ``|q|²`` is 0 or overflows, so the step is refused as non-finite."""
+    n2 = qw * qw + qx * qx + qy * qy + qz * qz
+    if not (0.0 < n2 < math.inf):
+        return math.nan, math.nan, math.nan, math.nan
+    s = 1.0 / math.sqrt(n2)
+    return qw * s, qx * s, qy * s, qz * s
+
+
+@_jit
+def net_wrench_w(px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz, prm, ld, i, j):
+    """
+    Sum everything acting on body ``i`` into a net force and torque about its COM (world).
+
+    ``prm[:, j]`` holds the body's parameters (``j = i``, or 0 when the bodies share one).
+
+    ``F = M g + Σ_k f_k`` and ``τ = Σ_k (r_k × f_k + τ_k)`` with ``r_k = R point_b,k`` the
+    lever arm from the COM (the lecture's ``τ = Σ r × f``; gravity acts at the COM and adds
+    no torque). Wrench loads come in world coordinates (kind 1) or body coordinates (kind 2,
+    rotated by ``R``); springs (kind 3) act at ``x = p + r`` with the force in
+    :class:`rbd_ros.core.loads.Spring`, using the point velocity ``v + ω_w × r``.
+    Damping is not summed here: it is applied as its exact exponential flow by the
+    integrators (see :class:`rbd_ros.core.model.BodyModel`).
+    """
+    m = prm[0, j]
+    fx, fy, fz = m * prm[20, j], m * prm[21, j], m * prm[22, j]
+    tx, ty, tz = 0.0, 0.0, 0.0
+    for k in range(ld.shape[1]):
+        kind = ld[i, k, 0]
+        if kind == 0.0:
+            continue
+        rx, ry, rz = _rotate(qw, qx, qy, qz, ld[i, k, 1], ld[i, k, 2], ld[i, k, 3])
+        if kind == 1.0:
+            gx, gy, gz = ld[i, k, 4], ld[i, k, 5], ld[i, k, 6]
+            cx, cy, cz = ld[i, k, 7], ld[i, k, 8], ld[i, k, 9]
+        elif kind == 2.0:
+            gx, gy, gz = _rotate(qw, qx, qy, qz, ld[i, k, 4], ld[i, k, 5], ld[i, k, 6])
+            cx, cy, cz = _rotate(qw, qx, qy, qz, ld[i, k, 7], ld[i, k, 8], ld[i, k, 9])
+        else:
+            stiffness, damping, rest = ld[i, k, 7], ld[i, k, 8], ld[i, k, 9]
+            dx = px + rx - ld[i, k, 4]
+            dy = py + ry - ld[i, k, 5]
+            dz = pz + rz - ld[i, k, 6]
+            ow_x, ow_y, ow_z = _rotate(qw, qx, qy, qz, wx, wy, wz)
+            ux, uy, uz = _cross(ow_x, ow_y, ow_z, rx, ry, rz)
+            ux, uy, uz = vx + ux, vy + uy, vz + uz
+            if rest > 0.0:
+                length = math.sqrt(dx * dx + dy * dy + dz * dz)
+                if length > 0.0:
+                    nx, ny, nz = dx / length, dy / length, dz / length
+                    mag = stiffness * (length - rest) + damping * (ux * nx + uy * ny + uz * nz)
+                    gx, gy, gz = -mag * nx, -mag * ny, -mag * nz
+                else:
+                    gx, gy, gz = 0.0, 0.0, 0.0
+            else:
+                gx = -stiffness * dx - damping * ux
+                gy = -stiffness * dy - damping * uy
+                gz = -stiffness * dz - damping * uz
+            cx, cy, cz = 0.0, 0.0, 0.0
+        fx, fy, fz = fx + gx, fy + gy, fz + gz
+        lx, ly, lz = _cross(rx, ry, rz, gx, gy, gz)
+        tx, ty, tz = tx + lx + cx, ty + ly + cy, tz + lz + cz
+    return fx, fy, fz, tx, ty, tz
+
+
+@_jit
+def _omega_dot_b(prm, j, wx, wy, wz, tbx, tby, tbz):
+    """Euler's equations in the body frame: ``ω̇_b = I_b⁻¹ (τ_b − ω_b × I_b ω_b)``."""
+    lx, ly, lz = _matvec(prm, 2, j, wx, wy, wz)
+    gx, gy, gz = _cross(wx, wy, wz, lx, ly, lz)
+    return _matvec(prm, 11, j, tbx - gx, tby - gy, tbz - gz)
+
+
+@_jit
+def _quat_to_matrix(qw, qx, qy, qz):
+    m = np.empty((3, 3))
+    m[0, 0] = 1.0 - 2.0 * (qy * qy + qz * qz)
+    m[0, 1] = 2.0 * (qx * qy - qw * qz)
+    m[0, 2] = 2.0 * (qx * qz + qw * qy)
+    m[1, 0] = 2.0 * (qx * qy + qw * qz)
+    m[1, 1] = 1.0 - 2.0 * (qx * qx + qz * qz)
+    m[1, 2] = 2.0 * (qy * qz - qw * qx)
+    m[2, 0] = 2.0 * (qx * qz - qw * qy)
+    m[2, 1] = 2.0 * (qy * qz + qw * qx)
+    m[2, 2] = 1.0 - 2.0 * (qx * qx + qy * qy)
+    return m
+
+
+@_jit
+def _matrix_to_quat(m, pw, px, py, pz):
+    """Shepperd's method; the sign is chosen nearest to the previous ``p`` (continuity)."""
+    trace = m[0, 0] + m[1, 1] + m[2, 2]
+    if trace >= m[0, 0] and trace >= m[1, 1] and trace >= m[2, 2]:
+        s = 2.0 * math.sqrt(1.0 + trace)
+        w, x = 0.25 * s, (m[2, 1] - m[1, 2]) / s
+        y, z = (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s
+    elif m[0, 0] >= m[1, 1] and m[0, 0] >= m[2, 2]:
+        s = 2.0 * math.sqrt(1.0 + m[0, 0] - m[1, 1] - m[2, 2])
+        w, x = (m[2, 1] - m[1, 2]) / s, 0.25 * s
+        y, z = (m[0, 1] + m[1, 0]) / s, (m[0, 2] + m[2, 0]) / s
+    elif m[1, 1] >= m[2, 2]:
+        s = 2.0 * math.sqrt(1.0 + m[1, 1] - m[0, 0] - m[2, 2])
+        w, x = (m[0, 2] - m[2, 0]) / s, (m[0, 1] + m[1, 0]) / s
+        y, z = 0.25 * s, (m[1, 2] + m[2, 1]) / s
+    else:
+        s = 2.0 * math.sqrt(1.0 + m[2, 2] - m[0, 0] - m[1, 1])
+        w, x = (m[1, 0] - m[0, 1]) / s, (m[0, 2] + m[2, 0]) / s
+        y, z = (m[1, 2] + m[2, 1]) / s, 0.25 * s
+    if w * pw + x * px + y * py + z * pz < 0.0:
+        w, x, y, z = -w, -x, -y, -z
+    return _normalize_q(w, x, y, z)
+
+
+@_jit
+def _gram_schmidt(m):
+    """Orthonormalise the columns of ``m`` in place: c0, c1 ⟂ c0, c2 = c0 × c1."""
+    n0 = 1.0 / math.sqrt(m[0, 0] ** 2 + m[1, 0] ** 2 + m[2, 0] ** 2)
+    for r in range(3):
+        m[r, 0] *= n0
+    d = m[0, 0] * m[0, 1] + m[1, 0] * m[1, 1] + m[2, 0] * m[2, 1]
+    for r in range(3):
+        m[r, 1] -= d * m[r, 0]
+    n1 = 1.0 / math.sqrt(m[0, 1] ** 2 + m[1, 1] ** 2 + m[2, 1] ** 2)
+    for r in range(3):
+        m[r, 1] *= n1
+    c = _cross(m[0, 0], m[1, 0], m[2, 0], m[0, 1], m[1, 1], m[2, 1])
+    for r in range(3):
+        m[r, 2] = c[r]
+
+
+@_jit
+def _matmul3(a, b):
+    """Return ``a b`` for 3×3 matrices (numba's ``@`` would need BLAS through scipy)."""
+    out = np.empty((3, 3))
+    for r in range(3):
+        for c in range(3):
+            out[r, c] = a[r, 0] * b[0, c] + a[r, 1] * b[1, c] + a[r, 2] * b[2, c]
+    return out
+
+
+@_jit
+def _rotation_about(wx, wy, wz, h):
+    """Rodrigues: ``Rot(h|ω|, ω/|ω|)``; exact, with the identity for ``ω = 0``."""
+    rot = np.eye(3)
+    speed = math.sqrt(wx * wx + wy * wy + wz * wz)
+    if speed == 0.0:
+        return rot
+    angle = h * speed
+    ax, ay, az = wx / speed, wy / speed, wz / speed
+    c, s = math.cos(angle), math.sin(angle)
+    t = 1.0 - c
+    rot[0, 0] = c + t * ax * ax
+    rot[0, 1] = t * ax * ay - s * az
+    rot[0, 2] = t * ax * az + s * ay
+    rot[1, 0] = t * ax * ay + s * az
+    rot[1, 1] = c + t * ay * ay
+    rot[1, 2] = t * ay * az - s * ax
+    rot[2, 0] = t * ax * az - s * ay
+    rot[2, 1] = t * ay * az + s * ax
+    rot[2, 2] = c + t * az * az
+    return rot
+
+
+@_jit
+def _quat_exp_half(wx, wy, wz, h):
+    """``exp((0, h ω / 2))``: rotation by ``h|ω|`` about ``ω``; Taylor series near 0."""
+    speed = math.sqrt(wx * wx + wy * wy + wz * wz)
+    half = 0.5 * h * speed
+    if half < 1e-4:
+        # sin(x)/x = 1 - x²/6 + x⁴/120 - ...; at x < 1e-4 the next term (x⁶/5040 < 2e-28)
+        # is far below double round-off, so the truncated series is exact to the last bit.
+        x2 = half * half
+        sinc = 1.0 - x2 / 6.0 + x2 * x2 / 120.0
+        c = 1.0 - x2 / 2.0 + x2 * x2 / 24.0
+    else:
+        sinc = math.sin(half) / half
+        c = math.cos(half)
+    k = 0.5 * h * sinc
+    return c, k * wx, k * wy, k * wz
+
+
+@_jit
+def _symplectic_euler(method, prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz,
+                      vx, vy, vz, wx, wy, wz):
+    # Net force and torque at the state of the start of the step (the lecture's scheme).
+    fx, fy, fz, tx, ty, tz = net_wrench_w(
+        px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz, prm, ld, i, j)
+    inv_m = prm[1, j]
+    vx, vy, vz = vx + h * fx * inv_m, vy + h * fy * inv_m, vz + h * fz * inv_m
+    tbx, tby, tbz = _rotate_inv(qw, qx, qy, qz, tx, ty, tz)
+    ax, ay, az = _omega_dot_b(prm, j, wx, wy, wz, tbx, tby, tbz)
+    wx, wy, wz = wx + h * ax, wy + h * ay, wz + h * az
+    px, py, pz = px + h * vx, py + h * vy, pz + h * vz
+    if method == SE_QUAT_EXP:
+        # q ← exp(h ω_w / 2) ⊗ q  ≡  q ⊗ exp(h ω_b / 2)
+        dw, dx, dy, dz = _quat_exp_half(wx, wy, wz, h)
+        qw, qx, qy, qz = _normalize_q(*_qmul(qw, qx, qy, qz, dw, dx, dy, dz))
+    elif method == SE_QUAT_LINEAR:
+        # q ← normalize(q + h ½ (0, ω_w) ⊗ q)  ≡  normalize(q + h ½ q ⊗ (0, ω_b))
+        dw, dx, dy, dz = _qmul(qw, qx, qy, qz, 0.0, wx, wy, wz)
+        k = 0.5 * h
+        qw, qx, qy, qz = _normalize_q(qw + k * dw, qx + k * dx, qy + k * dy, qz + k * dz)
+    else:
+        rot = _quat_to_matrix(qw, qx, qy, qz)
+        owx, owy, owz = _rotate(qw, qx, qy, qz, wx, wy, wz)
+        if method == SE_MATRIX:
+            # R ← (𝟙 + h [ω_w]) R, then Gram–Schmidt.
+            new = rot.copy()
+            for c in range(3):
+                ex, ey, ez = _cross(owx, owy, owz, rot[0, c], rot[1, c], rot[2, c])
+                new[0, c] += h * ex
+                new[1, c] += h * ey
+                new[2, c] += h * ez
+            _gram_schmidt(new)
+        else:
+            # R ← Rot(h|ω_w|, ω_w/|ω_w|) R
+            new = _matmul3(_rotation_about(owx, owy, owz, h), rot)
+        qw, qx, qy, qz = _matrix_to_quat(new, qw, qx, qy, qz)
+    return px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz
+
+
+@_jit
+def _derivative(prm, ld, i, j, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz):
+    """Right-hand side of the Newton–Euler ODE for RK4: (ṗ, q̇, v̇, ω̇_b)."""
+    nw, nx, ny, nz = _normalize_q(qw, qx, qy, qz)
+    fx, fy, fz, tx, ty, tz = net_wrench_w(
+        px, py, pz, nw, nx, ny, nz, vx, vy, vz, wx, wy, wz, prm, ld, i, j)
+    tbx, tby, tbz = _rotate_inv(nw, nx, ny, nz, tx, ty, tz)
+    ax, ay, az = _omega_dot_b(prm, j, wx, wy, wz, tbx, tby, tbz)
+    dw, dx, dy, dz = _qmul(qw, qx, qy, qz, 0.0, wx, wy, wz)
+    inv_m = prm[1, j]
+    return (vx, vy, vz, 0.5 * dw, 0.5 * dx, 0.5 * dy, 0.5 * dz,
+            fx * inv_m, fy * inv_m, fz * inv_m, ax, ay, az)
+
+
+@_jit
+def _rk4(prm, ld, i, j, h, y):
+    k1 = _derivative(prm, ld, i, j, *y)
+    y2 = (y[0] + 0.5 * h * k1[0], y[1] + 0.5 * h * k1[1], y[2] + 0.5 * h * k1[2],
+          y[3] + 0.5 * h * k1[3], y[4] + 0.5 * h * k1[4], y[5] + 0.5 * h * k1[5],
+          y[6] + 0.5 * h * k1[6], y[7] + 0.5 * h * k1[7], y[8] + 0.5 * h * k1[8],
+          y[9] + 0.5 * h * k1[9], y[10] + 0.5 * h * k1[10], y[11] + 0.5 * h * k1[11],
+          y[12] + 0.5 * h * k1[12])
+    k2 = _derivative(prm, ld, i, j, *y2)
+    y3 = (y[0] + 0.5 * h * k2[0], y[1] + 0.5 * h * k2[1], y[2] + 0.5 * h * k2[2],
+          y[3] + 0.5 * h * k2[3], y[4] + 0.5 * h * k2[4], y[5] + 0.5 * h * k2[5],
+          y[6] + 0.5 * h * k2[6], y[7] + 0.5 * h * k2[7], y[8] + 0.5 * h * k2[8],
+          y[9] + 0.5 * h * k2[9], y[10] + 0.5 * h * k2[10], y[11] + 0.5 * h * k2[11],
+          y[12] + 0.5 * h * k2[12])
+    k3 = _derivative(prm, ld, i, j, *y3)
+    y4 = (y[0] + h * k3[0], y[1] + h * k3[1], y[2] + h * k3[2], y[3] + h * k3[3],
+          y[4] + h * k3[4], y[5] + h * k3[5], y[6] + h * k3[6], y[7] + h * k3[7],
+          y[8] + h * k3[8], y[9] + h * k3[9], y[10] + h * k3[10], y[11] + h * k3[11],
+          y[12] + h * k3[12])
+    k4 = _derivative(prm, ld, i, j, *y4)
+    s = h / 6.0
+    out = (y[0] + s * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]),
+           y[1] + s * (k1[1] + 2.0 * k2[1] + 2.0 * k3[1] + k4[1]),
+           y[2] + s * (k1[2] + 2.0 * k2[2] + 2.0 * k3[2] + k4[2]),
+           y[3] + s * (k1[3] + 2.0 * k2[3] + 2.0 * k3[3] + k4[3]),
+           y[4] + s * (k1[4] + 2.0 * k2[4] + 2.0 * k3[4] + k4[4]),
+           y[5] + s * (k1[5] + 2.0 * k2[5] + 2.0 * k3[5] + k4[5]),
+           y[6] + s * (k1[6] + 2.0 * k2[6] + 2.0 * k3[6] + k4[6]),
+           y[7] + s * (k1[7] + 2.0 * k2[7] + 2.0 * k3[7] + k4[7]),
+           y[8] + s * (k1[8] + 2.0 * k2[8] + 2.0 * k3[8] + k4[8]),
+           y[9] + s * (k1[9] + 2.0 * k2[9] + 2.0 * k3[9] + k4[9]),
+           y[10] + s * (k1[10] + 2.0 * k2[10] + 2.0 * k3[10] + k4[10]),
+           y[11] + s * (k1[11] + 2.0 * k2[11] + 2.0 * k3[11] + k4[11]),
+           y[12] + s * (k1[12] + 2.0 * k2[12] + 2.0 * k3[12] + k4[12]))
+    qw, qx, qy, qz = _normalize_q(out[3], out[4], out[5], out[6])
+    return (out[0], out[1], out[2], qw, qx, qy, qz, out[7], out[8], out[9],
+            out[10], out[11], out[12])
+
+
+@_jit
+def _solve3(a, bx, by, bz):
+    """Solve the 3×3 system ``a x = b`` by Cramer's rule (a is well conditioned here)."""
+    c00 = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]
+    c01 = a[1, 2] * a[2, 0] - a[1, 0] * a[2, 2]
+    c02 = a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0]
+    det = a[0, 0] * c00 + a[0, 1] * c01 + a[0, 2] * c02
+    c10 = a[0, 2] * a[2, 1] - a[0, 1] * a[2, 2]
+    c11 = a[0, 0] * a[2, 2] - a[0, 2] * a[2, 0]
+    c12 = a[0, 1] * a[2, 0] - a[0, 0] * a[2, 1]
+    c20 = a[0, 1] * a[1, 2] - a[0, 2] * a[1, 1]
+    c21 = a[0, 2] * a[1, 0] - a[0, 0] * a[1, 2]
+    c22 = a[0, 0] * a[1, 1] - a[0, 1] * a[1, 0]
+    inv = 1.0 / det
+    return ((c00 * bx + c10 * by + c20 * bz) * inv,
+            (c01 * bx + c11 * by + c21 * bz) * inv,
+            (c02 * bx + c12 * by + c22 * bz) * inv)
+
+
+@_jit
+def _free_rotation_midpoint(prm, j, h, lx, ly, lz):
+    """
+    Implicit midpoint on the body angular momentum ``Π`` of a torque-free body.
+
+    Solves ``m = Π_n + (h/2) m × I⁻¹ m`` by Newton's method to round-off and returns
+    ``(Π_{n+1} = 2m − Π_n, ω_mid = I⁻¹ m)``. Both ``|Π|²`` and ``Πᵀ I⁻¹ Π`` are quadratic
+    invariants of Euler's equations, which the implicit midpoint rule preserves exactly.
+    """
+    half = 0.5 * h
+    wx, wy, wz = _matvec(prm, 11, j, lx, ly, lz)
+    cx, cy, cz = _cross(lx, ly, lz, wx, wy, wz)
+    mx, my, mz = lx + half * cx, ly + half * cy, lz + half * cz
+    jac = np.empty((3, 3))
+    scale = math.sqrt(lx * lx + ly * ly + lz * lz)
+    for _ in range(_NEWTON_MAX_ITER):
+        wx, wy, wz = _matvec(prm, 11, j, mx, my, mz)
+        cx, cy, cz = _cross(mx, my, mz, wx, wy, wz)
+        rx = mx - lx - half * cx
+        ry = my - ly - half * cy
+        rz = mz - lz - half * cz
+        # J = 𝟙 − (h/2) ([m] I⁻¹ − [I⁻¹ m])
+        for c in range(3):
+            ix, iy, iz = prm[11 + c, j], prm[14 + c, j], prm[17 + c, j]
+            sx, sy, sz = _cross(mx, my, mz, ix, iy, iz)
+            jac[0, c] = -half * sx
+            jac[1, c] = -half * sy
+            jac[2, c] = -half * sz
+        jac[0, 1] -= half * wz
+        jac[0, 2] += half * wy
+        jac[1, 0] += half * wz
+        jac[1, 2] -= half * wx
+        jac[2, 0] -= half * wy
+        jac[2, 1] += half * wx
+        jac[0, 0] += 1.0
+        jac[1, 1] += 1.0
+        jac[2, 2] += 1.0
+        dx, dy, dz = _solve3(jac, rx, ry, rz)
+        mx, my, mz = mx - dx, my - dy, mz - dz
+        if max(abs(dx), abs(dy), abs(dz)) <= _NEWTON_TOL_ULPS * scale:
+            break
+    wx, wy, wz = _matvec(prm, 11, j, mx, my, mz)
+    return 2.0 * mx - lx, 2.0 * my - ly, 2.0 * mz - lz, wx, wy, wz
+
+
+@_jit
+def _midpoint_cayley(prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz):
+    half = 0.5 * h
+    inv_m = prm[1, j]
+    # Kick: half a step of force and torque, as impulses on v and on Π_b = I_b ω_b.
+    fx, fy, fz, tx, ty, tz = net_wrench_w(
+        px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz, prm, ld, i, j)
+    vx, vy, vz = vx + half * fx * inv_m, vy + half * fy * inv_m, vz + half * fz * inv_m
+    lx, ly, lz = _matvec(prm, 2, j, wx, wy, wz)
+    tbx, tby, tbz = _rotate_inv(qw, qx, qy, qz, tx, ty, tz)
+    lx, ly, lz = lx + half * tbx, ly + half * tby, lz + half * tbz
+    # Drift: exact free translation; torque-free rotation by implicit midpoint + Cayley.
+    px, py, pz = px + h * vx, py + h * vy, pz + h * vz
+    lx, ly, lz, mx, my, mz = _free_rotation_midpoint(prm, j, h, lx, ly, lz)
+    # cay(h[ω]) is the rotation with quaternion (1, h ω / 2) / |(1, h ω / 2)|.
+    qw, qx, qy, qz = _normalize_q(*_qmul(qw, qx, qy, qz, 1.0, half * mx, half * my, half * mz))
+    wx, wy, wz = _matvec(prm, 11, j, lx, ly, lz)
+    # Kick: the second half step with the wrench at the new configuration.
+    fx, fy, fz, tx, ty, tz = net_wrench_w(
+        px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz, prm, ld, i, j)
+    vx, vy, vz = vx + half * fx * inv_m, vy + half * fy * inv_m, vz + half * fz * inv_m
+    tbx, tby, tbz = _rotate_inv(qw, qx, qy, qz, tx, ty, tz)
+    if tbx != 0.0 or tby != 0.0 or tbz != 0.0:
+        lx, ly, lz = lx + half * tbx, ly + half * tby, lz + half * tbz
+        wx, wy, wz = _matvec(prm, 11, j, lx, ly, lz)
+    return px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz
+
+
+@_jit
+def _all_finite(s):
+    for k in range(13):
+        if not math.isfinite(s[k]):
+            return False
+    return True
+
+
+@_jit
+def step_body(x, prm, ld, t, i, j, method, h, dt_ns, n_steps):
+    """
+    Advance body ``i`` (parameters in column ``j`` of ``prm``) by up to ``n_steps`` steps.
+
+    Each step is computed in registers and written back only if every component is finite;
+    otherwise the body stays at its last finite state. Returns the number of steps taken.
+    """
+    damped = prm[23, j] != 0.0 or prm[24, j] != 0.0
+    decay_v_half = 1.0
+    decay_w_half = 1.0
+    if damped:
+        decay_v_half = math.exp(-0.5 * h * prm[23, j])
+        decay_w_half = math.exp(-0.5 * h * prm[24, j])
+    s = (x[0, i], x[1, i], x[2, i], x[3, i], x[4, i], x[5, i], x[6, i],
+         x[7, i], x[8, i], x[9, i], x[10, i], x[11, i], x[12, i])
+    done = 0
+    for _ in range(n_steps):
+        px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = s
+        if damped:
+            vx, vy, vz = vx * decay_v_half, vy * decay_v_half, vz * decay_v_half
+            wx, wy, wz = wx * decay_w_half, wy * decay_w_half, wz * decay_w_half
+        if method == MIDPOINT_CAYLEY:
+            new = _midpoint_cayley(prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz,
+                                   vx, vy, vz, wx, wy, wz)
+        elif method == RK4:
+            new = _rk4(prm, ld, i, j, h,
+                       (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
+        else:
+            new = _symplectic_euler(method, prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz,
+                                    vx, vy, vz, wx, wy, wz)
+        if damped:
+            new = (new[0], new[1], new[2], new[3], new[4], new[5], new[6],
+                   new[7] * decay_v_half, new[8] * decay_v_half, new[9] * decay_v_half,
+                   new[10] * decay_w_half, new[11] * decay_w_half, new[12] * decay_w_half)
+        if not _all_finite(new):
+            break
+        s = new
+        done += 1
+    for k in range(13):
+        x[k, i] = s[k]
+    t[i] += done * dt_ns
+    return done
+
+
+@_jit
+def advance(x, prm, ld, t, method, h, dt_ns, n_steps):
+    """Advance every body ``n_steps`` steps; return how many bodies stopped early (non-finite)."""
+    shared = prm.shape[1] == 1
+    failed = 0
+    for i in range(x.shape[1]):
+        j = 0 if shared else i
+        if step_body(x, prm, ld, t, i, j, method, h, dt_ns, n_steps) != n_steps:
+            failed += 1
+    return failed
+
+
+@nb.njit(cache=True, fastmath=False, nogil=True, parallel=True)
+def advance_parallel(x, prm, ld, t, method, h, dt_ns, n_steps):
+    """:func:`advance` over threads; each body runs the same scalar code (bit-identical)."""
+    n = x.shape[1]
+    shared = prm.shape[1] == 1
+    done = np.empty(n, dtype=np.int64)
+    for i in nb.prange(n):
+        # i - i keeps j the type of the prange index (a literal 0 would not unify).
+        done[i] = step_body(x, prm, ld, t, i, i - i if shared else i, method, h, dt_ns, n_steps)
+    failed = 0
+    for i in range(n):
+        if done[i] != n_steps:
+            failed += 1
+    return failed
+
+
+@_jit
+def net_wrench_batch(x, prm, ld, out):
+    """Net world force (rows 0–2) and torque about the COM (rows 3–5) of every body."""
+    shared = prm.shape[1] == 1
+    for i in range(x.shape[1]):
+        j = 0 if shared else i
+        w = net_wrench_w(x[0, i], x[1, i], x[2, i], x[3, i], x[4, i], x[5, i], x[6, i],
+                         x[7, i], x[8, i], x[9, i], x[10, i], x[11, i], x[12, i], prm, ld, i, j)
+        for k in range(6):
+            out[k, i] = w[k]

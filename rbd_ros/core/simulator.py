@@ -1,0 +1,292 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The simulators: the one mutable object of the core.
+
+:class:`BatchSimulator` steps ``N`` independent bodies stored as a structure of arrays;
+:class:`Simulator` is the single-body case (``N = 1``), with a fast :meth:`~Simulator.step`
+that calls the same compiled kernel, so a body stepped alone and the same body stepped in a
+batch are bit-identical. Time is integer nanoseconds and advances in fixed steps only.
+"""
+
+import numpy as np
+
+from rbd_ros.core import kernels
+from rbd_ros.core.errors import ConfigError, InputError, NonFiniteError
+from rbd_ros.core.integrators import DEFAULT_INTEGRATOR, integrator_info
+from rbd_ros.core.loads import AppliedWrench, Spring
+from rbd_ros.core.model import BodyModel
+from rbd_ros.core.state import BodyState
+
+# Bodies per batch above which the threaded kernel pays for its start-up (measured on the
+# 2-core machine: below ~2000 bodies the thread pool costs more than it saves).
+PARALLEL_MIN_BODIES = 2048
+
+
+def _params(model):
+    """Pack a :class:`BodyModel` into the kernel's parameter column (see kernels)."""
+    column = np.empty(kernels.N_PARAM)
+    column[0] = model.mass_kg
+    column[1] = 1.0 / model.mass_kg
+    column[2:11] = model.inertia_b.reshape(9)
+    column[11:20] = model.inertia_inv_b.reshape(9)
+    column[20:23] = model.gravity_w
+    column[23] = model.linear_damping_per_s
+    column[24] = model.angular_damping_per_s
+    return column
+
+
+def _state_column(state):
+    return np.concatenate((state.position_w, state.orientation_wb, state.linear_velocity_w,
+                           state.angular_velocity_b))
+
+
+def _load_rows(wrenches, springs):
+    """Pack loads into kernel rows ``[kind, point_b, a, b, 0, 0]``."""
+    rows = np.zeros((len(wrenches) + len(springs), kernels.N_LOAD))
+    for row, wrench in zip(rows, wrenches):
+        if not isinstance(wrench, AppliedWrench):
+            raise InputError(f'wrenches: {wrench!r} is not an AppliedWrench')
+        row[0] = kernels.LOAD_WORLD if wrench.frame == 'world' else kernels.LOAD_BODY
+        row[1:4], row[4:7], row[7:10] = wrench.point_b, wrench.force, wrench.torque
+    for row, spring in zip(rows[len(wrenches):], springs):
+        if not isinstance(spring, Spring):
+            raise InputError(f'springs: {spring!r} is not a Spring')
+        row[0] = kernels.LOAD_SPRING
+        row[1:4], row[4:7] = spring.point_b, spring.anchor_w
+        row[7:10] = (spring.stiffness_n_per_m, spring.damping_n_s_per_m, spring.rest_length_m)
+    return rows
+
+
+def _timestep(timestep_ns):
+    if isinstance(timestep_ns, bool) or not isinstance(timestep_ns, (int, np.integer)) \
+            or timestep_ns <= 0:
+        raise ConfigError(f'timestep_ns: {timestep_ns!r} ns must be a positive integer')
+    return int(timestep_ns)
+
+
+class BatchSimulator:
+    """
+    ``N`` independent rigid bodies, one integrator and one fixed step.
+
+    :param models: one :class:`BodyModel` for all bodies, or a sequence of ``N``.
+    :param states: a sequence of ``N`` :class:`BodyState` (their times must agree).
+    :param integrator: a name from :data:`rbd_ros.core.integrators.INTEGRATORS`.
+    :param timestep_ns: the fixed step ``h``, integer nanoseconds > 0.
+    """
+
+    def __init__(self, models, states, *, integrator=DEFAULT_INTEGRATOR,
+                 timestep_ns=1_000_000):
+        states = list(states)
+        if not states:
+            raise ConfigError('states: a batch needs at least one body')
+        models = [models] * len(states) if isinstance(models, BodyModel) else list(models)
+        if len(models) != len(states):
+            raise ConfigError(
+                f'models: {len(models)} models for {len(states)} states; give one or N')
+        self._info = integrator_info(integrator)
+        self._timestep_ns = _timestep(timestep_ns)
+        self._h = self._timestep_ns * 1e-9
+        self._models = tuple(models)
+        self._initial_states = tuple(states)
+        # One shared parameter column when every body has the same model (less memory traffic).
+        shared = all(m is models[0] or m == models[0] for m in models)
+        self._params = np.ascontiguousarray(np.stack(
+            [_params(m) for m in (models[:1] if shared else models)], axis=1))
+        self._x = np.empty((kernels.N_STATE, len(states)))
+        self._t = np.empty(len(states), dtype=np.int64)
+        self._loads = np.zeros((len(states), 0, kernels.N_LOAD))
+        self._kernel = (kernels.advance_parallel if len(states) >= PARALLEL_MIN_BODIES
+                        else kernels.advance)
+        self._step_count = 0
+        self.reset()
+
+    @property
+    def size(self):
+        """Return the number of bodies ``N``."""
+        return self._x.shape[1]
+
+    @property
+    def integrator(self):
+        """Return the name of the integrator."""
+        return self._info.name
+
+    @property
+    def timestep_ns(self):
+        """Return the fixed step, integer nanoseconds."""
+        return self._timestep_ns
+
+    @property
+    def step_count(self):
+        """Return the number of steps taken since the last reset."""
+        return self._step_count
+
+    @property
+    def times_ns(self):
+        """Return the sim time of every body, int64 ns (a copy)."""
+        return self._t.copy()
+
+    @property
+    def arrays(self):
+        """Return read-only views ``(x (13, N), times (N,))`` of the packed state."""
+        x, t = self._x.view(), self._t.view()
+        x.flags.writeable = False
+        t.flags.writeable = False
+        return x, t
+
+    def body_state(self, index):
+        """Return the state of body ``index`` as a :class:`BodyState` value."""
+        column = self._x[:, index]
+        return BodyState(column[0:3], column[3:7], column[7:10], column[10:13],
+                         int(self._t[index]))
+
+    def reset(self, states=None):
+        """Put every body back to its initial state (or to ``states``); step count 0."""
+        states = self._initial_states if states is None else tuple(states)
+        if len(states) != self.size:
+            raise ConfigError(f'states: {len(states)} states for {self.size} bodies')
+        for i, state in enumerate(states):
+            if not isinstance(state, BodyState):
+                raise InputError(f'states[{i}]: {state!r} is not a BodyState')
+            self._x[:, i] = _state_column(state)
+            self._t[i] = state.time_ns
+        self._t0 = self._t.copy()
+        self._step_count = 0
+
+    def set_body_loads(self, index, wrenches=(), springs=()):
+        """Hold these loads on body ``index`` from the next step until replaced."""
+        rows = _load_rows(tuple(wrenches), tuple(springs))
+        if rows.shape[0] > self._loads.shape[1]:
+            grown = np.zeros((self.size, rows.shape[0], kernels.N_LOAD))
+            grown[:, :self._loads.shape[1]] = self._loads
+            self._loads = grown
+        self._loads[index] = 0.0
+        self._loads[index, :rows.shape[0]] = rows
+
+    def set_wrenches_w(self, force_w, torque_w):
+        """
+        Hold a world-frame force (N, 3) N and torque (N, 3) N·m at each COM (vectorised).
+
+        Replaces every body's loads; non-finite values raise :class:`InputError`.
+        """
+        force_w = np.asarray(force_w, dtype=np.float64).reshape(self.size, 3)
+        torque_w = np.asarray(torque_w, dtype=np.float64).reshape(self.size, 3)
+        if not (np.all(np.isfinite(force_w)) and np.all(np.isfinite(torque_w))):
+            raise InputError('force_w/torque_w: batch wrench contains non-finite values (N, N·m)')
+        loads = np.zeros((self.size, 1, kernels.N_LOAD))
+        loads[:, 0, 0] = kernels.LOAD_WORLD
+        loads[:, 0, 4:7] = force_w
+        loads[:, 0, 7:10] = torque_w
+        self._loads = loads
+
+    def step(self, n=1):
+        """
+        Advance every body ``n`` fixed steps.
+
+        :raises NonFiniteError: if a body's step would be non-finite; that body stays at its
+            last finite state (and time), the others complete all ``n`` steps.
+        """
+        failed = self._kernel(self._x, self._params, self._loads, self._t,
+                              self._info.kernel_id, self._h, self._timestep_ns, n)
+        self._step_count += n
+        if failed:
+            self._raise_non_finite(n)
+
+    def _raise_non_finite(self, n):
+        expected = self._t0 + self._step_count * self._timestep_ns
+        behind = np.flatnonzero(self._t != expected)
+        raise NonFiniteError(
+            f'state: the step at t = {int(self._t[behind[0]])} ns of body(ies) '
+            f'{behind[:8].tolist()} would be non-finite (forces or velocities too large for '
+            f'h = {self._timestep_ns} ns with {self.integrator}); those bodies were left at '
+            'their last finite state')
+
+
+class Simulator(BatchSimulator):
+    """
+    One rigid body: the node's and the replay's simulator.
+
+    :param model: the :class:`BodyModel`.
+    :param initial_state: a :class:`BodyState` (default: at rest at the origin, time 0).
+    """
+
+    def __init__(self, model, initial_state=None, *, integrator=DEFAULT_INTEGRATOR,
+                 timestep_ns=1_000_000):
+        initial_state = BodyState() if initial_state is None else initial_state
+        super().__init__(model, [initial_state], integrator=integrator,
+                         timestep_ns=timestep_ns)
+
+    @property
+    def model(self):
+        """Return the :class:`BodyModel`."""
+        return self._models[0]
+
+    @property
+    def initial_state(self):
+        """Return the state :meth:`reset` goes back to."""
+        return self._initial_states[0]
+
+    @property
+    def time_ns(self):
+        """Return the sim time, int ns."""
+        return int(self._t[0])
+
+    @property
+    def state(self):
+        """Return the current state, a :class:`BodyState` value."""
+        return self.body_state(0)
+
+    def reset(self, state=None):
+        """Back to the initial state (or ``state``) and step count 0."""
+        super().reset(None if state is None else [state])
+
+    def set_loads(self, wrenches=(), springs=()):
+        """Hold these loads (zero-order hold) from the next step until replaced."""
+        self._loads = _load_rows(tuple(wrenches), tuple(springs))[np.newaxis]
+
+
+def step(model, state, *, integrator=DEFAULT_INTEGRATOR, timestep_ns=1_000_000,
+         wrenches=(), springs=()):
+    """Return the state one step after ``state`` (the value form of :class:`Simulator`)."""
+    simulator = Simulator(model, state, integrator=integrator, timestep_ns=timestep_ns)
+    simulator.set_loads(wrenches, springs)
+    simulator.step()
+    return simulator.state
+
+
+def net_wrench_w(model, state, wrenches=(), springs=()):
+    """
+    Net force (N) and torque about the COM (N·m), world coordinates, acting on the body.
+
+    The same compiled function the integrators use (:func:`kernels.net_wrench_w`).
+    """
+    x = _state_column(state)[:, np.newaxis]
+    out = np.empty((6, 1))
+    kernels.net_wrench_batch(x, _params(model)[:, np.newaxis],
+                             _load_rows(tuple(wrenches), tuple(springs))[np.newaxis], out)
+    return out[0:3, 0], out[3:6, 0]
+
+
+def accelerations(model, state, wrenches=(), springs=()):
+    """
+    Newton–Euler accelerations ``(a_w, α_w)`` at ``state`` (damping excluded).
+
+    ``M a = F`` and ``I α = τ − ω × I ω`` in world coordinates with ``I = R I_b Rᵀ``.
+    """
+    force_w, torque_w = net_wrench_w(model, state, wrenches, springs)
+    inertia_w = state.inertia_w(model)
+    omega_w = state.angular_velocity_w()
+    alpha_w = np.linalg.solve(inertia_w, torque_w - np.cross(omega_w, inertia_w @ omega_w))
+    return force_w / model.mass_kg, alpha_w
