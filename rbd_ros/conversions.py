@@ -33,9 +33,11 @@ Message classes are plain rosidl Python classes; importing them does not import 
 """
 
 from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, TransformStamped, TwistStamped, WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
+from rosgraph_msgs.msg import Clock
 
 _NS_PER_S = 1_000_000_000
 
@@ -170,4 +172,27 @@ def wrench_to_msg(frame_id, force, torque, stamp_ns=0):
     msg.header.frame_id = frame_id
     _vector_to_msg(force, msg.wrench.force)
     _vector_to_msg(torque, msg.wrench.torque)
+    return msg
+
+
+def clock_to_msg(time_ns):
+    """Integer ns → ``rosgraph_msgs/Clock``."""
+    return Clock(clock=time_to_msg(time_ns))
+
+
+def diagnostics_to_msg(stamp_ns, name, hardware_id, level, message, values):
+    """
+    One ``diagnostic_msgs/DiagnosticArray`` with one status.
+
+    :param level: ``'ok'``, ``'warn'`` or ``'error'``.
+    :param values: ``{key: value}``; floats are written with ``repr`` (round-trip exact).
+    """
+    status = DiagnosticStatus(
+        level={'ok': DiagnosticStatus.OK, 'warn': DiagnosticStatus.WARN,
+               'error': DiagnosticStatus.ERROR}[level],
+        name=name, message=message, hardware_id=hardware_id,
+        values=[KeyValue(key=key, value=repr(value) if isinstance(value, float) else str(value))
+                for key, value in values.items()])
+    msg = DiagnosticArray(status=[status])
+    msg.header.stamp = time_to_msg(stamp_ns)
     return msg
