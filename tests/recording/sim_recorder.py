@@ -1,0 +1,89 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Record a scripted run by driving SimSession + BagWriter directly (the node's path minus DDS).
+
+It records what the node records: each wrench as it took effect (``WrenchStamped`` on the
+input's absolute topic, log time = start of the step it was applied at) and the outputs
+``/pose``, ``/twist``, ``/odom`` (and ``/clock`` when ``publish_clock``) at every sample the
+session reports, serialised with rclpy like the node does.
+"""
+
+from rbd_ros import conversions
+from rbd_ros.config import NodeConfig
+from rbd_ros.recording import BagWriter
+from rbd_ros.session import SimSession
+from rclpy.serialization import serialize_message
+from rosgraph_msgs.msg import Clock
+
+OUTPUT_TOPICS = (
+    ('/pose', 'geometry_msgs/msg/PoseStamped'),
+    ('/twist', 'geometry_msgs/msg/TwistStamped'),
+    ('/odom', 'nav_msgs/msg/Odometry'),
+)
+
+
+def record_scripted_run(path, params, script, duration_ns, **writer_options):
+    """
+    Run ``params`` for ``duration_ns`` of sim time, submitting ``script`` wrenches; record.
+
+    :param script: ``(time_ns, input_name, frame_id, force, torque)`` tuples in time order;
+        each is submitted when sim time has reached ``time_ns`` (so it takes effect at the
+        first step starting at or after it).
+    :returns: the closed :class:`BagWriter`.
+    """
+    config = NodeConfig.from_parameters(params)
+    session = SimSession(config)
+    session.paused = False
+    writer = BagWriter(path, config=config.to_parameters(), **writer_options)
+    outputs = list(OUTPUT_TOPICS)
+    if config.publish_clock:
+        outputs.append(('/clock', 'rosgraph_msgs/msg/Clock'))
+    for topic, type_name in outputs:
+        writer.add_topic(topic, type_name, {'depth': 10})
+    input_topics = {}
+    for spec in config.wrench_inputs:
+        input_topics[spec.name] = '/' + spec.topic
+        writer.add_topic('/' + spec.topic, 'geometry_msgs/msg/WrenchStamped', {'depth': 10})
+
+    def publish(state):
+        t = state.time_ns
+        writer.write('/pose', serialize_message(
+            conversions.state_to_pose(state, config.world_frame)), t)
+        writer.write('/twist', serialize_message(conversions.state_to_twist(
+            state, config.twist_frame, config.world_frame, config.body_frame)), t)
+        writer.write('/odom', serialize_message(conversions.state_to_odometry(
+            state, config.world_frame, config.body_frame)), t)
+        if config.publish_clock:
+            writer.write('/clock', serialize_message(
+                Clock(clock=conversions.time_to_msg(t))), t)
+
+    publish(session.state)
+    queue = list(script)
+    while session.time_ns < duration_ns:
+        while queue and queue[0][0] <= session.time_ns:
+            _, name, frame_id, force, torque = queue.pop(0)
+            session.submit(name, frame_id, force, torque)
+        until = min(duration_ns, queue[0][0]) if queue else duration_ns
+        report = session.advance(1 << 40, until_ns=until)
+        for event in report.events:
+            msg = conversions.wrench_to_msg(event.frame_id, event.force, event.torque,
+                                            event.time_ns)
+            writer.write(input_topics[event.input_name], serialize_message(msg),
+                         event.time_ns)
+        if report.sample_due:
+            publish(session.state)
+    writer.close()
+    return writer
