@@ -38,7 +38,7 @@ class InputError(RbdError, ValueError):
 
 
 class NonFiniteError(RbdError, FloatingPointError):
-    """A step would have produced a non-finite state; the state was left at its last finite value."""
+    """A step would have produced a non-finite state; the state stays at its last finite value."""
 
 
 class RecordingError(RbdError, OSError):

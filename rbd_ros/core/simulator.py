@@ -45,6 +45,8 @@ def _params(model):
     column[20:23] = model.gravity_w
     column[23] = model.linear_damping_per_s
     column[24] = model.angular_damping_per_s
+    inertia = model.inertia_b
+    column[25] = 1.0 if np.count_nonzero(inertia - np.diag(np.diag(inertia))) == 0 else 0.0
     return column
 
 
