@@ -166,6 +166,7 @@ class SimSession:
         """Back to the initial state at time 0; pending and held wrenches are dropped."""
         self.simulator.reset()
         self.inputs.clear()
+        self.simulator.set_loads(self.inputs.loads())
         self.resets += 1
         self.error = None
 

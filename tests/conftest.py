@@ -1,0 +1,138 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Shared test set-up: an isolated DDS domain per test process and helpers to drive the node.
+
+Every pytest process gets its own ``ROS_DOMAIN_ID`` (derived from its pid, in 1..101) and
+``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``, set here before anything initialises rclpy, and
+inherited by the node subprocesses. Nothing waits with a fixed sleep for discovery: the helpers
+poll with a deadline (:func:`wait_until`).
+"""
+
+import os
+import pathlib
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+import yaml
+
+REPO = pathlib.Path(__file__).resolve().parents[1]
+if str(REPO) not in sys.path:  # the package is tested from its source tree
+    sys.path.insert(0, str(REPO))
+
+
+def domain_id_for(pid):
+    """Return a ROS domain id in 1..101 for process ``pid`` (0 is everyone's default)."""
+    return 1 + pid % 101
+
+
+os.environ['ROS_DOMAIN_ID'] = str(domain_id_for(os.getpid()))
+os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
+os.environ.pop('ROS_LOCALHOST_ONLY', None)
+os.environ['PYTHONPATH'] = os.pathsep.join(
+    [str(REPO)] + [p for p in os.environ.get('PYTHONPATH', '').split(os.pathsep) if p])
+os.environ.setdefault('PYTHONUNBUFFERED', '1')
+
+
+def wait_until(predicate, timeout_s, spin=None, what='condition'):
+    """
+    Poll ``predicate`` until it returns a truthy value or ``timeout_s`` passes; return the value.
+
+    :param spin: called between polls (e.g. spin an executor once with a short timeout); if
+        None, the poll sleeps 10 ms.
+    :raises AssertionError: on timeout, naming ``what``.
+    """
+    deadline = time.monotonic() + timeout_s
+    while True:
+        value = predicate()
+        if value:
+            return value
+        if time.monotonic() > deadline:
+            raise AssertionError(f'timed out after {timeout_s} s waiting for {what}')
+        if spin is None:
+            time.sleep(0.01)
+        else:
+            spin()
+
+
+def write_params(path, params):
+    """Write ``params`` as a ROS 2 parameter file for any node name (``/**``)."""
+    path = pathlib.Path(path)
+    path.write_text(yaml.safe_dump({'/**': {'ros__parameters': params}}))
+    return path
+
+
+class NodeProcess:
+    """A ``rigid_body_node`` subprocess started the way a user starts it."""
+
+    def __init__(self, tmp_path, params=None, params_file=None, extra_args=(), command=None):
+        args = ['--ros-args']
+        if params_file is not None:
+            args += ['--params-file', str(params_file)]
+        if params:
+            args += ['--params-file', str(write_params(
+                pathlib.Path(tmp_path) / f'params_{id(self)}.yaml', params))]
+        args += list(extra_args)
+        command = command or [sys.executable, '-m', 'rbd_ros.node']
+        self.stdout_path = pathlib.Path(tmp_path) / f'node_{id(self)}.out'
+        self.stderr_path = pathlib.Path(tmp_path) / f'node_{id(self)}.err'
+        with open(self.stdout_path, 'wb') as out, open(self.stderr_path, 'wb') as err:
+            self.process = subprocess.Popen(command + args, stdout=out, stderr=err,
+                                            cwd=str(tmp_path))
+
+    @property
+    def stderr(self):
+        """Everything the node wrote to stderr so far (rclpy logs go there)."""
+        return self.stderr_path.read_text(errors='replace')
+
+    def wait(self, timeout_s):
+        """Wait for the process to exit; return its status."""
+        return self.process.wait(timeout=timeout_s)
+
+    def stop(self, sig=signal.SIGINT, timeout_s=15.0):
+        """Send ``sig`` and wait for the exit status (kill after ``timeout_s``)."""
+        if self.process.poll() is None:
+            self.process.send_signal(sig)
+            try:
+                return self.process.wait(timeout=timeout_s)
+            except subprocess.TimeoutExpired:
+                self.process.kill()
+                self.process.wait()
+                raise
+        return self.process.returncode
+
+
+@pytest.fixture
+def start_node(tmp_path):
+    """Return ``start(params=None, params_file=None)`` → :class:`NodeProcess`; stops them all."""
+    started = []
+
+    def start(params=None, params_file=None, extra_args=()):
+        node = NodeProcess(tmp_path, params, params_file, extra_args)
+        started.append(node)
+        return node
+
+    yield start
+    for node in started:
+        node.stop()
+
+
+@pytest.fixture(scope='module')
+def module_tmp(tmp_path_factory):
+    """A temporary directory shared by one test module (for module-scoped nodes)."""
+    return tmp_path_factory.mktemp('module')

@@ -1,0 +1,174 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+A test-side rclpy node that talks to ``rigid_body_node`` through real DDS.
+
+It subscribes to the node's outputs (keeping every sample by stamp), publishes wrenches and
+calls the services; all waits poll with a deadline (no fixed sleeps).
+"""
+
+import itertools
+import os
+import time
+
+from conftest import wait_until
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
+from nav_msgs.msg import Odometry
+import rclpy
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from rbd_ros import conversions
+from rosgraph_msgs.msg import Clock
+from std_srvs.srv import SetBool, Trigger
+
+_COUNTER = itertools.count()
+NODE = '/rigid_body_node'
+
+
+class Probe:
+    """Outputs in, wrenches and service calls out, for one ``rigid_body_node``."""
+
+    def __init__(self, inputs=('wrench',), depth=1000):
+        self.context = Context()
+        rclpy.init(context=self.context)
+        self.node = rclpy.create_node(f'probe_{os.getpid()}_{next(_COUNTER)}',
+                                      context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.samples = {name: {} for name in ('pose', 'twist', 'odom', 'clock')}
+        self.diagnostics = []
+        self.arrivals = []  # (wall monotonic ns, pose stamp ns)
+        self._subs = [
+            self.node.create_subscription(PoseStamped, 'pose', self._on_pose, depth),
+            self.node.create_subscription(TwistStamped, 'twist',
+                                          lambda m: self._keep('twist', m), depth),
+            self.node.create_subscription(Odometry, 'odom',
+                                          lambda m: self._keep('odom', m), depth),
+            self.node.create_subscription(Clock, '/clock', self._on_clock, depth),
+            self.node.create_subscription(DiagnosticArray, '/diagnostics',
+                                          self.diagnostics.append, depth),
+        ]
+        self.publishers = {topic: self.node.create_publisher(WrenchStamped, topic, 10)
+                           for topic in inputs}
+        self.clients = {
+            'reset': self.node.create_client(Trigger, NODE + '/reset'),
+            'pause': self.node.create_client(SetBool, NODE + '/pause'),
+            'step': self.node.create_client(Trigger, NODE + '/step'),
+        }
+
+    def _keep(self, kind, msg):
+        self.samples[kind][conversions.time_from_msg(msg.header.stamp)] = msg
+
+    def _on_pose(self, msg):
+        self.arrivals.append((time.monotonic_ns(), conversions.time_from_msg(msg.header.stamp)))
+        self._keep('pose', msg)
+
+    def _on_clock(self, msg):
+        self.samples['clock'][conversions.time_from_msg(msg.clock)] = msg
+
+    def spin(self):
+        """Process whatever has arrived (waits at most 10 ms)."""
+        self.executor.spin_once(timeout_sec=0.01)
+
+    def wait(self, predicate, timeout_s=20.0, what='condition'):
+        """Spin until ``predicate()`` is truthy (see :func:`conftest.wait_until`)."""
+        return wait_until(predicate, timeout_s, self.spin, what)
+
+    def wait_connected(self, timeout_s=60.0, services=True):
+        """Wait until the node's outputs, our wrench publishers and its services are matched."""
+        self.wait(lambda: all(s.get_publisher_count() >= 1 for s in self._subs[:3]),
+                  timeout_s, 'the node publishers (pose, twist, odom)')
+        self.wait(lambda: all(p.get_subscription_count() >= 1
+                              for p in self.publishers.values()),
+                  timeout_s, 'the node wrench subscriptions')
+        if services:
+            self.wait(lambda: all(c.service_is_ready() for c in self.clients.values()),
+                      timeout_s, 'the node services')
+
+    def publish(self, topic, frame_id, force=(0.0, 0.0, 0.0), torque=(0.0, 0.0, 0.0)):
+        """Publish one ``WrenchStamped`` on ``topic``."""
+        self.publishers[topic].publish(conversions.wrench_to_msg(frame_id, force, torque))
+
+    def call(self, name, request=None, timeout_s=20.0):
+        """Call service ``name`` ('reset', 'pause', 'step') and return the response."""
+        client = self.clients[name]
+        if request is None:
+            request = client.srv_type.Request()
+        future = client.call_async(request)
+        self.wait(future.done, timeout_s, f'the {name} service response')
+        return future.result()
+
+    def pause(self, paused):
+        """Call ``~/pause``; assert it succeeded."""
+        response = self.call('pause', SetBool.Request(data=paused))
+        assert response.success, response.message
+
+    def sample(self, kind, time_ns, timeout_s=20.0):
+        """Wait for and return the ``kind`` sample stamped ``time_ns``."""
+        return self.wait(lambda: self.samples[kind].get(time_ns), timeout_s,
+                         f'a {kind} sample at t = {time_ns} ns')
+
+    def step(self, n=1):
+        """Call ``~/step`` ``n`` times; wait for the pose/twist/odom samples; return the time."""
+        for _ in range(n):
+            response = self.call('step')
+            assert response.success, response.message
+        time_ns = int(response.message.split()[2])
+        for kind in ('pose', 'twist', 'odom'):
+            self.sample(kind, time_ns)
+        return time_ns
+
+    def reset(self):
+        """Call ``~/reset``, wait for the t = 0 sample after it, forget older samples."""
+        for kind in self.samples:
+            self.samples[kind].clear()
+        response = self.call('reset')
+        assert response.success, response.message
+        self.sample('pose', 0)
+
+    def diagnostic_values(self, predicate=None, timeout_s=20.0):
+        """Wait for a ``/diagnostics`` message whose values satisfy ``predicate``; return them."""
+        def find():
+            for msg in reversed(self.diagnostics):
+                values = {kv.key: kv.value for kv in msg.status[0].values}
+                if predicate is None or predicate(values):
+                    return values
+            return None
+        return self.wait(find, timeout_s, 'matching /diagnostics')
+
+    def close(self):
+        """Destroy the node and shut the context down."""
+        self.executor.shutdown()
+        self.node.destroy_node()
+        rclpy.try_shutdown(context=self.context)
+
+
+def step_until_moving(probe, max_steps=100):
+    """
+    Step a paused node until the twist shows a velocity; return ``(t_effect_ns, t_now_ns)``.
+
+    ``t_effect_ns`` is the start of the step the wrench took effect at (the previous sample
+    time): the node applies a received wrench at the start of the next physics step, and the
+    DDS delivery of the wrench is not ordered with the ``~/step`` service calls.
+    """
+    previous = max(probe.samples['twist'])
+    for _ in range(max_steps):
+        now = probe.step()
+        twist = probe.samples['twist'][now].twist
+        if any(getattr(v, a) != 0.0 for v in (twist.linear, twist.angular) for a in 'xyz'):
+            return previous, now
+        previous = now
+    raise AssertionError(f'no motion after {max_steps} steps')
