@@ -1,0 +1,157 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The node as a process: start-up errors, exit paths, recording hook, /clock, /tf, namespaces,
+diagnostics and wall-clock pacing.
+"""
+
+import importlib.util
+import signal
+import time
+
+from conftest import REPO, wait_until
+import pytest
+from rbd_ros.recording import open_bag
+from ros_probe import Probe
+
+INVALID = [
+    ({'mass_kg': -1.0}, 'mass_kg', '-1.0', 'must be > 0'),
+    ({'inertia': [1.0, 2.0, 3.0, 0.0, 0.0, 5.0]}, 'inertia', '[1.0, 2.0, 3.0, 0.0, 0.0, 5.0]',
+     'positive definite'),
+    ({'inertia': [1.0, 1.0, 3.0, 0.0, 0.0, 0.0]}, 'inertia', '[1.0, 1.0, 3.0, 0.0, 0.0, 0.0]',
+     'triangle inequality'),
+    ({'integrator': 'euler'}, 'integrator', "'euler'", 'must be one of'),
+    ({'timestep_s': 0.0}, 'timestep_s', '0.0 s', 'must be > 0'),
+    ({'timestep_s': -0.001}, 'timestep_s', '-0.001 s', 'must be > 0'),
+    ({'inertia': [0.1, 0.1, 0.1, 0.0, 0.0, 0.0], 'shape': 'sphere', 'dimensions_m': [0.1]},
+     'inertia', 'shape', 'not both'),
+    ({'initial_orientation': [0.0, 0.0, 0.0, 2.0]}, 'initial_orientation',
+     '[0.0, 0.0, 0.0, 2.0]', 'norm'),
+]
+
+
+@pytest.mark.parametrize('params, name, value, rule', INVALID,
+                         ids=[f'{case[1]}-{i}' for i, case in enumerate(INVALID)])
+def test_invalid_parameters_stop_the_node_with_one_clear_line(start_node, params, name, value,
+                                                             rule):
+    node = start_node(params)
+    assert node.wait(60) == 2
+    lines = [line for line in node.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1, lines
+    line = lines[0]
+    assert line.startswith(f'rigid_body_node: parameter {name}'), line
+    assert value in line and rule in line, line
+
+
+def test_inertia_error_names_the_unit(start_node):
+    node = start_node({'inertia': [1.0, 1.0, 3.0, 0.0, 0.0, 0.0]})
+    assert node.wait(60) == 2
+    assert 'kg·m²' in node.stderr
+
+
+def test_duration_exits_0_and_records_a_finalised_bag(start_node, tmp_path):
+    bag = tmp_path / 'run'
+    node = start_node({'duration_s': 0.3, 'record_path': str(bag), 'publish_rate_hz': 100.0})
+    assert node.wait(60) == 0, node.stderr
+    recording = open_bag(bag)
+    assert recording.finalised, recording.notes
+    # Samples at t = 0, 10, ..., 300 ms: the schedule is a function of sim time only.
+    times = [m.log_time_ns for m in recording.messages(['/pose'])]
+    assert times == [i * 10_000_000 for i in range(31)]
+    assert recording.end_ns == 300_000_000
+    assert recording.config['duration_s'] == 0.3
+
+
+@pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM], ids=['SIGINT', 'SIGTERM'])
+def test_signals_shut_down_cleanly_and_finalise_the_recording(start_node, tmp_path, sig):
+    bag = tmp_path / 'run'
+    node = start_node({'record_path': str(bag)})
+    probe = Probe()
+    try:
+        probe.wait_connected(services=False)
+        probe.wait(lambda: probe.samples['pose'] and max(probe.samples['pose']) > 0,
+                   what='the node to run')
+    finally:
+        probe.close()
+    assert node.stop(sig) == 0, node.stderr
+    assert open_bag(bag).finalised
+
+
+def test_existing_record_path_is_refused_with_status_2(start_node, tmp_path):
+    bag = tmp_path / 'run'
+    first = start_node({'duration_s': 0.01, 'record_path': str(bag)})
+    assert first.wait(60) == 0, first.stderr
+    second = start_node({'duration_s': 0.01, 'record_path': str(bag)})
+    assert second.wait(60) == 2
+    assert 'already exists' in second.stderr
+
+
+def test_clock_tf_namespace_and_diagnostics(start_node):
+    node = start_node({'publish_clock': True, 'real_time_factor': 1.0},
+                      extra_args=['-r', '__ns:=/robot1'])
+    probe = Probe()
+    try:
+        # Relative names: everything lives under the namespace.
+        probe.wait(lambda: probe.node.count_publishers('/robot1/pose') == 1
+                   and probe.node.count_subscribers('/robot1/wrench') == 1
+                   and probe.node.count_publishers('/clock') == 1,
+                   what='/robot1/pose, /robot1/wrench and /clock')
+        assert probe.node.count_publishers('/pose') == 0
+        services = dict(probe.node.get_service_names_and_types())
+        for name in ('reset', 'pause', 'step'):
+            assert f'/robot1/rigid_body_node/{name}' in services
+        # /clock carries the sim time of the samples.
+        probe.wait(lambda: len(probe.samples['clock']) >= 3, what='/clock samples')
+        assert all(stamp % 10_000_000 == 0 for stamp in probe.samples['clock'])
+        # /tf exists exactly when tf2_msgs is importable (it is not in the PyPI wheels).
+        tf_available = importlib.util.find_spec('tf2_msgs') is not None
+        assert probe.node.count_publishers('/tf') == (1 if tf_available else 0)
+        assert ('tf2_msgs is not importable' in node.stderr) == (not tf_available)
+        values = probe.diagnostic_values()
+        for key in ('sim_time_s', 'real_time_factor', 'steps_taken', 'wrenches_received',
+                    'wrenches_rejected', 'kinetic_energy_j', 'angular_momentum_norm_nms'):
+            assert key in values
+        assert float(values['kinetic_energy_j']) == 0.0
+    finally:
+        probe.close()
+
+
+@pytest.mark.parametrize('factor', [1.0, 3.0])
+def test_wall_clock_pacing(start_node, factor):
+    # Sim time over wall time between the first and the last pose received in ~2 s of wall
+    # time. The node paces against an absolute wall anchor, so the only error is the delivery
+    # jitter of the two samples (ms on an idle machine, tens of ms on the shared 2-core CI
+    # machine): 0.1 s on ~2 s allows that and still fails a wrong factor or an accumulating
+    # pacing error of more than 5 %. (The 60 s figure is in tests/benchmarks/bench_node.py.)
+    start_node({'real_time_factor': factor, 'publish_rate_hz': 100.0})
+    probe = Probe()
+    try:
+        probe.wait_connected(services=False)
+        probe.wait(lambda: len(probe.arrivals) >= 2, what='pose samples')
+        first = probe.arrivals[-1]
+        wait_until(lambda: time.monotonic_ns() - first[0] > 2_000_000_000, 10, probe.spin)
+        last = probe.arrivals[-1]
+    finally:
+        probe.close()
+    wall_s = (last[0] - first[0]) * 1e-9
+    sim_s = (last[1] - first[1]) * 1e-9
+    assert abs(sim_s - factor * wall_s) <= 0.1 * factor, (sim_s, wall_s)
+
+
+def test_params_files_in_msg_config_are_valid(start_node):
+    for path in sorted((REPO / 'msg_config').glob('*.yaml')):
+        node = start_node(params={'duration_s': 0.05, 'real_time_factor': 0.0},
+                          params_file=path)
+        assert node.wait(60) == 0, (path.name, node.stderr)
