@@ -500,16 +500,21 @@ class Bag:
 
     def _records(self):
         with open(self.mcap_path, 'rb') as f:
+            size = os.fstat(f.fileno()).st_size
             reader = StreamReader(f, validate_crcs=True)
+            good_end = 0  # file offset after the last complete record read
             try:
                 for record in reader.records:
+                    good_end = f.tell()
                     yield record
-            except (McapError, EOFError, ValueError, struct.error, KeyError, OSError):
+            except (McapError, EOFError, ValueError, struct.error, KeyError, OSError) as exc:
                 if not self.truncated:
                     self.truncated = True
-                    self.notes.append(
-                        f'{self.mcap_path}: file ends inside a record (cut off, e.g. by SIGKILL);'
-                        ' reading the completed chunks before it')
+                    if good_end < size:
+                        self.notes.append(
+                            f'{self.mcap_path}: the last {size - good_end} bytes are an '
+                            f'incomplete or unreadable record ({type(exc).__name__}), e.g. '
+                            'cut off by SIGKILL; reading the complete records before it')
 
     def messages(self, topics=None):
         """Yield :class:`RawMessage` in file order (log time order for our recordings)."""

@@ -112,7 +112,7 @@ class ReplayResult:
 
     @property
     def compared(self):
-        """Number of output samples compared."""
+        """Return the number of output samples compared."""
         return sum(t.samples for t in self.topics.values())
 
     @property

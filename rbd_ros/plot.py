@@ -1,0 +1,278 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Plot a recording to one PNG (``ros2 run rbd_ros plot <bag> [-o out.png]``), headless.
+
+Panels over sim time (s): COM position (m, world); orientation as the rotation vector
+``quat_log(q_wb)`` (rad, world); linear velocity ``v_w`` (m/s, world); angular velocity ``ω_b``
+(rad/s, body); the applied wrenches (force N and torque N·m of each input, as received, held
+from the step they took effect at until replaced or until ``wrench_timeout_s``); the kinetic
+energy (J; and the total mechanical energy when there is gravity) and ``|L|`` about the COM
+(kg·m²/s, ``|I_b ω_b|``).
+
+The state comes from ``odom`` (pose in world, twist in body coordinates, REP 105), or from
+``pose`` + ``twist`` when there is no odometry.  Energy and momentum need the body model, which
+is rebuilt from the configuration stored in the recording.  Messages are decoded with the
+schemas stored in the file; rclpy is not imported.
+"""
+
+import argparse
+import os
+import sys
+
+import numpy as np
+from rbd_ros.core import RbdError
+from rbd_ros.core.rotations import quat_log, quat_to_matrix
+from rbd_ros.recording import open_bag
+
+_NS_PER_S = 1e9
+
+
+def _vec(msg):
+    return (msg.x, msg.y, msg.z)
+
+
+def _quat(msg):
+    return (msg.w, msg.x, msg.y, msg.z)
+
+
+def _stamp(msg):
+    return int(msg.sec) * 1_000_000_000 + int(msg.nanosec)
+
+
+def load_series(bag):
+    """
+    Return the time series of a recording as numpy arrays.
+
+    Keys: ``t_s`` (N,), ``position_w`` (N, 3), ``orientation_wb`` (N, 4) w-first,
+    ``velocity_w`` (N, 3), ``omega_b`` (N, 3) (NaN when not recorded), ``wrenches``
+    (topic -> list of ``(t_s, force(3), torque(3))``), ``model`` (BodyModel or None),
+    ``timeout_s``.
+    """
+    by_type = {}
+    for topic, info in bag.topics.items():
+        by_type.setdefault(info.type_name, []).append(topic)
+    odom = by_type.get('nav_msgs/msg/Odometry', [])
+    poses = by_type.get('geometry_msgs/msg/PoseStamped', [])
+    twists = by_type.get('geometry_msgs/msg/TwistStamped', [])
+    wrench_topics = by_type.get('geometry_msgs/msg/WrenchStamped', [])
+    state_topics = odom[:1] or (poses[:1] + twists[:1])
+    if not state_topics:
+        raise RbdError(f'{bag.mcap_path}: no odom, pose or twist topic to plot '
+                       f'(topics: {sorted(bag.topics)})')
+    twist_frame = (bag.config or {}).get('twist_frame', 'world')
+    rows = {}
+    wrenches = {topic: [] for topic in wrench_topics}
+    for raw, msg in bag.decoded_messages(state_topics + wrench_topics):
+        t = raw.log_time_ns
+        if raw.topic in wrenches:
+            wrenches[raw.topic].append(
+                (t / _NS_PER_S, _vec(msg.wrench.force), _vec(msg.wrench.torque)))
+            continue
+        row = rows.setdefault(t, {})
+        info = bag.topics[raw.topic]
+        if info.type_name == 'nav_msgs/msg/Odometry':
+            row['p'] = _vec(msg.pose.pose.position)
+            row['q'] = _quat(msg.pose.pose.orientation)
+            row['v_b'] = _vec(msg.twist.twist.linear)
+            row['w_b'] = _vec(msg.twist.twist.angular)
+        elif info.type_name == 'geometry_msgs/msg/PoseStamped':
+            row['p'] = _vec(msg.pose.position)
+            row['q'] = _quat(msg.pose.orientation)
+        else:
+            key = 'b' if twist_frame == 'body' else 'w'
+            row['v_' + key] = _vec(msg.twist.linear)
+            row['w_' + key] = _vec(msg.twist.angular)
+    times = sorted(rows)
+    nan3 = (np.nan,) * 3
+    p = np.array([rows[t].get('p', nan3) for t in times], dtype=float).reshape(-1, 3)
+    q = np.array([rows[t].get('q', (1.0, 0.0, 0.0, 0.0)) for t in times],
+                 dtype=float).reshape(-1, 4)
+    rot = quat_to_matrix(q) if len(q) else np.zeros((0, 3, 3))
+    rot_t = np.swapaxes(rot, -1, -2)
+
+    def series(prefix):
+        world = np.array([rows[t].get(prefix + '_w', nan3) for t in times], float).reshape(-1, 3)
+        body = np.array([rows[t].get(prefix + '_b', nan3) for t in times], float).reshape(-1, 3)
+        from_body = np.einsum('nij,nj->ni', rot, body)
+        from_world = np.einsum('nij,nj->ni', rot_t, world)
+        return np.where(np.isnan(world), from_body, world), np.where(
+            np.isnan(body), from_world, body)
+
+    velocity_w, _ = series('v')
+    _, omega_b = series('w')
+    model = None
+    timeout_s = 0.0
+    if bag.config is not None:
+        try:
+            from rbd_ros.config import NodeConfig
+            config = NodeConfig.from_parameters(bag.config)
+            model = config.model
+            timeout_s = config.wrench_timeout_ns / _NS_PER_S
+        except RbdError:
+            model = None
+    return {
+        't_s': np.array(times, dtype=float) / _NS_PER_S, 'position_w': p,
+        'orientation_wb': q, 'velocity_w': velocity_w, 'omega_b': omega_b,
+        'wrenches': wrenches, 'model': model, 'timeout_s': timeout_s,
+    }
+
+
+def _held(samples, timeout_s, t_end):
+    """Zero-order-hold step lines of one input's wrenches: (t, force (n,3), torque (n,3))."""
+    ts, forces, torques = [], [], []
+    for index, (t, force, torque) in enumerate(samples):
+        next_t = samples[index + 1][0] if index + 1 < len(samples) else t_end
+        end = min(next_t, t + timeout_s) if timeout_s > 0 else next_t
+        ts += [t, end]
+        forces += [force, force]
+        torques += [torque, torque]
+        if end < next_t:
+            ts += [end, next_t]
+            forces += [(0.0,) * 3] * 2
+            torques += [(0.0,) * 3] * 2
+    return np.array(ts), np.array(forces).reshape(-1, 3), np.array(torques).reshape(-1, 3)
+
+
+def _conserved_scale(ax):
+    """Show a quantity constant to round-off as flat, and say how constant it is."""
+    ax.ticklabel_format(axis='y', useOffset=False)
+    values = np.concatenate([line.get_ydata() for line in ax.get_lines()] or [np.zeros(0)])
+    values = values[np.isfinite(values)]
+    if not len(values):
+        return
+    scale = max(abs(float(values.mean())), 1e-300)
+    spread = float(values.max() - values.min()) / scale
+    if spread <= 1e-9:
+        mean = float(values.mean())
+        ax.set_ylim(mean - 0.05 * scale - 1e-12, mean + 0.05 * scale + 1e-12)
+        ax.text(0.02, 0.06, f'constant to {spread:.1e} (relative)', transform=ax.transAxes,
+                fontsize=8)
+
+
+def render(bag, out_path, title=None):
+    """Render the recording ``bag`` (opened or a path) to the PNG ``out_path``."""
+    import matplotlib
+    matplotlib.use('Agg')
+    from matplotlib import pyplot as plt
+
+    if not hasattr(bag, 'messages'):
+        bag = open_bag(bag)
+    data = load_series(bag)
+    t = data['t_s']
+    fig, axes = plt.subplots(4, 2, figsize=(13, 12), sharex=True)
+    axes = axes.ravel()
+    labels = ('x', 'y', 'z')
+
+    def lines(ax, values, title_text, unit, names=labels):
+        for k, name in enumerate(names):
+            ax.plot(t, values[:, k], label=name, linewidth=1.0)
+        ax.set_title(title_text, fontsize=10)
+        ax.set_ylabel(unit)
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8, loc='best')
+
+    lines(axes[0], data['position_w'], 'COM position (world)', 'm')
+    rotvec = quat_log(data['orientation_wb']) if len(t) else np.zeros((0, 3))
+    lines(axes[1], rotvec, 'orientation: rotation vector log(q_wb) (world)', 'rad')
+    lines(axes[2], data['velocity_w'], 'linear velocity v_w (world)', 'm/s')
+    lines(axes[3], data['omega_b'], 'angular velocity ω_b (body)', 'rad/s')
+
+    t_end = float(t[-1]) if len(t) else 0.0
+    for ax, index, what, unit in ((axes[4], 1, 'force', 'N'), (axes[5], 2, 'torque', 'N·m')):
+        drawn = False
+        for topic, samples in sorted(data['wrenches'].items()):
+            if not samples:
+                continue
+            held = _held(samples, data['timeout_s'], t_end)
+            for k, name in enumerate(labels):
+                ax.plot(held[0], held[index][:, k], label=f'{topic} {name}', linewidth=1.0)
+            drawn = True
+        ax.set_title(f'applied wrenches: {what} (as received, in its frame_id)', fontsize=10)
+        ax.set_ylabel(unit)
+        ax.grid(True, alpha=0.3)
+        if drawn:
+            ax.legend(fontsize=7, loc='best', ncol=2)
+        else:
+            ax.text(0.5, 0.5, 'no wrench recorded', ha='center', va='center',
+                    transform=ax.transAxes)
+
+    model = data['model']
+    if model is not None and len(t):
+        inertia_b = np.asarray(model.inertia_b)
+        v = data['velocity_w']
+        w = data['omega_b']
+        kinetic = 0.5 * model.mass_kg * np.einsum('ni,ni->n', v, v) + 0.5 * np.einsum(
+            'ni,ij,nj->n', w, inertia_b, w)
+        axes[6].plot(t, kinetic, label='kinetic', linewidth=1.2)
+        gravity = np.asarray(model.gravity_w)
+        if np.any(gravity != 0.0):
+            potential = -model.mass_kg * data['position_w'] @ gravity
+            axes[6].plot(t, kinetic + potential, label='kinetic + potential', linewidth=1.2)
+        axes[6].legend(fontsize=8, loc='best')
+        momentum = np.linalg.norm(w @ inertia_b.T, axis=1)
+        axes[7].plot(t, momentum, color='tab:purple', linewidth=1.2)
+    else:
+        for ax in axes[6:]:
+            ax.text(0.5, 0.5, 'no body model in the recording', ha='center', va='center',
+                    transform=ax.transAxes)
+    for ax in axes[6:]:
+        _conserved_scale(ax)
+    axes[6].set_title('energy', fontsize=10)
+    axes[6].set_ylabel('J')
+    axes[7].set_title('|angular momentum| about the COM, |I_b ω_b|', fontsize=10)
+    axes[7].set_ylabel('kg·m²/s')
+    for ax in axes[6:]:
+        ax.grid(True, alpha=0.3)
+        ax.set_xlabel('sim time (s)')
+    status = '' if bag.finalised else '  [not finalised]'
+    fig.suptitle(title or f'{os.path.basename(os.path.normpath(bag.path))}{status}')
+    fig.tight_layout()
+    fig.savefig(out_path, dpi=90)
+    plt.close(fig)
+    return out_path
+
+
+def main(argv=None):
+    """Run the ``plot`` executable; return the exit status."""
+    parser = argparse.ArgumentParser(
+        prog='plot', description='Plot an rbd_ros recording to one PNG.')
+    parser.add_argument('bag', help='bag directory or .mcap file')
+    parser.add_argument('-o', '--output', default=None,
+                        help='output PNG (default: <bag name>.png in the current directory)')
+    parser.add_argument('--title', default=None, help='figure title')
+    args = parser.parse_args(argv)
+    out = args.output or os.path.basename(os.path.normpath(args.bag)).split('.')[0] + '.png'
+    try:
+        bag = open_bag(args.bag)
+        for note in bag.notes:
+            print(f'plot: note: {note}', file=sys.stderr)
+        render(bag, out, args.title)
+    except KeyboardInterrupt:
+        print('plot: interrupted', file=sys.stderr)
+        return 130
+    except (RbdError, OSError) as exc:
+        print(f'plot: error: {exc}', file=sys.stderr)
+        return 2
+    except Exception as exc:  # a corrupt file can fail anywhere in the decoders: one line
+        print(f'plot: error: {args.bag}: cannot be plotted ({type(exc).__name__}: {exc})',
+              file=sys.stderr)
+        return 2
+    print(f'plot: wrote {out}')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

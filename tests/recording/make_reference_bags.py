@@ -1,0 +1,155 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Regenerate the reference recordings in ``bags/`` with the real node, on purpose only.
+
+Usage (from the repository root)::
+
+    .venv/bin/python tests/recording/make_reference_bags.py            # makes missing bags
+    .venv/bin/python tests/recording/make_reference_bags.py --force    # replaces them all
+    .venv/bin/python tests/recording/make_reference_bags.py --only box_pushed --force
+
+Each bag is recorded by ``rigid_body_node`` started as a user starts it (``python -m
+rbd_ros.node``, which is what ``ros2 run rbd_ros rigid_body_node`` runs) with a
+``msg_config/*.yaml`` file plus a few overrides (``record_path``, ``duration_s``,
+``real_time_factor``); a test-side rclpy publisher sends the scripted wrenches through real DDS
+(own ``ROS_DOMAIN_ID``, localhost only).  The wrenches land on whatever physics step DDS
+delivers them at; the recording captures that step, so the replay stays bit-exact.  Existing
+bags are never replaced without ``--force``.  After writing, every bag is replayed and must
+match bit for bit.
+"""
+
+import argparse
+import os
+import pathlib
+import shutil
+import sys
+import time
+
+HERE = pathlib.Path(__file__).resolve().parent
+REPO = HERE.parents[1]
+sys.path.insert(0, str(HERE.parent))  # tests/conftest.py: domain id, NodeProcess, wait_until
+sys.path.insert(0, str(REPO))
+
+from conftest import NodeProcess, wait_until  # noqa: E402
+
+BAGS = REPO / 'bags'
+
+#: name -> (config file, overrides, wrench script [(offset s, topic, frame_id, force, torque)])
+REFERENCE_BAGS = {
+    'box_pushed': (
+        'msg_config/default.yaml',
+        {'duration_s': 5.0, 'real_time_factor': 1.0, 'publish_clock': True,
+         'start_paused': True},
+        [
+            (0.5, 'wrench', 'world', (1.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+            (1.5, 'wrench', 'base_link', (0.0, 0.5, 0.0), (0.0, 0.0, 0.02)),
+            (2.5, 'wrench', '', (0.0, 0.0, 0.0), (0.01, 0.0, 0.0)),
+            (3.5, 'wrench', 'world', (-1.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+            (4.0, 'wrench', 'world', (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+        ],
+    ),
+    't_handle_flip': (
+        'msg_config/t_handle.yaml',
+        {'duration_s': 6.0, 'real_time_factor': 0.0},
+        [],
+    ),
+    'thrusters_gravity': (
+        'msg_config/thrusters_gravity.yaml',
+        {'duration_s': 4.0, 'real_time_factor': 1.0, 'start_paused': True},
+        [(0.1 * k, 'wrench_left', '', (0.0, 0.0, 10.0), (0.0, 0.0, 0.0)) for k in range(30)]
+        + [(0.1 * k + 0.05, 'wrench_right', '', (0.0, 0.0, 9.7), (0.0, 0.0, 0.0))
+           for k in range(30)],
+    ),
+}
+
+
+def _command_line(name, config_file, overrides):
+    over = ' '.join(f'-p {k}:={v}' for k, v in overrides.items())
+    return (f'ros2 run rbd_ros rigid_body_node --ros-args --params-file {config_file} '
+            f'-p record_path:=bags/{name} {over}')
+
+
+def record(name, workdir):
+    """Record ``bags/<name>`` with the node and the scripted wrenches; return the bag path."""
+    import rclpy
+    from rbd_ros import conversions
+    from std_srvs.srv import SetBool
+
+    config_file, overrides, script = REFERENCE_BAGS[name]
+    params = dict(overrides, record_path=str(BAGS / name))
+    node = NodeProcess(workdir, params=params, params_file=REPO / config_file)
+    topics = sorted({topic for _, topic, *_ in script})
+    rclpy.init()
+    try:
+        talker = rclpy.create_node(f'bag_maker_{os.getpid()}')
+        pubs = {topic: talker.create_publisher(conversions.WrenchStamped, topic, 10)
+                for topic in topics}
+        wait_until(lambda: all(p.get_subscription_count() > 0 for p in pubs.values())
+                   or node.process.poll() is not None, 60.0, what='the node to subscribe')
+        if overrides.get('start_paused'):
+            # Sim time starts when the wrench publishers are connected: unpause now.
+            pause = talker.create_client(SetBool, '/rigid_body_node/pause')
+            wait_until(lambda: pause.service_is_ready(), 60.0, what='~/pause',
+                       spin=lambda: rclpy.spin_once(talker, timeout_sec=0.05))
+            future = pause.call_async(SetBool.Request(data=False))
+            rclpy.spin_until_future_complete(talker, future, timeout_sec=30.0)
+            assert future.done() and future.result().success, 'could not unpause the node'
+        start = time.monotonic()
+        for offset, topic, frame_id, force, torque in sorted(script, key=lambda s: s[0]):
+            delay = start + offset - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)  # the script's own schedule, not a discovery wait
+            pubs[topic].publish(conversions.wrench_to_msg(frame_id, force, torque))
+        status = node.wait(120.0)
+        talker.destroy_node()
+    finally:
+        rclpy.try_shutdown()
+    if status != 0:
+        raise SystemExit(f'{name}: the node exited with status {status}:\n{node.stderr}')
+    return BAGS / name
+
+
+def main(argv=None):
+    """Regenerate the reference bags (only missing ones unless ``--force``)."""
+    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser.add_argument('--force', action='store_true', help='replace existing bags')
+    parser.add_argument('--only', action='append', choices=sorted(REFERENCE_BAGS))
+    args = parser.parse_args(argv)
+    from rbd_ros.replay import replay_bag
+
+    workdir = pathlib.Path(os.environ.get('TMPDIR', '/tmp')) / f'rbd_bags_{os.getpid()}'
+    workdir.mkdir(parents=True, exist_ok=True)
+    for name in args.only or sorted(REFERENCE_BAGS):
+        target = BAGS / name
+        if target.exists():
+            if not args.force:
+                print(f'{name}: exists, kept (use --force to replace it)')
+                continue
+            shutil.rmtree(target)
+        path = record(name, workdir)
+        size = sum(f.stat().st_size for f in path.iterdir())
+        result = replay_bag(str(path))
+        print(f'{name}: {size} bytes, {result.compared} samples, {result.wrenches} wrenches, '
+              f'replay {"MATCH" if result.match else "MISMATCH"}')
+        print(f'  made with: {_command_line(name, *REFERENCE_BAGS[name][:2])}')
+        if not result.match or size >= 1_000_000:
+            raise SystemExit(f'{name}: not a usable reference bag')
+    shutil.rmtree(workdir, ignore_errors=True)
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
