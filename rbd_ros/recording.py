@@ -124,6 +124,11 @@ class _Dumper(yaml.SafeDumper):
         return True
 
 
+# rosbag2 (yaml-cpp) writes an empty custom_data as '~'; write null the same way.
+_Dumper.add_representer(
+    type(None), lambda dumper, _: dumper.represent_scalar('tag:yaml.org,2002:null', '~'))
+
+
 def _dump_yaml(data):
     return yaml.dump(data, Dumper=_Dumper, sort_keys=False, default_flow_style=False)
 
