@@ -62,3 +62,20 @@ def test_the_reference_set_covers_the_issue():
     assert thrusters.config['gravity'] == [0.0, 0.0, -9.81]
     assert thrusters.topics['/wrench_left'].message_count > 0
     assert thrusters.topics['/wrench_right'].message_count > 0
+
+
+@pytest.mark.parametrize('bag', BAGS, ids=[b.name for b in BAGS])
+def test_every_message_decodes_with_the_stored_schemas(bag):
+    """mcap + mcap-ros2-support decode every message (diagnostics included) without rclpy."""
+    from mcap.reader import make_reader
+    from mcap_ros2.decoder import DecoderFactory
+    opened = open_bag(str(bag))
+    counts = {}
+    with open(opened.mcap_path, 'rb') as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        for schema, channel, message, decoded in reader.iter_decoded_messages():
+            assert decoded is not None
+            counts[channel.topic] = counts.get(channel.topic, 0) + 1
+    assert counts == {t: info.message_count for t, info in opened.topics.items()
+                      if info.message_count}
+    assert '/diagnostics' in counts
