@@ -32,6 +32,11 @@ name                            order  conserves (torque-free body)
 ``midpoint_cayley``               2    kinetic energy and the world angular momentum vector,
                                        to round-off; linear momentum exactly
 ==============================  =====  ===================================================
+
+``midpoint_cayley`` is second order for loads that depend on the configuration (held wrenches,
+gravity, spring stiffness); with velocity-dependent loads (a spring's damping term) its second
+kick uses the velocity before that kick, which makes it first order in the damping term
+(measured: error ratio 2.0 per halving on a damped spring, 4.0 without damping).
 """
 
 from dataclasses import dataclass
@@ -91,7 +96,9 @@ INTEGRATORS = {
             'exactly; then the second half kick. Implicit midpoint preserves the quadratic '
             'invariants |Π|² and ΠᵀI⁻¹Π (Hairer, Lubich, Wanner, Geometric Numerical '
             'Integration, 2nd ed. 2006, Thm IV.2.2 and §VII.5; energy–momentum methods: '
-            'Simo & Wong, Int. J. Numer. Meth. Eng. 31 (1991) 19–52).'),
+            'Simo & Wong, Int. J. Numer. Meth. Eng. 31 (1991) 19–52). Second order for '
+            'configuration-dependent loads, first order in velocity-dependent ones (spring '
+            'damping).'),
     )
 }
 

@@ -233,14 +233,27 @@ def _matrix_to_quat(m, pw, px, py, pz):
 
 @_jit
 def _gram_schmidt(m):
-    """Orthonormalise the columns of ``m`` in place: c0, c1 ⟂ c0, c2 = c0 × c1."""
-    n0 = 1.0 / math.sqrt(m[0, 0] ** 2 + m[1, 0] ** 2 + m[2, 0] ** 2)
+    """
+    Orthonormalise the columns of ``m`` in place: c0, c1 ⟂ c0, c2 = c0 × c1.
+
+    A column whose squared norm is 0 or overflows fills ``m`` with NaN, so the step is refused
+    as non-finite rather than turned into some rotation.
+    """
+    sq0 = m[0, 0] ** 2 + m[1, 0] ** 2 + m[2, 0] ** 2
+    if not (0.0 < sq0 < math.inf):
+        m[:, :] = math.nan
+        return
+    n0 = 1.0 / math.sqrt(sq0)
     for r in range(3):
         m[r, 0] *= n0
     d = m[0, 0] * m[0, 1] + m[1, 0] * m[1, 1] + m[2, 0] * m[2, 1]
     for r in range(3):
         m[r, 1] -= d * m[r, 0]
-    n1 = 1.0 / math.sqrt(m[0, 1] ** 2 + m[1, 1] ** 2 + m[2, 1] ** 2)
+    sq1 = m[0, 1] ** 2 + m[1, 1] ** 2 + m[2, 1] ** 2
+    if not (0.0 < sq1 < math.inf):
+        m[:, :] = math.nan
+        return
+    n1 = 1.0 / math.sqrt(sq1)
     for r in range(3):
         m[r, 1] *= n1
     c = _cross(m[0, 0], m[1, 0], m[2, 0], m[0, 1], m[1, 1], m[2, 1])
@@ -316,6 +329,11 @@ def _orient_matrix(method, h, qw, qx, qy, qz, wx, wy, wz):
     else:
         # R ← Rot(h|ω_w|, ω_w/|ω_w|) R
         new = _matmul3(_rotation_about(owx, owy, owz, h), rot)
+    for r in range(3):
+        for c in range(3):
+            if not math.isfinite(new[r, c]):
+                # Overflow (or Gram–Schmidt refused a column): refuse the step.
+                return math.nan, math.nan, math.nan, math.nan
     qw, qx, qy, qz = _matrix_to_quat(new, qw, qx, qy, qz)
     return qw, qx, qy, qz
 

@@ -39,6 +39,12 @@ def _vector(value, name, unit, size=3):
     return array
 
 
+# A quaternion whose |q|² is this close to 1 is unit to round-off (a few ulp, as the kernel's
+# normalisation leaves it) and is kept bit for bit, so a state read from a simulator restarts
+# it exactly; renormalising would change the last bits without making it more accurate.
+_UNIT_NORM_SQ_TOL = 8 * np.finfo(np.float64).eps
+
+
 @dataclass(frozen=True)
 class BodyState:
     """
@@ -46,7 +52,8 @@ class BodyState:
 
     :param position_w: centre of mass ``p`` in world coordinates, m.
     :param orientation_wb: unit quaternion ``q_wb = (w, x, y, z)`` with ``v_w = R(q) v_b``;
-        normalised on construction (a zero or non-finite quaternion is refused).
+        normalised on construction unless already unit to round-off (a zero or non-finite
+        quaternion is refused).
     :param linear_velocity_w: COM velocity ``v = ṗ`` in world coordinates, m/s.
     :param angular_velocity_b: angular velocity ``ω_b`` in BODY coordinates, rad/s
         (``ω_w = R ω_b``).
@@ -63,10 +70,10 @@ class BodyState:
         set_ = object.__setattr__
         set_(self, 'position_w', _vector(self.position_w, 'position_w', 'm'))
         q = _vector(self.orientation_wb, 'orientation_wb', '(w, x, y, z)', 4)
-        norm = float(np.linalg.norm(q))
-        if norm == 0.0:
+        norm_sq = float(q @ q)
+        if norm_sq == 0.0:
             raise InputError(f'orientation_wb: {q.tolist()} has zero norm, not a rotation')
-        if norm != 1.0:
+        if abs(norm_sq - 1.0) > _UNIT_NORM_SQ_TOL:
             q = quat_normalize(q)
             q.flags.writeable = False
         set_(self, 'orientation_wb', q)
