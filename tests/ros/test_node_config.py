@@ -1,0 +1,157 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""The parameter table and NodeConfig (no ROS): defaults, validation messages, round trip."""
+
+import math
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from rbd_ros import config as cfg
+from rbd_ros.config import NodeConfig
+from rbd_ros.core import ConfigError, ModelError
+from rbd_ros.core import inertia as inertia_mod
+import yaml
+
+REPO = pathlib.Path(__file__).resolve().parents[2]
+ISSUE_NAMES = (
+    'mass_kg', 'inertia', 'shape', 'dimensions_m', 'initial_position', 'initial_orientation',
+    'initial_linear_velocity', 'initial_angular_velocity', 'gravity', 'linear_damping',
+    'angular_damping', 'integrator', 'timestep_s', 'publish_rate_hz', 'real_time_factor',
+    'duration_s', 'start_paused', 'world_frame', 'body_frame', 'twist_frame',
+    'default_wrench_frame', 'wrench_timeout_s', 'max_force_n', 'max_torque_nm', 'wrench_inputs',
+    'publish_clock', 'record_path')
+
+
+def test_the_table_holds_every_public_name_with_description_and_a_valid_default():
+    names = [spec.name for spec in cfg.PARAMETERS]
+    assert len(names) == len(set(names))
+    assert set(ISSUE_NAMES) <= set(names)
+    for spec in cfg.PARAMETERS:
+        assert spec.description.endswith('.'), spec.name
+        if spec.range is not None:
+            assert spec.range[0] <= spec.default <= spec.range[1], spec.name
+    defaults = NodeConfig.from_parameters({})
+    assert defaults.parameters == {s.name: s.default for s in cfg.PARAMETERS}
+
+
+def test_defaults_are_the_issue_defaults():
+    c = NodeConfig.from_parameters({})
+    assert c.model.mass_kg == 1.0
+    assert c.timestep_ns == 1_000_000 and c.publish_period_ns == 10_000_000
+    assert c.real_time_factor == 1.0 and c.duration_ns == 0 and not c.start_paused
+    assert (c.world_frame, c.body_frame, c.twist_frame) == ('world', 'base_link', 'world')
+    assert c.default_wrench_frame == 'world' and c.wrench_timeout_ns == 0
+    assert not c.publish_clock and c.record_path == ''
+    assert np.array_equal(c.model.gravity_w, [0.0, 0.0, 0.0])
+    # No inertia and no shape: the default box of msg_config/default.yaml.
+    box = inertia_mod.from_shape('box', [0.2, 0.1, 0.05], 1.0)
+    assert np.array_equal(c.model.inertia_b, box.inertia_b)
+
+
+def test_round_trip_through_a_plain_dict_and_yaml():
+    params = {'mass_kg': 2.0, 'inertia': [0.1, 0.2, 0.25, 0.01, 0.0, -0.02],
+              'initial_orientation': [0.0, 0.0, math.sqrt(0.5), math.sqrt(0.5)],
+              'wrench_inputs': ['left'], 'wrench_inputs.left.point_b': [0.0, 0.3, 0.0],
+              'integrator': 'rk4', 'timestep_s': 0.002, 'twist_frame': 'body'}
+    c = NodeConfig.from_parameters(params)
+    plain = c.to_parameters()
+    again = NodeConfig.from_parameters(yaml.safe_load(yaml.safe_dump(plain)))
+    assert again == c
+    assert again.to_parameters() == plain
+
+
+def test_inertia_is_read_in_ros_order_and_orientation_in_xyzw_order():
+    c = NodeConfig.from_parameters({
+        'inertia': [1.0, 2.0, 2.5, 0.1, 0.2, 0.3],
+        'initial_orientation': [0.0, 0.0, math.sqrt(0.5), math.sqrt(0.5)]})
+    i_b = c.model.inertia_b
+    assert (i_b[0, 0], i_b[1, 1], i_b[2, 2]) == (1.0, 2.0, 2.5)
+    assert (i_b[0, 1], i_b[0, 2], i_b[1, 2]) == (0.1, 0.2, 0.3)
+    # (w, x, y, z) inside: 90° about z.
+    np.testing.assert_allclose(c.initial_state.orientation_wb,
+                               [math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5)], rtol=0, atol=1e-15)
+
+
+def test_timestep_must_be_whole_nanoseconds():
+    assert NodeConfig.from_parameters({'timestep_s': 0.001}).timestep_ns == 1_000_000
+    assert NodeConfig.from_parameters({'timestep_s': 1e-9}).timestep_ns == 1
+    assert NodeConfig.from_parameters({'timestep_s': 0.0005}).timestep_ns == 500_000
+    with pytest.raises(ConfigError, match=r'timestep_s = .* s: must be a whole number'):
+        NodeConfig.from_parameters({'timestep_s': 1.5e-9})
+
+
+def test_integer_values_are_accepted_for_doubles():
+    # A YAML file may say mass_kg: 2 (an integer); it means 2.0 kg.
+    assert NodeConfig.from_parameters({'mass_kg': 2}).model.mass_kg == 2.0
+
+
+@pytest.mark.parametrize('params, error, text', [
+    ({'mass_kg': -1.0}, ModelError, 'parameter mass_kg = -1.0 kg: must be > 0'),
+    ({'mass_kg': math.inf}, ModelError, 'parameter mass_kg = inf kg: must be finite'),
+    ({'inertia': [1.0, 1.0]}, ModelError, 'must have 6 values'),
+    ({'inertia': [1.0, 1.0, 3.0, 0.0, 0.0, 0.0]}, ModelError, 'triangle inequality'),
+    ({'inertia': [1.0, 2.0, 3.0, 0.0, 0.0, 5.0]}, ModelError, 'positive definite'),
+    ({'inertia': [1.0, 1.0, 1.0, 0.0, 0.0, 0.0], 'shape': 'box'}, ModelError, 'not both'),
+    ({'dimensions_m': [1.0]}, ModelError, 'needs shape'),
+    ({'shape': 'cone'}, ModelError, "parameter shape = 'cone': must be one of"),
+    ({'integrator': 'euler'}, ConfigError, "parameter integrator = 'euler': must be one of"),
+    ({'timestep_s': 0.0}, ConfigError, 'parameter timestep_s = 0.0 s: must be > 0'),
+    ({'publish_rate_hz': 0.0}, ConfigError, 'publish_rate_hz = 0.0 Hz: must be > 0'),
+    ({'real_time_factor': -1.0}, ConfigError, 'real_time_factor = -1.0: must be in'),
+    ({'twist_frame': 'odom'}, ConfigError, "must be 'world' or 'body'"),
+    ({'default_wrench_frame': 'map'}, ConfigError, "must be 'world' or 'body'"),
+    ({'body_frame': 'world'}, ConfigError, 'must differ from world_frame'),
+    ({'world_frame': ''}, ConfigError, 'must not be empty'),
+    ({'gravity': [0.0, -9.81]}, ModelError, 'must have 3 values'),
+    ({'initial_orientation': [0.0, 0.0, 0.0, 0.0]}, ConfigError, 'norm 0'),
+    ({'mas_kg': 1.0}, ConfigError, 'parameter mas_kg = 1.0: unknown parameter name'),
+    ({'wrench_inputs.x.topic': 'a'}, ConfigError, 'unknown parameter name'),
+    ({'wrench_inputs': ['a', 'a']}, ConfigError, 'distinct'),
+    ({'wrench_inputs': ['wrench']}, ConfigError, 'main input'),
+    ({'wrench_inputs': ['a b']}, ConfigError, 'letters, digits'),
+    ({'wrench_inputs': ['a'], 'wrench_inputs.a.frame': 'odom'}, ConfigError,
+     "wrench_inputs.a.frame = 'odom': must be 'world' or 'body'"),
+    ({'wrench_inputs': ['a'], 'wrench_inputs.a.topic': 'wrench'}, ConfigError,
+     'already used'),
+    ({'max_force_n': 0.0}, ConfigError, 'max_force_n = 0.0 N: must be > 0'),
+    ({'start_paused': 'yes'}, ConfigError, 'must be true or false'),
+])
+def test_invalid_values_raise_one_line_naming_parameter_value_and_rule(params, error, text):
+    with pytest.raises(error) as info:
+        NodeConfig.from_parameters(params)
+    message = str(info.value)
+    assert '\n' not in message
+    assert message.startswith('parameter ')
+    assert text in message, message
+
+
+def test_msg_config_files_are_valid_configs():
+    files = sorted((REPO / 'msg_config').glob('*.yaml'))
+    assert len(files) >= 4
+    for path in files:
+        params = yaml.safe_load(path.read_text())['/**']['ros__parameters']
+        NodeConfig.from_parameters(params)
+
+
+def test_config_and_session_do_not_import_rclpy():
+    code = ('import sys; import rbd_ros.config, rbd_ros.inputs, rbd_ros.session, '
+            'rbd_ros.conversions; print(sorted(m for m in sys.modules if m.startswith("rclpy")))')
+    out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                         cwd=REPO, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == '[]'
