@@ -38,9 +38,9 @@ import math
 import numpy as np
 
 from rbd_ros import conversions
-from rbd_ros.core import BodyModel, BodyState, ConfigError, DEFAULT_INTEGRATOR, INTEGRATORS
-from rbd_ros.core import ModelError
-from rbd_ros.core import inertia as inertia_mod
+from rbd_ros.core import (BodyModel, BodyState, ConfigError, DEFAULT_INTEGRATOR, INTEGRATORS,
+                          ModelError)
+from rbd_ros.core.inertia import from_shape, inertia_from_components, SHAPES
 
 # ROS parameter types, by the names rcl_interfaces/ParameterType uses (lower case).
 BOOL = 'bool'
@@ -62,7 +62,7 @@ DEFAULT_DIMENSIONS_M = (0.2, 0.1, 0.05)
 
 _NS_PER_S = 1_000_000_000
 # A time in seconds must be within this many ns of a whole number of ns: float64 writes decimal
-# steps such as 0.001 s with a relative error <= 2^-53, i.e. far below 1e-3 ns for any step < 1e3 s.
+# steps such as 0.001 s with a relative error <= 2^-53, far below 1e-3 ns for any step < 1e3 s.
 _NS_TOLERANCE = 1e-3
 
 
@@ -72,23 +72,23 @@ class ParamSpec:
     One public parameter.
 
     :param name: the ROS parameter name.
-    :param type: one of ``bool``, ``integer``, ``double``, ``string``, ``double_array``,
+    :param kind: one of ``bool``, ``integer``, ``double``, ``string``, ``double_array``,
         ``string_array``.
     :param default: the default value (a tuple for arrays).
     :param unit: SI unit ('' for none).
     :param description: one sentence for ``ros2 param describe`` and the README.
-    :param range: ``(low, high)`` closed bounds for numbers (also advertised to ROS as
+    :param bounds: ``(low, high)`` closed bounds for numbers (also advertised to ROS as
         ``FloatingPointRange``/``IntegerRange``), or None.
     :param read_only: True when a live change would make no sense.
     :param rule: the rule beyond the range, in words (for the README), or ''.
     """
 
     name: str
-    type: str
+    kind: str
     default: object
     unit: str
     description: str
-    range: tuple = None
+    bounds: tuple = None
     read_only: bool = True
     rule: str = ''
 
@@ -105,7 +105,7 @@ PARAMETERS = (
               "Alternative to inertia: a core shape ('box', 'sphere', 'cylinder', ...); "
               "'' with inertia [] = a 0.2 x 0.1 x 0.05 m box.", rule='not with inertia'),
     ParamSpec('dimensions_m', DOUBLE_ARRAY, (), 'm',
-              "Sizes of shape (box: [x, y, z]; sphere: [radius]; cylinder: [radius, length]).",
+              'Sizes of shape (box: [x, y, z]; sphere: [radius]; cylinder: [radius, length]).',
               rule='as the shape needs'),
     ParamSpec('initial_position', DOUBLE_ARRAY, (0.0, 0.0, 0.0), 'm',
               'Initial COM position, world frame.', rule='3 finite values'),
@@ -228,7 +228,7 @@ def _fail(spec, value, rule, error=None):
 
 def _coerce(spec, value):
     """Return ``value`` as the Python type of ``spec`` or raise ConfigError."""
-    kind = spec.type
+    kind = spec.kind
     if kind == BOOL:
         if isinstance(value, (bool, np.bool_)):
             return bool(value)
@@ -266,8 +266,8 @@ def _coerce(spec, value):
 
 
 def _check_range(spec, value):
-    if spec.range is not None:
-        low, high = spec.range
+    if spec.bounds is not None:
+        low, high = spec.bounds
         if value < low and spec.rule:
             _fail(spec, value, f'must be {spec.rule}')
         if not low <= value <= high:
@@ -343,7 +343,7 @@ class NodeConfig:
         values = {}
         for spec in PARAMETERS:
             value = _coerce(spec, params.pop(spec.name, spec.default))
-            if spec.type in (DOUBLE, INTEGER):
+            if spec.kind in (DOUBLE, INTEGER):
                 _check_range(spec, value)
             values[spec.name] = value
         p = PARAMETERS_BY_NAME
@@ -387,14 +387,14 @@ class NodeConfig:
                 _fail(p['inertia'], inertia,
                       'must have 6 values [ixx, iyy, izz, ixy, ixz, iyz]')
             inertia_b = _reraise(p['inertia'], inertia,
-                                 inertia_mod.inertia_from_components, *inertia)
+                                 inertia_from_components, *inertia)
         else:
             if not shape:
                 shape, dims = DEFAULT_SHAPE, DEFAULT_DIMENSIONS_M
-            if shape not in inertia_mod.SHAPES:
-                _fail(p['shape'], shape, 'must be one of ' + ', '.join(inertia_mod.SHAPES),
+            if shape not in SHAPES:
+                _fail(p['shape'], shape, 'must be one of ' + ', '.join(SHAPES),
                       ModelError)
-            props = _reraise(p['dimensions_m'], dims, inertia_mod.from_shape,
+            props = _reraise(p['dimensions_m'], dims, from_shape,
                              shape, dims, mass_kg)
             inertia_b = props.inertia_b
         gravity = _vector3(p['gravity'], values['gravity'])

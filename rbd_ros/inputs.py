@@ -104,35 +104,35 @@ class WrenchInputs:
         self._timeout_ns = int(timeout_ns)
         self._max_force_n = float(max_force_n)
         self._max_torque_nm = float(max_torque_nm)
-        self.received = {name: 0 for name in self._specs}
-        self.rejected = {reason: 0 for reason in REJECT_REASONS}
+        self.received = dict.fromkeys(self._specs, 0)
+        self.rejected = dict.fromkeys(REJECT_REASONS, 0)
         self._pending = {}  # name -> (frame_id, force, torque, wrench, tag)
         self._held = {}  # name -> (t_effect_ns, AppliedWrench)
         self._loads = ()
 
     @property
     def names(self):
-        """The input names, the main input first."""
+        """Return the input names, the main input first."""
         return tuple(self._specs)
 
     @property
     def received_total(self):
-        """Wrenches received on all inputs (accepted or not)."""
+        """Return the number of wrenches received on all inputs (accepted or not)."""
         return sum(self.received.values())
 
     @property
     def rejected_total(self):
-        """Wrenches rejected, all reasons."""
+        """Return the number of wrenches rejected, all reasons."""
         return sum(self.rejected.values())
 
     @property
     def has_pending(self):
-        """True when a wrench waits for the start of the next step."""
+        """Return True when a wrench waits for the start of the next step."""
         return bool(self._pending)
 
     @property
     def held(self):
-        """``{input_name: (t_effect_ns, AppliedWrench)}`` of the wrenches acting now."""
+        """Return ``{input_name: (t_effect_ns, AppliedWrench)}`` of the wrenches acting now."""
         return dict(self._held)
 
     def validate(self, input_name, frame_id, force, torque):
@@ -236,7 +236,7 @@ class WrenchInputs:
         return min(t for t, _ in self._held.values()) + self._timeout_ns
 
     def loads(self):
-        """The held wrenches as a tuple of :class:`AppliedWrench` for ``Simulator.set_loads``."""
+        """Return the held wrenches, a tuple of :class:`AppliedWrench` for ``set_loads``."""
         return self._loads
 
     def clear(self):

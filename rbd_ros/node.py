@@ -27,18 +27,18 @@ dropped (counted in ``/diagnostics`` as ``wall_time_dropped_s``).
 import sys
 import time
 
-import rclpy
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-from rclpy.node import Node
-from rclpy.parameter import Parameter
-from rclpy.serialization import serialize_message
-from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
-                                ParameterType, SetParametersResult)
 from rbd_ros import config as cfg
 from rbd_ros import conversions as conv
 from rbd_ros.core import NonFiniteError, RbdError, RecordingError
 from rbd_ros.inputs import WrenchRejected
 from rbd_ros.session import SimSession
+from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
+                                ParameterType, SetParametersResult)
+import rclpy
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.serialization import serialize_message
 from std_srvs.srv import SetBool, Trigger
 
 try:  # tf2_msgs is on every Jazzy install but not in the PyPI wheels.
@@ -116,19 +116,19 @@ class RigidBodyNode(Node):
 
     def _declare(self, spec, value):
         descriptor = ParameterDescriptor(
-            name=spec.name, type=_TYPES[spec.type], read_only=spec.read_only,
+            name=spec.name, type=_TYPES[spec.kind], read_only=spec.read_only,
             description=spec.description + (f' [{spec.unit}]' if spec.unit else ''),
             additional_constraints=spec.rule)
-        if spec.range is not None and spec.type == cfg.DOUBLE:
+        if spec.bounds is not None and spec.kind == cfg.DOUBLE:
             descriptor.floating_point_range = [FloatingPointRange(
-                from_value=float(spec.range[0]), to_value=float(spec.range[1]))]
-        elif spec.range is not None and spec.type == cfg.INTEGER:
+                from_value=float(spec.bounds[0]), to_value=float(spec.bounds[1]))]
+        elif spec.bounds is not None and spec.kind == cfg.INTEGER:
             descriptor.integer_range = [IntegerRange(
-                from_value=int(spec.range[0]), to_value=int(spec.range[1]))]
+                from_value=int(spec.bounds[0]), to_value=int(spec.bounds[1]))]
         if isinstance(value, tuple):
             # rclpy infers the type of [] as a byte array: declare an empty array by type only
             # (its value then reads as not set, which is what [] means here).
-            value = list(value) or _ARRAY_TYPES[spec.type]
+            value = list(value) or _ARRAY_TYPES[spec.kind]
         self.declare_parameter(spec.name, value, descriptor, ignore_override=True)
 
     def _on_set_parameters(self, params):

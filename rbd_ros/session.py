@@ -96,22 +96,22 @@ class SimSession:
 
     @property
     def time_ns(self):
-        """Sim time, int ns."""
+        """Return the sim time, int ns."""
         return self.simulator.time_ns
 
     @property
     def state(self):
-        """The current :class:`rbd_ros.core.BodyState`."""
+        """Return the current :class:`rbd_ros.core.BodyState`."""
         return self.simulator.state
 
     @property
     def timestep_ns(self):
-        """The physics step, int ns."""
+        """Return the physics step, int ns."""
         return self.config.timestep_ns
 
     @property
     def finished(self):
-        """True once sim time has reached ``duration_s`` (never when it is 0)."""
+        """Return True once sim time has reached ``duration_s`` (never when it is 0)."""
         return 0 < self.config.duration_ns <= self.time_ns
 
     def sample_due(self, time_ns):

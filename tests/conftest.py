@@ -134,5 +134,5 @@ def start_node(tmp_path):
 
 @pytest.fixture(scope='module')
 def module_tmp(tmp_path_factory):
-    """A temporary directory shared by one test module (for module-scoped nodes)."""
+    """Return a temporary directory shared by one test module (for module-scoped nodes)."""
     return tmp_path_factory.mktemp('module')

@@ -27,10 +27,10 @@ from conftest import wait_until
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
 from nav_msgs.msg import Odometry
+from rbd_ros import conversions
 import rclpy
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor
-from rbd_ros import conversions
 from rosgraph_msgs.msg import Clock
 from std_srvs.srv import SetBool, Trigger
 

@@ -43,8 +43,8 @@ def test_the_table_holds_every_public_name_with_description_and_a_valid_default(
     assert set(ISSUE_NAMES) <= set(names)
     for spec in cfg.PARAMETERS:
         assert spec.description.endswith('.'), spec.name
-        if spec.range is not None:
-            assert spec.range[0] <= spec.default <= spec.range[1], spec.name
+        if spec.bounds is not None:
+            assert spec.bounds[0] <= spec.default <= spec.bounds[1], spec.name
     defaults = NodeConfig.from_parameters({})
     assert defaults.parameters == {s.name: s.default for s in cfg.PARAMETERS}
 

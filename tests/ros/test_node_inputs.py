@@ -23,10 +23,10 @@ additions (~1e-16) remains; losing or gaining one step would be off by 5e-3 m/s.
 
 import math
 
+from conftest import NodeProcess
 import numpy as np
 import pytest
 from ros_probe import Probe, step_until_moving
-from conftest import NodeProcess
 
 H_NS = 10_000_000
 MASS_KG = 0.5

@@ -13,8 +13,10 @@
 # limitations under the License.
 
 """
-The node as a process: start-up errors, exit paths, recording hook, /clock, /tf, namespaces,
-diagnostics and wall-clock pacing.
+The node as a process.
+
+Start-up errors, exit paths, recording hook, /clock, /tf, namespaces, diagnostics and
+wall-clock pacing.
 """
 
 import importlib.util
@@ -44,8 +46,8 @@ INVALID = [
 
 @pytest.mark.parametrize('params, name, value, rule', INVALID,
                          ids=[f'{case[1]}-{i}' for i, case in enumerate(INVALID)])
-def test_invalid_parameters_stop_the_node_with_one_clear_line(start_node, params, name, value,
-                                                             rule):
+def test_invalid_parameters_stop_the_node_with_one_clear_line(
+        start_node, params, name, value, rule):
     node = start_node(params)
     assert node.wait(60) == 2
     lines = [line for line in node.stderr.splitlines() if line.strip()]

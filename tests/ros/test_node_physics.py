@@ -26,6 +26,7 @@ error (``h F T / 2m`` = 7.5e-3 m for the force below) or a one-step timing slip.
 
 import math
 
+from conftest import NodeProcess
 import numpy as np
 import pytest
 from rbd_ros.config import NodeConfig
@@ -33,7 +34,6 @@ from rbd_ros.core import rotations
 from rbd_ros.session import SimSession
 from ros_probe import Probe, step_until_moving
 from std_srvs.srv import SetBool
-from conftest import NodeProcess
 
 H_NS = 10_000_000
 MASS_KG = 2.0

@@ -208,6 +208,6 @@ def test_non_finite_step_pauses_the_session_with_a_message():
     assert type(info.value).__name__ == 'NonFiniteError'
     assert s.paused and s.error
     state = s.state
-    assert all(np.isfinite(v).all() for v in (state.position_w, state.orientation_wb,
-                                               state.linear_velocity_w,
-                                               state.angular_velocity_b))
+    parts = (state.position_w, state.orientation_wb, state.linear_velocity_w,
+             state.angular_velocity_b)
+    assert all(np.isfinite(v).all() for v in parts)
