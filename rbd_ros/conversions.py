@@ -36,7 +36,6 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, TransformStamped, TwistStamped, WrenchStamped
 from nav_msgs.msg import Odometry
-import numpy as np
 from rosgraph_msgs.msg import Clock
 
 _NS_PER_S = 1_000_000_000
@@ -104,43 +103,52 @@ def state_to_pose(state, world_frame):
     return msg
 
 
-def twist_components(state, twist_frame):
+def twist_components(state, twist_frame, rot_wb=None):
     """
     Return ``(linear, angular)`` velocity arrays of ``state`` in ``twist_frame``.
 
     ``'world'``: ``(v_w, ω_w = R ω_b)``; ``'body'``: ``(v_b = Rᵀ v_w, ω_b)``.
+
+    :param rot_wb: ``state.rotation_wb()`` if the caller has it already (it is the costly part).
     """
+    if twist_frame not in ('world', 'body'):
+        raise ValueError(f"twist_frame: {twist_frame!r} must be 'world' or 'body'")
+    rot_wb = state.rotation_wb() if rot_wb is None else rot_wb
     if twist_frame == 'world':
-        return np.asarray(state.linear_velocity_w), np.asarray(state.angular_velocity_w())
-    if twist_frame == 'body':
-        rot_wb = state.rotation_wb()
-        return rot_wb.T @ np.asarray(state.linear_velocity_w), np.asarray(
-            state.angular_velocity_b)
-    raise ValueError(f"twist_frame: {twist_frame!r} must be 'world' or 'body'")
+        return state.linear_velocity_w, rot_wb @ state.angular_velocity_b
+    return rot_wb.T @ state.linear_velocity_w, state.angular_velocity_b
 
 
-def state_to_twist(state, twist_frame, world_frame, body_frame):
+def state_to_twist(state, twist_frame, world_frame, body_frame, rot_wb=None):
     """:class:`BodyState` → ``TwistStamped`` in ``twist_frame``, named in ``header.frame_id``."""
     msg = TwistStamped()
     msg.header.stamp = time_to_msg(state.time_ns)
     msg.header.frame_id = world_frame if twist_frame == 'world' else body_frame
-    linear, angular = twist_components(state, twist_frame)
+    linear, angular = twist_components(state, twist_frame, rot_wb)
     _vector_to_msg(linear, msg.twist.linear)
     _vector_to_msg(angular, msg.twist.angular)
     return msg
 
 
-def state_to_odometry(state, world_frame, body_frame):
+def state_to_odometry(state, world_frame, body_frame, rot_wb=None):
     """:class:`BodyState` → ``Odometry`` (REP 105: pose in world, twist in the body frame)."""
     msg = Odometry()
     msg.header.stamp = time_to_msg(state.time_ns)
     msg.header.frame_id = world_frame
     msg.child_frame_id = body_frame
     _pose_into(state, msg.pose.pose)
-    linear, angular = twist_components(state, 'body')
+    linear, angular = twist_components(state, 'body', rot_wb)
     _vector_to_msg(linear, msg.twist.twist.linear)
     _vector_to_msg(angular, msg.twist.twist.angular)
     return msg
+
+
+def state_to_messages(state, twist_frame, world_frame, body_frame):
+    """Return ``(PoseStamped, TwistStamped, Odometry)`` of one sample, computing R once."""
+    rot_wb = state.rotation_wb()
+    return (state_to_pose(state, world_frame),
+            state_to_twist(state, twist_frame, world_frame, body_frame, rot_wb),
+            state_to_odometry(state, world_frame, body_frame, rot_wb))
 
 
 def state_to_transform(state, world_frame, body_frame):

@@ -83,6 +83,7 @@ class RigidBodyNode(Node):
         self.exit_status = 0
         self._rtf = config.real_time_factor
         self._dropped_ns = 0
+        self._lag_max_ns = 0  # largest wall-minus-sim lag seen at a tick, since the last diag
         self._anchor()
         self._diag_last = (time.monotonic_ns(), 0, 0)
 
@@ -178,6 +179,7 @@ class RigidBodyNode(Node):
         elapsed_ns = time.monotonic_ns() - self._wall_anchor_ns
         target_ns = self._sim_anchor_ns + (
             elapsed_ns if self._rtf == 1.0 else int(elapsed_ns * self._rtf))
+        self._lag_max_ns = max(self._lag_max_ns, target_ns - session.time_ns)
         due = (target_ns - session.time_ns) // session.timestep_ns
         if due > MAX_STEPS_PER_TICK:  # too far behind: run the cap, drop the rest
             self._dropped_ns += (due - MAX_STEPS_PER_TICK) * session.timestep_ns
@@ -209,10 +211,11 @@ class RigidBodyNode(Node):
     def _publish_sample(self):
         state, c = self.session.state, self.config
         t = state.time_ns
-        self._publish('pose', conv.state_to_pose(state, c.world_frame), t)
-        self._publish('twist', conv.state_to_twist(state, c.twist_frame, c.world_frame,
-                                                   c.body_frame), t)
-        self._publish('odom', conv.state_to_odometry(state, c.world_frame, c.body_frame), t)
+        pose, twist, odom = conv.state_to_messages(state, c.twist_frame, c.world_frame,
+                                                   c.body_frame)
+        self._publish('pose', pose, t)
+        self._publish('twist', twist, t)
+        self._publish('odom', odom, t)
         if 'clock' in self._pubs:
             self._publish('clock', conv.clock_to_msg(t), t)
         if 'tf' in self._pubs:
@@ -234,7 +237,9 @@ class RigidBodyNode(Node):
             'kinetic_energy_j': float(state.kinetic_energy(model)),
             'angular_momentum_norm_nms': float(
                 sum(x * x for x in state.angular_momentum_w(model)) ** 0.5),
-            'wall_time_dropped_s': self._dropped_ns * 1e-9, 'resets': s.resets}
+            'wall_time_dropped_s': self._dropped_ns * 1e-9, 'resets': s.resets,
+            'pacing_lag_max_ms': self._lag_max_ns * 1e-6}
+        self._lag_max_ns = 0
         level = 'error' if s.error else ('warn' if s.inputs.rejected_total else 'ok')
         self._publish('diagnostics', conv.diagnostics_to_msg(
             s.time_ns, f'{self.get_name()}: rigid body', self.config.body_frame, level,

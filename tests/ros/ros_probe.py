@@ -41,7 +41,8 @@ NODE = '/rigid_body_node'
 class Probe:
     """Outputs in, wrenches and service calls out, for one ``rigid_body_node``."""
 
-    def __init__(self, inputs=('wrench',), depth=1000):
+    def __init__(self, inputs=('wrench',), depth=1000,
+                 outputs=('pose', 'twist', 'odom', 'clock', 'diagnostics')):
         self.context = Context()
         rclpy.init(context=self.context)
         self.node = rclpy.create_node(f'probe_{os.getpid()}_{next(_COUNTER)}',
@@ -51,16 +52,15 @@ class Probe:
         self.samples = {name: {} for name in ('pose', 'twist', 'odom', 'clock')}
         self.diagnostics = []
         self.arrivals = []  # (wall monotonic ns, pose stamp ns)
-        self._subs = [
-            self.node.create_subscription(PoseStamped, 'pose', self._on_pose, depth),
-            self.node.create_subscription(TwistStamped, 'twist',
-                                          lambda m: self._keep('twist', m), depth),
-            self.node.create_subscription(Odometry, 'odom',
-                                          lambda m: self._keep('odom', m), depth),
-            self.node.create_subscription(Clock, '/clock', self._on_clock, depth),
-            self.node.create_subscription(DiagnosticArray, '/diagnostics',
-                                          self.diagnostics.append, depth),
-        ]
+        table = {
+            'pose': (PoseStamped, 'pose', self._on_pose),
+            'twist': (TwistStamped, 'twist', lambda m: self._keep('twist', m)),
+            'odom': (Odometry, 'odom', lambda m: self._keep('odom', m)),
+            'clock': (Clock, '/clock', self._on_clock),
+            'diagnostics': (DiagnosticArray, '/diagnostics', self.diagnostics.append),
+        }
+        self._subs = {name: self.node.create_subscription(*table[name][:2], table[name][2], depth)
+                      for name in outputs}
         self.publishers = {topic: self.node.create_publisher(WrenchStamped, topic, 10)
                            for topic in inputs}
         self.clients = {
@@ -89,7 +89,8 @@ class Probe:
 
     def wait_connected(self, timeout_s=60.0, services=True):
         """Wait until the node's outputs, our wrench publishers and its services are matched."""
-        self.wait(lambda: all(s.get_publisher_count() >= 1 for s in self._subs[:3]),
+        self.wait(lambda: all(s.get_publisher_count() >= 1 for name, s in self._subs.items()
+                              if name in ('pose', 'twist', 'odom')),
                   timeout_s, 'the node publishers (pose, twist, odom)')
         self.wait(lambda: all(p.get_subscription_count() >= 1
                               for p in self.publishers.values()),

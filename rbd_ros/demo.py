@@ -1,0 +1,120 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+A scripted run of ``rigid_body_node``: ``python -m rbd_ros.demo``.
+
+Starts the node as a subprocess on ``msg_config/default.yaml`` (paused, recording into
+``./runs/demo_<UTC stamp>``), waits for discovery by polling, un-pauses it and, keyed on the
+sim time of the poses it receives, publishes: a 1 N world-frame push along +x at 0.5 s, a
+0.01 N·m body-frame torque about body z (and no force) at 1.5 s, and a zero wrench at 2.5 s.
+The node stops itself at ``duration_s`` = 4 s; the demo prints the final pose and the bag.
+"""
+
+import argparse
+import os
+from pathlib import Path
+import subprocess
+import sys
+import time
+
+from rbd_ros import conversions
+
+SCRIPT = (  # (sim time ns, frame_id, force N, torque N·m, what)
+    (500_000_000, 'world', (1.0, 0.0, 0.0), (0.0, 0.0, 0.0), 'push 1 N along world +x'),
+    (1_500_000_000, 'base_link', (0.0, 0.0, 0.0), (0.0, 0.0, 0.01),
+     'torque 0.01 N·m about body z, no force'),
+    (2_500_000_000, 'world', (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), 'stop (zero wrench)'),
+)
+
+
+def default_config():
+    """Return msg_config/default.yaml from the source tree, or from the install's share."""
+    source = Path(__file__).resolve().parents[1] / 'msg_config' / 'default.yaml'
+    if source.is_file():
+        return source
+    from ament_index_python.packages import get_package_share_directory
+    return Path(get_package_share_directory('rbd_ros')) / 'msg_config' / 'default.yaml'
+
+
+def _wait(predicate, timeout_s, spin, what):
+    deadline = time.monotonic() + timeout_s
+    while not predicate():
+        if time.monotonic() > deadline:
+            raise TimeoutError(f'timed out after {timeout_s} s waiting for {what}')
+        spin()
+
+
+def main(argv=None):
+    """Run the demo; return the node's exit status."""
+    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser.add_argument('--runs', default='runs', help='directory for the recording (runs)')
+    parser.add_argument('--duration', type=float, default=4.0, help='sim seconds (4.0)')
+    args = parser.parse_args(argv)
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    bag = Path(args.runs).resolve() / time.strftime('demo_%Y%m%d-%H%M%S', time.gmtime())
+    bag.parent.mkdir(parents=True, exist_ok=True)
+    config = default_config()
+    print(f'starting rigid_body_node on {config}, recording to {bag}', flush=True)
+    node = subprocess.Popen([
+        sys.executable, '-m', 'rbd_ros.node', '--ros-args', '--params-file', str(config),
+        '-p', f'duration_s:={args.duration}', '-p', 'start_paused:=true',
+        '-p', f'record_path:={bag}'])
+
+    import rclpy
+    from geometry_msgs.msg import PoseStamped, WrenchStamped
+    from std_srvs.srv import SetBool
+    rclpy.init()
+    client = rclpy.create_node('rbd_ros_demo')
+    poses = []
+    client.create_subscription(PoseStamped, 'pose', poses.append, 100)
+    wrench = client.create_publisher(WrenchStamped, 'wrench', 10)
+    pause = client.create_client(SetBool, 'rigid_body_node/pause')
+
+    def spin():
+        rclpy.spin_once(client, timeout_sec=0.05)
+        if node.poll() is not None and not poses:
+            raise RuntimeError(f'rigid_body_node exited with status {node.returncode}')
+
+    try:
+        _wait(lambda: wrench.get_subscription_count() > 0 and pause.service_is_ready(), 120,
+              spin, 'rigid_body_node (discovery)')
+        future = pause.call_async(SetBool.Request(data=False))
+        _wait(future.done, 30, spin, 'the ~/pause service')
+        for t_ns, frame_id, force, torque, what in SCRIPT:
+            _wait(lambda: poses and conversions.time_from_msg(poses[-1].header.stamp) >= t_ns,
+                  60, spin, f'sim time {t_ns * 1e-9} s')
+            wrench.publish(conversions.wrench_to_msg(frame_id, force, torque))
+            print(f't = {t_ns * 1e-9:.1f} s: {what}', flush=True)
+        end_ns = round(args.duration * 1e9)
+        _wait(lambda: conversions.time_from_msg(poses[-1].header.stamp) >= end_ns, 60, spin,
+              'the pose at duration_s')
+        _wait(lambda: node.poll() is not None, 60, spin, 'the node to exit')
+    finally:
+        if node.poll() is None:
+            node.terminate()
+            node.wait(30)
+        client.destroy_node()
+        rclpy.try_shutdown()
+    last = poses[-1]
+    p, q = last.pose.position, last.pose.orientation
+    print(f'final pose at t = {conversions.time_from_msg(last.header.stamp) * 1e-9:.3f} s '
+          f'in {last.header.frame_id}: position [{p.x:.6f}, {p.y:.6f}, {p.z:.6f}] m, '
+          f'orientation [x, y, z, w] = [{q.x:.6f}, {q.y:.6f}, {q.z:.6f}, {q.w:.6f}]')
+    print(f'node exit status {node.returncode}; recording: {bag}')
+    return node.returncode
+
+
+if __name__ == '__main__':
+    sys.exit(main())
