@@ -21,6 +21,7 @@ inherited by the node subprocesses. Nothing waits with a fixed sleep for discove
 poll with a deadline (:func:`wait_until`).
 """
 
+import itertools
 import os
 import pathlib
 import signal
@@ -77,11 +78,26 @@ def write_params(path, params):
     return path
 
 
+_NAMESPACES = itertools.count()
+
+
 class NodeProcess:
-    """A ``rigid_body_node`` subprocess started the way a user starts it."""
+    """
+    A ``rigid_body_node`` subprocess started the way a user starts it.
+
+    Each gets its own namespace (:attr:`namespace`, unless ``extra_args`` remap ``__ns``), so
+    endpoints that DDS still remembers from an earlier node of the same test process can never
+    be mistaken for this one's.
+    """
 
     def __init__(self, tmp_path, params=None, params_file=None, extra_args=(), command=None):
+        self.namespace = f'/rbd_test_{os.getpid()}_{next(_NAMESPACES)}'
         args = ['--ros-args']
+        if any('__ns:=' in str(arg) for arg in extra_args):
+            self.namespace = next(str(a).split(':=', 1)[1] for a in extra_args
+                                  if '__ns:=' in str(a))
+        else:
+            args += ['-r', f'__ns:={self.namespace}']
         if params_file is not None:
             args += ['--params-file', str(params_file)]
         if params:

@@ -26,7 +26,8 @@ Benchmark of ``rigid_body_node`` through real DDS (not collected by pytest).
    stamps of received poses against their wall arrival times (end minus start, medians over
    1 s windows, so delivery jitter averages out); target: within 2 steps (2 ms).
 3. as fast as possible: ``real_time_factor`` 0, 100 Hz publishing: the achieved factor (median
-   of /diagnostics ``real_time_factor``); target >= 100. Then an in-process breakdown of where
+   of /diagnostics ``real_time_factor``), without and with a (Python, same machine) subscriber
+   to ``pose``; target >= 100. Then an in-process breakdown of where
    the time goes per sim second (physics, state snapshot, message building, rclpy publish).
 
 Prints the median over ``--runs`` runs of each figure.
@@ -61,7 +62,7 @@ def percentile(values, q):
 def bench_latency(tmp, trials):
     node = NodeProcess(tmp, {'timestep_s': 0.001, 'publish_rate_hz': 1000.0,
                              'real_time_factor': 1.0})
-    probe = Probe(outputs=('pose',))
+    probe = Probe(node.namespace, outputs=('pose',))
     latencies = []
     try:
         probe.wait_connected()
@@ -89,10 +90,48 @@ def bench_latency(tmp, trials):
     return percentile(latencies, 50), percentile(latencies, 99)
 
 
+ECHO = """
+import rclpy
+from geometry_msgs.msg import PoseStamped, WrenchStamped
+rclpy.init()
+node = rclpy.create_node('echo')
+pub = node.create_publisher(PoseStamped, 'pose', 10)
+def echo(msg):
+    out = PoseStamped()
+    out.header.stamp.nanosec = 1
+    out.pose.position.x = 1.0
+    pub.publish(out)
+node.create_subscription(WrenchStamped, 'wrench', echo, 10)
+rclpy.spin(node)
+"""
+
+
+def bench_floor(trials):
+    """Latency of a bare rclpy echo (wrench in -> pose out) measured the same way."""
+    echo = subprocess.Popen([sys.executable, '-c', ECHO, '--ros-args', '-r', '__ns:=/echo'])
+    probe = Probe('/echo', outputs=('pose',))
+    latencies = []
+    try:
+        probe.wait_connected(services=False)
+        for _ in range(trials):
+            probe.arrivals.clear()
+            start = time.monotonic_ns() + random.randint(5, 25) * 1_000_000
+            probe.wait(lambda: time.monotonic_ns() >= start, 5)
+            t_pub = time.monotonic_ns()
+            probe.publish('wrench', 'world', (1.0, 0.0, 0.0))
+            wall = probe.wait(lambda: probe.arrivals and probe.arrivals[-1][0], 5, 'the echo')
+            latencies.append((wall - t_pub) * 1e-6)
+    finally:
+        probe.close()
+        echo.terminate()
+        echo.wait()
+    return percentile(latencies, 50), percentile(latencies, 99)
+
+
 def bench_pacing(tmp, seconds):
     node = NodeProcess(tmp, {'timestep_s': 0.001, 'publish_rate_hz': 100.0,
                              'real_time_factor': 1.0})
-    probe = Probe(outputs=('pose', 'diagnostics'))
+    probe = Probe(node.namespace, outputs=('pose', 'diagnostics'))
     try:
         probe.wait_connected(services=False)
         probe.wait(lambda: len(probe.arrivals) > 10, 30, 'poses')
@@ -115,10 +154,11 @@ def bench_pacing(tmp, seconds):
     return max(lags), drift, max(dropped or [0.0])
 
 
-def bench_fast(tmp, sim_seconds):
+def bench_fast(tmp, sim_seconds, subscribe_pose):
     node = NodeProcess(tmp, {'timestep_s': 0.001, 'publish_rate_hz': 100.0,
                              'real_time_factor': 0.0, 'duration_s': float(sim_seconds)})
-    probe = Probe(outputs=('pose', 'diagnostics'))
+    probe = Probe(node.namespace,
+                  outputs=('pose', 'diagnostics') if subscribe_pose else ('diagnostics',))
     try:
         probe.wait_connected(services=False)
         probe.wait(lambda: node.process.poll() is not None, 600, 'the node to finish')
@@ -179,25 +219,50 @@ def main():
     parser.add_argument('--trials', type=int, default=200, help='latency trials per run (200)')
     parser.add_argument('--fast-sim-seconds', type=int, default=600,
                         help='sim seconds of the as-fast-as-possible run (600)')
+    parser.add_argument('--only', choices=('latency', 'pacing', 'fast', 'breakdown'),
+                        action='append', help='run only these parts (repeatable)')
     args = parser.parse_args()
+    parts = set(args.only or ('latency', 'pacing', 'fast', 'breakdown'))
     with tempfile.TemporaryDirectory() as tmp:
         subprocess.run([sys.executable, '-c', 'import rbd_ros.node'], cwd=REPO, check=True)
-        lat = [bench_latency(tmp, args.trials) for _ in range(args.runs)]
-        print(f'latency wrench -> first pose reflecting it, 1 kHz physics + publishing: '
-              f'p50 {statistics.median(a for a, _ in lat):.2f} ms, '
-              f'p99 {statistics.median(b for _, b in lat):.2f} ms '
-              f'(runs: {[(round(a, 2), round(b, 2)) for a, b in lat]})', flush=True)
-        pace = [bench_pacing(tmp, args.seconds) for _ in range(args.runs)]
-        print(f'pacing over {args.seconds:g} s at RTF 1, 1 kHz physics: max lag at a tick '
-              f'{statistics.median(p[0] for p in pace):.2f} ms, drift of received stamps '
-              f'{statistics.median(p[1] for p in pace):+.3f} ms, wall time dropped '
-              f'{statistics.median(p[2] for p in pace):.3f} s (runs: '
-              f'{[tuple(round(x, 3) for x in p) for p in pace]})', flush=True)
-        fast = [bench_fast(tmp, args.fast_sim_seconds) for _ in range(args.runs)]
-        print(f'as fast as possible, 1 kHz physics, 100 Hz publishing: real-time factor '
-              f'{statistics.median(fast):.1f}x (runs: {[round(f, 1) for f in fast]})',
-              flush=True)
-    parts = breakdown()
+        if 'latency' in parts:
+            report_latency([bench_latency(tmp, args.trials) for _ in range(args.runs)])
+            floor = [bench_floor(args.trials) for _ in range(args.runs)]
+            print(f'  floor: a bare rclpy echo node, same measurement: p50 '
+                  f'{statistics.median(a for a, _ in floor):.2f} ms, p99 '
+                  f'{statistics.median(b for _, b in floor):.2f} ms', flush=True)
+        if 'pacing' in parts:
+            report_pacing(args, [bench_pacing(tmp, args.seconds) for _ in range(args.runs)])
+        if 'fast' in parts:
+            for subscribed in (False, True):
+                report_fast(subscribed, [bench_fast(tmp, args.fast_sim_seconds, subscribed)
+                                         for _ in range(args.runs)])
+    if 'breakdown' in parts:
+        report_breakdown(breakdown())
+
+
+def report_latency(lat):
+    print(f'latency wrench -> first pose reflecting it, 1 kHz physics + publishing: '
+          f'p50 {statistics.median(a for a, _ in lat):.2f} ms, '
+          f'p99 {statistics.median(b for _, b in lat):.2f} ms '
+          f'(runs: {[(round(a, 2), round(b, 2)) for a, b in lat]})', flush=True)
+
+
+def report_pacing(args, pace):
+    print(f'pacing over {args.seconds:g} s at RTF 1, 1 kHz physics: max lag at a tick '
+          f'{statistics.median(p[0] for p in pace):.2f} ms, drift of received stamps '
+          f'{statistics.median(p[1] for p in pace):+.3f} ms, wall time dropped '
+          f'{statistics.median(p[2] for p in pace):.3f} s (runs: '
+          f'{[tuple(round(x, 3) for x in p) for p in pace]})', flush=True)
+
+
+def report_fast(subscribed, fast):
+    who = 'a Python subscriber on pose' if subscribed else 'no subscriber on the state topics'
+    print(f'as fast as possible, 1 kHz physics, 100 Hz publishing, {who}: real-time factor '
+          f'{statistics.median(fast):.1f}x (runs: {[round(f, 1) for f in fast]})', flush=True)
+
+
+def report_breakdown(parts):
     total = sum(parts.values())
     print('where the wall time goes per sim second (in-process, ms): ' + ', '.join(
         f'{k} {v:.2f}' for k, v in parts.items()) + f'; total {total:.2f} ms '

@@ -35,18 +35,23 @@ from rosgraph_msgs.msg import Clock
 from std_srvs.srv import SetBool, Trigger
 
 _COUNTER = itertools.count()
-NODE = '/rigid_body_node'
 
 
 class Probe:
-    """Outputs in, wrenches and service calls out, for one ``rigid_body_node``."""
+    """
+    Outputs in, wrenches and service calls out, for the ``rigid_body_node`` in ``namespace``.
 
-    def __init__(self, inputs=('wrench',), depth=1000,
+    Relative topic names resolve in the probe's namespace, the node's; /diagnostics from
+    other nodes are ignored by their status name.
+    """
+
+    def __init__(self, namespace, inputs=('wrench',), depth=1000,
                  outputs=('pose', 'twist', 'odom', 'clock', 'diagnostics')):
         self.context = Context()
         rclpy.init(context=self.context)
+        self.node_name = namespace.rstrip('/') + '/rigid_body_node'
         self.node = rclpy.create_node(f'probe_{os.getpid()}_{next(_COUNTER)}',
-                                      context=self.context)
+                                      namespace=namespace, context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self.samples = {name: {} for name in ('pose', 'twist', 'odom', 'clock')}
@@ -57,16 +62,16 @@ class Probe:
             'twist': (TwistStamped, 'twist', lambda m: self._keep('twist', m)),
             'odom': (Odometry, 'odom', lambda m: self._keep('odom', m)),
             'clock': (Clock, '/clock', self._on_clock),
-            'diagnostics': (DiagnosticArray, '/diagnostics', self.diagnostics.append),
+            'diagnostics': (DiagnosticArray, '/diagnostics', self._on_diagnostics),
         }
         self._subs = {name: self.node.create_subscription(*table[name][:2], table[name][2], depth)
                       for name in outputs}
         self.publishers = {topic: self.node.create_publisher(WrenchStamped, topic, 10)
                            for topic in inputs}
         self.clients = {
-            'reset': self.node.create_client(Trigger, NODE + '/reset'),
-            'pause': self.node.create_client(SetBool, NODE + '/pause'),
-            'step': self.node.create_client(Trigger, NODE + '/step'),
+            'reset': self.node.create_client(Trigger, self.node_name + '/reset'),
+            'pause': self.node.create_client(SetBool, self.node_name + '/pause'),
+            'step': self.node.create_client(Trigger, self.node_name + '/step'),
         }
 
     def _keep(self, kind, msg):
@@ -75,6 +80,10 @@ class Probe:
     def _on_pose(self, msg):
         self.arrivals.append((time.monotonic_ns(), conversions.time_from_msg(msg.header.stamp)))
         self._keep('pose', msg)
+
+    def _on_diagnostics(self, msg):
+        if msg.status and msg.status[0].name.startswith(self.node_name + ':'):
+            self.diagnostics.append(msg)
 
     def _on_clock(self, msg):
         self.samples['clock'][conversions.time_from_msg(msg.clock)] = msg

@@ -39,7 +39,7 @@ PARAMS = {
 @pytest.fixture(scope='module')
 def rig(module_tmp):
     node = NodeProcess(module_tmp, PARAMS)
-    probe = Probe()
+    probe = Probe(node.namespace)
     probe.wait_connected()
     yield node, probe
     probe.close()

@@ -20,6 +20,7 @@ wall-clock pacing.
 """
 
 import importlib.util
+import os
 import signal
 import time
 
@@ -70,7 +71,7 @@ def test_duration_exits_0_and_records_a_finalised_bag(start_node, tmp_path):
     recording = open_bag(bag)
     assert recording.finalised, recording.notes
     # Samples at t = 0, 10, ..., 300 ms: the schedule is a function of sim time only.
-    times = [m.log_time_ns for m in recording.messages(['/pose'])]
+    times = [m.log_time_ns for m in recording.messages([node.namespace + '/pose'])]
     assert times == [i * 10_000_000 for i in range(31)]
     assert recording.end_ns == 300_000_000
     assert recording.config['duration_s'] == 0.3
@@ -80,7 +81,7 @@ def test_duration_exits_0_and_records_a_finalised_bag(start_node, tmp_path):
 def test_signals_shut_down_cleanly_and_finalise_the_recording(start_node, tmp_path, sig):
     bag = tmp_path / 'run'
     node = start_node({'record_path': str(bag)})
-    probe = Probe()
+    probe = Probe(node.namespace)
     try:
         probe.wait_connected(services=False)
         probe.wait(lambda: probe.samples['pose'] and max(probe.samples['pose']) > 0,
@@ -101,19 +102,20 @@ def test_existing_record_path_is_refused_with_status_2(start_node, tmp_path):
 
 
 def test_clock_tf_namespace_and_diagnostics(start_node):
+    ns = f'/robot_{os.getpid()}'
     node = start_node({'publish_clock': True, 'real_time_factor': 1.0},
-                      extra_args=['-r', '__ns:=/robot1'])
-    probe = Probe()
+                      extra_args=['-r', f'__ns:={ns}'])
+    probe = Probe(node.namespace)
     try:
         # Relative names: everything lives under the namespace.
-        probe.wait(lambda: probe.node.count_publishers('/robot1/pose') == 1
-                   and probe.node.count_subscribers('/robot1/wrench') == 1
+        probe.wait(lambda: probe.node.count_publishers(f'{ns}/pose') == 1
+                   and probe.node.count_subscribers(f'{ns}/wrench') == 1
                    and probe.node.count_publishers('/clock') == 1,
-                   what='/robot1/pose, /robot1/wrench and /clock')
+                   what=f'{ns}/pose, {ns}/wrench and /clock')
         assert probe.node.count_publishers('/pose') == 0
         services = dict(probe.node.get_service_names_and_types())
         for name in ('reset', 'pause', 'step'):
-            assert f'/robot1/rigid_body_node/{name}' in services
+            assert f'{ns}/rigid_body_node/{name}' in services
         # /clock carries the sim time of the samples.
         probe.wait(lambda: len(probe.samples['clock']) >= 3, what='/clock samples')
         assert all(stamp % 10_000_000 == 0 for stamp in probe.samples['clock'])
@@ -137,11 +139,14 @@ def test_wall_clock_pacing(start_node, factor):
     # jitter of the two samples (ms on an idle machine, tens of ms on the shared 2-core CI
     # machine): 0.1 s on ~2 s allows that and still fails a wrong factor or an accumulating
     # pacing error of more than 5 %. (The 60 s figure is in tests/benchmarks/bench_node.py.)
-    start_node({'real_time_factor': factor, 'publish_rate_hz': 100.0})
-    probe = Probe()
+    node = start_node({'real_time_factor': factor, 'publish_rate_hz': 100.0})
+    probe = Probe(node.namespace, outputs=('pose',))
     try:
         probe.wait_connected(services=False)
         probe.wait(lambda: len(probe.arrivals) >= 2, what='pose samples')
+        # Let any backlog of samples queued before we were spinning drain for 0.5 s first.
+        start = time.monotonic_ns()
+        wait_until(lambda: time.monotonic_ns() - start > 500_000_000, 10, probe.spin)
         first = probe.arrivals[-1]
         wait_until(lambda: time.monotonic_ns() - first[0] > 2_000_000_000, 10, probe.spin)
         last = probe.arrivals[-1]

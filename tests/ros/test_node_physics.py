@@ -55,7 +55,7 @@ class Rig:
 
     def __init__(self, tmp):
         self.node = NodeProcess(tmp, PARAMS)
-        self.probe = Probe(inputs=('wrench', 'thruster'))
+        self.probe = Probe(self.node.namespace, inputs=('wrench', 'thruster'))
         self.probe.wait_connected()
 
 
