@@ -155,3 +155,13 @@ def test_config_and_session_do_not_import_rclpy():
                          cwd=REPO, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == '[]'
+
+
+def test_readme_documents_every_parameter_and_starts_with_the_two_commands():
+    readme = (REPO / 'README.md').read_text()
+    for spec in cfg.PARAMETERS + cfg.input_parameter_specs('<name>'):
+        assert f'| `{spec.name}` |' in readme, spec.name
+    lines = readme.splitlines()
+    assert lines[0] == '```bash' and lines[3] == '```'
+    assert lines[1].startswith('bash .ci/setup && .venv/bin/python -m rbd_ros.demo')
+    assert lines[2].startswith('bash .ci/run')
