@@ -88,8 +88,6 @@ class RigidBodyNode(Node):
         self._rtf = config.real_time_factor
         self._dropped_ns = 0
         self._lag_max_ns = 0  # largest wall-minus-sim lag seen at a tick, since the last diag
-        self._anchor()
-        self._diag_last = (time.monotonic_ns(), 0, 0)
 
         self._recorder = None
         self._pubs = {'pose': self.create_publisher(conv.PoseStamped, 'pose', 10),
@@ -118,6 +116,8 @@ class RigidBodyNode(Node):
         self._timer = self.create_timer(max(MIN_TICK_S, period), self._tick)
         self.create_timer(1.0, self._publish_diagnostics)
         self._publish_sample()
+        self._anchor()  # sim time 0 = now: pacing starts when the node is ready
+        self._diag_last = (time.monotonic_ns(), 0, 0)
 
     def _declare(self, spec, value):
         descriptor = ParameterDescriptor(
@@ -177,7 +177,7 @@ class RigidBodyNode(Node):
             return
         if self._rtf == 0:
             deadline = time.monotonic_ns() + AS_FAST_BUDGET_NS
-            while time.monotonic_ns() < deadline and not self.done:
+            while time.monotonic_ns() < deadline and not (self.done or session.paused):
                 self._run(MAX_STEPS_PER_TICK)
             return
         elapsed_ns = time.monotonic_ns() - self._wall_anchor_ns
