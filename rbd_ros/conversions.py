@@ -109,14 +109,17 @@ def twist_components(state, twist_frame, rot_wb=None):
 
     ``'world'``: ``(v_w, ω_w = R ω_b)``; ``'body'``: ``(v_b = Rᵀ v_w, ω_b)``.
 
-    :param rot_wb: :func:`rotation_wb` of ``state`` if the caller has it already.
+    :param rot_wb: ``state.rotation_wb()`` if the caller has it already (it is costly).
+
+    The arithmetic (the core's ``angular_velocity_w()`` and ``rotation_wb().T @ v_w``) is part of
+    the recorded reference: replay recomputes these messages bit for bit.
     """
-    if twist_frame not in ('world', 'body'):
-        raise ValueError(f"twist_frame: {twist_frame!r} must be 'world' or 'body'")
-    rot_wb = rotation_wb(state) if rot_wb is None else rot_wb
     if twist_frame == 'world':
-        return state.linear_velocity_w, _mul(rot_wb, state.angular_velocity_b)
-    return _mul_transposed(rot_wb, state.linear_velocity_w), state.angular_velocity_b
+        return state.linear_velocity_w, state.angular_velocity_w()
+    if twist_frame == 'body':
+        rot_wb = state.rotation_wb() if rot_wb is None else rot_wb
+        return rot_wb.T @ state.linear_velocity_w, state.angular_velocity_b
+    raise ValueError(f"twist_frame: {twist_frame!r} must be 'world' or 'body'")
 
 
 def state_to_twist(state, twist_frame, world_frame, body_frame, rot_wb=None):
@@ -143,34 +146,9 @@ def state_to_odometry(state, world_frame, body_frame, rot_wb=None):
     return msg
 
 
-def rotation_wb(state):
-    """
-    Return ``R`` (3x3 nested tuples) of ``state.orientation_wb`` (unit, ``v_w = R v_b``).
-
-    The same matrix as :func:`rbd_ros.core.rotations.quat_to_matrix` (pinned by a test to
-    round-off) in scalar Python: the core's vectorised, validating version costs ~50 µs for one
-    quaternion, a quarter of the node's work per published sample. The state's quaternion is
-    already unit and finite (the core normalises it every step).
-    """
-    w, x, y, z = (float(v) for v in state.orientation_wb)
-    return ((1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - w * z), 2.0 * (x * z + w * y)),
-            (2.0 * (x * y + w * z), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - w * x)),
-            (2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)))
-
-
-def _mul(rot, v):
-    """Return ``R v`` for nested-tuple ``R``."""
-    return tuple(r[0] * v[0] + r[1] * v[1] + r[2] * v[2] for r in rot)
-
-
-def _mul_transposed(rot, v):
-    """Return ``Rᵀ v`` for nested-tuple ``R``."""
-    return tuple(rot[0][i] * v[0] + rot[1][i] * v[1] + rot[2][i] * v[2] for i in range(3))
-
-
 def state_to_messages(state, twist_frame, world_frame, body_frame):
     """Return ``(PoseStamped, TwistStamped, Odometry)`` of one sample, computing R once."""
-    rot_wb = rotation_wb(state)
+    rot_wb = state.rotation_wb()
     return (state_to_pose(state, world_frame),
             state_to_twist(state, twist_frame, world_frame, body_frame, rot_wb),
             state_to_odometry(state, world_frame, body_frame, rot_wb))

@@ -24,6 +24,7 @@ accumulate; at most :data:`MAX_STEPS_PER_TICK` steps run per tick, and a larger 
 dropped (counted in ``/diagnostics`` as ``wall_time_dropped_s``).
 """
 
+import signal
 import sys
 import time
 
@@ -39,6 +40,7 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.serialization import serialize_message
+from rclpy.signals import SignalHandlerOptions
 from std_srvs.srv import SetBool, Trigger
 
 try:  # rclpy's C++ events executor: a third of the CPU of the Python one at 1 kHz ticks.
@@ -302,7 +304,12 @@ class RigidBodyNode(Node):
 
 def main(args=None):
     """Run the node until ``duration_s`` passes or SIGINT/SIGTERM; exit 0, or 2 on bad input."""
-    rclpy.init(args=args)
+    # Our own signal handlers: stop between callbacks, then finalise. (rclpy's would shut the
+    # context down under a running callback, whose next publish then fails.)
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    stop = []
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda *_: stop.append(True))
     try:
         node = RigidBodyNode()
     except RbdError as exc:
@@ -312,9 +319,9 @@ def main(args=None):
     executor = EventsExecutor() if EventsExecutor is not None else SingleThreadedExecutor()
     executor.add_node(node)
     try:
-        while rclpy.ok() and not node.done:
+        while rclpy.ok() and not node.done and not stop:
             executor.spin_once(timeout_sec=0.1)
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except ExternalShutdownException:
         pass
     finally:
         status = node.finish()

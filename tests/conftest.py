@@ -85,19 +85,19 @@ class NodeProcess:
     """
     A ``rigid_body_node`` subprocess started the way a user starts it.
 
-    Each gets its own namespace (:attr:`namespace`, unless ``extra_args`` remap ``__ns``), so
-    endpoints that DDS still remembers from an earlier node of the same test process can never
-    be mistaken for this one's.
+    With ``namespace=True`` it gets a namespace of its own (:attr:`namespace`), so endpoints that
+    DDS still remembers from an earlier node of the same test process can never be mistaken for
+    this one's; a string is used as the namespace; None (default) keeps the root namespace.
     """
 
-    def __init__(self, tmp_path, params=None, params_file=None, extra_args=(), command=None):
-        self.namespace = f'/rbd_test_{os.getpid()}_{next(_NAMESPACES)}'
+    def __init__(self, tmp_path, params=None, params_file=None, extra_args=(), command=None,
+                 namespace=None):
         args = ['--ros-args']
-        if any('__ns:=' in str(arg) for arg in extra_args):
-            self.namespace = next(str(a).split(':=', 1)[1] for a in extra_args
-                                  if '__ns:=' in str(a))
-        else:
-            args += ['-r', f'__ns:={self.namespace}']
+        if namespace is True:
+            namespace = f'/rbd_test_{os.getpid()}_{next(_NAMESPACES)}'
+        if namespace:
+            args += ['-r', f'__ns:={namespace}']
+        self.namespace = namespace or '/'
         if params_file is not None:
             args += ['--params-file', str(params_file)]
         if params:
@@ -135,11 +135,11 @@ class NodeProcess:
 
 @pytest.fixture
 def start_node(tmp_path):
-    """Return ``start(params=None, params_file=None)`` → :class:`NodeProcess`; stops them all."""
+    """Return ``start(params, params_file, extra_args, namespace)`` → a :class:`NodeProcess`."""
     started = []
 
-    def start(params=None, params_file=None, extra_args=()):
-        node = NodeProcess(tmp_path, params, params_file, extra_args)
+    def start(params=None, params_file=None, extra_args=(), namespace=None):
+        node = NodeProcess(tmp_path, params, params_file, extra_args, namespace=namespace)
         started.append(node)
         return node
 

@@ -61,7 +61,7 @@ def percentile(values, q):
 
 def bench_latency(tmp, trials):
     node = NodeProcess(tmp, {'timestep_s': 0.001, 'publish_rate_hz': 1000.0,
-                             'real_time_factor': 1.0})
+                             'real_time_factor': 1.0}, namespace=True)
     probe = Probe(node.namespace, outputs=('pose',))
     latencies = []
     try:
@@ -130,7 +130,7 @@ def bench_floor(trials):
 
 def bench_pacing(tmp, seconds):
     node = NodeProcess(tmp, {'timestep_s': 0.001, 'publish_rate_hz': 100.0,
-                             'real_time_factor': 1.0})
+                             'real_time_factor': 1.0}, namespace=True)
     probe = Probe(node.namespace, outputs=('pose', 'diagnostics'))
     try:
         probe.wait_connected(services=False)
@@ -156,7 +156,8 @@ def bench_pacing(tmp, seconds):
 
 def bench_fast(tmp, sim_seconds, subscribe_pose):
     node = NodeProcess(tmp, {'timestep_s': 0.001, 'publish_rate_hz': 100.0,
-                             'real_time_factor': 0.0, 'duration_s': float(sim_seconds)})
+                             'real_time_factor': 0.0, 'duration_s': float(sim_seconds)},
+                       namespace=True)
     probe = Probe(node.namespace,
                   outputs=('pose', 'diagnostics') if subscribe_pose else ('diagnostics',))
     try:

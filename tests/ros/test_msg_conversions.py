@@ -31,17 +31,6 @@ def xyz(v):
     return np.array([v.x, v.y, v.z])
 
 
-def test_scalar_rotation_matrix_is_the_cores():
-    rng = np.random.default_rng(3)
-    for q in rng.normal(size=(50, 4)):
-        q /= np.linalg.norm(q)
-        state = BodyState(orientation_wb=q)
-        # Same formula, evaluated in a different order: a few ε of round-off.
-        np.testing.assert_allclose(np.array(conv.rotation_wb(state)),
-                                   rotations.quat_to_matrix(state.orientation_wb),
-                                   rtol=0, atol=1e-15)
-
-
 def test_time_round_trip():
     for ns in (0, 1, 999_999_999, 1_000_000_000, 12_345_678_901, 2**62):
         msg = conv.time_to_msg(ns)

@@ -38,7 +38,7 @@ PARAMS = {
 
 @pytest.fixture(scope='module')
 def rig(module_tmp):
-    node = NodeProcess(module_tmp, PARAMS)
+    node = NodeProcess(module_tmp, PARAMS, namespace=True)
     probe = Probe(node.namespace)
     probe.wait_connected()
     yield node, probe

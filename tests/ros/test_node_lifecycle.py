@@ -66,7 +66,8 @@ def test_inertia_error_names_the_unit(start_node):
 
 def test_duration_exits_0_and_records_a_finalised_bag(start_node, tmp_path):
     bag = tmp_path / 'run'
-    node = start_node({'duration_s': 0.3, 'record_path': str(bag), 'publish_rate_hz': 100.0})
+    node = start_node({'duration_s': 0.3, 'record_path': str(bag), 'publish_rate_hz': 100.0},
+                      namespace=True)
     assert node.wait(60) == 0, node.stderr
     recording = open_bag(bag)
     assert recording.finalised, recording.notes
@@ -80,7 +81,7 @@ def test_duration_exits_0_and_records_a_finalised_bag(start_node, tmp_path):
 @pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM], ids=['SIGINT', 'SIGTERM'])
 def test_signals_shut_down_cleanly_and_finalise_the_recording(start_node, tmp_path, sig):
     bag = tmp_path / 'run'
-    node = start_node({'record_path': str(bag)})
+    node = start_node({'record_path': str(bag)}, namespace=True)
     probe = Probe(node.namespace)
     try:
         probe.wait_connected(services=False)
@@ -103,8 +104,7 @@ def test_existing_record_path_is_refused_with_status_2(start_node, tmp_path):
 
 def test_clock_tf_namespace_and_diagnostics(start_node):
     ns = f'/robot_{os.getpid()}'
-    node = start_node({'publish_clock': True, 'real_time_factor': 1.0},
-                      extra_args=['-r', f'__ns:={ns}'])
+    node = start_node({'publish_clock': True, 'real_time_factor': 1.0}, namespace=ns)
     probe = Probe(node.namespace)
     try:
         # Relative names: everything lives under the namespace.
@@ -139,7 +139,7 @@ def test_wall_clock_pacing(start_node, factor):
     # jitter of the two samples (ms on an idle machine, tens of ms on the shared 2-core CI
     # machine): 0.1 s on ~2 s allows that and still fails a wrong factor or an accumulating
     # pacing error of more than 5 %. (The 60 s figure is in tests/benchmarks/bench_node.py.)
-    node = start_node({'real_time_factor': factor, 'publish_rate_hz': 100.0})
+    node = start_node({'real_time_factor': factor, 'publish_rate_hz': 100.0}, namespace=True)
     probe = Probe(node.namespace, outputs=('pose',))
     try:
         probe.wait_connected(services=False)

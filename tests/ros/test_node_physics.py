@@ -54,7 +54,7 @@ class Rig:
     """The node process and the probe of this module."""
 
     def __init__(self, tmp):
-        self.node = NodeProcess(tmp, PARAMS)
+        self.node = NodeProcess(tmp, PARAMS, namespace=True)
         self.probe = Probe(self.node.namespace, inputs=('wrench', 'thruster'))
         self.probe.wait_connected()
 
