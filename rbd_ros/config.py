@@ -163,6 +163,10 @@ PARAMETERS = (
     ParamSpec('record_path', STRING, '', '', "Record the run to this MCAP path; '' = off."),
     ParamSpec('record_overwrite', BOOL, False, '',
               'Allow record_path to replace an existing recording.'),
+    ParamSpec('record_on_error', STRING, 'continue', '',
+              "When a recording write fails mid-run (disk full, ...): 'continue' simulating "
+              "without recording, or 'stop' the node; either way the exit status is 1.",
+              rule="'continue' or 'stop'"),
 )
 
 PARAMETERS_BY_NAME = {spec.name: spec for spec in PARAMETERS}
@@ -327,6 +331,7 @@ class NodeConfig:
     publish_tf: bool
     record_path: str
     record_overwrite: bool
+    record_on_error: str
     parameters: dict
 
     @classmethod
@@ -440,6 +445,8 @@ class NodeConfig:
         for name in ('twist_frame', 'default_wrench_frame'):
             if values[name] not in FRAME_KEYWORDS:
                 _fail(p[name], values[name], "must be 'world' or 'body'")
+        if values['record_on_error'] not in ('continue', 'stop'):
+            _fail(p['record_on_error'], values['record_on_error'], "must be 'continue' or 'stop'")
         for name in ('max_force_n', 'max_torque_nm'):
             if not values[name] > 0.0:
                 _fail(p[name], values[name], 'must be > 0')
@@ -472,6 +479,7 @@ class NodeConfig:
             max_torque_nm=values['max_torque_nm'], wrench_inputs=tuple(inputs),
             publish_clock=values['publish_clock'], publish_tf=values['publish_tf'],
             record_path=values['record_path'], record_overwrite=values['record_overwrite'],
+            record_on_error=values['record_on_error'],
             parameters=values)
 
     def to_parameters(self):

@@ -160,9 +160,12 @@ class RigidBodyNode(Node):
             try:
                 self._recorder.write(topic, serialize_message(msg), time_ns)
             except RecordingError as exc:
-                self.get_logger().error(f'recording stopped: {exc}')
+                stop = self.config.record_on_error == 'stop'
+                then = 'stopping the node (record_on_error: stop)' if stop else 'simulating on'
+                self.get_logger().error(f'recording stopped: {exc}; {then}')
                 self.exit_status = 1
                 self._close_recording()
+                self.done = self.done or stop
 
     def _publish(self, key, msg, time_ns):
         pub = self._pubs[key]

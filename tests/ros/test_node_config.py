@@ -95,6 +95,11 @@ def test_timestep_must_be_whole_nanoseconds():
         NodeConfig.from_parameters({'timestep_s': 1.5e-9})
 
 
+def test_record_on_error_takes_continue_or_stop():
+    assert NodeConfig.from_parameters({}).record_on_error == 'continue'
+    assert NodeConfig.from_parameters({'record_on_error': 'stop'}).record_on_error == 'stop'
+
+
 def test_integer_values_are_accepted_for_doubles():
     # A YAML file may say mass_kg: 2 (an integer); it means 2.0 kg.
     assert NodeConfig.from_parameters({'mass_kg': 2}).model.mass_kg == 2.0
@@ -102,6 +107,8 @@ def test_integer_values_are_accepted_for_doubles():
 
 @pytest.mark.parametrize('params, error, text', [
     ({'mass_kg': -1.0}, ModelError, 'parameter mass_kg = -1.0 kg: must be > 0'),
+    ({'record_on_error': 'retry'}, ConfigError,
+     "parameter record_on_error = 'retry'"),
     ({'mass_kg': math.inf}, ModelError, 'parameter mass_kg = inf kg: must be finite'),
     ({'inertia': [1.0, 1.0]}, ModelError, 'must have 6 values'),
     ({'inertia': [1.0, 1.0, 3.0, 0.0, 0.0, 0.0]}, ModelError, 'triangle inequality'),
