@@ -21,6 +21,27 @@ at start-up) or counted, throttled warnings; it never swallows them.
 """
 
 
+import numpy as np
+
+
+def frozen_vector(value, name, unit, size=3, error=None):
+    """
+    Return ``value`` as a read-only float64 array of ``size`` finite numbers.
+
+    :raises RbdError: (``error``, :class:`InputError` by default) naming ``name``, the value
+        and ``unit`` when it is not ``size`` numbers or not finite.
+    """
+    error = InputError if error is None else error
+    try:
+        array = np.array(value, dtype=np.float64).reshape(size)
+    except (TypeError, ValueError):
+        raise error(f'{name}: expected {size} numbers in {unit}, got {value!r}') from None
+    if not np.all(np.isfinite(array)):
+        raise error(f'{name}: {array.tolist()} {unit} is not finite')
+    array.flags.writeable = False
+    return array
+
+
 class RbdError(Exception):
     """Base class of every error rbd_ros raises on purpose."""
 

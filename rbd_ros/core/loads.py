@@ -26,20 +26,9 @@ import math
 
 import numpy as np
 
-from rbd_ros.core.errors import InputError
+from rbd_ros.core.errors import frozen_vector as _vector, InputError
 
 FRAMES = ('world', 'body')
-
-
-def _vector(value, name, unit):
-    try:
-        array = np.array(value, dtype=np.float64).reshape(3)
-    except (TypeError, ValueError):
-        raise InputError(f'{name}: expected 3 numbers in {unit}, got {value!r}') from None
-    if not np.all(np.isfinite(array)):
-        raise InputError(f'{name}: {array.tolist()} {unit} is not finite')
-    array.flags.writeable = False
-    return array
 
 
 def _scalar(value, name, unit, minimum=0.0):

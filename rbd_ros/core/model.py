@@ -24,20 +24,8 @@ import math
 
 import numpy as np
 
-from rbd_ros.core.errors import ModelError
+from rbd_ros.core.errors import frozen_vector, ModelError
 from rbd_ros.core.inertia import validate_inertia, validate_mass
-
-
-def _frozen_vector(value, name, unit, size=3):
-    try:
-        array = np.array(value, dtype=np.float64).reshape(size)
-    except (TypeError, ValueError):
-        raise ModelError(
-            f'{name}: expected {size} numbers in {unit}, got {value!r}') from None
-    if not np.all(np.isfinite(array)):
-        raise ModelError(f'{name}: {array.tolist()} {unit} is not finite')
-    array.flags.writeable = False
-    return array
 
 
 @dataclass(frozen=True)
@@ -86,8 +74,8 @@ class BodyModel:
         object.__setattr__(self, 'mass_kg', float(self.mass_kg))
         object.__setattr__(self, 'inertia_b', inertia)
         object.__setattr__(self, 'inertia_inv_b', inverse)
-        object.__setattr__(
-            self, 'gravity_w', _frozen_vector(self.gravity_w, 'gravity_w', 'm/s²'))
+        object.__setattr__(self, 'gravity_w', frozen_vector(
+            self.gravity_w, 'gravity_w', 'm/s²', error=ModelError))
 
     def __eq__(self, other):
         if not isinstance(other, BodyModel):

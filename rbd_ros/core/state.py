@@ -24,19 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rbd_ros.core.errors import InputError
+from rbd_ros.core.errors import frozen_vector as _vector, InputError
 from rbd_ros.core.rotations import quat_normalize, quat_rotate, quat_to_matrix
-
-
-def _vector(value, name, unit, size=3):
-    try:
-        array = np.array(value, dtype=np.float64).reshape(size)
-    except (TypeError, ValueError):
-        raise InputError(f'{name}: expected {size} numbers in {unit}, got {value!r}') from None
-    if not np.all(np.isfinite(array)):
-        raise InputError(f'{name}: {array.tolist()} {unit} is not finite')
-    array.flags.writeable = False
-    return array
 
 
 # A quaternion whose |q|² is this close to 1 is unit to round-off (a few ulp, as the kernel's
