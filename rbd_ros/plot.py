@@ -35,7 +35,7 @@ import sys
 import numpy as np
 from rbd_ros.core import RbdError
 from rbd_ros.core.rotations import quat_log, quat_to_matrix
-from rbd_ros.recording import open_bag
+from rbd_ros.recording import open_bag, run_on_bag
 
 _NS_PER_S = 1e9
 
@@ -255,21 +255,16 @@ def main(argv=None):
     parser.add_argument('--title', default=None, help='figure title')
     args = parser.parse_args(argv)
     out = args.output or os.path.basename(os.path.normpath(args.bag)).split('.')[0] + '.png'
-    try:
+
+    def run():
         bag = open_bag(args.bag)
         for note in bag.notes:
             print(f'plot: note: {note}', file=sys.stderr)
         render(bag, out, args.title)
-    except KeyboardInterrupt:
-        print('plot: interrupted', file=sys.stderr)
-        return 130
-    except (RbdError, OSError) as exc:
-        print(f'plot: error: {exc}', file=sys.stderr)
-        return 2
-    except Exception as exc:  # a corrupt file can fail anywhere in the decoders: one line
-        print(f'plot: error: {args.bag}: cannot be plotted ({type(exc).__name__}: {exc})',
-              file=sys.stderr)
-        return 2
+
+    status, _ = run_on_bag('plot', args.bag, 'plotted', run)
+    if status:
+        return status
     print(f'plot: wrote {out}')
     return 0
 

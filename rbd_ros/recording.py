@@ -38,6 +38,7 @@ import glob
 import os
 import shutil
 import struct
+import sys
 import time
 
 from mcap.exceptions import McapError
@@ -47,7 +48,7 @@ from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 from rbd_ros import __version__
 from rbd_ros import schemas
-from rbd_ros.core.errors import RecordingError
+from rbd_ros.core.errors import RbdError, RecordingError
 import yaml
 
 #: Name of the MCAP metadata record holding the node configuration.
@@ -654,6 +655,28 @@ def _load_metadata_yaml(meta_path):
     if not isinstance(meta, dict) or 'rosbag2_bagfile_information' not in meta:
         raise RecordingError(f'{meta_path}: not a rosbag2 metadata file')
     return meta
+
+
+def run_on_bag(prog, bag_path, verb, action):
+    """
+    Run ``action()`` for a command-line tool; every failure becomes one stderr line.
+
+    :returns: ``(status, result)``: 0 and ``action()``'s result, 2 on any error (``prog: error:
+        ...``; a corrupt file can fail anywhere in the decoders, so anything is caught), 130 on
+        Ctrl-C.
+    """
+    try:
+        return 0, action()
+    except KeyboardInterrupt:
+        print(f'{prog}: interrupted', file=sys.stderr)
+        return 130, None
+    except (RbdError, OSError) as exc:
+        print(f'{prog}: error: {exc}', file=sys.stderr)
+        return 2, None
+    except Exception as exc:  # the one-line promise covers every decoder failure
+        print(f'{prog}: error: {bag_path}: cannot be {verb} ({type(exc).__name__}: {exc})',
+              file=sys.stderr)
+        return 2, None
 
 
 def open_bag(path):

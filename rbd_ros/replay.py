@@ -45,11 +45,11 @@ import sys
 import numpy as np
 from rbd_ros import conversions
 from rbd_ros.config import NodeConfig
-from rbd_ros.core import NonFiniteError, RbdError
+from rbd_ros.core import NonFiniteError
 from rbd_ros.core.errors import RecordingError
 from rbd_ros.core.rotations import quat_angle_between
 from rbd_ros.inputs import WrenchRejected
-from rbd_ros.recording import open_bag
+from rbd_ros.recording import open_bag, run_on_bag
 from rbd_ros.session import SimSession
 
 WRENCH_TYPE = 'geometry_msgs/msg/WrenchStamped'
@@ -492,24 +492,19 @@ def main(argv=None):
     """Run the ``replay`` executable; return the exit status."""
     args = build_parser().parse_args(argv)
     progress = args.progress if args.progress is not None else sys.stderr.isatty()
-    try:
+
+    def run():
         if args.tolerance is not None and not args.tolerance >= 0.0:
             raise ReplayError(f'--tolerance {args.tolerance}: must be >= 0')
         bag = open_bag(args.bag)
         for note in bag.notes:
             print(f'replay: note: {note}', file=sys.stderr)
-        result = replay_bag(bag, tolerance=args.tolerance, integrator=args.integrator,
-                            timestep_s=args.timestep, progress=progress)
-    except KeyboardInterrupt:
-        print('replay: interrupted', file=sys.stderr)
-        return 130
-    except (RbdError, OSError) as exc:
-        print(f'replay: error: {exc}', file=sys.stderr)
-        return 2
-    except Exception as exc:  # a corrupt file can fail anywhere in the decoders: one line
-        print(f'replay: error: {args.bag}: cannot be replayed ({type(exc).__name__}: {exc})',
-              file=sys.stderr)
-        return 2
+        return replay_bag(bag, tolerance=args.tolerance, integrator=args.integrator,
+                          timestep_s=args.timestep, progress=progress)
+
+    status, result = run_on_bag('replay', args.bag, 'replayed', run)
+    if status:
+        return status
     if args.json:
         print(json.dumps(result.to_dict(), indent=2))
     else:

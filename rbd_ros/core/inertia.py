@@ -221,17 +221,22 @@ def _central(mass_kg, moments):
     return MassProperties(mass_kg, np.zeros(3), np.diag(np.asarray(moments, dtype=float)))
 
 
+def _triaxial(mass_kg, lengths_m, name, divisor):
+    """Return the centred solid with ``Ixx = m (y² + z²) / divisor`` etc. (box, ellipsoid)."""
+    mass = validate_mass(mass_kg)
+    lengths = _validate_vector(lengths_m, name, 'm')
+    x, y, z = (_validate_length(s, f'{name}[{i}]') for i, s in enumerate(lengths))
+    return _central(mass, [mass * (y * y + z * z) / divisor, mass * (x * x + z * z) / divisor,
+                           mass * (x * x + y * y) / divisor])
+
+
 def box(mass_kg, size_m):
     """
     Return a solid box of full edge lengths ``size_m = (x, y, z)`` centred at the origin.
 
     ``Ixx = m (y^2 + z^2) / 12``, ``Iyy = m (x^2 + z^2) / 12``, ``Izz = m (x^2 + y^2) / 12``.
     """
-    mass = validate_mass(mass_kg)
-    size = _validate_vector(size_m, 'size_m', 'm')
-    x, y, z = (_validate_length(s, f'size_m[{i}]') for i, s in enumerate(size))
-    return _central(mass, [mass * (y * y + z * z) / 12.0, mass * (x * x + z * z) / 12.0,
-                           mass * (x * x + y * y) / 12.0])
+    return _triaxial(mass_kg, size_m, 'size_m', 12.0)
 
 
 def solid_sphere(mass_kg, radius_m):
@@ -285,11 +290,7 @@ def solid_ellipsoid(mass_kg, semi_axes_m):
 
     ``Ixx = m (b^2 + c^2) / 5``, ``Iyy = m (a^2 + c^2) / 5``, ``Izz = m (a^2 + b^2) / 5``.
     """
-    mass = validate_mass(mass_kg)
-    axes = _validate_vector(semi_axes_m, 'semi_axes_m', 'm')
-    a, b, c = (_validate_length(s, f'semi_axes_m[{i}]') for i, s in enumerate(axes))
-    return _central(mass, [mass * (b * b + c * c) / 5.0, mass * (a * a + c * c) / 5.0,
-                           mass * (a * a + b * b) / 5.0])
+    return _triaxial(mass_kg, semi_axes_m, 'semi_axes_m', 5.0)
 
 
 def capsule(mass_kg, radius_m, length_m):
