@@ -42,7 +42,9 @@ def domain_id_for(pid):
     return 1 + pid % 101
 
 
-os.environ['ROS_DOMAIN_ID'] = str(domain_id_for(os.getpid()))
+# RBD_TEST_DOMAIN_ID pins the domain (several test runs side by side on one machine).
+os.environ['ROS_DOMAIN_ID'] = os.environ.get('RBD_TEST_DOMAIN_ID') or str(
+    domain_id_for(os.getpid()))
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.pop('ROS_LOCALHOST_ONLY', None)
 os.environ['PYTHONPATH'] = os.pathsep.join(
