@@ -36,6 +36,7 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, TransformStamped, TwistStamped, WrenchStamped
 from nav_msgs.msg import Odometry
+import numpy as np
 from rosgraph_msgs.msg import Clock
 
 _NS_PER_S = 1_000_000_000
@@ -111,14 +112,18 @@ def twist_components(state, twist_frame, rot_wb=None):
 
     :param rot_wb: ``state.rotation_wb()`` if the caller has it already (it is costly).
 
-    The arithmetic (the core's ``angular_velocity_w()`` and ``rotation_wb().T @ v_w``) is part of
-    the recorded reference: replay recomputes these messages bit for bit.
+    The arithmetic (the core's ``angular_velocity_w()`` and ``Rᵀ v_w`` summed left to right) is
+    part of the recorded reference: replay recomputes these messages bit for bit. ``Rᵀ v_w`` is
+    written out rather than left to a BLAS matrix product, whose kernel (with or without fused
+    multiply-add) depends on the CPU and would change the last bit from machine to machine.
     """
     if twist_frame == 'world':
         return state.linear_velocity_w, state.angular_velocity_w()
     if twist_frame == 'body':
-        rot_wb = state.rotation_wb() if rot_wb is None else rot_wb
-        return rot_wb.T @ state.linear_velocity_w, state.angular_velocity_b
+        r = state.rotation_wb() if rot_wb is None else rot_wb
+        v = state.linear_velocity_w
+        v_b = np.array([r[0, i] * v[0] + r[1, i] * v[1] + r[2, i] * v[2] for i in range(3)])
+        return v_b, state.angular_velocity_b
     raise ValueError(f"twist_frame: {twist_frame!r} must be 'world' or 'body'")
 
 
