@@ -20,9 +20,16 @@ plus ``<bag>/<bag>_0.mcap`` with what rosbag2's MCAP storage plugin writes for J
 profile ``ros2``; one ``ros2msg`` schema per type (:mod:`rbd_ros.schemas`); ``cdr`` channels
 whose metadata holds ``offered_qos_profiles`` (v9 YAML, string enums) and ``topic_type_hash``;
 chunks with message indexes; a summary with chunk indexes and a statistics record; and a
-``rosbag2`` metadata record with ``serialized_metadata`` (written at open and at close, the last
-one wins).  The node's full configuration is stored as the MCAP metadata record ``rbd_ros``, so
-the recording alone is enough to replay it.
+``rosbag2`` metadata record whose ``serialized_metadata`` is the bare BagMetadata map (root key
+``version``: rosbag2_storage_mcap decodes it from the root; only ``metadata.yaml`` wraps it in
+``rosbag2_bagfile_information``), written at open (``starting_time`` int64 max) and at close
+(the last one wins).  The node's full configuration is stored as the MCAP metadata record
+``rbd_ros``, so the recording alone is enough to replay it; at close the node adds
+``rbd_ros.run`` (how the run ended, the digest of the wrenches it applied).
+
+Everything read back from a bag is treated as untrusted: YAML texts are parsed without
+anchors/aliases and up to :data:`MAX_YAML_BYTES` (:func:`load_yaml`), and the files
+``metadata.yaml`` names must lie inside the bag directory.
 
 Message log times are sim time in integer nanoseconds.  A chunk is closed and flushed to the
 operating system before it covers more than ``chunk_duration_ns`` of sim time (1 s by default)

@@ -23,6 +23,13 @@ rebuilds :class:`rbd_ros.config.NodeConfig` from the stored parameters, drives a
 it takes effect at the step starting at its recorded time, recomputes every recorded output
 through :mod:`rbd_ros.conversions` and compares it field by field with the recorded message.
 
+The inputs are checked too: replay digests the wrenches that took effect
+(:class:`rbd_ros.session.AppliedDigest`) and compares with the digest the node stored in the
+``rbd_ros.run`` record, bit for bit.  A run that hit a non-finite step must fail again at the
+same sim time with the same message (reproduced, a match).  Log times are checked against the
+recorded configuration before any stepping (:func:`check_times`), so a crafted bag cannot make
+replay step without bound.
+
 By default the comparison is bit-exact (every float identical to the last bit, stamps and frame
 ids equal).  ``--tolerance`` relaxes it to ``error <= tolerance`` for each of: position (m,
 Euclidean norm of the difference), orientation (rad, geodesic angle between the quaternions),
