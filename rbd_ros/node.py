@@ -147,13 +147,28 @@ class RigidBodyNode(Node):
 
     def _open_recording(self):
         from rbd_ros.recording import BagWriter
-        self._recorder = BagWriter(self.config.record_path, config=self.config.to_parameters(),
-                                   overwrite=self.config.record_overwrite)
-        self.get_logger().info(f'recording to {self._recorder.path}')
-        for pub in list(self._pubs.values()) + self._input_subs:
-            msg_type = pub.msg_type
-            type_name = f'{msg_type.__module__.split(".")[0]}/msg/{msg_type.__name__}'
-            self._recorder.add_topic(pub.topic_name, type_name, {'depth': pub.qos_profile.depth})
+        from rbd_ros.session import AppliedDigest
+        recorder = BagWriter(self.config.record_path, config=self.config.to_parameters(),
+                             overwrite=self.config.record_overwrite)
+        try:
+            for pub in list(self._pubs.values()) + self._input_subs:
+                msg_type = pub.msg_type
+                type_name = f'{msg_type.__module__.split(".")[0]}/msg/{msg_type.__name__}'
+                recorder.add_topic(pub.topic_name, type_name, {'depth': pub.qos_profile.depth})
+            recorder.flush()  # a full disk fails here, at start (exit 2), not mid-run
+        except RecordingError:
+            recorder.close()
+            raise
+        self._recorder = recorder
+        self._digest = AppliedDigest()  # what the run applied, for replay to compare
+        self._failure = None  # (sim time ns, message) of a non-finite step
+        self.get_logger().info(f'recording to {recorder.path}')
+
+    def _record_events(self, events):
+        for event in events:
+            if self._recorder is not None:
+                self._digest.update(event)
+            self._record(self._input_topics[event.input_name], event.tag, event.time_ns)
 
     def _record(self, topic, msg, time_ns):
         if self._recorder is not None:
@@ -204,10 +219,12 @@ class RigidBodyNode(Node):
             try:
                 report = self.session.step() if manual else self.session.advance(n_steps)
             except NonFiniteError as exc:
+                self._record_events(getattr(exc, 'events', ()))  # incl. the one that caused it
+                if self._recorder is not None:
+                    self._failure = (self.session.time_ns, str(exc))
                 self.get_logger().error(f'{exc}; paused (call ~/reset)')
                 return
-            for event in report.events:
-                self._record(self._input_topics[event.input_name], event.tag, event.time_ns)
+            self._record_events(report.events)
             if report.sample_due:
                 self._publish_sample()
             if self.session.finished and not manual:
@@ -291,13 +308,21 @@ class RigidBodyNode(Node):
 
     def _close_recording(self):
         recorder, self._recorder = self._recorder, None
-        if recorder is not None:
-            try:
-                recorder.close()
-                self.get_logger().info(f'recording closed: {recorder.path}')
-            except RecordingError as exc:
-                self.get_logger().error(f'recording not finalised: {exc}')
-                self.exit_status = 1
+        if recorder is None:
+            return
+        if recorder.failed is not None:  # already reported where it failed
+            recorder.close()
+            return
+        failure_ns, failure = self._failure or ('', '')
+        try:
+            recorder.close(run_metadata={
+                'failure_time_ns': failure_ns, 'failure': failure,
+                'wrenches_applied': self._digest.count,
+                'wrench_digest': self._digest.hexdigest()})
+            self.get_logger().info(f'recording closed: {recorder.path}')
+        except RecordingError as exc:
+            self.get_logger().error(f'recording not finalised: {exc}')
+            self.exit_status = 1
 
     def finish(self):
         """Finalise the recording (idempotent) and return the exit status."""

@@ -20,9 +20,16 @@ plus ``<bag>/<bag>_0.mcap`` with what rosbag2's MCAP storage plugin writes for J
 profile ``ros2``; one ``ros2msg`` schema per type (:mod:`rbd_ros.schemas`); ``cdr`` channels
 whose metadata holds ``offered_qos_profiles`` (v9 YAML, string enums) and ``topic_type_hash``;
 chunks with message indexes; a summary with chunk indexes and a statistics record; and a
-``rosbag2`` metadata record with ``serialized_metadata`` (written at open and at close, the last
-one wins).  The node's full configuration is stored as the MCAP metadata record ``rbd_ros``, so
-the recording alone is enough to replay it.
+``rosbag2`` metadata record whose ``serialized_metadata`` is the bare BagMetadata map (root key
+``version``: rosbag2_storage_mcap decodes it from the root; only ``metadata.yaml`` wraps it in
+``rosbag2_bagfile_information``), written at open (``starting_time`` int64 max) and at close
+(the last one wins).  The node's full configuration is stored as the MCAP metadata record
+``rbd_ros``, so the recording alone is enough to replay it; at close the node adds
+``rbd_ros.run`` (how the run ended, the digest of the wrenches it applied).
+
+Everything read back from a bag is treated as untrusted: YAML texts are parsed without
+anchors/aliases and up to :data:`MAX_YAML_BYTES` (:func:`load_yaml`), and the files
+``metadata.yaml`` names must lie inside the bag directory.
 
 Message log times are sim time in integer nanoseconds.  A chunk is closed and flushed to the
 operating system before it covers more than ``chunk_duration_ns`` of sim time (1 s by default)
@@ -36,11 +43,13 @@ This module does not import rclpy: the node serialises messages with
 import dataclasses
 import glob
 import os
-import shutil
+import re
+import stat
 import struct
 import sys
 import time
 
+from mcap.data_stream import RecordBuilder
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
 from mcap.records import Channel, Footer, Header, Message, Metadata, Schema, Statistics
@@ -55,8 +64,14 @@ import yaml
 CONFIG_METADATA_NAME = 'rbd_ros'
 #: Version of the content of the ``rbd_ros`` metadata record.
 CONFIG_FORMAT = 'rbd_ros.recording/1'
+#: Name of the MCAP metadata record written at close: how the run ended, what it applied.
+RUN_METADATA_NAME = 'rbd_ros.run'
 #: rosbag2 metadata version written (Jazzy).
 ROSBAG2_METADATA_VERSION = 9
+#: rosbag2 writes this ``starting_time`` (int64 max ns) in the record it makes at open.
+INT64_MAX = (1 << 63) - 1
+#: Largest YAML text read from a bag (config record, rosbag2 record, metadata.yaml, QoS), bytes.
+MAX_YAML_BYTES = 1 << 20
 
 MCAP_MAGIC = b'\x89MCAP0\r\n'
 
@@ -138,6 +153,37 @@ def _qos_yaml(profiles):
     return _dump_yaml(profiles)
 
 
+class _Loader(yaml.SafeLoader):
+    """A safe YAML loader that refuses anchors and aliases (an alias bomb expands to GBs)."""
+
+    def compose_node(self, parent, index):
+        event = self.peek_event()
+        if isinstance(event, yaml.AliasEvent) or getattr(event, 'anchor', None) is not None:
+            raise yaml.YAMLError(
+                f'anchor/alias {event.anchor!r} at line {event.start_mark.line + 1}: YAML '
+                'anchors and aliases are not accepted in a recording')
+        return super().compose_node(parent, index)
+
+
+def load_yaml(text, what):
+    """
+    Parse YAML ``text`` read from a recording: no anchors/aliases, at most MAX_YAML_BYTES.
+
+    :param what: names the source in the error (e.g. ``'bag.mcap: the rbd_ros record'``).
+    :raises RecordingError: oversize, an anchor or alias, or invalid YAML (one line).
+    """
+    if isinstance(text, bytes):
+        text = text.decode('utf-8', 'replace')
+    if len(text) > MAX_YAML_BYTES:
+        raise RecordingError(
+            f'{what}: {len(text)} bytes of YAML, more than the {MAX_YAML_BYTES} bytes accepted')
+    try:
+        return yaml.load(text, Loader=_Loader)  # noqa: S506 - a SafeLoader subclass
+    except yaml.YAMLError as exc:
+        detail = ' '.join(str(exc).split())
+        raise RecordingError(f'{what}: not valid YAML ({detail})') from None
+
+
 @dataclasses.dataclass
 class _Topic:
     name: str
@@ -198,6 +244,7 @@ class BagWriter:
         self._start_ns = None
         self._end_ns = 0
         self._stream = None
+        self._defs_in_chunk_only = []  # Schema/Channel records not yet on disk
         self._prepare_directory(overwrite)
         try:
             self._stream = open(self.mcap_path, 'xb')
@@ -208,13 +255,25 @@ class BagWriter:
             self._finalize_chunk = self._mcap._Writer__finalize_chunk
             self._mcap.start(profile='ros2', library=f'rbd_ros-{__version__}')
             self._mcap.add_metadata(CONFIG_METADATA_NAME, self._config_record(extra_metadata))
-            self._mcap.add_metadata('rosbag2', {'serialized_metadata': self._metadata_yaml()})
+            self._mcap.add_metadata('rosbag2', self._rosbag2_record())
             self._stream.flush()
         except OSError as exc:
             self._fail(exc)
 
     # ------------------------------------------------------------------ setup
     def _prepare_directory(self, overwrite):
+        """
+        Create the bag directory; with ``overwrite``, empty an existing bag of ours first.
+
+        Only what is provably our bag is deleted: regular files directly in the directory named
+        ``metadata.yaml``, ``<name>_<N>.mcap`` or our temporary ``.metadata.yaml.tmp``.  A
+        directory holding anything else (another file, a subdirectory, a symlink) is refused
+        with nothing deleted, and so is a ``record_path`` that is itself a symlink.
+        """
+        if os.path.islink(self.path):
+            raise RecordingError(
+                f'record_path {self.path!r} is a symbolic link; give the bag directory itself '
+                '(a link is never followed, created through or overwritten)')
         if os.path.lexists(self.path):
             if not overwrite:
                 raise RecordingError(
@@ -224,18 +283,34 @@ class BagWriter:
                 raise RecordingError(
                     f'record_path {self.path!r} exists and is not a bag directory; '
                     'not overwriting it')
-            entries = os.listdir(self.path)
-            if any(not (e == 'metadata.yaml' or e.endswith('.mcap')) for e in entries):
+            ours = []
+            try:
+                entries = sorted(os.listdir(self.path))
+                for entry in entries:
+                    full = os.path.join(self.path, entry)
+                    if not (self._is_our_file_name(entry)
+                            and stat.S_ISREG(os.lstat(full).st_mode)):
+                        raise RecordingError(
+                            f'record_path {self.path!r} exists and holds {entry!r}, which is '
+                            'not a file of an rbd_ros bag (only regular files metadata.yaml '
+                            f'and {self.name}_<N>.mcap are); not overwriting it')
+                    ours.append(full)
+                for full in ours:
+                    os.unlink(full)
+            except OSError as exc:
                 raise RecordingError(
-                    f'record_path {self.path!r} exists and holds files that are not part of a '
-                    'bag; not overwriting it')
-            shutil.rmtree(self.path)
+                    f'record_path {self.path!r}: cannot replace the existing bag '
+                    f'({_os_error_text(exc)})') from None
         try:
-            os.makedirs(self.path)
+            os.makedirs(self.path, exist_ok=overwrite)
         except OSError as exc:
             raise RecordingError(
                 f'record_path {self.path!r}: cannot create the bag directory '
                 f'({_os_error_text(exc)})') from None
+
+    def _is_our_file_name(self, entry):
+        return (entry in ('metadata.yaml', '.metadata.yaml.tmp')
+                or re.fullmatch(re.escape(self.name) + r'_\d+\.mcap', entry) is not None)
 
     def _config_record(self, extra):
         timestep_s = self._config.get('timestep_s')
@@ -288,9 +363,14 @@ class BagWriter:
             if schema_id is None:
                 schema_id = self._mcap.register_schema(type_name, 'ros2msg', definition)
                 self._schema_ids[type_name] = schema_id
-            channel_id = self._mcap.register_channel(
-                topic, 'cdr', schema_id,
-                {'offered_qos_profiles': _qos_yaml([profile]), 'topic_type_hash': type_hash})
+                self._defs_in_chunk_only.append(Schema(
+                    id=schema_id, name=type_name, encoding='ros2msg', data=definition))
+            channel_metadata = {'offered_qos_profiles': _qos_yaml([profile]),
+                                'topic_type_hash': type_hash}
+            channel_id = self._mcap.register_channel(topic, 'cdr', schema_id, channel_metadata)
+            self._defs_in_chunk_only.append(Channel(
+                id=channel_id, topic=topic, message_encoding='cdr', schema_id=schema_id,
+                metadata=channel_metadata))
         except OSError as exc:
             self._fail(exc)
         self._topics[topic] = _Topic(topic, type_name, profile, type_hash, channel_id)
@@ -326,17 +406,36 @@ class BagWriter:
             self._end_ns = log_time_ns
 
     def flush(self):
-        """End the current chunk and hand it to the operating system."""
+        """
+        End the current chunk and hand everything written so far to the operating system.
+
+        :raises RecordingError: the write failed (disk full, file size limit, ...).
+        """
         self._check_open()
         if self._chunk_messages:
             self._end_chunk()
+            return
+        try:
+            if self._defs_in_chunk_only:
+                # The mcap writer keeps schemas and channels for the next chunk, written when it
+                # holds a message; write them now too, outside any chunk (MCAP allows identical
+                # repeats), so that a full disk shows at start rather than at the first chunk.
+                builder = RecordBuilder()
+                for record in self._defs_in_chunk_only:
+                    record.write(builder)
+                self._stream.write(builder.end())
+                self._defs_in_chunk_only = []
+            self._stream.flush()
+        except OSError as exc:
+            self._fail(exc)
 
-    def close(self):
+    def close(self, run_metadata=None):
         """
         Finalise the bag; idempotent.
 
-        Writes the last chunk, the ``rosbag2`` record, the summary (statistics, indexes), the
-        footer, then ``metadata.yaml``.  After a failure it only releases the file.
+        Writes the last chunk, the ``rbd_ros.run`` record (``run_metadata``, str -> str, when
+        given), the ``rosbag2`` record, the summary (statistics, indexes), the footer, then
+        ``metadata.yaml``.  After a failure it only releases the file.
         """
         if self._closed:
             return
@@ -347,7 +446,10 @@ class BagWriter:
         try:
             if self._chunk_messages:
                 self._end_chunk(flush=False)
-            self._mcap.add_metadata('rosbag2', {'serialized_metadata': self._metadata_yaml()})
+            if run_metadata is not None:
+                self._mcap.add_metadata(
+                    RUN_METADATA_NAME, {str(k): str(v) for k, v in run_metadata.items()})
+            self._mcap.add_metadata('rosbag2', self._rosbag2_record())
             self._mcap.finish()
             self._stream.flush()
             os.fsync(self._stream.fileno())
@@ -390,6 +492,7 @@ class BagWriter:
                 pass
 
     def _end_chunk(self, flush=True):
+        self._defs_in_chunk_only = []  # the chunk carries them
         try:
             self._finalize_chunk()
             if flush:
@@ -402,9 +505,18 @@ class BagWriter:
         self._chunk_bytes = 0
 
     def metadata(self):
-        """Return the rosbag2 ``BagMetadata`` (v9) of what has been written, as a dict."""
-        start = self._start_ns or 0
-        duration = self._end_ns - start if self._message_count else 0
+        """
+        Return the rosbag2 ``BagMetadata`` (v9) of what has been written, as a bare dict.
+
+        Its root keys are ``version``, ``storage_identifier``, ... as in the ``rosbag2`` MCAP
+        record (rosbag2_storage_mcap decodes ``serialized_metadata`` as this bare map);
+        ``metadata.yaml`` wraps the same map in ``rosbag2_bagfile_information``.  Before the
+        first message ``starting_time`` is int64 max ns, as rosbag2 writes it at open.
+        """
+        if self._message_count:
+            start, duration = self._start_ns, self._end_ns - self._start_ns
+        else:
+            start, duration = INT64_MAX, 0
         topics = []
         for t in self._topics.values():
             topics.append({
@@ -417,7 +529,7 @@ class BagWriter:
                 },
                 'message_count': t.count,
             })
-        return {'rosbag2_bagfile_information': {
+        return {
             'version': ROSBAG2_METADATA_VERSION,
             'storage_identifier': 'mcap',
             'duration': {'nanoseconds': duration},
@@ -435,10 +547,15 @@ class BagWriter:
             }],
             'custom_data': None,
             'ros_distro': 'jazzy',
-        }}
+        }
+
+    def _rosbag2_record(self):
+        """Return the ``rosbag2`` MCAP metadata record: the bare BagMetadata map as YAML."""
+        return {'serialized_metadata': _dump_yaml(self.metadata())}
 
     def _metadata_yaml(self):
-        return _dump_yaml(self.metadata())
+        """Return the text of ``metadata.yaml``: the BagMetadata under its wrapper key."""
+        return _dump_yaml({'rosbag2_bagfile_information': self.metadata()})
 
 
 # ====================================================================== reading
@@ -473,7 +590,9 @@ class Bag:
     present and ``metadata.yaml`` present), ``notes`` (why it is not finalised, or what was
     cut off), ``profile``, ``library``, ``topics`` (name -> :class:`TopicInfo`), ``config``
     (the node parameters, or None for a bag without our configuration), ``rbd_metadata`` (the
-    ``rbd_ros`` record), ``rosbag2_metadata`` (last ``rosbag2`` record, parsed),
+    ``rbd_ros`` record), ``run_metadata`` (the ``rbd_ros.run`` record written at close: how the
+    run ended and the digest of the wrenches it applied; None if not finalised),
+    ``rosbag2_metadata`` (last ``rosbag2`` record, parsed),
     ``metadata_yaml`` (parsed ``metadata.yaml`` or None), ``statistics`` (the MCAP Statistics
     record or None), ``message_count``, ``start_ns``, ``end_ns``.
     """
@@ -489,6 +608,7 @@ class Bag:
         self.config = None
         self.rbd_metadata = None
         self.rosbag2_metadata = None
+        self.run_metadata = None
         self.statistics = None
         self.has_footer = False
         self.truncated = False
@@ -585,10 +705,8 @@ class Bag:
             qos = []
             text = channel.metadata.get('offered_qos_profiles', '')
             if text:
-                try:
-                    qos = yaml.safe_load(text) or []
-                except yaml.YAMLError:
-                    qos = []
+                qos = load_yaml(text, f'{self.mcap_path}: offered_qos_profiles of channel '
+                                      f'{channel.topic!r}') or []
             self.topics[channel.topic] = TopicInfo(
                 name=channel.topic,
                 type_name=schema.name if schema else '',
@@ -601,18 +719,17 @@ class Bag:
     def _take_metadata(self, record):
         if record.name == CONFIG_METADATA_NAME:
             self.rbd_metadata = dict(record.metadata)
-            try:
-                self.config = yaml.safe_load(record.metadata.get('config_yaml', '')) or {}
-            except yaml.YAMLError as exc:
+            self.config = load_yaml(record.metadata.get('config_yaml', ''),
+                                    f'{self.mcap_path}: the rbd_ros configuration record') or {}
+            if not isinstance(self.config, dict):
                 raise RecordingError(
-                    f'{self.mcap_path}: the rbd_ros configuration record is not valid YAML '
-                    f'({exc})') from None
+                    f'{self.mcap_path}: the rbd_ros configuration record is not a YAML map '
+                    f'(a {type(self.config).__name__})')
+        elif record.name == RUN_METADATA_NAME:
+            self.run_metadata = dict(record.metadata)
         elif record.name == 'rosbag2':
-            try:
-                self.rosbag2_metadata = yaml.safe_load(
-                    record.metadata.get('serialized_metadata', ''))
-            except yaml.YAMLError:
-                self.rosbag2_metadata = None
+            self.rosbag2_metadata = load_yaml(record.metadata.get('serialized_metadata', ''),
+                                              f'{self.mcap_path}: the rosbag2 metadata record')
 
 
 def _find_mcap(path):
@@ -623,14 +740,14 @@ def _find_mcap(path):
         meta_path = os.path.join(path, 'metadata.yaml')
         meta = _load_metadata_yaml(meta_path) if os.path.isfile(meta_path) else None
         if meta is not None:
-            info = meta.get('rosbag2_bagfile_information', {}) or {}
+            info = meta['rosbag2_bagfile_information']
             storage = info.get('storage_identifier', 'mcap')
             if storage != 'mcap':
                 raise RecordingError(
                     f'bag {path!r} uses storage {storage!r}; only mcap bags can be read')
-            files = info.get('relative_file_paths') or []
+            files = _bag_file_paths(path, meta_path, info)
             if files:
-                return os.path.join(path, files[0]), meta
+                return files[0], meta
         candidates = sorted(glob.glob(os.path.join(path, '*.mcap')))
         if not candidates:
             raise RecordingError(f'bag directory {path!r} holds no .mcap file')
@@ -640,19 +757,53 @@ def _find_mcap(path):
     meta = None
     if os.path.isfile(meta_path):
         meta = _load_metadata_yaml(meta_path)
-        info = (meta or {}).get('rosbag2_bagfile_information', {}) or {}
-        if os.path.basename(path) not in (info.get('relative_file_paths') or []):
+        info = meta['rosbag2_bagfile_information']
+        names = [os.path.basename(f) for f in _bag_file_paths(parent, meta_path, info)]
+        if os.path.basename(path) not in names:
             meta = None
     return path, meta
 
 
+def _bag_file_paths(bag_dir, meta_path, info):
+    """
+    Return the storage files ``metadata.yaml`` names, as paths inside ``bag_dir``.
+
+    :raises RecordingError: a path is not a plain relative name inside the bag directory
+        (absolute, with ``..``, or resolving outside it through a symlink).
+    """
+    names = list(info.get('relative_file_paths') or [])
+    for entry in info.get('files') or []:
+        names.append(entry.get('path') if isinstance(entry, dict) else entry)
+    root = os.path.realpath(bag_dir)
+    out = []
+    for name in names:
+        bad = None
+        if not isinstance(name, str) or not name:
+            bad = 'is not a file name'
+        elif os.path.isabs(name) or '..' in name.replace('\\', '/').split('/'):
+            bad = 'leaves the bag directory'
+        else:
+            full = os.path.join(bag_dir, name)
+            if os.path.commonpath([root, os.path.realpath(full)]) != root:
+                bad = 'resolves outside the bag directory'
+        if bad:
+            raise RecordingError(
+                f'{meta_path}: storage file path {name!r} {bad}; only files inside the bag '
+                'directory are read')
+        if full not in out:
+            out.append(full)
+    return out
+
+
 def _load_metadata_yaml(meta_path):
     try:
-        with open(meta_path, encoding='utf-8') as f:
-            meta = yaml.safe_load(f)
-    except (OSError, yaml.YAMLError) as exc:
-        raise RecordingError(f'{meta_path}: cannot be read as YAML ({exc})') from None
-    if not isinstance(meta, dict) or 'rosbag2_bagfile_information' not in meta:
+        with open(meta_path, encoding='utf-8', errors='replace') as f:
+            text = f.read(MAX_YAML_BYTES + 1)
+    except OSError as exc:
+        raise RecordingError(f'{meta_path}: cannot be read ({_os_error_text(exc)})') from None
+    meta = load_yaml(text, meta_path)
+    if not isinstance(meta, dict) or not isinstance(
+            meta.get('rosbag2_bagfile_information'), dict):
         raise RecordingError(f'{meta_path}: not a rosbag2 metadata file')
     return meta
 

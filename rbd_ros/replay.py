@@ -23,6 +23,13 @@ rebuilds :class:`rbd_ros.config.NodeConfig` from the stored parameters, drives a
 it takes effect at the step starting at its recorded time, recomputes every recorded output
 through :mod:`rbd_ros.conversions` and compares it field by field with the recorded message.
 
+The inputs are checked too: replay digests the wrenches that took effect
+(:class:`rbd_ros.session.AppliedDigest`) and compares with the digest the node stored in the
+``rbd_ros.run`` record, bit for bit.  A run that hit a non-finite step must fail again at the
+same sim time with the same message (reproduced, a match).  Log times are checked against the
+recorded configuration before any stepping (:func:`check_times`), so a crafted bag cannot make
+replay step without bound.
+
 By default the comparison is bit-exact (every float identical to the last bit, stamps and frame
 ids equal).  ``--tolerance`` relaxes it to ``error <= tolerance`` for each of: position (m,
 Euclidean norm of the difference), orientation (rad, geodesic angle between the quaternions),
@@ -50,7 +57,7 @@ from rbd_ros.core.errors import RecordingError
 from rbd_ros.core.rotations import quat_angle_between
 from rbd_ros.inputs import WrenchRejected
 from rbd_ros.recording import open_bag, run_on_bag
-from rbd_ros.session import SimSession
+from rbd_ros.session import AppliedDigest, SimSession
 
 WRENCH_TYPE = 'geometry_msgs/msg/WrenchStamped'
 #: Output topic kinds by message type.
@@ -108,6 +115,9 @@ class ReplayResult:
     topics: dict
     wrenches: int = 0
     wrench_mismatches: int = 0
+    wrench_digest_checked: bool = False
+    failure_reproduced: str = None
+    remarks: list = dataclasses.field(default_factory=list)
     problems: list = dataclasses.field(default_factory=list)
 
     @property
@@ -136,6 +146,9 @@ class ReplayResult:
             'samples_compared': self.compared,
             'wrenches': self.wrenches,
             'wrench_mismatches': self.wrench_mismatches,
+            'wrench_digest_checked': self.wrench_digest_checked,
+            'failure_reproduced': self.failure_reproduced,
+            'remarks': list(self.remarks),
             'problems': list(self.problems),
             'topics': {name: dataclasses.asdict(t) for name, t in self.topics.items()},
         }
@@ -178,6 +191,51 @@ def _input_for_topic(config, topic):
             f'recorded wrench topic {topic!r} matches no wrench input of the recorded '
             f'configuration (inputs: {[s.topic for s in config.wrench_inputs]})')
     return best.name
+
+
+def check_times(bag, config, messages, output_topics):
+    """
+    Refuse a recording whose log times cannot come from one run of ``config`` (before stepping).
+
+    The node records an output sample at every publish period of sim time (the first at 0) and
+    a wrench at the step it took effect at, so no message lies more than one publish period
+    plus one step after the previous sample, nor more than one step past ``duration_s``.
+    Replay steps to each message's time, so this bounds its work by the recording itself (a
+    crafted log time of 2**62 ns would otherwise be stepped to).
+
+    :param messages: :class:`rbd_ros.recording.RawMessage` sorted by log time.
+    :raises ReplayError: one line naming the message, its time and the bound.
+    """
+    h = config.timestep_ns
+    gap = config.publish_period_ns + h
+    last_sample = 0
+    for raw in messages:
+        t = raw.log_time_ns
+        if config.duration_ns and t > config.duration_ns + h:
+            raise ReplayError(
+                f'{bag.mcap_path}: {raw.topic} message at log time {t} ns is past the recorded '
+                f'duration_s = {config.duration_ns / 1e9:g} s (+ one {h} ns step); not a '
+                'recording of this run')
+        if t > last_sample + gap:
+            raise ReplayError(
+                f'{bag.mcap_path}: {raw.topic} message at log time {t} ns comes more than one '
+                f'publish period + one step ({gap} ns) after the previous output sample at '
+                f'{last_sample} ns; not a recording of one continuous run')
+        if raw.topic in output_topics:
+            last_sample = t
+
+
+def recorded_failure(bag):
+    """Return ``(time_ns, message)`` of the recorded run's non-finite step, or None."""
+    run = bag.run_metadata or {}
+    text = run.get('failure_time_ns', '')
+    if not text:
+        return None
+    try:
+        return int(text), run.get('failure', '')
+    except ValueError:
+        raise ReplayError(f'{bag.mcap_path}: the rbd_ros.run record has failure_time_ns '
+                          f'{text!r}, not an integer (ns)') from None
 
 
 def _stamp_ns(msg):
@@ -338,17 +396,31 @@ def replay_bag(bag, *, tolerance=None, integrator=None, timestep_s=None, progres
     if not any(m.topic in kinds for m in messages):
         raise ReplayError(f'{bag.mcap_path}: no recorded output samples to compare '
                           f'({len(messages)} messages on the replayed topics)')
+    check_times(bag, recorded, messages, kinds)
+    failure = recorded_failure(bag)
+    if failure is not None and failure[0] > (messages[-1].log_time_ns + recorded.timestep_ns
+                                             + recorded.publish_period_ns):
+        raise ReplayError(
+            f'{bag.mcap_path}: the rbd_ros.run record puts the failure at {failure[0]} ns, more '
+            'than one publish period + one step after the last recorded message at '
+            f'{messages[-1].log_time_ns} ns')
 
     decoders = {topic: bag.decoder(topic) for topic in wanted}
     study = integrator is not None or timestep_s is not None
     bar = _Progress(len(messages), progress)
     pending = []  # (time_ns, input_name) of submitted wrenches not yet seen taking effect
     applied = []  # AppliedEvent reported by the session
+    digest = AppliedDigest()  # over every wrench that took effect on replay, in order
+
+    def took_effect(events):
+        for event in events:
+            digest.update(event)
+        applied.extend(events)
 
     def advance_to(t_ns):
         while session.time_ns < t_ns:
             report = session.advance(_BIG_STEPS, until_ns=t_ns)
-            applied.extend(report.events)
+            took_effect(report.events)
             if report.steps == 0:
                 return False
         return True
@@ -375,6 +447,8 @@ def replay_bag(bag, *, tolerance=None, integrator=None, timestep_s=None, progres
                     f'the wrench on input {key[1]!r} recorded at {key[0]} ns did not take '
                     'effect on replay')
 
+    replay_failure = None
+    index = -1
     try:
         for index, raw in enumerate(messages):
             t = raw.log_time_ns
@@ -409,15 +483,70 @@ def replay_bag(bag, *, tolerance=None, integrator=None, timestep_s=None, progres
                     expected = _restamp(kind, expected, t)
                 _compare(result.topics[raw.topic], kind, t, expected, msg, tolerance)
             bar.update(index + 1)
+        if failure is not None and not study:
+            advance_to(failure[0] + h)  # the recorded failing step: it must fail again
         if pending and not session.finished:
             # Let the wrenches recorded at the last time take effect, to confirm them.
-            applied.extend(session.advance(1).events)
+            took_effect(session.advance(1).events)
         check_events()
     except NonFiniteError as exc:
-        result.problems.append(f'the replay diverged: {exc}')
+        took_effect(getattr(exc, 'events', ()))
+        check_events()
+        replay_failure = (session.time_ns, str(exc))
+        left = len(messages) - index - 1
+        if left:
+            result.remarks.append(f'{left} recorded messages after the failing step were not '
+                                  'replayed')
     finally:
         bar.close()
+    _judge_failure(result, failure, replay_failure, study)
+    _judge_digest(result, bag, digest, study)
     return result
+
+
+def _judge_failure(result, recorded, replayed, study):
+    """Judge a non-finite step: reproduced (same sim time, same cause) or a mismatch."""
+    if recorded is None and replayed is None:
+        return
+    if recorded is not None and replayed == recorded and not study:
+        result.failure_reproduced = (f'the recorded run failed at t = {recorded[0]} ns and the '
+                                     f'replay fails at the same step with the same cause: '
+                                     f'{recorded[1]}')
+    elif replayed is None:
+        what = (f'the recorded run failed at t = {recorded[0]} ns ({recorded[1]}) but the '
+                'replay did not')
+        if study:
+            result.remarks.append(what)
+        else:
+            result.problems.append(what)
+    elif recorded is None:
+        result.problems.append(f'the replay diverged at t = {replayed[0]} ns but the recorded '
+                               f'run did not (or its bag was not finalised): {replayed[1]}')
+    else:
+        result.problems.append(
+            f'the recorded run failed at t = {recorded[0]} ns ({recorded[1]}); the replay '
+            f'failed at t = {replayed[0]} ns ({replayed[1]})')
+
+
+def _judge_digest(result, bag, digest, study):
+    """Compare the wrenches applied on replay with what the node applied, bit for bit."""
+    run = bag.run_metadata or {}
+    if study:
+        return
+    if 'wrench_digest' not in run:
+        result.remarks.append(
+            'no rbd_ros.run record (bag not finalised, or not recorded by the node): the '
+            'applied wrenches were checked against the recorded messages only')
+        return
+    result.wrench_digest_checked = True
+    count = run.get('wrenches_applied', '')
+    if run['wrench_digest'] != digest.hexdigest() or count != str(digest.count):
+        result.wrench_mismatches += 1
+        result.problems.append(
+            f'the wrenches applied on replay ({digest.count}, SHA-256 '
+            f'{digest.hexdigest()[:16]}...) are not bit for bit those the node applied '
+            f'({count}, SHA-256 {run["wrench_digest"][:16]}...): the recorded wrench messages '
+            'differ from what the node applied')
 
 
 def _restamp(kind, msg, t_ns):
@@ -448,7 +577,10 @@ def format_summary(result):
     if not result.finalised:
         lines.append('  NOTE: the bag was not finalised; replaying what it holds')
     lines.append(f'  wrenches: {result.wrenches} recorded, {result.wrench_mismatches} '
-                 'mismatched')
+                 'mismatched' + ('; applied wrenches checked bit for bit against the digest '
+                                 'of the node' if result.wrench_digest_checked else ''))
+    if result.failure_reproduced:
+        lines.append(f'  failure reproduced: {result.failure_reproduced}')
     header = (f'  {"topic":<16} {"samples":>8} {"mismatch":>8} {"pos m":>9} {"ori rad":>9} '
               f'{"lin m/s":>9} {"ang rad/s":>9}')
     lines.append(header)
@@ -461,6 +593,8 @@ def format_summary(result):
             f'{_fmt_error(t.max_angular_velocity_error_rad_s):>9}')
         if t.first_mismatch:
             lines.append(f'    first mismatch: {t.first_mismatch}')
+    for remark in result.remarks:
+        lines.append(f'  note: {remark}')
     for problem in result.problems:
         lines.append(f'  problem: {problem}')
     lines.append('MATCH' if result.match else 'MISMATCH')

@@ -39,6 +39,9 @@ Rules (all in sim time, integer ns):
 - :meth:`advance` honours :attr:`paused` (it does nothing while paused); :meth:`step` takes one
   step regardless (the ``~/step`` service). Replay sets ``paused = False``.
 - :meth:`advance` stops at ``duration_s`` (:attr:`finished`).
+- A step that turns the state non-finite raises :class:`rbd_ros.core.NonFiniteError` whose
+  ``events`` attribute lists the wrenches applied in that call, the one that caused it
+  included, so a caller records every wrench that took effect, also on a failing run.
 - Determinism: the simulator is stepped in chunks between events; the core guarantees that the
   chunking does not change the result, so the same config and the same wrenches submitted at
   the same sim times give bit-identical states.
@@ -47,6 +50,8 @@ Not thread-safe: call it from one thread (the node uses a single-threaded execut
 """
 
 from dataclasses import dataclass, field
+import hashlib
+import struct
 
 from rbd_ros.core import NonFiniteError, Simulator
 from rbd_ros.inputs import WrenchInputs
@@ -67,6 +72,35 @@ class StepReport:
     steps: int = 0
     events: list = field(default_factory=list)
     sample_due: bool = False
+
+
+class AppliedDigest:
+    """
+    A running SHA-256 over the wrenches that took effect, bit for bit, in order.
+
+    The node digests what it applied and stores the count and the digest in the recording;
+    replay digests what it applied and compares, so a wrench altered in the bag below the
+    precision of the outputs is still found.  Per event, in this order: the effect time (int64
+    ns, little endian), the input name and the received ``frame_id`` (each a uint32 byte length
+    then its UTF-8 bytes), then force and torque as six float64 (little endian).
+    """
+
+    def __init__(self):
+        self._sha = hashlib.sha256()
+        self.count = 0
+
+    def update(self, event):
+        """Add one :class:`rbd_ros.inputs.AppliedEvent`."""
+        name = event.input_name.encode('utf-8')
+        frame = event.frame_id.encode('utf-8')
+        self._sha.update(struct.pack('<qI', event.time_ns, len(name)) + name
+                         + struct.pack('<I', len(frame)) + frame
+                         + struct.pack('<6d', *event.force, *event.torque))
+        self.count += 1
+
+    def hexdigest(self):
+        """Return the digest so far, 64 hex digits."""
+        return self._sha.hexdigest()
 
 
 def _ceil_div(a, b):
@@ -141,7 +175,8 @@ class SimSession:
         Does nothing while :attr:`paused`.
 
         :raises NonFiniteError: the state stays at its last finite value and the session
-            pauses itself (:attr:`error` holds the message).
+            pauses itself (:attr:`error` holds the message); the exception's ``events`` lists
+            the wrenches applied in this call (they took effect before the failing step).
         """
         if self.paused:
             return StepReport()
@@ -206,6 +241,7 @@ class SimSession:
                 self.steps_total += taken
                 self.paused = True
                 self.error = str(exc)
+                exc.events = events
                 raise
             self.steps_total += chunk
             done += chunk

@@ -16,15 +16,16 @@
 Record a scripted run by driving SimSession + BagWriter directly (the node's path minus DDS).
 
 It records what the node records: each wrench as it took effect (``WrenchStamped`` on the
-input's absolute topic, log time = start of the step it was applied at) and the outputs
+input's absolute topic, log time = start of the step it was applied at), the outputs
 ``/pose``, ``/twist``, ``/odom`` (and ``/clock`` when ``publish_clock``) at every sample the
-session reports, serialised with rclpy like the node does.
+session reports, serialised with rclpy like the node does, and at close the ``rbd_ros.run``
+record (digest of the applied wrenches; no failure).
 """
 
 from rbd_ros import conversions
 from rbd_ros.config import NodeConfig
-from rbd_ros.recording import BagWriter
-from rbd_ros.session import SimSession
+from rbd_ros.recording import BagWriter, open_bag
+from rbd_ros.session import AppliedDigest, SimSession
 from rclpy.serialization import serialize_message
 from rosgraph_msgs.msg import Clock
 
@@ -57,6 +58,8 @@ def record_scripted_run(path, params, script, duration_ns, **writer_options):
     for spec in config.wrench_inputs:
         input_topics[spec.name] = '/' + spec.topic
         writer.add_topic('/' + spec.topic, 'geometry_msgs/msg/WrenchStamped', {'depth': 10})
+    writer.flush()
+    digest = AppliedDigest()
 
     def publish(state):
         t = state.time_ns
@@ -79,11 +82,47 @@ def record_scripted_run(path, params, script, duration_ns, **writer_options):
         until = min(duration_ns, queue[0][0]) if queue else duration_ns
         report = session.advance(1 << 40, until_ns=until)
         for event in report.events:
+            digest.update(event)
             msg = conversions.wrench_to_msg(event.frame_id, event.force, event.torque,
                                             event.time_ns)
             writer.write(input_topics[event.input_name], serialize_message(msg),
                          event.time_ns)
         if report.sample_due:
             publish(session.state)
-    writer.close()
+    writer.close(run_metadata={'failure_time_ns': '', 'failure': '',
+                               'wrenches_applied': digest.count,
+                               'wrench_digest': digest.hexdigest()})
     return writer
+
+
+def rewrite_bag(src, dst, config_edit=None, drop=None, edit=None, extra=(), run_edit=None,
+                keep_run=True):
+    """
+    Rewrite the bag ``src`` into ``dst`` message by message (a crafted copy for tests).
+
+    :param config_edit: parameters to change in the stored configuration.
+    :param drop: ``(index, raw) -> bool``: leave that message out.
+    :param edit: ``(index, raw) -> bytes or None``: new CDR data for that message.
+    :param extra: ``(topic, cdr, log_time_ns)`` messages to append.
+    :param run_edit: entries to change in the ``rbd_ros.run`` record (copied otherwise).
+    :param keep_run: False leaves the ``rbd_ros.run`` record out (as after SIGKILL).
+    """
+    bag = open_bag(src)
+    config = dict(bag.config)
+    config.update(config_edit or {})
+    writer = BagWriter(dst, config=config)
+    for topic, info in bag.topics.items():
+        writer.add_topic(topic, info.type_name, info.qos[0])
+    for index, raw in enumerate(bag.messages()):
+        if drop is not None and drop(index, raw):
+            continue
+        data = edit(index, raw) if edit is not None else None
+        writer.write(raw.topic, raw.data if data is None else data, raw.log_time_ns,
+                     raw.publish_time_ns)
+    for topic, data, t in extra:
+        writer.write(topic, data, t)
+    run = None
+    if keep_run and bag.run_metadata is not None:
+        run = dict(bag.run_metadata, **(run_edit or {}))
+    writer.close(run_metadata=run)
+    return dst

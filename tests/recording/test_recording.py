@@ -35,6 +35,7 @@ from rbd_ros.core.errors import RecordingError
 from rbd_ros.recording import BagWriter, open_bag
 from rbd_ros.schemas import SEPARATOR
 from rclpy.serialization import serialize_message
+from rosbag2_decode import decode_bag_metadata, read_rosbag2_records, Rosbag2DecodeError
 from rosbags.highlevel import AnyReader
 from rosbags.rosbag2 import Reader as RosbagsReader
 from rosgraph_msgs.msg import Clock
@@ -95,6 +96,7 @@ def _record(path, **kwargs):
     writer = BagWriter(path, config=CONFIG, **kwargs)
     for topic, (type_name, qos) in TOPICS.items():
         writer.add_topic(topic, type_name, qos)
+    writer.flush()  # as the node does at start: schemas and channels on disk now
     written = []
     for topic, msg, t in _messages():
         data = serialize_message(msg)
@@ -237,9 +239,44 @@ def test_metadata_yaml_agrees_with_mcap_summary(recorded):
         assert tm['type_description_hash'] == channel.metadata['topic_type_hash']
         assert tm['offered_qos_profiles'] == yaml.safe_load(
             channel.metadata['offered_qos_profiles'])
-    # The last rosbag2 record (written at close) is the metadata.yaml body.
-    assert yaml.safe_load(records[-1].metadata['serialized_metadata']) == {
-        'rosbag2_bagfile_information': meta}
+    # The last rosbag2 record (written at close) is the metadata.yaml body, bare: rosbag2's
+    # MCAP reader decodes serialized_metadata from its root (no rosbag2_bagfile_information).
+    assert yaml.safe_load(records[-1].metadata['serialized_metadata']) == meta
+
+
+def test_rosbag2_records_decode_the_way_rosbag2_reads_them(recorded):
+    """Each record passes convert<BagMetadata>::decode; the last (read_metadata's) is complete."""
+    writer, written = recorded
+    decoded = read_rosbag2_records(writer.mcap_path)
+    assert len(decoded) == 2  # update_metadata at open and at close, as SequentialWriter does
+    at_open, at_close = decoded
+    # At open rosbag2 writes starting_time = int64 max ns and no messages yet.
+    assert at_open['starting_time'] == 2 ** 63 - 1
+    assert at_open['message_count'] == 0 and at_open['files'][0]['message_count'] == 0
+    assert at_close['storage_identifier'] == 'mcap' and at_close['ros_distro'] == 'jazzy'
+    assert at_close['starting_time'] == 0
+    assert at_close['duration'] == written[-1][1]
+    assert at_close['message_count'] == len(written)
+    assert at_close['relative_file_paths'] == [os.path.basename(writer.mcap_path)]
+    assert at_close['files'][0]['path'] == os.path.basename(writer.mcap_path)
+    assert at_close['custom_data'] == {}
+    topics = {t['name']: t for t in at_close['topics']}
+    assert set(topics) == set(TOPICS)
+    for topic, (type_name, qos) in TOPICS.items():
+        assert topics[topic]['type'] == type_name
+        assert topics[topic]['serialization_format'] == 'cdr'
+        assert topics[topic]['message_count'] == sum(1 for w in written if w[0] == topic)
+        profile = topics[topic]['offered_qos_profiles'][0]
+        want = recording.normalize_qos(qos)
+        assert profile['history'] == want['history'] and profile['depth'] == want['depth']
+        assert profile['reliability'] == want['reliability']
+        assert profile['durability'] == want['durability']
+    # The helper is strict: the form the old writer used (wrapped as in metadata.yaml) is what
+    # rosbag2 cannot decode.
+    with open(os.path.join(writer.path, 'metadata.yaml')) as f:
+        wrapped = f.read()
+    with pytest.raises(Rosbag2DecodeError, match="no key 'version'"):
+        decode_bag_metadata(wrapped)
 
 
 def test_schema_dependency_order_matches_rosbag2():
@@ -275,12 +312,15 @@ def test_unfinalised_file_keeps_completed_chunks(tmp_path):
     writer.close()
 
 
-@pytest.mark.parametrize('cut_fraction', [0.3, 0.6])
-def test_truncated_file_reads_a_prefix(recorded, tmp_path, cut_fraction):
+@pytest.mark.parametrize('cut_chunk', [1, 2])
+def test_truncated_file_reads_a_prefix(recorded, tmp_path, cut_chunk):
     writer, written = recorded
     data = open(writer.mcap_path, 'rb').read()
+    with open(writer.mcap_path, 'rb') as f:
+        chunks = sorted(make_reader(f).get_summary().chunk_indexes,
+                        key=lambda c: c.chunk_start_offset)
     cut = tmp_path / 'cut.mcap'
-    cut.write_bytes(data[:int(len(data) * cut_fraction)])
+    cut.write_bytes(data[:chunks[cut_chunk].chunk_start_offset + 100])  # inside that chunk
     bag = open_bag(str(cut))
     got = [(m.topic, m.log_time_ns, m.data) for m in bag.messages()]
     assert not bag.finalised
@@ -317,9 +357,70 @@ def test_refuses_to_overwrite(recorded, tmp_path):
     other = tmp_path / 'not_a_bag'
     other.mkdir()
     (other / 'notes.txt').write_text('keep me')
-    with pytest.raises(RecordingError, match='not part of a bag'):
+    with pytest.raises(RecordingError, match="holds 'notes.txt'"):
         BagWriter(str(other), overwrite=True)
     assert (other / 'notes.txt').read_text() == 'keep me'
+
+
+def _tree(path):
+    return sorted(str(p.relative_to(path)) for p in Path(path).rglob('*'))
+
+
+@pytest.mark.parametrize('case', ['mcap_named_directory', 'subdirectory', 'symlinked_file',
+                                  'foreign_mcap', 'hidden_file'])
+def test_overwrite_deletes_only_our_regular_files(tmp_path, case):
+    """record_overwrite: anything but our own regular files refuses it, nothing deleted."""
+    bag = tmp_path / 'x'
+    bag.mkdir()
+    (bag / 'metadata.yaml').write_text('rosbag2_bagfile_information: {}\n')
+    (bag / 'x_0.mcap').write_bytes(b'old')
+    outside = tmp_path / 'outside.txt'
+    outside.write_text('user data')
+    if case == 'mcap_named_directory':  # the issue's case: a *directory* named x.mcap
+        (bag / 'x.mcap').mkdir()
+        (bag / 'x.mcap' / 'user.txt').write_text('user data')
+    elif case == 'subdirectory':
+        (bag / 'x_1.mcap').mkdir()
+    elif case == 'symlinked_file':
+        os.symlink(outside, bag / 'x_1.mcap')
+    elif case == 'foreign_mcap':
+        (bag / 'other_0.mcap').write_bytes(b'not ours')
+    else:
+        (bag / '.x_0.mcap.swp').write_bytes(b'')
+    before = _tree(bag)
+    with pytest.raises(RecordingError, match='not a file of an rbd_ros bag') as info:
+        BagWriter(str(bag), overwrite=True)
+    assert '\n' not in str(info.value) and str(bag) in str(info.value)
+    assert _tree(bag) == before
+    assert (bag / 'x_0.mcap').read_bytes() == b'old'
+    assert outside.read_text() == 'user data'
+
+
+def test_overwrite_replaces_our_own_bag_files(tmp_path):
+    bag = tmp_path / 'x'
+    bag.mkdir()
+    for name in ('metadata.yaml', 'x_0.mcap', 'x_1.mcap', '.metadata.yaml.tmp'):
+        (bag / name).write_bytes(b'old')
+    BagWriter(str(bag), config={'mass_kg': 3.0}, overwrite=True).close()
+    assert _tree(bag) == ['metadata.yaml', 'x_0.mcap']
+    assert open_bag(str(bag)).config == {'mass_kg': 3.0}
+
+
+@pytest.mark.parametrize('overwrite', [False, True])
+def test_symlinked_record_path_is_a_clear_error(tmp_path, overwrite):
+    target = tmp_path / 'real'
+    target.mkdir()
+    (target / 'user.txt').write_text('keep')
+    link = tmp_path / 'link'
+    os.symlink(target, link)
+    dangling = tmp_path / 'dangling'
+    os.symlink(tmp_path / 'nowhere', dangling)
+    for path in (link, dangling):
+        with pytest.raises(RecordingError, match='is a symbolic link') as info:
+            BagWriter(str(path), overwrite=overwrite)
+        assert str(path) in str(info.value)
+    assert _tree(target) == ['user.txt']
+    assert not (tmp_path / 'nowhere').exists()
 
 
 def test_stamp_placeholder(tmp_path):

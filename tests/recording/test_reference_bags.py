@@ -14,11 +14,17 @@
 
 """Golden replay: every committed bag in ``bags/`` replays bit for bit (regression test)."""
 
+import math
 from pathlib import Path
 
+from geometry_msgs.msg import WrenchStamped
 import pytest
 from rbd_ros.recording import open_bag
 from rbd_ros.replay import main, replay_bag
+from rclpy.serialization import deserialize_message, serialize_message
+from rosbag2_decode import read_rosbag2_records
+from sim_recorder import rewrite_bag
+import yaml
 
 REPO = Path(__file__).resolve().parents[2]
 BAGS = sorted(p for p in (REPO / 'bags').iterdir() if p.is_dir())
@@ -43,8 +49,44 @@ def test_reference_bag_replays_bit_exact(bag, capsys):
                                             for t, r in result.topics.items()})
     assert result.compared > 0
     assert all(t.bit_exact for t in result.topics.values())
+    assert result.wrench_digest_checked  # recorded by the node: it holds the rbd_ros.run record
     assert main([str(bag), '--no-progress']) == 0
     assert capsys.readouterr().out.strip().endswith('MATCH')
+
+
+@pytest.mark.parametrize('bag', BAGS, ids=[b.name for b in BAGS])
+def test_reference_bag_rosbag2_records_decode_as_rosbag2_reads_them(bag):
+    """What ros2 bag play/info take from the .mcap: every record decodes, the last is right."""
+    opened = open_bag(str(bag))
+    records = read_rosbag2_records(opened.mcap_path)
+    assert len(records) == 2
+    assert records[0]['starting_time'] == 2 ** 63 - 1  # the record made at open
+    last = records[-1]
+    meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert last['message_count'] == meta['message_count'] == opened.statistics.message_count
+    assert last['relative_file_paths'] == meta['relative_file_paths'] == [
+        Path(opened.mcap_path).name]
+    assert last['starting_time'] == opened.statistics.message_start_time
+    assert last['duration'] == (opened.statistics.message_end_time
+                                - opened.statistics.message_start_time)
+    assert {t['name']: t['message_count'] for t in last['topics']} == {
+        name: info.message_count for name, info in opened.topics.items()}
+
+
+def test_reference_bag_with_a_wrench_altered_by_one_ulp_is_a_mismatch(tmp_path):
+    """The node's digest of what it applied catches a recorded wrench changed in its last bit."""
+    def edit(index, raw):
+        if raw.topic != '/wrench':
+            return None
+        msg = deserialize_message(raw.data, WrenchStamped)
+        msg.wrench.torque.x = math.nextafter(msg.wrench.torque.x, math.inf)
+        return serialize_message(msg)
+
+    altered = rewrite_bag(str(REPO / 'bags' / 'box_pushed'), str(tmp_path / 'altered'),
+                          edit=edit)
+    result = replay_bag(altered)
+    assert not result.match and result.wrench_mismatches == 1
+    assert any('not bit for bit' in p for p in result.problems), result.problems
 
 
 def test_the_reference_set_covers_the_issue():

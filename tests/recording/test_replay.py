@@ -26,7 +26,7 @@ from rbd_ros.recording import BagWriter, open_bag
 from rbd_ros.replay import main, replay_bag
 from rosbags.rosbag2 import StoragePlugin, Writer as RosbagsWriter
 from rosbags.typesys import get_typestore, Stores
-from sim_recorder import record_scripted_run
+from sim_recorder import record_scripted_run, rewrite_bag
 
 REPO = Path(__file__).resolve().parents[2]
 S = 1_000_000_000
@@ -70,17 +70,7 @@ def thruster_bag(tmp_path_factory):
 
 def copy_bag(src, dst, config_edit=None, drop=None):
     """Rewrite ``src`` into ``dst`` with an edited config and/or messages dropped."""
-    bag = open_bag(src)
-    config = dict(bag.config)
-    config.update(config_edit or {})
-    writer = BagWriter(dst, config=config)
-    for topic, info in bag.topics.items():
-        writer.add_topic(topic, info.type_name, info.qos[0])
-    for index, raw in enumerate(bag.messages()):
-        if drop is None or not drop(index, raw):
-            writer.write(raw.topic, raw.data, raw.log_time_ns, raw.publish_time_ns)
-    writer.close()
-    return dst
+    return rewrite_bag(src, dst, config_edit=config_edit, drop=drop)
 
 
 def run_main(capsys, *args):
