@@ -193,15 +193,24 @@ def _loaded(pid, library):
         return library in maps.read()
 
 
+# What setuptools' console_scripts wrapper for rigid_body_node does (ros2 run executes it).
+CONSOLE_SCRIPT = 'import sys\nfrom rbd_ros.node import main\nsys.exit(main())\n'
+
+
+@pytest.mark.parametrize('how', ['module', 'executable'])
 @pytest.mark.parametrize('delay_s', [0.0, 0.2, 0.5, 1.5])
-def test_an_early_sigint_exits_quietly(tmp_path, delay_s):
+def test_an_early_sigint_exits_quietly(tmp_path, delay_s, how):
     # Item 10: Ctrl-C at any moment of the start-up (imports, rclpy.init, kernel load) exits 0
     # without a traceback. The delays count from the moment numpy's core library is mapped,
     # i.e. while rbd_ros.node imports its dependencies (the interpreter's own start-up before
     # it runs rbd_ros.node, ~0.1 s, is out of the package's reach). The delay is the moment
     # under test, not a wait for something.
+    command = [sys.executable, '-m', 'rbd_ros.node']
+    if how == 'executable':
+        (tmp_path / 'rigid_body_node').write_text(CONSOLE_SCRIPT)
+        command = [sys.executable, str(tmp_path / 'rigid_body_node')]
     with open(tmp_path / 'err', 'wb') as err:
-        process = subprocess.Popen([sys.executable, '-m', 'rbd_ros.node'],
+        process = subprocess.Popen(command,
                                    stdout=subprocess.DEVNULL, stderr=err, cwd=str(tmp_path))
         wait_until(lambda: _loaded(process.pid, '_multiarray_umath'), 60.0,
                    what='numpy to load in the node process')
