@@ -29,7 +29,12 @@ recording stores so that replay can rebuild exactly the same configuration.
 Times are converted to integer nanoseconds here, rounded to the nearest nanosecond:
 ``timestep_s`` must be a whole number of nanoseconds (to 0.001 ns, which absorbs the binary
 representation of decimal values such as 0.001), so that sim time is exact; the publish period
-is ``round(1e9 / publish_rate_hz)`` ns.
+is ``round(1e9 / publish_rate_hz)`` ns. A positive time that rounds to 0 ns is refused (it would
+silently mean "off"), naming the parameter.
+
+An array parameter given as ``[]`` reaches the node as a value of type NOT_SET (``None``): ROS
+YAML cannot type an empty list. :meth:`NodeConfig.from_parameters` reads ``None`` as ``[]`` for
+array parameters.
 """
 
 from dataclasses import dataclass
@@ -39,7 +44,7 @@ import numpy as np
 
 from rbd_ros import conversions
 from rbd_ros.core import (BodyModel, BodyState, ConfigError, DEFAULT_INTEGRATOR, INTEGRATORS,
-                          ModelError)
+                          ModelError, NonFiniteError, Simulator)
 from rbd_ros.core.inertia import from_shape, inertia_from_components, SHAPES
 
 # ROS parameter types, by the names rcl_interfaces/ParameterType uses (lower case).
@@ -64,6 +69,13 @@ _NS_PER_S = 1_000_000_000
 # A time in seconds must be within this many ns of a whole number of ns: float64 writes decimal
 # steps such as 0.001 s with a relative error <= 2^-53, far below 1e-3 ns for any step < 1e3 s.
 _NS_TOLERANCE = 1e-3
+
+#: ``real_time_factor`` is 0 (as fast as possible) or within these bounds: below 1e-3 a 1 ms step
+#: takes more than 1 s of wall time (a value such as 5e-324 freezes the node), above 1e6 the
+#: catch-up cap (1000 steps per tick) drops wall time at any step size.
+REAL_TIME_FACTOR_RANGE = (1e-3, 1e6)
+#: The slowest publish rate, Hz: a publish period of at most 1e6 s (about 11.6 days).
+MIN_PUBLISH_RATE_HZ = 1e-6
 
 
 @dataclass(frozen=True)
@@ -125,13 +137,13 @@ PARAMETERS = (
     ParamSpec('integrator', STRING, DEFAULT_INTEGRATOR, '',
               'Integrator: ' + ', '.join(INTEGRATORS) + '.', rule='one of the names'),
     ParamSpec('timestep_s', DOUBLE, 0.001, 's', 'Fixed physics step.', (0.0, 1.0),
-              rule='> 0, a whole number of ns'),
+              rule='> 0, a whole number of ns (at least 1 ns)'),
     ParamSpec('publish_rate_hz', DOUBLE, 100.0, 'Hz',
               'State publishing rate in sim time (at most once per physics step).',
-              (0.0, 1e9), rule='> 0'),
+              (0.0, 1e9), rule='>= 1e-6'),
     ParamSpec('real_time_factor', DOUBLE, 1.0, '',
               'Sim seconds per wall second; 0 = as fast as possible.', (0.0, 1e6),
-              read_only=False),
+              read_only=False, rule='0, or in [0.001, 1e6]'),
     ParamSpec('duration_s', DOUBLE, 0.0, 's',
               'Stop and exit with status 0 after this much sim time; 0 = run until shut down.',
               (0.0, 1e9)),
@@ -253,6 +265,8 @@ def _coerce(spec, value):
         if isinstance(value, str):
             return value
         _fail(spec, value, 'must be a string')
+    if kind in (DOUBLE_ARRAY, STRING_ARRAY) and value is None:
+        return ()  # an empty array given in YAML or on the command line arrives as NOT_SET
     if kind == DOUBLE_ARRAY:
         if isinstance(value, (list, tuple, np.ndarray)) and all(
                 isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
@@ -283,7 +297,25 @@ def _to_ns(spec, seconds):
     rounded = round(ns)
     if abs(ns - rounded) > _NS_TOLERANCE:
         _fail(spec, seconds, 'must be a whole number of nanoseconds')
+    if seconds > 0.0 and rounded == 0:
+        zero = '' if spec.name == 'timestep_s' else '0 or '
+        _fail(spec, seconds, f'rounds to 0 ns: must be {zero}at least 1 ns (1e-9 s)')
     return int(rounded)
+
+
+def check_real_time_factor(value):
+    """
+    Return ``value`` as a float if it is a valid ``real_time_factor``, else raise ConfigError.
+
+    Used at start and for a live ``ros2 param set``: 0 (as fast as possible) or within
+    :data:`REAL_TIME_FACTOR_RANGE`.
+    """
+    spec = PARAMETERS_BY_NAME['real_time_factor']
+    value = _coerce(spec, value)
+    low, high = REAL_TIME_FACTOR_RANGE
+    if value != 0.0 and not low <= value <= high:
+        _fail(spec, value, f'must be 0 (as fast as possible) or in [{low:g}, {high:g}]')
+    return value
 
 
 def _vector3(spec, values):
@@ -432,6 +464,10 @@ class NodeConfig:
         timestep_ns = _to_ns(p['timestep_s'], values['timestep_s'])
         if not values['publish_rate_hz'] > 0.0:
             _fail(p['publish_rate_hz'], values['publish_rate_hz'], 'must be > 0')
+        if values['publish_rate_hz'] < MIN_PUBLISH_RATE_HZ:
+            _fail(p['publish_rate_hz'], values['publish_rate_hz'],
+                  f'must be >= {MIN_PUBLISH_RATE_HZ:g} Hz (a publish period of at most 1e6 s)')
+        check_real_time_factor(values['real_time_factor'])
         publish_period_ns = max(1, round(_NS_PER_S / values['publish_rate_hz']))
         duration_ns = _to_ns(p['duration_s'], values['duration_s'])
         timeout_ns = _to_ns(p['wrench_timeout_s'], values['wrench_timeout_s'])
@@ -515,3 +551,46 @@ def _reraise(spec, value, func, *args):
             unit = f' {spec.unit}' if spec.unit else ''
             message = f'{spec.name} = {_fmt(value)}{unit}: {message}'
         raise type(exc)(f'parameter {message}') from None
+
+
+# Parameters that shape the first physics step, in the order they are blamed when that step is
+# not finite: each is put back to its default in turn until the step becomes finite.
+_FIRST_STEP_SUSPECTS = ('initial_angular_velocity', 'initial_linear_velocity',
+                        'initial_position', 'gravity', 'mass_kg', 'inertia', 'dimensions_m',
+                        'linear_damping', 'angular_damping', 'timestep_s')
+
+
+def _step_once(config):
+    Simulator(config.model, config.initial_state, integrator=config.integrator,
+              timestep_ns=config.timestep_ns).step(1)
+
+
+def check_first_step(config):
+    """
+    Take one physics step from the initial state on a throw-away simulator.
+
+    Valid parameters can still make the first step non-finite (``initial_angular_velocity:
+    [1e200, 0.0, 0.0]`` overflows); the node refuses them at start instead of pausing on its
+    first step. This also compiles the physics kernel.
+
+    :raises ConfigError: naming the parameter that makes the step non-finite: the first of
+        :data:`_FIRST_STEP_SUSPECTS` whose default value makes the step finite.
+    """
+    try:
+        _step_once(config)
+        return
+    except NonFiniteError as exc:
+        reason = str(exc)
+    params = config.to_parameters()
+    for name in _FIRST_STEP_SUSPECTS:
+        spec = PARAMETERS_BY_NAME[name]
+        default = list(spec.default) if isinstance(spec.default, tuple) else spec.default
+        if params[name] == default:
+            continue
+        try:
+            _step_once(NodeConfig.from_parameters({**params, name: default}))
+        except (ModelError, ConfigError, NonFiniteError):
+            continue  # still not finite, or not a valid configuration without this value
+        _fail(spec, params[name], f'the first physics step is not finite ({reason})',
+              ConfigError)
+    raise ConfigError(f'parameters: the first physics step is not finite ({reason})')

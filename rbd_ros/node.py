@@ -21,24 +21,40 @@ Everything else lives in ROS-free modules: :mod:`rbd_ros.config` (parameters),
 sim time due is ``sim_anchor + (wall_now - wall_anchor) * real_time_factor`` against an absolute
 wall anchor (re-anchored on pause, reset and a change of the factor), so pacing error does not
 accumulate; at most :data:`MAX_STEPS_PER_TICK` steps run per tick, and a larger backlog is
-dropped (counted in ``/diagnostics`` as ``wall_time_dropped_s``).
+dropped (counted in ``/diagnostics`` as ``wall_time_dropped_s``). Timers run on a steady clock,
+so ``use_sim_time`` (which launch files set on every node) cannot freeze the node: its stamps are
+always its own sim time.
 """
 
+import math
+import os
+import re
 import signal
 import sys
+import tempfile
 import time
+
+# Ctrl-C while the imports below load (~1 s) in `python -m rbd_ros.node` or the installed
+# rigid_body_node executable: nothing to finalise yet, exit 0 quietly (main() takes over).
+if __name__ == '__main__' or os.path.basename(sys.argv[0]) == 'rigid_body_node':
+    for _signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(_signum, lambda *_: os._exit(0))
 
 from rbd_ros import config as cfg
 from rbd_ros import conversions as conv
-from rbd_ros.core import NonFiniteError, RbdError, RecordingError
+from rbd_ros.core import ConfigError, NonFiniteError, RbdError, RecordingError
 from rbd_ros.inputs import WrenchRejected
 from rbd_ros.session import SimSession
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 ParameterType, SetParametersResult)
 import rclpy
+from rclpy.clock import Clock, ClockType
+from rclpy.exceptions import NameValidationException, ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, QoSPolicyKind, QoSProfile, ReliabilityPolicy
+from rclpy.qos_overriding_options import QoSOverridingOptions
 from rclpy.serialization import serialize_message
 from rclpy.signals import SignalHandlerOptions
 from std_srvs.srv import SetBool, Trigger
@@ -62,6 +78,21 @@ _TYPES = {cfg.BOOL: ParameterType.PARAMETER_BOOL, cfg.INTEGER: ParameterType.PAR
 _ARRAY_TYPES = {cfg.DOUBLE_ARRAY: Parameter.Type.DOUBLE_ARRAY,
                 cfg.STRING_ARRAY: Parameter.Type.STRING_ARRAY}
 _IGNORED = ('use_sim_time', 'start_type_description_service')
+# pose, twist and odom: reliable, transient local, keep last 1: a subscriber that arrives while the
+# node is paused (ros2 topic echo pose --once) gets the latest sample. The other topics: depth 10,
+# reliable, volatile (rclpy's default). Every endpoint takes qos_overrides.<topic>.<kind>.<policy>.
+STATE_QOS = {'depth': 1, 'reliability': ReliabilityPolicy.RELIABLE,
+             'durability': DurabilityPolicy.TRANSIENT_LOCAL}
+QOS_OVERRIDES = QoSOverridingOptions(policy_kinds=(
+    QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH, QoSPolicyKind.RELIABILITY,
+    QoSPolicyKind.DURABILITY))
+OUTPUT_TOPICS = ('pose', 'twist', 'odom', '/clock', '/diagnostics', '/tf')
+
+
+def _rcl_text(exc):
+    """Return an rcl error message without its source locations (``, at file.c:123``)."""
+    text = re.sub(r', at [^,]*:\d+', '', str(exc)).strip()
+    return re.sub(r'^failed to (initialize rcl|resolve name): ', '', text)
 
 
 class RigidBodyNode(Node):
@@ -80,6 +111,8 @@ class RigidBodyNode(Node):
             elif name not in _IGNORED and not name.startswith('qos_overrides.'):
                 self.get_logger().warning(f'ignoring unknown parameter {name} = {value!r}')
         self.config = config = cfg.NodeConfig.from_parameters(params)
+        self._check_input_topics()
+        cfg.check_first_step(config)
         for spec in config.all_specs():
             self._declare(spec, config.parameters[spec.name])
         self.add_on_set_parameters_callback(self._on_set_parameters)
@@ -92,21 +125,26 @@ class RigidBodyNode(Node):
         self._lag_max_ns = 0  # largest wall-minus-sim lag seen at a tick, since the last diag
 
         self._recorder = None
-        self._pubs = {'pose': self.create_publisher(conv.PoseStamped, 'pose', 10),
-                      'twist': self.create_publisher(conv.TwistStamped, 'twist', 10),
-                      'odom': self.create_publisher(conv.Odometry, 'odom', 10),
-                      'diagnostics': self.create_publisher(
-                          conv.DiagnosticArray, '/diagnostics', 10)}
+        self._pubs = {'pose': self._publisher(conv.PoseStamped, 'pose', STATE_QOS),
+                      'twist': self._publisher(conv.TwistStamped, 'twist', STATE_QOS),
+                      'odom': self._publisher(conv.Odometry, 'odom', STATE_QOS),
+                      'diagnostics': self._publisher(conv.DiagnosticArray, '/diagnostics', 10)}
         if config.publish_clock:
-            self._pubs['clock'] = self.create_publisher(conv.Clock, '/clock', 10)
+            self._pubs['clock'] = self._publisher(conv.Clock, '/clock', 10)
+        if config.publish_tf and TFMessage is not None:
+            self._pubs['tf'] = self._publisher(TFMessage, '/tf', 100)
+        self._input_subs = [self._qos_checked(
+            spec.topic, 'subscription', self.create_subscription, conv.WrenchStamped, spec.topic,
+            lambda msg, name=spec.name: self._on_wrench(name, msg), 10,
+            qos_overriding_options=QOS_OVERRIDES) for spec in config.wrench_inputs]
         if config.publish_tf and TFMessage is None:
             self.get_logger().info('tf2_msgs is not importable: not broadcasting /tf')
-        elif config.publish_tf:
-            self._pubs['tf'] = self.create_publisher(TFMessage, '/tf', 100)
-        self._input_subs = [
-            self.create_subscription(conv.WrenchStamped, spec.topic,
-                                     lambda msg, name=spec.name: self._on_wrench(name, msg), 10)
-            for spec in config.wrench_inputs]
+        for name in self._parameter_overrides:
+            if name.startswith('qos_overrides.') and not self.has_parameter(name):
+                self.get_logger().warning(
+                    f'ignoring {name}: no endpoint of this node has that topic and policy '
+                    '(qos_overrides.<absolute topic>.publisher|subscription.history|depth|'
+                    'reliability|durability)')
         self._input_topics = {spec.name: sub.topic_name
                               for spec, sub in zip(config.wrench_inputs, self._input_subs)}
         self.create_service(Trigger, '~/reset', self._on_reset)
@@ -115,11 +153,49 @@ class RigidBodyNode(Node):
         if config.record_path:
             self._open_recording()
         period = MIN_TICK_S if self._rtf == 0 else config.timestep_ns * 0.5e-9 / self._rtf
-        self._timer = self.create_timer(max(MIN_TICK_S, period), self._tick)
-        self.create_timer(1.0, self._publish_diagnostics)
+        steady = Clock(clock_type=ClockType.STEADY_TIME)  # whatever use_sim_time says
+        self._timer = self.create_timer(max(MIN_TICK_S, period), self._tick, clock=steady)
+        self.create_timer(1.0, self._publish_diagnostics, clock=steady)
         self._publish_sample()
         self._anchor()  # sim time 0 = now: pacing starts when the node is ready
         self._diag_last = (time.monotonic_ns(), 0, 0)
+
+    def _publisher(self, msg_type, topic, qos):
+        # A profile of its own for each publisher: rclpy writes the overrides into it.
+        qos = QoSProfile(**qos) if isinstance(qos, dict) else qos
+        return self._qos_checked(topic, 'publisher', self.create_publisher, msg_type, topic, qos,
+                                 qos_overriding_options=QOS_OVERRIDES)
+
+    def _qos_checked(self, topic, kind, create, *args, **kwargs):
+        """Create an endpoint; a bad ``qos_overrides.<topic>.<kind>.*`` value is a ConfigError."""
+        prefix = f'qos_overrides.{self.resolve_topic_name(topic)}.{kind}.'
+        depth = self._parameter_overrides.get(prefix + 'depth')
+        if depth is not None and isinstance(depth.value, int) and depth.value < 0:
+            raise ConfigError(f'parameter {prefix}depth = {depth.value}: must be >= 0')
+        try:
+            return create(*args, **kwargs)
+        except (RuntimeError, ParameterException) as exc:  # rclpy's RCLError among them
+            given = {name[len(prefix):]: p.value for name, p in self._parameter_overrides.items()
+                     if name.startswith(prefix)}
+            raise ConfigError(f'parameters {prefix}* = {given}: {_rcl_text(exc)}') from None
+
+    def _check_input_topics(self):
+        """Refuse an invalid input topic or one that resolves to an output or another input."""
+        outputs = {self.resolve_topic_name(topic) for topic in OUTPUT_TOPICS}
+        seen = {}
+        for spec in self.config.wrench_inputs:
+            what = f'topic {spec.topic!r} of the main wrench input' if spec.name == \
+                cfg.MAIN_INPUT else f'parameter wrench_inputs.{spec.name}.topic = {spec.topic!r}'
+            try:
+                resolved = self.resolve_topic_name(spec.topic)
+            except (RuntimeError, NameValidationException) as exc:  # rclpy raises RCLError
+                raise ConfigError(f'{what}: not a valid topic name ({_rcl_text(exc)})') from None
+            if resolved in outputs:
+                raise ConfigError(f'{what}: resolves to {resolved}, an output of this node')
+            if resolved in seen:
+                raise ConfigError(f'{what}: resolves to {resolved}, the topic of wrench input '
+                                  f'{seen[resolved]!r} (it would count every wrench twice)')
+            seen[resolved] = spec.name
 
     def _declare(self, spec, value):
         descriptor = ParameterDescriptor(
@@ -132,13 +208,28 @@ class RigidBodyNode(Node):
         elif spec.bounds is not None and spec.kind == cfg.INTEGER:
             descriptor.integer_range = [IntegerRange(
                 from_value=int(spec.bounds[0]), to_value=int(spec.bounds[1]))]
+        if isinstance(value, tuple) and not value:
+            # rclpy cannot infer the type of []: declare it writable by type, give it the typed
+            # value [] (so that get_parameters, hence ros2 param dump/get, returns a value for
+            # every name), then make it read-only.
+            writable = ParameterDescriptor()
+            writable.type = descriptor.type
+            self.declare_parameter(spec.name, _ARRAY_TYPES[spec.kind], writable,
+                                   ignore_override=True)
+            self.set_parameters([Parameter(spec.name, _ARRAY_TYPES[spec.kind], [])])
+            self.set_descriptor(spec.name, descriptor)
+            return
         if isinstance(value, tuple):
-            # rclpy infers the type of [] as a byte array: declare an empty array by type only
-            # (its value then reads as not set, which is what [] means here).
-            value = list(value) or _ARRAY_TYPES[spec.kind]
+            value = list(value)
         self.declare_parameter(spec.name, value, descriptor, ignore_override=True)
 
     def _on_set_parameters(self, params):
+        for param in params:
+            if param.name == 'real_time_factor':
+                try:
+                    cfg.check_real_time_factor(param.value)
+                except RbdError as exc:
+                    return SetParametersResult(successful=False, reason=str(exc))
         for param in params:
             if param.name == 'real_time_factor':
                 self._rtf = float(param.value)
@@ -154,7 +245,11 @@ class RigidBodyNode(Node):
             for pub in list(self._pubs.values()) + self._input_subs:
                 msg_type = pub.msg_type
                 type_name = f'{msg_type.__module__.split(".")[0]}/msg/{msg_type.__name__}'
-                recorder.add_topic(pub.topic_name, type_name, {'depth': pub.qos_profile.depth})
+                qos = pub.qos_profile  # what the endpoint really offers (qos_overrides included)
+                recorder.add_topic(pub.topic_name, type_name, {
+                    'history': qos.history.name.lower(), 'depth': qos.depth,
+                    'reliability': qos.reliability.name.lower(),
+                    'durability': qos.durability.name.lower()})
             recorder.flush()  # a full disk fails here, at start (exit 2), not mid-run
         except RecordingError:
             recorder.close()
@@ -266,11 +361,16 @@ class RigidBodyNode(Node):
             'wall_time_dropped_s': self._dropped_ns * 1e-9, 'resets': s.resets,
             'pacing_lag_max_ms': self._lag_max_ns * 1e-6}
         self._lag_max_ns = 0
-        level = 'error' if s.error else ('warn' if s.inputs.rejected_total else 'ok')
+        non_finite = [key for key, value in values.items()
+                      if isinstance(value, float) and not math.isfinite(value)]
+        level = 'error' if s.error else (
+            'warn' if s.inputs.rejected_total or non_finite else 'ok')
+        message = s.error or ('paused' if s.paused else 'running')
+        if non_finite:
+            message += '; not finite: ' + ', '.join(non_finite)
         self._publish('diagnostics', conv.diagnostics_to_msg(
             s.time_ns, f'{self.get_fully_qualified_name()}: rigid body', self.config.body_frame,
-            level,
-            s.error or ('paused' if s.paused else 'running'), values), s.time_ns)
+            level, message, values), s.time_ns)
 
     def _on_wrench(self, name, msg):
         frame_id, force, torque = conv.wrench_from_msg(msg)
@@ -330,14 +430,48 @@ class RigidBodyNode(Node):
         return self.exit_status
 
 
+def _init_rclpy(args):
+    """
+    ``rclpy.init`` without its own signal handlers; return None, or one line on why it failed.
+
+    rcl refuses a missing or broken params file, mixed int/float arrays and ``-p name:=``
+    with an exception plus an ``[ERROR] [rcl]`` log line on stderr: the log is held back and
+    the caller prints one line instead.
+    """
+    saved_fd = os.dup(2)
+    with tempfile.TemporaryFile() as log:
+        os.dup2(log.fileno(), 2)
+        try:
+            rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+            error = None
+        except RuntimeError as exc:  # RCLError, UnknownROSArgsError
+            error = exc
+        finally:
+            os.dup2(saved_fd, 2)
+            os.close(saved_fd)
+        if error is None:
+            log.seek(0)
+            sys.stderr.write(log.read().decode(errors='replace'))
+            return None
+    text = _rcl_text(error).replace('. Error: error not set', ': no value after :=')
+    if type(error).__name__ == 'UnknownROSArgsError':
+        text = f'unknown ROS arguments {text}'
+    if 'Sequence should be of same type' in text:
+        text += ' (write every value of a double array with a decimal point: 0.0, not 0)'
+    return f'bad --ros-args: {text}'
+
+
 def main(args=None):
     """Run the node until ``duration_s`` passes or SIGINT/SIGTERM; exit 0, or 2 on bad input."""
-    # Our own signal handlers: stop between callbacks, then finalise. (rclpy's would shut the
-    # context down under a running callback, whose next publish then fails.)
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    # Our own signal handlers, from the start: stop between callbacks, then finalise. (rclpy's
+    # would shut the context down under a running callback, whose next publish then fails.)
     stop = []
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda *_: stop.append(True))
+    error = _init_rclpy(args)
+    if error is not None:
+        print(f'rigid_body_node: {error}', file=sys.stderr, flush=True)
+        sys.exit(2)
     try:
         node = RigidBodyNode()
     except RbdError as exc:

@@ -88,7 +88,7 @@ def test_node_recording_reads_back_and_replays(start_node, ros, tmp_path, capsys
     assert types['/clock'] == 'rosgraph_msgs/msg/Clock'
     assert bag.topics['/wrench'].message_count == 2
     assert bag.topics['/pose'].message_count == 201  # 2 s at 100 Hz, plus t = 0
-    assert bag.topics['/pose'].qos[0]['depth'] == 10
+    assert bag.topics['/pose'].qos[0]['depth'] == 1  # transient local, latest sample only
     with RosbagsReader(bag_path) as reader:
         counts = {c.topic: c.msgcount for c in reader.connections}
     assert counts == {topic: info.message_count for topic, info in bag.topics.items()}

@@ -119,7 +119,17 @@ def test_integer_values_are_accepted_for_doubles():
     ({'integrator': 'euler'}, ConfigError, "parameter integrator = 'euler': must be one of"),
     ({'timestep_s': 0.0}, ConfigError, 'parameter timestep_s = 0.0 s: must be > 0'),
     ({'publish_rate_hz': 0.0}, ConfigError, 'publish_rate_hz = 0.0 Hz: must be > 0'),
-    ({'real_time_factor': -1.0}, ConfigError, 'real_time_factor = -1.0: must be in'),
+    ({'real_time_factor': -1.0}, ConfigError, 'real_time_factor = -1.0: must be 0, or in'),
+    ({'real_time_factor': 5e-324}, ConfigError,
+     'real_time_factor = 5e-324: must be 0 (as fast as possible) or in [0.001, 1e+06]'),
+    ({'real_time_factor': 2e6}, ConfigError, 'real_time_factor = 2000000.0: must be in'),
+    ({'publish_rate_hz': 1e-300}, ConfigError, 'publish_rate_hz = 1e-300 Hz: must be >= 1e-06'),
+    ({'timestep_s': 1e-13}, ConfigError,
+     'timestep_s = 1e-13 s: rounds to 0 ns: must be at least 1 ns'),
+    ({'wrench_timeout_s': 1e-13}, ConfigError,
+     'wrench_timeout_s = 1e-13 s: rounds to 0 ns: must be 0 or at least 1 ns'),
+    ({'duration_s': 1e-13}, ConfigError, 'duration_s = 1e-13 s: rounds to 0 ns'),
+    ({'mass_kg': None}, ModelError, 'parameter mass_kg = None kg: must be a number'),
     ({'twist_frame': 'odom'}, ConfigError, "must be 'world' or 'body'"),
     ({'default_wrench_frame': 'map'}, ConfigError, "must be 'world' or 'body'"),
     ({'body_frame': 'world'}, ConfigError, 'must differ from world_frame'),
@@ -145,6 +155,40 @@ def test_invalid_values_raise_one_line_naming_parameter_value_and_rule(params, e
     assert '\n' not in message
     assert message.startswith('parameter ')
     assert text in message, message
+
+
+def test_an_empty_array_that_arrives_as_not_set_means_the_empty_default():
+    # ROS YAML cannot type [] ('inertia: []' in a params file, '-p inertia:=[]'): rclpy hands
+    # the node a NOT_SET value, None. For an array parameter that is the documented [].
+    c = NodeConfig.from_parameters({'inertia': None, 'dimensions_m': None, 'wrench_inputs': None})
+    assert c == NodeConfig.from_parameters({})
+    assert c.parameters['inertia'] == () and c.parameters['wrench_inputs'] == ()
+
+
+def test_real_time_factor_check_for_live_changes():
+    assert cfg.check_real_time_factor(0.0) == 0.0
+    assert cfg.check_real_time_factor(1e-3) == 1e-3 and cfg.check_real_time_factor(1e6) == 1e6
+    for bad in (5e-324, 9.99e-4, 1.0000001e6, -1.0, math.inf, math.nan):
+        with pytest.raises(ConfigError, match='parameter real_time_factor = '):
+            cfg.check_real_time_factor(bad)
+
+
+@pytest.mark.parametrize('params, name', [
+    ({'initial_angular_velocity': [1e200, 0.0, 0.0]}, 'initial_angular_velocity'),
+    ({'initial_angular_velocity': [0.0, 1e200, 0.0], 'integrator': 'rk4'},
+     'initial_angular_velocity'),
+    ({'initial_linear_velocity': [1e308, 0.0, 0.0], 'timestep_s': 1.0,
+      'gravity': [1e308, 0.0, 0.0]}, 'initial_linear_velocity'),
+])
+def test_a_non_finite_first_step_is_refused_naming_the_parameter(params, name):
+    # Each value is finite and valid on its own; the first physics step overflows.
+    config = NodeConfig.from_parameters(params)
+    with pytest.raises(ConfigError) as info:
+        cfg.check_first_step(config)
+    message = str(info.value)
+    assert message.startswith(f'parameter {name} = ') and 'not finite' in message, message
+    assert '\n' not in message
+    cfg.check_first_step(NodeConfig.from_parameters({}))  # the defaults step finitely
 
 
 def test_msg_config_files_are_valid_configs():
