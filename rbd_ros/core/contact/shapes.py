@@ -64,8 +64,9 @@ from rbd_ros.core.errors import ModelError
 from rbd_ros.core.inertia import from_shape, triangle_mesh
 
 __all__ = [
-    'CollisionShape', 'DEFAULT_SDF_CELLS', 'PRIMITIVES', 'SDF_PAD_CELLS', 'collision_shape',
-    'load_mesh', 'mesh_shape', 'plane_shape', 'primitive_shape', 'sdf_cache_dir',
+    'CollisionShape', 'DEFAULT_SDF_CELLS', 'MAX_SDF_CELLS', 'PRIMITIVES', 'SDF_PAD_CELLS',
+    'collision_shape', 'load_mesh', 'mesh_shape', 'plane_shape', 'primitive_shape',
+    'sdf_cache_dir',
 ]
 
 #: Shape names accepted by :func:`primitive_shape` (``spherical_shell`` has a sphere's surface).
@@ -79,6 +80,8 @@ _DIM_NAMES = {'box': ('x', 'y', 'z'), 'sphere': ('radius',), 'spherical_shell': 
 
 #: SDF grid cells along the largest extent of a mesh's bounding box (spacing ``h = L / cells``).
 DEFAULT_SDF_CELLS = 64
+#: Largest ``sdf_cells`` accepted: a cube's grid then holds ~263³ nodes (145 MB of float64).
+MAX_SDF_CELLS = 256
 #: Empty cells of padding around the mesh's bounding box on every side of the SDF grid.
 SDF_PAD_CELLS = 3
 # Version of the SDF algorithm and cache file layout; part of the cache key.
@@ -546,8 +549,9 @@ def _check_mesh(mesh, where, field):
 
 def _check_cells(sdf_cells, field):
     if (isinstance(sdf_cells, bool) or not isinstance(sdf_cells, (numbers.Integral, np.integer))
-            or not 4 <= sdf_cells <= 1024):
-        raise ModelError(f'{field}sdf_cells: {sdf_cells!r} must be an integer in [4, 1024]')
+            or not 4 <= sdf_cells <= MAX_SDF_CELLS):
+        raise ModelError(
+            f'{field}sdf_cells: {sdf_cells!r} must be an integer in [4, {MAX_SDF_CELLS}]')
     return int(sdf_cells)
 
 
@@ -638,6 +642,8 @@ def load_mesh(mesh_path, mesh_scale=(1.0, 1.0, 1.0), spacing_m=None,
         ``<field>mesh_scale`` when it is not 3 finite factors > 0.
     """
     scale = _check_scale(mesh_scale, field)
+    if not isinstance(mesh_path, (str, os.PathLike)) or str(mesh_path) == '':
+        raise ModelError(f'{field}mesh_path: {mesh_path!r} is not a file path')
     where = f'{field}mesh_path: {str(mesh_path)!r}'
     path = Path(mesh_path)
     if not path.is_file():
@@ -665,8 +671,6 @@ def collision_shape(shape, dimensions_m=None, mesh_path=None, mesh_scale=(1.0, 1
     :raises ModelError: as :func:`primitive_shape` and :func:`load_mesh`.
     """
     if shape == 'mesh':
-        if mesh_path is None or mesh_path == '':
-            raise ModelError(f'{field}mesh_path: {mesh_path!r}: a mesh shape needs a file')
         return load_mesh(mesh_path, mesh_scale, spacing_m, sdf_cells, field=field,
                          cache_dir=cache_dir)
     return primitive_shape(shape, dimensions_m, spacing_m, field)

@@ -305,6 +305,13 @@ def check_overlaps(bodies, world=None, tolerance_m=DEFAULT_OVERLAP_TOLERANCE_M):
     tolerance = _coefficient(tolerance_m, 'tolerance_m', 0.0, math.inf, 'finite and >= 0 m')
     posed = []
     for name, shape, position_w, orientation_wb in bodies:
+        if not isinstance(name, str) or not _NAME.match(name):
+            raise ModelError(
+                f'bodies: name {name!r} must be an identifier (letters, digits, _; not starting '
+                'with a digit)')
+        if not isinstance(shape, CollisionShape):
+            raise ModelError(
+                f'bodies.{name}.shape: a {type(shape).__name__} is not a CollisionShape')
         position, quat = _pose(position_w, orientation_wb, f'bodies.{name}.')
         posed.append((name, shape, position, quat))
     statics = [] if world is None else world.objects()

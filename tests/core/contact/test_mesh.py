@@ -228,6 +228,19 @@ def test_bad_meshes_are_refused_with_the_reason(cache, label, vertices, faces, n
     assert needle in str(info.value)
 
 
+def test_bad_mesh_arrays_and_grid_sizes_are_refused(cache):
+    box = trimesh.creation.box(extents=[1.0, 1.0, 1.0])
+    with pytest.raises(ModelError, match=r'^b\.vertices: shape \(8, 2\) must be \(n, 3\)'):
+        mesh_shape(box.vertices[:, :2], box.faces, field='b.')
+    with pytest.raises(ModelError, match=r'^b\.faces: shape \(12, 3\), dtype int64 must be .* '
+                                         r'indices in \[0, 7\]'):
+        mesh_shape(box.vertices, box.faces + 1, field='b.')
+    for cells in (3, 257, 10.0, True):
+        with pytest.raises(ModelError, match=rf'^b\.sdf_cells: {cells!r} must be an integer in '
+                                             r'\[4, 256\]'):
+            mesh_shape(box.vertices, box.faces, sdf_cells=cells, field='b.')
+
+
 def test_bad_mesh_files_are_refused_naming_mesh_path(cache, tmp_path):
     with pytest.raises(ModelError, match=r"^obstacles\.rock\.mesh_path: '.*nowhere\.stl' does "
                                          r'not exist'):
@@ -236,6 +249,8 @@ def test_bad_mesh_files_are_refused_naming_mesh_path(cache, tmp_path):
     with pytest.raises(ModelError, match=r"^mesh_path: '.*garbage\.stl' (is not a readable "
                                          r'mesh|holds no triangles)'):
         load_mesh(garbage)
+    with pytest.raises(ModelError, match=r'^mesh_path: None is not a file path'):
+        load_mesh(None)
     text = write(tmp_path / 'notes.txt', b'hello\n')
     with pytest.raises(ModelError, match=r"^mesh_path: '.*notes\.txt' is not a readable mesh"):
         load_mesh(text)
