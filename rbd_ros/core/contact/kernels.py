@@ -538,7 +538,7 @@ def build_sdf(vertices, faces, origin, h, grid):
     """
     nf = faces.shape[0]
     cen = np.empty((nf, 3))
-    rad2 = np.empty(nf)
+    rad = np.empty(nf)
     for t in range(nf):
         for k in range(3):
             cen[t, k] = (vertices[faces[t, 0], k] + vertices[faces[t, 1], k]
@@ -549,7 +549,8 @@ def build_sdf(vertices, faces, origin, h, grid):
             dy = vertices[faces[t, m], 1] - cen[t, 1]
             dz = vertices[faces[t, m], 2] - cen[t, 2]
             r2 = max(r2, dx * dx + dy * dy + dz * dz)
-        rad2[t] = r2
+        # Rounded up by 1e-12 relative so that no float64 rounding can cull the closest one.
+        rad[t] = math.sqrt(r2) * (1.0 + 1e-12)
     nx, ny, nz = grid.shape
     inside = np.zeros((nx, ny, nz), dtype=np.bool_)
     last = 0
@@ -568,8 +569,9 @@ def build_sdf(vertices, faces, origin, h, grid):
                     dx = px - cen[t, 0]
                     dy = py - cen[t, 1]
                     dz = pz - cen[t, 2]
-                    lower = math.sqrt(dx * dx + dy * dy + dz * dz) - math.sqrt(rad2[t])
-                    if lower > best:
+                    # Skip when |p - c| - r > best, i.e. |p - c|² > (best + r)².
+                    reach = best + rad[t]
+                    if dx * dx + dy * dy + dz * dz > reach * reach:
                         continue
                     d2 = point_triangle_dist2(px, py, pz, vertices, faces[t])
                     if d2 < best2:
