@@ -59,19 +59,36 @@ KIND_ELLIPSOID = 5
 KIND_MESH = 6
 N_SHAPE_PARAM = 8
 
-# Eberly's bisection stops when the midpoint equals an end point (no float64 between them);
-# from an interval of width <= 1e300 that takes at most ~2100 halvings (exponent range plus
-# 52 mantissa bits), in practice ~60-110.  The cap only guards against a NaN input.
+# Eberly's root is found by Newton steps from the left end of his bracket (see _root), with
+# bisection as the fall-back: Newton gains a factor >= 1.5 in u = s + 1 per step far from the
+# root and converges quadratically near it (~5-10 steps usually).  Bisection stops when the
+# bracket is narrower than 2^-52 u or has no float64 inside.  The caps only guard against a NaN.
+_NEWTON_MAX = 200
 _BISECT_MAX = 2200
+_S_RTOL = 2.220446049250313e-16
 
 _jit = nb.njit(cache=True, fastmath=False, nogil=True)
 _inl = nb.njit(cache=True, fastmath=False, nogil=True, inline='always')
 
 
+@_jit
+def _norm(x, y, z):
+    """Return ``|(x, y, z)|`` without overflow or underflow of the squares."""
+    m = max(abs(x), abs(y), abs(z))
+    if 1e-150 < m < 1e150:
+        return math.sqrt(x * x + y * y + z * z)
+    if m == 0.0 or not m < math.inf:
+        return m
+    x /= m
+    y /= m
+    z /= m
+    return m * math.sqrt(x * x + y * y + z * z)
+
+
 @_inl
 def _unit_or(x, y, z, fx, fy, fz):
     """Return ``(x, y, z) / |(x, y, z)|``, or ``(fx, fy, fz)`` for the zero vector."""
-    n = math.sqrt(x * x + y * y + z * z)
+    n = _norm(x, y, z)
     if n > 0.0:
         return x / n, y / n, z / n
     return fx, fy, fz
@@ -80,7 +97,7 @@ def _unit_or(x, y, z, fx, fy, fz):
 @_inl
 def _sphere(r, x, y, z):
     gx, gy, gz = _unit_or(x, y, z, 0.0, 0.0, 1.0)
-    return math.sqrt(x * x + y * y + z * z) - r, gx, gy, gz
+    return _norm(x, y, z) - r, gx, gy, gz
 
 
 @_inl
@@ -98,8 +115,9 @@ def _box(hx, hy, hz, x, y, z):
         ox = max(qx, 0.0)
         oy = max(qy, 0.0)
         oz = max(qz, 0.0)
-        d = math.sqrt(ox * ox + oy * oy + oz * oz)
-        return d, _sign(x) * ox / d, _sign(y) * oy / d, _sign(z) * oz / d
+        d = _norm(ox, oy, oz)
+        if d > 0.0:
+            return d, _sign(x) * ox / d, _sign(y) * oy / d, _sign(z) * oz / d
     # Inside (or on the surface): distance to the nearest face, ties to the lowest axis.
     if qx >= qy and qx >= qz:
         return qx, _sign(x), 0.0, 0.0
@@ -111,7 +129,7 @@ def _box(hx, hy, hz, x, y, z):
 @_jit
 def _cylinder(r, hl, x, y, z):
     """Exact signed distance to the solid cylinder ``rho <= r``, ``|z| <= hl``."""
-    rho = math.sqrt(x * x + y * y)
+    rho = _norm(x, y, 0.0)
     if rho > 0.0:
         ex = x / rho
         ey = y / rho
@@ -124,8 +142,9 @@ def _cylinder(r, hl, x, y, z):
     if dr > 0.0 or dz > 0.0:
         a = max(dr, 0.0)
         b = max(dz, 0.0)
-        d = math.sqrt(a * a + b * b)
-        return d, ex * a / d, ey * a / d, sz * b / d
+        d = _norm(a, b, 0.0)
+        if d > 0.0:
+            return d, ex * a / d, ey * a / d, sz * b / d
     if dr >= dz:
         return dr, ex, ey, 0.0
     return dz, 0.0, 0.0, sz
@@ -136,7 +155,7 @@ def _capsule(r, hl, x, y, z):
     """Exact signed distance to the capsule around the segment ``|z| <= hl`` on the z axis."""
     cz = min(max(z, -hl), hl)
     dz = z - cz
-    n = math.sqrt(x * x + y * y + dz * dz)
+    n = _norm(x, y, dz)
     if n > 0.0:
         return n - r, x / n, y / n, dz / n
     return -r, 1.0, 0.0, 0.0
@@ -154,40 +173,18 @@ def _robust_length(a, b, c):
 
 
 @_jit
-def _ellipse_root(r0, z0, z1, g):
-    """Eberly's GetRoot for an ellipse: the root s of (r0 z0/(s+r0))² + (z1/(s+1))² = 1."""
-    n0 = r0 * z0
-    s0 = z1 - 1.0
-    s1 = 0.0 if g < 0.0 else _robust_length(n0, z1, 0.0) - 1.0
-    s = 0.0
-    for _ in range(_BISECT_MAX):
-        s = 0.5 * (s0 + s1)
-        if s == s0 or s == s1:
-            break
-        a = n0 / (s + r0)
-        b = z1 / (s + 1.0)
-        g = a * a + b * b - 1.0
-        if g > 0.0:
-            s0 = s
-        elif g < 0.0:
-            s1 = s
-        else:
-            break
-    return s
-
-
-@_jit
 def _ellipse_closest(e0, e1, y0, y1):
     """Closest point on the ellipse with semi-axes ``e0 >= e1`` to ``(y0, y1)``, both >= 0."""
-    if y1 > 0.0:
-        if y0 > 0.0:
-            z0 = y0 / e0
-            z1 = y1 / e1
+    z0 = y0 / e0
+    z1 = y1 / e1
+    if z1 > 0.0:
+        if z0 > 0.0:
             g = z0 * z0 + z1 * z1 - 1.0
             if g != 0.0:
                 r0 = (e0 / e1) * (e0 / e1)
-                s = _ellipse_root(r0, z0, z1, g)
-                return r0 * y0 / (s + r0), y1 / (s + 1.0)
+                d0 = ((e0 - e1) / e1) * ((e0 + e1) / e1)
+                u = _root(r0, 1.0, d0, 0.0, z0, 0.0, z1, g)
+                return r0 * y0 / (u + d0), y1 / u
             return y0, y1
         return 0.0, e1
     denom0 = e0 * e0 - e1 * e1
@@ -199,49 +196,80 @@ def _ellipse_closest(e0, e1, y0, y1):
 
 
 @_jit
-def _ellipsoid_root(r0, r1, z0, z1, z2, g):
-    """Eberly's GetRoot for an ellipsoid (axes scaled so the smallest is 1)."""
+def _root(r0, r1, d0, d1, z0, z1, z2, g):
+    """
+    Return ``u = s + 1`` at Eberly's root ``s > -1``, with ``d_i = r_i - 1`` given exactly.
+
+    Eberly's function ``F(s) = (r0 z0/(s+r0))² + (r1 z1/(s+r1))² + (z2/(s+1))² - 1`` is
+    solved in ``u = s + 1 > 0``: ``F = (r0 z0/(u+d0))² + (r1 z1/(u+d1))² + (z2/u)² - 1``.  Near
+    the medial disk ``u`` is tiny and ``z2 / u`` must keep its relative precision, which ``s``
+    (absolute precision ~1e-16) would lose.  Bracket: ``F(z2) >= 0 >= F(u1)`` with ``u1 = 1``
+    inside (``g < 0``) or ``|(r0 z0, r1 z1, z2)|`` outside.  ``F`` is decreasing and convex in
+    ``u``, so Newton steps from the left end never pass the root; they stop when a step is
+    below ``_S_RTOL u`` (quadratic convergence: the root is then known to round-off).  Should
+    Newton not get there in ``_NEWTON_MAX`` steps, or leave the bracket through round-off,
+    bisection finishes on the bracket.  An ellipse is the case ``z1 = 0``.
+    """
     n0 = r0 * z0
     n1 = r1 * z1
-    s0 = z2 - 1.0
-    s1 = 0.0 if g < 0.0 else _robust_length(n0, n1, z2) - 1.0
-    s = 0.0
-    for _ in range(_BISECT_MAX):
-        s = 0.5 * (s0 + s1)
-        if s == s0 or s == s1:
+    u0 = z2
+    u1 = 1.0 if g < 0.0 else _robust_length(n0, n1, z2)
+    for _ in range(_NEWTON_MAX):
+        i0 = 1.0 / (u0 + d0)
+        i1 = 1.0 / (u0 + d1)
+        i2 = 1.0 / u0
+        a = n0 * i0
+        b = n1 * i1
+        c = z2 * i2
+        f = a * a + b * b + c * c - 1.0
+        if f <= 0.0:
+            return u0
+        step = f / (2.0 * (a * a * i0 + b * b * i1 + c * c * i2))
+        t = u0 + step
+        if not t < u1:
             break
-        a = n0 / (s + r0)
-        b = n1 / (s + r1)
-        c = z2 / (s + 1.0)
+        if step <= _S_RTOL * u0:
+            return t
+        u0 = t
+    u = 0.5 * (u0 + u1)
+    for _ in range(_BISECT_MAX):
+        u = 0.5 * (u0 + u1)
+        if u == u0 or u == u1 or u1 - u0 <= _S_RTOL * u0:
+            break
+        a = n0 / (u + d0)
+        b = n1 / (u + d1)
+        c = z2 / u
         g = a * a + b * b + c * c - 1.0
         if g > 0.0:
-            s0 = s
+            u0 = u
         elif g < 0.0:
-            s1 = s
+            u1 = u
         else:
             break
-    return s
+    return u
 
 
 @_jit
 def _ellipsoid_closest(e0, e1, e2, y0, y1, y2):
     """Closest point on the ellipsoid ``e0 >= e1 >= e2`` to ``(y0, y1, y2)``, all >= 0."""
-    if y2 > 0.0:
-        if y1 > 0.0:
-            if y0 > 0.0:
-                z0 = y0 / e0
-                z1 = y1 / e1
-                z2 = y2 / e2
+    z0 = y0 / e0
+    z1 = y1 / e1
+    z2 = y2 / e2
+    if z2 > 0.0:
+        if z1 > 0.0:
+            if z0 > 0.0:
                 g = z0 * z0 + z1 * z1 + z2 * z2 - 1.0
                 if g != 0.0:
                     r0 = (e0 / e2) * (e0 / e2)
                     r1 = (e1 / e2) * (e1 / e2)
-                    s = _ellipsoid_root(r0, r1, z0, z1, z2, g)
-                    return r0 * y0 / (s + r0), r1 * y1 / (s + r1), y2 / (s + 1.0)
+                    d0 = ((e0 - e2) / e2) * ((e0 + e2) / e2)
+                    d1 = ((e1 - e2) / e2) * ((e1 + e2) / e2)
+                    u = _root(r0, r1, d0, d1, z0, z1, z2, g)
+                    return r0 * y0 / (u + d0), r1 * y1 / (u + d1), y2 / u
                 return y0, y1, y2
             x1, x2 = _ellipse_closest(e1, e2, y1, y2)
             return 0.0, x1, x2
-        if y0 > 0.0:
+        if z0 > 0.0:
             x0, x2 = _ellipse_closest(e0, e2, y0, y2)
             return x0, 0.0, x2
         return 0.0, 0.0, e2
@@ -295,7 +323,7 @@ def _ellipsoid(a, b, c, x, y, z):
     dx = p[0] - qx
     dy = p[1] - qy
     dz = p[2] - qz
-    dist = math.sqrt(dx * dx + dy * dy + dz * dz)
+    dist = _norm(dx, dy, dz)
     inside = (x / a) ** 2 + (y / b) ** 2 + (z / c) ** 2 < 1.0
     nx, ny, nz = _unit_or(qx / (a * a), qy / (b * b), qz / (c * c), 0.0, 0.0, 1.0)
     phi = -dist if inside else dist
@@ -351,7 +379,7 @@ def _mesh(params, grid, x, y, z):
     ox = (gx - cx) * h
     oy = (gy - cy) * h
     oz = (gz - cz) * h
-    out = math.sqrt(ox * ox + oy * oy + oz * oz)
+    out = _norm(ox, oy, oz)
     if out > 0.0:
         return value + out, ox / out, oy / out, oz / out
     ux, uy, uz = _unit_or(dx, dy, dz, 0.0, 0.0, 1.0)

@@ -216,7 +216,13 @@ def test_ellipsoid_closest_point_is_stationary():
     """φ's closest point ``p − φ ∇φ`` lies on the ellipsoid and ∇φ is its normal there."""
     axes = np.array([3.0, 2.0, 1.0])
     solid = primitive_shape('ellipsoid', axes)
-    points = np.random.default_rng(SEED + 2).uniform(-4.0, 4.0, size=(2000, 3))
+    rng = np.random.default_rng(SEED + 2)
+    # Anywhere, and just off the medial disk z = 0 inside (where the closest point's z is
+    # y_z / (s + 1) with s + 1 tiny: an ill-conditioned quotient unless s + 1 is solved for).
+    near_medial = np.column_stack([rng.uniform(-1.5, 1.5, (500, 2)),
+                                   rng.uniform(-1e-12, 1e-12, 500)])
+    points = np.concatenate([rng.uniform(-4.0, 4.0, size=(2000, 3)), near_medial,
+                             rng.uniform(-1e-3, 1e-3, size=(500, 3))])
     values, grad = solid.signed_distance(points)
     closest = points - values[:, None] * grad
     # The ellipsoid's level value (x/a)² + ... is 1 to round-off (~1e-15 per term, with
@@ -256,6 +262,30 @@ def test_box_points_follow_the_documented_rule():
     # Denser at the edges: along the x edge at (y, z) = (0.25, 0.125) the spacing is s / 2.
     on_edge = box.points_b[(box.points_b[:, 1] == 0.25) & (box.points_b[:, 2] == 0.125)]
     np.testing.assert_allclose(np.diff(np.sort(on_edge[:, 0])), 0.125, atol=ROUND_OFF)
+
+
+@pytest.mark.parametrize('shape, dims', SHAPES)
+def test_extreme_points_give_finite_values_without_raising(shape, dims):
+    solid = primitive_shape(shape, dims)
+    high = solid.aabb_max_b
+    # Offsets whose squares underflow, subnormal coordinates, the origin, far away.
+    points = np.array([[high[0] + 1e-170, 0.0, 0.0], [high[0] + 1e-170, high[1] + 1e-170, 0.0],
+                       [1e-300, 1e-310, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 1e-320],
+                       [1e150, -1e150, 1e150], [0.0, high[1], 0.0]])
+    values, grad = solid.signed_distance(points)
+    assert np.all(np.isfinite(values)) and np.all(np.isfinite(grad))
+    np.testing.assert_allclose(np.linalg.norm(grad, axis=1), 1.0, rtol=0, atol=ROUND_OFF)
+
+
+@pytest.mark.parametrize('shape', ['box', 'cylinder'])
+def test_outside_gaps_whose_square_underflows_give_the_gap(shape):
+    """A gap of 1e-170 m from a 1e-160 m shape: its square (1e-340) underflows to 0."""
+    solid = primitive_shape(shape, [1e-160, 1e-160, 1e-160][:2 if shape == 'cylinder' else 3])
+    gap = 1e-170
+    value, grad = solid.signed_distance([solid.aabb_max_b[0] + gap, 0.0, 0.0])
+    # The coordinate 1e-160 + 1e-170 rounds at ~1e-176: the gap is exact to ~1e-6 relative.
+    assert value == pytest.approx(gap, rel=1e-5)
+    np.testing.assert_array_equal(grad, [1.0, 0.0, 0.0])
 
 
 def test_building_twice_gives_identical_bytes():
