@@ -292,6 +292,15 @@ def test_sdf_cache_hit_gives_identical_arrays_in_a_private_folder(cache, monkeyp
         mesh_shape(mesh.vertices, mesh.faces, sdf_cells=11)
 
 
+def test_an_existing_cache_folder_is_made_private(cache):
+    cache.mkdir(parents=True, mode=0o755)
+    os.chmod(cache, 0o755)
+    mesh = trimesh.creation.box(extents=[1.0, 1.0, 1.0])
+    mesh_shape(mesh.vertices, mesh.faces, sdf_cells=6)
+    assert stat.S_IMODE(os.stat(cache).st_mode) == 0o700
+    assert len(list(cache.glob('*.npz'))) == 1
+
+
 def test_a_corrupt_cache_file_is_rebuilt(cache):
     mesh = trimesh.creation.icosphere(subdivisions=1, radius=0.4)
     first = mesh_shape(mesh.vertices, mesh.faces, sdf_cells=10)
