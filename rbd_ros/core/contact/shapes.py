@@ -462,12 +462,17 @@ def _load_cached(path, key, counts):
 
 
 def _store(path, key, values):
+    """Write the grid to ``path`` atomically (a private temporary file, then a rename)."""
+    temporary = None
     try:
         with tempfile.NamedTemporaryFile(dir=path.parent, prefix='.tmp-', suffix='.npz',
                                          delete=False) as handle:
+            temporary = handle.name
             np.savez(handle, key=np.array(key), values=values)
-        os.replace(handle.name, path)
+        os.replace(temporary, path)
     except OSError as exc:
+        if temporary is not None and os.path.exists(temporary):
+            os.unlink(temporary)
         warnings.warn(f'SDF cache: cannot write {str(path)!r} ({exc})', RuntimeWarning,
                       stacklevel=3)
 
