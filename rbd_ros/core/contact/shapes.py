@@ -1,0 +1,681 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Collision shapes as data: surface points plus a signed distance φ, in the body frame.
+
+Following Guendelman, Bridson and Fedkiw (SIGGRAPH 2003), a body's collision geometry is a set
+of surface points and a signed distance function φ (negative inside).  A
+:class:`CollisionShape` packs both as plain numpy arrays for the compiled narrow phase:
+``kind`` and ``params`` select a closed form (see :mod:`rbd_ros.core.contact.kernels`), and a
+mesh adds its vertices, faces and an SDF grid sampled once (and cached on disk).
+
+Dimensions follow :func:`rbd_ros.core.inertia.from_shape`: box ``[x, y, z]`` full edge lengths;
+sphere ``[radius]``; cylinder and capsule ``[radius, length]`` along body z (capsule: the
+cylindrical part); ellipsoid ``[a, b, c]`` semi-axes.  Every primitive is centred on the body
+origin, which is the centre of mass for uniform density.  A mesh is moved so that its centre of
+mass is the body origin (``mesh_offset_m`` records the shift).
+
+Surface points (deterministic, no randomness): with a spacing ``s`` (``spacing_m``; by default
+1/8 of the largest extent of the shape's bounding box), smooth surfaces and flat faces are
+sampled about every ``s`` and sharp features more densely: every corner of a box, edges and
+rims every ``s / 2``.  Per kind:
+
+* box: the 8 corners; each edge of length ``L`` cut into ``ceil(2 L / s)`` equal parts; each
+  face an interior grid of ``ceil(Lu / s) × ceil(Lv / s)`` cells (interior nodes only).
+* sphere and ellipsoid: the 6 axis tips plus a Fibonacci lattice of ``max(12, ceil(A / s²))``
+  points (``A`` the area; Thomsen's approximation for the ellipsoid) mapped from the unit
+  sphere by ``diag(a, b, c)``.
+* cylinder: both rims at ``max(8, ceil(4π r / s))`` points; side rings every ``s`` with
+  ``max(8, ceil(2π r / s))`` points; each cap concentric rings every ``s`` and its centre.
+* capsule: the two poles; rings every ``s`` along the cylindrical part (both ends included)
+  and over the hemispheres (by polar angle), ``max(6, ceil(2π ρ / s))`` points on a ring of
+  radius ``ρ``.
+* Every ring's count is rounded up to a multiple of 4 and starts on the +x axis, so the
+  extreme points along x and y are sampled.
+* mesh: the vertices plus points on each edge every ``s / 2``.
+"""
+
+from dataclasses import dataclass
+import hashlib
+import math
+import numbers
+import os
+from pathlib import Path
+import tempfile
+import warnings
+import zipfile
+
+import numpy as np
+
+from rbd_ros.core.contact import kernels as k
+from rbd_ros.core.errors import ModelError
+from rbd_ros.core.inertia import from_shape, triangle_mesh
+
+__all__ = [
+    'CollisionShape', 'DEFAULT_SDF_CELLS', 'MAX_SDF_CELLS', 'PRIMITIVES', 'SDF_PAD_CELLS',
+    'collision_shape', 'load_mesh', 'mesh_shape', 'plane_shape', 'primitive_shape',
+    'sdf_cache_dir',
+]
+
+#: Shape names accepted by :func:`primitive_shape` (``spherical_shell`` has a sphere's surface).
+PRIMITIVES = ('box', 'sphere', 'spherical_shell', 'cylinder', 'capsule', 'ellipsoid')
+_KINDS = {'box': k.KIND_BOX, 'sphere': k.KIND_SPHERE, 'spherical_shell': k.KIND_SPHERE,
+          'cylinder': k.KIND_CYLINDER, 'capsule': k.KIND_CAPSULE,
+          'ellipsoid': k.KIND_ELLIPSOID}
+_DIM_NAMES = {'box': ('x', 'y', 'z'), 'sphere': ('radius',), 'spherical_shell': ('radius',),
+              'cylinder': ('radius', 'length'), 'capsule': ('radius', 'length'),
+              'ellipsoid': ('a', 'b', 'c')}
+
+#: SDF grid cells along the largest extent of a mesh's bounding box (spacing ``h = L / cells``).
+DEFAULT_SDF_CELLS = 64
+#: Largest ``sdf_cells`` accepted: a cube's grid then holds ~263³ nodes (145 MB of float64).
+MAX_SDF_CELLS = 256
+#: Empty cells of padding around the mesh's bounding box on every side of the SDF grid.
+SDF_PAD_CELLS = 3
+# Version of the SDF algorithm and cache file layout; part of the cache key.
+_SDF_VERSION = b'rbd_ros-sdf-1'
+# Smallest relative sizes accepted: a face of area <= 1e-12 L² or a volume <= 1e-12 L³ (L the
+# largest extent) is degenerate; float64 round-off on coordinates of size L is ~1e-16 L, so
+# real geometry is many orders of magnitude above these floors.
+_DEGENERATE_RTOL = 1e-12
+_GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))
+
+
+def _empty_grid():
+    return np.zeros((1, 1, 1))
+
+
+def _frozen(array, dtype=np.float64):
+    out = np.ascontiguousarray(np.array(array, dtype=dtype))
+    out.flags.writeable = False
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class CollisionShape:
+    """
+    One body's collision geometry in its body frame (m), as arrays a compiled kernel can read.
+
+    :param shape: ``'plane'``, a name of :data:`PRIMITIVES` or ``'mesh'``.
+    :param kind: the kernel's kind id (``kernels.KIND_*``).
+    :param params: float64 (``N_SHAPE_PARAM``,) closed-form parameters (see
+        :mod:`rbd_ros.core.contact.kernels`); for a mesh the grid origin and spacing.
+    :param dimensions_m: the dimensions as given (``from_shape`` convention); empty for a mesh
+        or a plane.
+    :param spacing_m: the surface point spacing ``s`` used (m).
+    :param points_b: (n, 3) surface points.
+    :param bounding_radius_m: radius about the body origin of a ball holding the whole shape
+        (``inf`` for a plane).
+    :param aabb_min_b: low corner of the body-axes bounding box (``-inf`` for a plane).
+    :param aabb_max_b: high corner.
+    :param vertices_b: (nv, 3) mesh vertices (empty for other kinds).
+    :param faces: (nf, 3) int64 vertex indices, counter-clockwise seen from outside.
+    :param grid: float64 (nx, ny, nz) exact signed distances at the nodes
+        ``params[0:3] + params[3] * (i, j, k)``; (1, 1, 1) zeros for other kinds.
+    :param mesh_offset_m: the mesh's centre of mass in the coordinates of its source (scaled),
+        so ``x_source = x_b + mesh_offset_m``; zeros for other kinds.
+
+    Values are built by :func:`primitive_shape`, :func:`mesh_shape`, :func:`load_mesh` or
+    :func:`plane_shape`, which validate their input; the arrays are read-only.
+    """
+
+    shape: str
+    kind: int
+    params: np.ndarray
+    dimensions_m: np.ndarray
+    spacing_m: float
+    points_b: np.ndarray
+    bounding_radius_m: float
+    aabb_min_b: np.ndarray
+    aabb_max_b: np.ndarray
+    vertices_b: np.ndarray
+    faces: np.ndarray
+    grid: np.ndarray
+    mesh_offset_m: np.ndarray
+
+    def __eq__(self, other):
+        if not isinstance(other, CollisionShape):
+            return NotImplemented
+        return all(np.array_equal(getattr(self, f), getattr(other, f))
+                   for f in self.__dataclass_fields__)
+
+    __hash__ = None
+
+    def __repr__(self):
+        if self.kind == k.KIND_MESH:
+            detail = (f'vertices={self.vertices_b.shape[0]}, faces={self.faces.shape[0]}, '
+                      f'grid={self.grid.shape}, h={float(self.params[3]):.6g} m')
+        elif self.kind == k.KIND_PLANE:
+            detail = f'normal={self.params[:3].tolist()}, offset_m={float(self.params[3])!r}'
+        else:
+            detail = f'dimensions_m={self.dimensions_m.tolist()}'
+        return f'CollisionShape({self.shape!r}, {detail}, points={self.points_b.shape[0]})'
+
+    def signed_distance(self, points_b):
+        """
+        Return ``(phi, grad)``: φ (n,) in m and the unit gradient ∇φ (n, 3) at ``points_b``.
+
+        :param points_b: (n, 3) or (3,) points in body coordinates, m.
+        """
+        points = np.ascontiguousarray(np.asarray(points_b, dtype=np.float64))
+        single = points.ndim == 1
+        points = points.reshape(-1, 3)
+        phi = np.empty(points.shape[0])
+        grad = np.empty((points.shape[0], 3))
+        k.phi_grad_many(self.kind, self.params, self.grid, points, phi, grad)
+        if single:
+            return phi[0], grad[0]
+        return phi, grad
+
+    def mass_properties(self, mass_kg):
+        """
+        Return the uniform-density mass properties of this solid of mass ``mass_kg``.
+
+        Primitives use :func:`rbd_ros.core.inertia.from_shape`, meshes the exact polyhedral
+        integrals :func:`rbd_ros.core.inertia.triangle_mesh` (COM at the origin up to
+        round-off, as the mesh was centred).
+        """
+        if self.kind == k.KIND_MESH:
+            return triangle_mesh(self.vertices_b, self.faces, mass_kg=mass_kg)
+        if self.kind == k.KIND_PLANE:
+            raise ModelError('shape: a plane is static; it has no mass properties')
+        return from_shape(self.shape, self.dimensions_m, mass_kg)
+
+
+def _params(*values):
+    out = np.zeros(k.N_SHAPE_PARAM)
+    out[:len(values)] = values
+    return out
+
+
+def _spacing(spacing_m, extent, field):
+    """Return the surface point spacing: ``spacing_m`` checked, or ``extent / 8``."""
+    if spacing_m is None:
+        return extent / 8.0
+    if isinstance(spacing_m, bool) or not isinstance(spacing_m, (numbers.Real, np.number)):
+        raise ModelError(f'{field}spacing_m: {spacing_m!r} is not a length in m')
+    value = float(spacing_m)
+    if not (math.isfinite(value) and value > 0.0):
+        raise ModelError(f'{field}spacing_m: {value!r} m must be finite and > 0')
+    if value < extent * 1e-3:
+        raise ModelError(
+            f'{field}spacing_m: {value!r} m is below 1e-3 of the extent {extent!r} m '
+            '(over ~1e6 surface points)')
+    return value
+
+
+def _ring(radius, z, count):
+    """``count`` rounded up to a multiple of 4 points on a circle, starting on the x axis."""
+    count = 4 * math.ceil(count / 4)
+    angle = 2.0 * math.pi * np.arange(count) / count
+    return np.column_stack([radius * np.cos(angle), radius * np.sin(angle),
+                            np.full(count, float(z))])
+
+
+def _fibonacci(count):
+    """``count`` points on the unit sphere, a Fibonacci lattice (deterministic)."""
+    i = np.arange(count, dtype=np.float64)
+    z = 1.0 - (2.0 * i + 1.0) / count
+    rho = np.sqrt(np.maximum(1.0 - z * z, 0.0))
+    angle = i * _GOLDEN_ANGLE
+    return np.column_stack([rho * np.cos(angle), rho * np.sin(angle), z])
+
+
+def _box_points(half, s):
+    pts = [np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)],
+                    dtype=np.float64) * half]
+    for axis in range(3):
+        a, b = [m for m in range(3) if m != axis]
+        parts = math.ceil(4.0 * half[axis] / s)
+        t = -half[axis] + 2.0 * half[axis] * np.arange(1, parts) / parts
+        for sa in (-1.0, 1.0):
+            for sb in (-1.0, 1.0):
+                edge = np.zeros((t.size, 3))
+                edge[:, axis] = t
+                edge[:, a] = sa * half[a]
+                edge[:, b] = sb * half[b]
+                pts.append(edge)
+        nu = math.ceil(2.0 * half[a] / s)
+        nv = math.ceil(2.0 * half[b] / s)
+        u = -half[a] + 2.0 * half[a] * np.arange(1, nu) / nu
+        v = -half[b] + 2.0 * half[b] * np.arange(1, nv) / nv
+        uu, vv = np.meshgrid(u, v, indexing='ij')
+        for sign in (-1.0, 1.0):
+            face = np.zeros((uu.size, 3))
+            face[:, a] = uu.ravel()
+            face[:, b] = vv.ravel()
+            face[:, axis] = sign * half[axis]
+            pts.append(face)
+    return np.concatenate(pts)
+
+
+def _cylinder_points(r, hl, s):
+    rim = max(8, math.ceil(4.0 * math.pi * r / s))
+    side = max(8, math.ceil(2.0 * math.pi * r / s))
+    pts = [_ring(r, -hl, rim), _ring(r, hl, rim)]
+    parts = math.ceil(2.0 * hl / s)
+    for z in -hl + 2.0 * hl * np.arange(1, parts) / parts:
+        pts.append(_ring(r, z, side))
+    rings = math.ceil(r / s)
+    for z in (-hl, hl):
+        pts.append(np.array([[0.0, 0.0, z]]))
+        for rho in r * np.arange(1, rings) / rings:
+            pts.append(_ring(rho, z, max(6, math.ceil(2.0 * math.pi * rho / s))))
+    return np.concatenate(pts)
+
+
+def _capsule_points(r, hl, s):
+    side = max(6, math.ceil(2.0 * math.pi * r / s))
+    parts = math.ceil(2.0 * hl / s)
+    pts = [_ring(r, z, side) for z in -hl + 2.0 * hl * np.arange(parts + 1) / parts]
+    polar = max(2, math.ceil(0.5 * math.pi * r / s))
+    for sign in (-1.0, 1.0):
+        pts.append(np.array([[0.0, 0.0, sign * (hl + r)]]))
+        for theta in 0.5 * math.pi * np.arange(1, polar) / polar:
+            rho = r * math.sin(theta)
+            pts.append(_ring(rho, sign * (hl + r * math.cos(theta)),
+                             max(6, math.ceil(2.0 * math.pi * rho / s))))
+    return np.concatenate(pts)
+
+
+def _ellipsoid_points(axes, s):
+    a, b, c = axes
+    p = 1.6075  # Knud Thomsen's approximation of the area, within 1.061 %
+    area = 4.0 * math.pi * (((a * b) ** p + (a * c) ** p + (b * c) ** p) / 3.0) ** (1.0 / p)
+    count = max(12, math.ceil(area / (s * s)))
+    tips = np.vstack([np.diag(axes), -np.diag(axes)])
+    return np.concatenate([tips, _fibonacci(count) * axes])
+
+
+def _check_dimensions(shape, dimensions_m, field):
+    names = _DIM_NAMES[shape]
+    expected = '[' + ', '.join(names) + ']'
+    try:
+        dims = np.array(dimensions_m, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise ModelError(
+            f'{field}dimensions_m: {dimensions_m!r} is not a list of lengths in m '
+            f'({shape!r} needs {expected})') from None
+    if dims.size != len(names):
+        raise ModelError(
+            f'{field}dimensions_m: {dims.tolist()} m has {dims.size} values; shape {shape!r} '
+            f'needs {len(names)}: {expected}')
+    bad = ~(np.isfinite(dims) & (dims > 0.0))
+    if np.any(bad):
+        i = int(np.flatnonzero(bad)[0])
+        raise ModelError(
+            f'{field}dimensions_m: {dims.tolist()} m for shape {shape!r} {expected}: '
+            f'{names[i]} = {float(dims[i])!r} m must be finite and > 0')
+    return dims
+
+
+def primitive_shape(shape, dimensions_m, spacing_m=None, field=''):
+    """
+    Return the :class:`CollisionShape` of a primitive centred at the body origin.
+
+    :param shape: one of :data:`PRIMITIVES`.
+    :param dimensions_m: as :func:`rbd_ros.core.inertia.from_shape`.
+    :param spacing_m: surface point spacing (m), or None for 1/8 of the largest extent.
+    :param field: prefix of the field names in error messages, e.g. ``'obstacles.ramp.'``.
+    :raises ModelError: naming ``<field>shape``, ``<field>dimensions_m`` or
+        ``<field>spacing_m``, the value, the unit and the rule.
+    """
+    if shape not in _KINDS:
+        raise ModelError(
+            f'{field}shape: {shape!r} is not one of {", ".join(PRIMITIVES + ("mesh",))}')
+    dims = _check_dimensions(shape, dimensions_m, field)
+    kind = _KINDS[shape]
+    if kind == k.KIND_BOX:
+        half = 0.5 * dims
+        params = _params(*half)
+        high = half
+        radius = float(np.linalg.norm(half))
+    elif kind == k.KIND_SPHERE:
+        params = _params(dims[0])
+        high = np.full(3, dims[0])
+        radius = float(dims[0])
+    elif kind in (k.KIND_CYLINDER, k.KIND_CAPSULE):
+        r, hl = float(dims[0]), 0.5 * float(dims[1])
+        params = _params(r, hl)
+        if kind == k.KIND_CYLINDER:
+            high = np.array([r, r, hl])
+            radius = math.hypot(r, hl)
+        else:
+            high = np.array([r, r, hl + r])
+            radius = hl + r
+    else:
+        params = _params(*dims)
+        high = dims.copy()
+        radius = float(dims.max())
+    s = _spacing(spacing_m, 2.0 * float(high.max()), field)
+    if kind == k.KIND_BOX:
+        points = _box_points(high, s)
+    elif kind == k.KIND_SPHERE:
+        points = _ellipsoid_points(np.full(3, dims[0]), s)
+    elif kind == k.KIND_CYLINDER:
+        points = _cylinder_points(params[0], params[1], s)
+    elif kind == k.KIND_CAPSULE:
+        points = _capsule_points(params[0], params[1], s)
+    else:
+        points = _ellipsoid_points(dims, s)
+    return CollisionShape(
+        shape=shape, kind=kind, params=_frozen(params), dimensions_m=_frozen(dims),
+        spacing_m=s, points_b=_frozen(points), bounding_radius_m=radius,
+        aabb_min_b=_frozen(-high), aabb_max_b=_frozen(high),
+        vertices_b=_frozen(np.zeros((0, 3))), faces=_frozen(np.zeros((0, 3)), np.int64),
+        grid=_frozen(_empty_grid()), mesh_offset_m=_frozen(np.zeros(3)))
+
+
+def plane_shape(normal, offset_m, field=''):
+    """
+    Return the half-space ``n·x <= offset_m`` as a :class:`CollisionShape` (φ = n·x − d).
+
+    :param normal: 3 finite numbers, not all zero; normalised to a unit vector (the outward
+        normal, pointing out of the solid half-space).
+    :param offset_m: signed distance of the plane from the origin along ``n``, m.
+    :raises ModelError: naming ``<field>normal`` or ``<field>offset_m``.
+    """
+    try:
+        n = np.array(normal, dtype=np.float64).reshape(3)
+    except (TypeError, ValueError):
+        raise ModelError(f'{field}normal: {normal!r} is not 3 numbers (a direction)') from None
+    norm = float(np.linalg.norm(n))
+    if not (np.all(np.isfinite(n)) and norm > 0.0):
+        raise ModelError(
+            f'{field}normal: {n.tolist()} must be finite and non-zero (a direction)')
+    if (isinstance(offset_m, bool) or not isinstance(offset_m, (numbers.Real, np.number))
+            or not math.isfinite(float(offset_m))):
+        raise ModelError(f'{field}offset_m: {offset_m!r} m must be a finite number')
+    n = n / norm
+    inf = np.full(3, np.inf)
+    return CollisionShape(
+        shape='plane', kind=k.KIND_PLANE, params=_frozen(_params(*n, float(offset_m))),
+        dimensions_m=_frozen(np.zeros(0)), spacing_m=math.inf,
+        points_b=_frozen(np.zeros((0, 3))), bounding_radius_m=math.inf,
+        aabb_min_b=_frozen(-inf), aabb_max_b=_frozen(inf),
+        vertices_b=_frozen(np.zeros((0, 3))), faces=_frozen(np.zeros((0, 3)), np.int64),
+        grid=_frozen(_empty_grid()), mesh_offset_m=_frozen(np.zeros(3)))
+
+
+# ---------------------------------------------------------------------------------------------
+# Meshes
+
+
+def sdf_cache_dir():
+    """Return the SDF cache folder: ``$XDG_CACHE_HOME/rbd_ros/sdf`` or ``~/.cache/rbd_ros/sdf``."""
+    base = os.environ.get('XDG_CACHE_HOME') or os.path.join(os.path.expanduser('~'), '.cache')
+    return Path(base) / 'rbd_ros' / 'sdf'
+
+
+def _private_dir(path):
+    """Create ``path`` (and missing parents, mode 0700); return it if it is ours, else None."""
+    try:
+        for folder in reversed((path,) + tuple(path.parents)):
+            if not folder.exists():
+                folder.mkdir(mode=0o700)
+        info = path.stat()
+        if info.st_uid != os.getuid():
+            warnings.warn(f'SDF cache {str(path)!r} belongs to another user; not used',
+                          RuntimeWarning, stacklevel=3)
+            return None
+        if info.st_mode & 0o777 != 0o700:
+            path.chmod(0o700)
+    except OSError as exc:
+        warnings.warn(f'SDF cache {str(path)!r} is not usable ({exc}); building without it',
+                      RuntimeWarning, stacklevel=3)
+        return None
+    return path
+
+
+def _sdf_key(vertices, faces, origin, h, counts):
+    digest = hashlib.sha256(_SDF_VERSION)
+    for array in (vertices.astype('<f8'), faces.astype('<i8'), origin.astype('<f8'),
+                  np.array([h], '<f8'), np.array(counts, '<i8')):
+        digest.update(str(array.shape).encode())
+        digest.update(np.ascontiguousarray(array).tobytes())
+    return digest.hexdigest()
+
+
+def _load_cached(path, key, counts):
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            if str(data['key']) != key:
+                return None
+            values = np.array(data['values'], dtype=np.float64)
+    except (OSError, KeyError, ValueError, EOFError, zipfile.BadZipFile):
+        return None  # missing or damaged: rebuilt and rewritten
+    if values.shape != tuple(counts) or not np.all(np.isfinite(values)):
+        return None
+    return values
+
+
+def _store(path, key, values):
+    """Write the grid to ``path`` atomically (a private temporary file, then a rename)."""
+    temporary = None
+    try:
+        with tempfile.NamedTemporaryFile(dir=path.parent, prefix='.tmp-', suffix='.npz',
+                                         delete=False) as handle:
+            temporary = handle.name
+            np.savez(handle, key=np.array(key), values=values)
+        os.replace(temporary, path)
+    except OSError as exc:
+        if temporary is not None and os.path.exists(temporary):
+            os.unlink(temporary)
+        warnings.warn(f'SDF cache: cannot write {str(path)!r} ({exc})', RuntimeWarning,
+                      stacklevel=3)
+
+
+def _sdf_grid(vertices, faces, cells, cache_dir):
+    """Return ``(origin, h, values)`` of the mesh's SDF grid, from the cache when present."""
+    low = vertices.min(axis=0)
+    extent = vertices.max(axis=0) - low
+    h = float(extent.max()) / cells
+    counts = tuple(int(math.ceil(e / h)) + 1 + 2 * SDF_PAD_CELLS for e in extent)
+    origin = low - SDF_PAD_CELLS * h
+    key = _sdf_key(vertices, faces, origin, h, counts)
+    folder = None if cache_dir is False else _private_dir(
+        sdf_cache_dir() if cache_dir is None else Path(cache_dir))
+    if folder is not None:
+        values = _load_cached(folder / f'{key}.npz', key, counts)
+        if values is not None:
+            return origin, h, values
+    values = np.zeros(counts)
+    k.build_sdf(vertices, faces, origin, h, values)
+    if folder is not None:
+        _store(folder / f'{key}.npz', key, values)
+    return origin, h, values
+
+
+def _mesh_points(vertices, faces, s):
+    edges = np.unique(np.sort(faces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1), axis=0)
+    a, b = vertices[edges[:, 0]], vertices[edges[:, 1]]
+    parts = np.ceil(2.0 * np.linalg.norm(b - a, axis=1) / s).astype(np.int64)
+    pts = [vertices]
+    for e in np.flatnonzero(parts > 1):
+        t = np.arange(1, parts[e])[:, None] / parts[e]
+        pts.append(a[e] + t * (b[e] - a[e]))
+    return np.concatenate(pts)
+
+
+def _check_mesh(mesh, where, field):
+    """Refuse open, inconsistently wound, degenerate, inverted or self-intersecting meshes."""
+    vertices = np.asarray(mesh.vertices, dtype=np.float64)
+    faces = np.asarray(mesh.faces, dtype=np.int64)
+    if faces.shape[0] < 4 or vertices.shape[0] < 4:
+        raise ModelError(
+            f'{where}: has {faces.shape[0]} faces and {vertices.shape[0]} vertices; a closed '
+            'mesh needs at least 4 of each')
+    if not np.all(np.isfinite(vertices)):
+        raise ModelError(f'{where}: has non-finite vertex coordinates')
+    extent = float((vertices.max(axis=0) - vertices.min(axis=0)).max())
+    area = 0.5 * np.linalg.norm(np.cross(vertices[faces[:, 1]] - vertices[faces[:, 0]],
+                                         vertices[faces[:, 2]] - vertices[faces[:, 0]]), axis=1)
+    if not extent > 0.0 or np.any(area <= _DEGENERATE_RTOL * extent * extent):
+        bad = int(np.argmin(area))
+        raise ModelError(
+            f'{where}: face {bad} has area {float(area[bad]):.6g} m², degenerate (<= '
+            f'{_DEGENERATE_RTOL:g} × extent²; extent {extent:.6g} m)')
+    if not mesh.is_watertight:
+        raise ModelError(
+            f'{where}: the mesh is open (not watertight): some edge is not shared by exactly '
+            'two faces')
+    if not mesh.is_winding_consistent:
+        raise ModelError(
+            f'{where}: inconsistent winding: adjacent faces disagree on orientation')
+    corners = (vertices - vertices.mean(axis=0))[faces]  # centred: no cancellation far out
+    volume = float(np.einsum('ij,ij->', corners[:, 0],
+                             np.cross(corners[:, 1], corners[:, 2]))) / 6.0
+    if abs(volume) <= _DEGENERATE_RTOL * extent ** 3:
+        raise ModelError(f'{where}: encloses volume {volume:.6g} m³; it must be > 0')
+    if volume < 0.0:
+        raise ModelError(
+            f'{where}: encloses volume {volume:.6g} m³ < 0: the faces are wound clockwise seen '
+            'from outside (normals point in)')
+    low = np.stack([vertices[faces[:, m]] for m in range(3)]).min(axis=0)
+    high = np.stack([vertices[faces[:, m]] for m in range(3)]).max(axis=0)
+    order = np.argsort(low[:, 0], kind='stable').astype(np.int64)
+    s, t = k.first_self_intersection(vertices, faces, order, low, high)
+    if s >= 0:
+        raise ModelError(f'{where}: self-intersecting: faces {s} and {t} cross each other')
+    return vertices, faces
+
+
+def _check_cells(sdf_cells, field):
+    if (isinstance(sdf_cells, bool) or not isinstance(sdf_cells, (numbers.Integral, np.integer))
+            or not 4 <= sdf_cells <= MAX_SDF_CELLS):
+        raise ModelError(
+            f'{field}sdf_cells: {sdf_cells!r} must be an integer in [4, {MAX_SDF_CELLS}]')
+    return int(sdf_cells)
+
+
+def _mesh_from_trimesh(mesh, where, field, spacing_m, sdf_cells, centre, cache_dir):
+    cells = _check_cells(sdf_cells, field)
+    vertices, faces = _check_mesh(mesh, where, field)
+    offset = np.zeros(3)
+    if centre:
+        offset = triangle_mesh(vertices, faces, density=1.0).com_b
+        vertices = vertices - offset
+    vertices = np.ascontiguousarray(vertices)
+    faces = np.ascontiguousarray(faces)
+    low = vertices.min(axis=0)
+    high = vertices.max(axis=0)
+    s = _spacing(spacing_m, float((high - low).max()), field)
+    origin, h, values = _sdf_grid(vertices, faces, cells, cache_dir)
+    return CollisionShape(
+        shape='mesh', kind=k.KIND_MESH, params=_frozen(_params(*origin, h)),
+        dimensions_m=_frozen(np.zeros(0)), spacing_m=s,
+        points_b=_frozen(_mesh_points(vertices, faces, s)),
+        bounding_radius_m=float(np.linalg.norm(vertices, axis=1).max()),
+        aabb_min_b=_frozen(low), aabb_max_b=_frozen(high), vertices_b=_frozen(vertices),
+        faces=_frozen(faces, np.int64), grid=_frozen(values), mesh_offset_m=_frozen(offset))
+
+
+def _trimesh():
+    import trimesh  # imported on first use: a mesh library is only needed for meshes
+    return trimesh
+
+
+def mesh_shape(vertices, faces, spacing_m=None, sdf_cells=DEFAULT_SDF_CELLS, centre=True,
+               field='', cache_dir=None):
+    """
+    Return the :class:`CollisionShape` of a closed triangle mesh given as arrays (m).
+
+    :param vertices: (n, 3) m.
+    :param faces: (m, 3) integer vertex indices, counter-clockwise seen from outside.
+    :param spacing_m: surface point spacing (m), or None for 1/8 of the largest extent.
+    :param sdf_cells: SDF grid cells along the largest extent (the error bound of φ is
+        ``(√3 / 2) h`` with ``h = extent / sdf_cells``).
+    :param centre: move the mesh so its centre of mass is the body origin.
+    :param field: prefix of the field names in error messages.
+    :param cache_dir: SDF cache folder; None for :func:`sdf_cache_dir`, False for no cache.
+    :raises ModelError: naming ``<field>vertices``/``<field>faces`` for a bad array, or the
+        mesh (``<field>mesh``) and why it is refused: open, inconsistently wound, degenerate,
+        zero or negative volume, self-intersecting.
+    """
+    try:
+        verts = np.array(vertices, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ModelError(f'{field}vertices: {vertices!r} is not an (n, 3) array in m') from None
+    tris = np.asarray(faces)
+    if verts.ndim != 2 or verts.shape[1] != 3:
+        raise ModelError(f'{field}vertices: shape {verts.shape} must be (n, 3) (m)')
+    if (tris.ndim != 2 or tris.shape[1] != 3 or not np.issubdtype(tris.dtype, np.integer)
+            or (tris.size and (tris.min() < 0 or tris.max() >= verts.shape[0]))):
+        raise ModelError(
+            f'{field}faces: shape {tris.shape}, dtype {tris.dtype} must be (m, 3) integer '
+            f'indices in [0, {verts.shape[0] - 1}]')
+    mesh = _trimesh().Trimesh(vertices=verts, faces=tris.astype(np.int64), process=False)
+    return _mesh_from_trimesh(mesh, f'{field}mesh', field, spacing_m, sdf_cells, centre,
+                              cache_dir)
+
+
+def _check_scale(mesh_scale, field):
+    try:
+        scale = np.array(mesh_scale, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise ModelError(
+            f'{field}mesh_scale: {mesh_scale!r} is not 3 positive scale factors') from None
+    if scale.size != 3 or not np.all(np.isfinite(scale) & (scale > 0.0)):
+        raise ModelError(
+            f'{field}mesh_scale: {scale.tolist()} must be 3 finite factors > 0 (x, y, z)')
+    return scale
+
+
+def load_mesh(mesh_path, mesh_scale=(1.0, 1.0, 1.0), spacing_m=None,
+              sdf_cells=DEFAULT_SDF_CELLS, centre=True, field='', cache_dir=None):
+    """
+    Load a closed triangle mesh from a file (STL, OBJ, or another format trimesh reads).
+
+    The file is read by ``trimesh.load(path, force='mesh')`` (duplicate vertices merged, so an
+    STL triangle soup becomes an indexed mesh); its coordinates, in metres, are multiplied by
+    ``mesh_scale`` per axis, and the result goes through :func:`mesh_shape`'s checks.
+
+    :raises ModelError: naming ``<field>mesh_path`` and the path when the file is missing,
+        unreadable, holds no triangles, or is refused by the mesh checks; naming
+        ``<field>mesh_scale`` when it is not 3 finite factors > 0.
+    """
+    scale = _check_scale(mesh_scale, field)
+    if not isinstance(mesh_path, (str, os.PathLike)) or str(mesh_path) == '':
+        raise ModelError(f'{field}mesh_path: {mesh_path!r} is not a file path')
+    where = f'{field}mesh_path: {str(mesh_path)!r}'
+    path = Path(mesh_path)
+    if not path.is_file():
+        raise ModelError(f'{where} does not exist or is not a file')
+    try:
+        mesh = _trimesh().load(str(path), force='mesh')
+    except Exception as exc:  # trimesh raises many exception types for a bad file
+        reason = (str(exc).splitlines() or [type(exc).__name__])[0]
+        raise ModelError(f'{where} is not a readable mesh ({reason})') from None
+    faces = getattr(mesh, 'faces', None)
+    if faces is None or len(faces) == 0:
+        raise ModelError(f'{where} holds no triangles')
+    mesh = _trimesh().Trimesh(vertices=np.asarray(mesh.vertices, dtype=np.float64) * scale,
+                              faces=np.asarray(mesh.faces, dtype=np.int64), process=False)
+    return _mesh_from_trimesh(mesh, where, field, spacing_m, sdf_cells, centre, cache_dir)
+
+
+def collision_shape(shape, dimensions_m=None, mesh_path=None, mesh_scale=(1.0, 1.0, 1.0),
+                    spacing_m=None, sdf_cells=DEFAULT_SDF_CELLS, field='', cache_dir=None):
+    """
+    Return a :class:`CollisionShape` from parameters: a primitive, or ``'mesh'`` from a file.
+
+    :param shape: one of :data:`PRIMITIVES` (with ``dimensions_m``) or ``'mesh'`` (with
+        ``mesh_path`` and ``mesh_scale``).
+    :raises ModelError: as :func:`primitive_shape` and :func:`load_mesh`.
+    """
+    if shape == 'mesh':
+        return load_mesh(mesh_path, mesh_scale, spacing_m, sdf_cells, field=field,
+                         cache_dir=cache_dir)
+    return primitive_shape(shape, dimensions_m, spacing_m, field)
