@@ -70,9 +70,30 @@ def test_rejections_are_counted_by_reason_and_change_nothing(frame_id, force, to
     assert np.array_equal(s.state.linear_velocity_w, [0.0, 0.0, 0.0])
 
 
-def test_limits_are_inclusive():
+@pytest.mark.parametrize('max_force_n, max_torque_nm', [(10.0, 5.0), (9.9, 4.9), (1e-3, 3e-3)])
+def test_limits_are_inclusive(max_force_n, max_torque_nm):
+    s = session(max_force_n=max_force_n, max_torque_nm=max_torque_nm)
+    # |(0, -f, 0)| is f exactly, so these are exactly at the limits: accepted, and applied.
+    force, torque = (0.0, -max_force_n, 0.0), (0.0, 0.0, max_torque_nm)
+    wrench = s.submit('wrench', 'world', force, torque)
+    assert np.array_equal(wrench.force, force) and np.array_equal(wrench.torque, torque)
+    assert s.inputs.rejected_total == 0 and s.inputs.has_pending
+    s.advance(1)
+    assert s.inputs.held['wrench'][1].force[1] == -max_force_n   # (t_effect_ns, wrench)
+    assert s.state.linear_velocity_w[1] < 0.0   # it pushed (m = 1 kg, one step)
+    # The next float beyond either limit is refused, by the reason of that limit.
+    for reason, force, torque in (
+            ('force_limit', (0.0, -np.nextafter(max_force_n, np.inf), 0.0), (0.0, 0.0, 0.0)),
+            ('torque_limit', (0.0, 0.0, 0.0), (0.0, 0.0, np.nextafter(max_torque_nm, np.inf)))):
+        with pytest.raises(WrenchRejected) as info:
+            s.submit('wrench', 'world', force, torque)
+        assert info.value.reason == reason
+        assert s.inputs.rejected[reason] == 1
+    assert s.inputs.rejected_total == 2 and s.inputs.received_total == 3
+    # (6, 8, 0) has the norm 10 exactly in floating point too: on the limit, accepted.
     s = session(max_force_n=10.0, max_torque_nm=5.0)
-    s.submit('wrench', 'world', (6.0, 8.0, 0.0), (0.0, 3.0, 4.0))  # exactly at the limits
+    s.submit('wrench', 'world', (6.0, 8.0, 0.0), (0.0, 3.0, 4.0))
+    assert s.inputs.rejected_total == 0 and s.inputs.has_pending
 
 
 def test_unknown_input_is_rejected():
