@@ -19,7 +19,7 @@ import math
 import numpy as np
 import pytest
 from rbd_ros.config import NodeConfig
-from rbd_ros.core import AppliedWrench, BodyState, Simulator
+from rbd_ros.core import AppliedWrench, BodyState, ConvergenceError, Simulator
 from rbd_ros.inputs import WrenchRejected
 from rbd_ros.session import SimSession
 
@@ -232,3 +232,17 @@ def test_non_finite_step_pauses_the_session_with_a_message():
     parts = (state.position_w, state.orientation_wb, state.linear_velocity_w,
              state.angular_velocity_b)
     assert all(np.isfinite(v).all() for v in parts)
+
+
+def test_a_too_large_step_for_the_spin_pauses_the_session_and_names_h_omega():
+    # The T-handle spun at 10 rad/s with 1 s steps: h|ω| ≈ 10 rad, beyond what the implicit
+    # midpoint solve of the default integrator converges for. The step is refused, the session
+    # pauses, and its error (what /diagnostics and the log show) says why and what to change.
+    s = session(inertia=[0.0010, 0.0030, 0.0038, 0.0, 0.0, 0.0], timestep_s=1.0,
+                initial_angular_velocity=[0.1, 10.0, 0.2])
+    with pytest.raises(ConvergenceError):
+        s.advance(1)
+    assert s.paused and s.time_ns == 0
+    assert 'did not converge' in s.error and 'h|ω| = 10 rad' in s.error
+    assert 'smaller timestep_s' in s.error
+    assert np.array_equal(s.state.angular_velocity_b, [0.1, 10.0, 0.2])
