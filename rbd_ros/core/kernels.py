@@ -680,8 +680,9 @@ def midpoint_solve_check(x, prm, ld, i, j, h):
     ``h |Π| |ω|`` of the solve's gyroscopic term is not finite, it reports converged (the
     step is then refused as plainly non-finite).
     """
-    vh = math.exp(-0.5 * h * prm[23, j]) if prm[23, j] != 0.0 or prm[24, j] != 0.0 else 1.0
-    wh = math.exp(-0.5 * h * prm[24, j]) if prm[23, j] != 0.0 or prm[24, j] != 0.0 else 1.0
+    # e^{-0} is exactly 1.0 and x * 1.0 == x: the same numbers as step_body, damped or not.
+    vh = math.exp(-0.5 * h * prm[23, j])
+    wh = math.exp(-0.5 * h * prm[24, j])
     _, _, _, lx, ly, lz = _midpoint_first_kick(
         prm, ld, i, j, h, x[0, i], x[1, i], x[2, i], x[3, i], x[4, i], x[5, i], x[6, i],
         x[7, i] * vh, x[8, i] * vh, x[9, i] * vh, x[10, i] * wh, x[11, i] * wh, x[12, i] * wh)
