@@ -38,6 +38,7 @@ from rbd_ros.core.rotations import quat_log, quat_to_matrix
 from rbd_ros.recording import open_bag, run_on_bag
 
 _NS_PER_S = 1e9
+SAVE_DPI = 90
 
 
 def _vec(msg):
@@ -162,8 +163,16 @@ def _conserved_scale(ax):
                 fontsize=8)
 
 
-def render(bag, out_path, title=None):
-    """Render the recording ``bag`` (opened or a path) to the PNG ``out_path``."""
+def draw(bag, title=None):
+    """
+    Draw the recording ``bag`` (opened or a path) into a new matplotlib figure.
+
+    :returns: ``(figure, panels)``; ``panels`` lists the eight panels in reading order, each a
+        dict with ``title``, ``box`` (its axes as figure fractions ``(x0, y0, x1, y1)``, origin
+        bottom left, as laid out for saving), ``lines`` (label -> ``(x, y)`` arrays of every
+        curve drawn, x in sim seconds) and ``note`` (the text drawn instead of curves, or None).
+        The caller closes the figure (``matplotlib.pyplot.close``).
+    """
     import matplotlib
     matplotlib.use('Agg')
     from matplotlib import pyplot as plt
@@ -191,7 +200,9 @@ def render(bag, out_path, title=None):
     lines(axes[3], data['omega_b'], 'angular velocity ω_b (body)', 'rad/s')
 
     t_end = float(t[-1]) if len(t) else 0.0
-    for ax, index, what, unit in ((axes[4], 1, 'force', 'N'), (axes[5], 2, 'torque', 'N·m')):
+    notes = [None] * len(axes)
+    for panel, index, what, unit in ((4, 1, 'force', 'N'), (5, 2, 'torque', 'N·m')):
+        ax = axes[panel]
         drawn = False
         for topic, samples in sorted(data['wrenches'].items()):
             if not samples:
@@ -206,8 +217,8 @@ def render(bag, out_path, title=None):
         if drawn:
             ax.legend(fontsize=7, loc='best', ncol=2)
         else:
-            ax.text(0.5, 0.5, 'no wrench recorded', ha='center', va='center',
-                    transform=ax.transAxes)
+            notes[panel] = 'no wrench recorded'
+            ax.text(0.5, 0.5, notes[panel], ha='center', va='center', transform=ax.transAxes)
 
     model = data['model']
     if model is not None and len(t):
@@ -223,11 +234,11 @@ def render(bag, out_path, title=None):
             axes[6].plot(t, kinetic + potential, label='kinetic + potential', linewidth=1.2)
         axes[6].legend(fontsize=8, loc='best')
         momentum = np.linalg.norm(w @ inertia_b.T, axis=1)
-        axes[7].plot(t, momentum, color='tab:purple', linewidth=1.2)
+        axes[7].plot(t, momentum, color='tab:purple', linewidth=1.2, label='|L|')
     else:
-        for ax in axes[6:]:
-            ax.text(0.5, 0.5, 'no body model in the recording', ha='center', va='center',
-                    transform=ax.transAxes)
+        for k, ax in enumerate(axes[6:], 6):
+            notes[k] = 'no body model in the recording'
+            ax.text(0.5, 0.5, notes[k], ha='center', va='center', transform=ax.transAxes)
     for ax in axes[6:]:
         _conserved_scale(ax)
     axes[6].set_title('energy', fontsize=10)
@@ -240,8 +251,22 @@ def render(bag, out_path, title=None):
     status = '' if bag.finalised else '  [not finalised]'
     fig.suptitle(title or f'{os.path.basename(os.path.normpath(bag.path))}{status}')
     fig.tight_layout()
-    fig.savefig(out_path, dpi=90)
-    plt.close(fig)
+    panels = [{'title': ax.get_title(), 'box': tuple(ax.get_position().extents),
+               'lines': {line.get_label(): (np.asarray(line.get_xdata(), dtype=float),
+                                            np.asarray(line.get_ydata(), dtype=float))
+                         for line in ax.get_lines()},
+               'note': note} for ax, note in zip(axes, notes)]
+    return fig, panels
+
+
+def render(bag, out_path, title=None):
+    """Render the recording ``bag`` (opened or a path) to the PNG ``out_path``."""
+    fig, _ = draw(bag, title)
+    from matplotlib import pyplot as plt   # after draw() selected the Agg backend
+    try:
+        fig.savefig(out_path, dpi=SAVE_DPI)
+    finally:
+        plt.close(fig)
     return out_path
 
 

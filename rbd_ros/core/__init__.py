@@ -20,8 +20,8 @@ with ``v_w = R(q_wb) v_b``; angular velocity stored in body coordinates; time in
 nanoseconds. See :mod:`rbd_ros.core.integrators` for the integrators and what they conserve.
 """
 
-from rbd_ros.core.errors import (ConfigError, InputError, ModelError, NonFiniteError, RbdError,
-                                 RecordingError)
+from rbd_ros.core.errors import (ConfigError, ConvergenceError, InputError, ModelError,
+                                 NonFiniteError, RbdError, RecordingError)
 from rbd_ros.core.integrators import DEFAULT_INTEGRATOR, integrator_info, INTEGRATORS
 from rbd_ros.core.loads import AppliedWrench, Spring
 from rbd_ros.core.model import BodyModel
@@ -31,7 +31,7 @@ from rbd_ros.core.state import BodyState
 
 __all__ = [
     'AppliedWrench', 'BatchSimulator', 'BodyModel', 'BodyState', 'ConfigError',
-    'DEFAULT_INTEGRATOR', 'INTEGRATORS', 'InputError', 'ModelError', 'NonFiniteError',
-    'RbdError', 'RecordingError', 'Simulator', 'Spring', 'accelerations', 'integrator_info',
-    'net_wrench_w', 'step',
+    'ConvergenceError', 'DEFAULT_INTEGRATOR', 'INTEGRATORS', 'InputError', 'ModelError',
+    'NonFiniteError', 'RbdError', 'RecordingError', 'Simulator', 'Spring', 'accelerations',
+    'integrator_info', 'net_wrench_w', 'step',
 ]

@@ -62,5 +62,14 @@ class NonFiniteError(RbdError, FloatingPointError):
     """A step would have produced a non-finite state; the state stays at its last finite value."""
 
 
+class ConvergenceError(NonFiniteError):
+    """
+    An implicit step's solve did not converge (step too large for the spin); step refused.
+
+    A :class:`NonFiniteError` for every handler: the step is refused the same way and the
+    state stays at its last finite value; the message names ``h|ω|`` and what to change.
+    """
+
+
 class RecordingError(RbdError, OSError):
     """A recording cannot be written or read (path exists, disk full, truncated, foreign bag)."""

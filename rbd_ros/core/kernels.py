@@ -59,6 +59,11 @@ LOAD_SPRING = 3
 # itself carries ~1 ulp per term), and stopping there keeps the step energy-exact to round-off.
 _NEWTON_TOL_ULPS = 4.0 * 2.220446049250313e-16
 _NEWTON_MAX_ITER = 30
+# When Newton runs out of iterations, the solve counts as converged only if the residual of
+# ``m − Π − (h/2) m × I⁻¹m`` is within this many units of round-off of its largest term: a
+# solve that stalls at the round-off floor is kept, one that diverged (measured from h|ω| ≈ 3
+# rad on) is refused instead of returning a wrong, energy-violating state.
+_RESIDUAL_TOL_ULPS = 64.0 * 2.220446049250313e-16
 # Fixed-point iterations tried before Newton; at h|ω| = 1e-3 they reach round-off in ~5.
 _FIXED_POINT_ITER = 8
 
@@ -137,8 +142,8 @@ def net_wrench_w(px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz, prm, ld, i,
     no torque). Wrench loads come in world coordinates (kind 1) or body coordinates (kind 2,
     rotated by ``R``); springs (kind 3) act at ``x = p + r`` with the force in
     :class:`rbd_ros.core.loads.Spring`, using the point velocity ``v + ω_w × r``.
-    Damping is not summed here: it is applied as its exact exponential flow by the
-    integrators (see :class:`rbd_ros.core.model.BodyModel`).
+    Damping is not summed here: the integrators apply it as its exact exponential flow (split
+    around the step, or as RK4's integrating factor; see :class:`rbd_ros.core.model.BodyModel`).
     """
     m = prm[0, j]
     fx, fy, fz = m * prm[20, j], m * prm[21, j], m * prm[22, j]
@@ -367,7 +372,7 @@ def _symplectic_euler(method, prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz,
 
 @_jit
 def _derivative(prm, ld, i, j, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz):
-    """Right-hand side of the Newton–Euler ODE for RK4: (ṗ, q̇, v̇, ω̇_b)."""
+    """Undamped right-hand side of the Newton–Euler ODE for RK4: (ṗ, q̇, v̇, ω̇_b)."""
     nw, nx, ny, nz = _normalize_q(qw, qx, qy, qz)
     fx, fy, fz, tx, ty, tz = net_wrench_w(
         px, py, pz, nw, nx, ny, nz, vx, vy, vz, wx, wy, wz, prm, ld, i, j)
@@ -380,24 +385,44 @@ def _derivative(prm, ld, i, j, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, w
 
 
 @_jit
-def _rk4(prm, ld, i, j, h, y):
+def _rk4(prm, ld, i, j, h, y, ev_half, ev, ew_half, ew):
+    """
+    One classical Runge–Kutta 4 step with the damping as an integrating factor (Lawson).
+
+    The ODE is ``ẏ = N(y) + L y`` with ``N`` the undamped Newton–Euler right-hand side
+    (:func:`_derivative`) and ``L`` the damping, ``−c_v`` on ``v_w`` and ``−c_ω`` on ``ω_b``.
+    Classical RK4 is applied to ``u(τ) = e^{−τL} y(t + τ)``, whose ODE is smooth, so the step
+    is fourth order with damping on; with ``E(τ) = e^{τL}`` (``ev_half = e^{−c_v h/2}``,
+    ``ev = e^{−c_v h}``, likewise ``ew_half``, ``ew`` for ``ω_b``):
+
+    ``k1 = N(y)``, ``k2 = N(E(h/2)(y + h/2 k1))``, ``k3 = N(E(h/2) y + h/2 k2)``,
+    ``k4 = N(E(h) y + h E(h/2) k3)``,
+    ``y ← E(h) y + h/6 (E(h) k1 + 2 E(h/2) (k2 + k3) + k4)``.
+
+    Damping alone is then the exact flow ``v ← e^{−c_v h} v`` (Lawson 1967, SIAM J. Numer.
+    Anal. 4, 372–380; Hochbruck & Ostermann, Acta Numerica 19 (2010) 209–286, §2.7). Without
+    damping every factor is exactly 1.0 and this is classical RK4 bit for bit.
+    """
     k1 = _derivative(prm, ld, i, j, *y)
     y2 = (y[0] + 0.5 * h * k1[0], y[1] + 0.5 * h * k1[1], y[2] + 0.5 * h * k1[2],
           y[3] + 0.5 * h * k1[3], y[4] + 0.5 * h * k1[4], y[5] + 0.5 * h * k1[5],
-          y[6] + 0.5 * h * k1[6], y[7] + 0.5 * h * k1[7], y[8] + 0.5 * h * k1[8],
-          y[9] + 0.5 * h * k1[9], y[10] + 0.5 * h * k1[10], y[11] + 0.5 * h * k1[11],
-          y[12] + 0.5 * h * k1[12])
+          y[6] + 0.5 * h * k1[6], ev_half * (y[7] + 0.5 * h * k1[7]),
+          ev_half * (y[8] + 0.5 * h * k1[8]), ev_half * (y[9] + 0.5 * h * k1[9]),
+          ew_half * (y[10] + 0.5 * h * k1[10]), ew_half * (y[11] + 0.5 * h * k1[11]),
+          ew_half * (y[12] + 0.5 * h * k1[12]))
     k2 = _derivative(prm, ld, i, j, *y2)
     y3 = (y[0] + 0.5 * h * k2[0], y[1] + 0.5 * h * k2[1], y[2] + 0.5 * h * k2[2],
           y[3] + 0.5 * h * k2[3], y[4] + 0.5 * h * k2[4], y[5] + 0.5 * h * k2[5],
-          y[6] + 0.5 * h * k2[6], y[7] + 0.5 * h * k2[7], y[8] + 0.5 * h * k2[8],
-          y[9] + 0.5 * h * k2[9], y[10] + 0.5 * h * k2[10], y[11] + 0.5 * h * k2[11],
-          y[12] + 0.5 * h * k2[12])
+          y[6] + 0.5 * h * k2[6], ev_half * y[7] + 0.5 * h * k2[7],
+          ev_half * y[8] + 0.5 * h * k2[8], ev_half * y[9] + 0.5 * h * k2[9],
+          ew_half * y[10] + 0.5 * h * k2[10], ew_half * y[11] + 0.5 * h * k2[11],
+          ew_half * y[12] + 0.5 * h * k2[12])
     k3 = _derivative(prm, ld, i, j, *y3)
     y4 = (y[0] + h * k3[0], y[1] + h * k3[1], y[2] + h * k3[2], y[3] + h * k3[3],
-          y[4] + h * k3[4], y[5] + h * k3[5], y[6] + h * k3[6], y[7] + h * k3[7],
-          y[8] + h * k3[8], y[9] + h * k3[9], y[10] + h * k3[10], y[11] + h * k3[11],
-          y[12] + h * k3[12])
+          y[4] + h * k3[4], y[5] + h * k3[5], y[6] + h * k3[6],
+          ev * y[7] + h * (ev_half * k3[7]), ev * y[8] + h * (ev_half * k3[8]),
+          ev * y[9] + h * (ev_half * k3[9]), ew * y[10] + h * (ew_half * k3[10]),
+          ew * y[11] + h * (ew_half * k3[11]), ew * y[12] + h * (ew_half * k3[12]))
     k4 = _derivative(prm, ld, i, j, *y4)
     s = h / 6.0
     out = (y[0] + s * (k1[0] + 2.0 * k2[0] + 2.0 * k3[0] + k4[0]),
@@ -407,12 +432,18 @@ def _rk4(prm, ld, i, j, h, y):
            y[4] + s * (k1[4] + 2.0 * k2[4] + 2.0 * k3[4] + k4[4]),
            y[5] + s * (k1[5] + 2.0 * k2[5] + 2.0 * k3[5] + k4[5]),
            y[6] + s * (k1[6] + 2.0 * k2[6] + 2.0 * k3[6] + k4[6]),
-           y[7] + s * (k1[7] + 2.0 * k2[7] + 2.0 * k3[7] + k4[7]),
-           y[8] + s * (k1[8] + 2.0 * k2[8] + 2.0 * k3[8] + k4[8]),
-           y[9] + s * (k1[9] + 2.0 * k2[9] + 2.0 * k3[9] + k4[9]),
-           y[10] + s * (k1[10] + 2.0 * k2[10] + 2.0 * k3[10] + k4[10]),
-           y[11] + s * (k1[11] + 2.0 * k2[11] + 2.0 * k3[11] + k4[11]),
-           y[12] + s * (k1[12] + 2.0 * k2[12] + 2.0 * k3[12] + k4[12]))
+           ev * y[7] + s * (ev * k1[7] + 2.0 * (ev_half * k2[7]) + 2.0 * (ev_half * k3[7])
+                            + k4[7]),
+           ev * y[8] + s * (ev * k1[8] + 2.0 * (ev_half * k2[8]) + 2.0 * (ev_half * k3[8])
+                            + k4[8]),
+           ev * y[9] + s * (ev * k1[9] + 2.0 * (ev_half * k2[9]) + 2.0 * (ev_half * k3[9])
+                            + k4[9]),
+           ew * y[10] + s * (ew * k1[10] + 2.0 * (ew_half * k2[10])
+                             + 2.0 * (ew_half * k3[10]) + k4[10]),
+           ew * y[11] + s * (ew * k1[11] + 2.0 * (ew_half * k2[11])
+                             + 2.0 * (ew_half * k3[11]) + k4[11]),
+           ew * y[12] + s * (ew * k1[12] + 2.0 * (ew_half * k2[12])
+                             + 2.0 * (ew_half * k3[12]) + k4[12]))
     qw, qx, qy, qz = _normalize_q(out[3], out[4], out[5], out[6])
     return (out[0], out[1], out[2], qw, qx, qy, qz, out[7], out[8], out[9],
             out[10], out[11], out[12])
@@ -444,8 +475,11 @@ def _free_rotation_midpoint(prm, j, h, lx, ly, lz):
 
     Solves ``m = Π_n + (h/2) m × I⁻¹ m`` to round-off (fixed-point iteration, then Newton's
     method if that contracts slowly) and returns
-    ``(Π_{n+1} = 2m − Π_n, ω_mid = I⁻¹ m)``. Both ``|Π|²`` and ``Πᵀ I⁻¹ Π`` are quadratic
-    invariants of Euler's equations, which the implicit midpoint rule preserves exactly.
+    ``(Π_{n+1} = 2m − Π_n, ω_mid = I⁻¹ m, converged)``. Both ``|Π|²`` and ``Πᵀ I⁻¹ Π`` are
+    quadratic invariants of Euler's equations, which the implicit midpoint rule preserves
+    exactly. ``converged`` is False when Newton ran out of iterations with a residual above
+    round-off (large ``h|ω|``: the fixed-point start diverges and Newton does not recover);
+    the caller must then refuse the step.
     """
     half = 0.5 * h
     scale = _NEWTON_TOL_ULPS * math.sqrt(lx * lx + ly * ly + lz * lz)
@@ -460,9 +494,10 @@ def _free_rotation_midpoint(prm, j, h, lx, ly, lz):
         mx, my, mz = nx, ny, nz
         if max(abs(dx), abs(dy), abs(dz)) <= scale:
             wx, wy, wz = _matvec(prm, 11, j, mx, my, mz)
-            return 2.0 * mx - lx, 2.0 * my - ly, 2.0 * mz - lz, wx, wy, wz
+            return 2.0 * mx - lx, 2.0 * my - ly, 2.0 * mz - lz, wx, wy, wz, True
     # Slow contraction (large h|ω|): Newton's method, quadratically convergent.
     jac = np.empty((3, 3))
+    converged = False
     for _ in range(_NEWTON_MAX_ITER):
         wx, wy, wz = _matvec(prm, 11, j, mx, my, mz)
         cx, cy, cz = _cross(mx, my, mz, wx, wy, wz)
@@ -488,9 +523,32 @@ def _free_rotation_midpoint(prm, j, h, lx, ly, lz):
         dx, dy, dz = _solve3(jac, rx, ry, rz)
         mx, my, mz = mx - dx, my - dy, mz - dz
         if max(abs(dx), abs(dy), abs(dz)) <= scale:
+            converged = True
             break
     wx, wy, wz = _matvec(prm, 11, j, mx, my, mz)
-    return 2.0 * mx - lx, 2.0 * my - ly, 2.0 * mz - lz, wx, wy, wz
+    if not converged:
+        cx, cy, cz = _cross(mx, my, mz, wx, wy, wz)
+        cx, cy, cz = half * cx, half * cy, half * cz
+        residual = max(abs(mx - lx - cx), abs(my - ly - cy), abs(mz - lz - cz))
+        size = max(abs(mx), abs(my), abs(mz), abs(lx), abs(ly), abs(lz),
+                   abs(cx), abs(cy), abs(cz))
+        # NaN-safe: a NaN or infinite residual is not converged.
+        converged = residual <= _RESIDUAL_TOL_ULPS * size
+    return 2.0 * mx - lx, 2.0 * my - ly, 2.0 * mz - lz, wx, wy, wz, converged
+
+
+@_inl
+def _midpoint_first_kick(prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz):
+    """Half a step of force and torque as impulses: return ``(v_w, Π_b = I_b ω_b + h/2 τ_b)``."""
+    half = 0.5 * h
+    inv_m = prm[1, j]
+    fx, fy, fz, tx, ty, tz = net_wrench_w(
+        px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz, prm, ld, i, j)
+    vx, vy, vz = vx + half * fx * inv_m, vy + half * fy * inv_m, vz + half * fz * inv_m
+    lx, ly, lz = _matvec(prm, 2, j, wx, wy, wz)
+    tbx, tby, tbz = _to_body(qw, qx, qy, qz, tx, ty, tz)
+    lx, ly, lz = lx + half * tbx, ly + half * tby, lz + half * tbz
+    return vx, vy, vz, lx, ly, lz
 
 
 @_inl
@@ -498,15 +556,15 @@ def _midpoint_cayley(prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, w
     half = 0.5 * h
     inv_m = prm[1, j]
     # Kick: half a step of force and torque, as impulses on v and on Π_b = I_b ω_b.
-    fx, fy, fz, tx, ty, tz = net_wrench_w(
-        px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz, prm, ld, i, j)
-    vx, vy, vz = vx + half * fx * inv_m, vy + half * fy * inv_m, vz + half * fz * inv_m
-    lx, ly, lz = _matvec(prm, 2, j, wx, wy, wz)
-    tbx, tby, tbz = _to_body(qw, qx, qy, qz, tx, ty, tz)
-    lx, ly, lz = lx + half * tbx, ly + half * tby, lz + half * tbz
+    vx, vy, vz, lx, ly, lz = _midpoint_first_kick(prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz,
+                                                  vx, vy, vz, wx, wy, wz)
     # Drift: exact free translation; torque-free rotation by implicit midpoint + Cayley.
     px, py, pz = px + h * vx, py + h * vy, pz + h * vz
-    lx, ly, lz, mx, my, mz = _free_rotation_midpoint(prm, j, h, lx, ly, lz)
+    lx, ly, lz, mx, my, mz, converged = _free_rotation_midpoint(prm, j, h, lx, ly, lz)
+    if not converged:
+        # Refused like a non-finite step; midpoint_solve_check() tells the two apart.
+        nan = math.nan
+        return nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan
     # cay(h[ω]) is the rotation with quaternion (1, h ω / 2) / |(1, h ω / 2)|.
     nw, nx, ny, nz = _qmul(qw, qx, qy, qz, 1.0, half * mx, half * my, half * mz)
     qw, qx, qy, qz = _normalize_q(nw, nx, ny, nz)
@@ -541,15 +599,22 @@ def step_body(x, prm, ld, t, i, j, method, h, dt_ns, n_steps):
     damped = prm[23, j] != 0.0 or prm[24, j] != 0.0
     decay_v_half = 1.0
     decay_w_half = 1.0
+    decay_v = 1.0
+    decay_w = 1.0
     if damped:
         decay_v_half = math.exp(-0.5 * h * prm[23, j])
         decay_w_half = math.exp(-0.5 * h * prm[24, j])
+        decay_v = math.exp(-h * prm[23, j])
+        decay_w = math.exp(-h * prm[24, j])
+    # RK4 takes the damping inside its step (integrating factor, fourth order); the others
+    # get its exact flow split half before and half after the step (Strang splitting).
+    split = damped and method != RK4
     s = (x[0, i], x[1, i], x[2, i], x[3, i], x[4, i], x[5, i], x[6, i],
          x[7, i], x[8, i], x[9, i], x[10, i], x[11, i], x[12, i])
     done = 0
     for _ in range(n_steps):
         px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = s
-        if damped:
+        if split:
             vx, vy, vz = vx * decay_v_half, vy * decay_v_half, vz * decay_v_half
             wx, wy, wz = wx * decay_w_half, wy * decay_w_half, wz * decay_w_half
         if method == MIDPOINT_CAYLEY:
@@ -557,11 +622,12 @@ def step_body(x, prm, ld, t, i, j, method, h, dt_ns, n_steps):
                                    vx, vy, vz, wx, wy, wz)
         elif method == RK4:
             new = _rk4(prm, ld, i, j, h,
-                       (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
+                       (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz),
+                       decay_v_half, decay_v, decay_w_half, decay_w)
         else:
             new = _symplectic_euler(method, prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz,
                                     vx, vy, vz, wx, wy, wz)
-        if damped:
+        if split:
             new = (new[0], new[1], new[2], new[3], new[4], new[5], new[6],
                    new[7] * decay_v_half, new[8] * decay_v_half, new[9] * decay_v_half,
                    new[10] * decay_w_half, new[11] * decay_w_half, new[12] * decay_w_half)
@@ -601,6 +667,30 @@ def advance_parallel(x, prm, ld, t, method, h, dt_ns, n_steps):
         if done[i] != n_steps:
             failed += 1
     return failed
+
+
+@_jit
+def midpoint_solve_check(x, prm, ld, i, j, h):
+    """
+    Redo the implicit midpoint solve of body ``i``'s next ``midpoint_cayley`` step.
+
+    Same arithmetic as :func:`step_body` up to the solve (damping half step, first kick).
+    Returns ``(converged, |ω| rad/s)`` with ``ω = I_b⁻¹ Π`` the angular velocity the solve
+    starts from. Overflow is not a convergence failure: when ``Π``, ``ω`` or the size
+    ``h |Π| |ω|`` of the solve's gyroscopic term is not finite, it reports converged (the
+    step is then refused as plainly non-finite).
+    """
+    # e^{-0} is exactly 1.0 and x * 1.0 == x: the same numbers as step_body, damped or not.
+    vh = math.exp(-0.5 * h * prm[23, j])
+    wh = math.exp(-0.5 * h * prm[24, j])
+    _, _, _, lx, ly, lz = _midpoint_first_kick(
+        prm, ld, i, j, h, x[0, i], x[1, i], x[2, i], x[3, i], x[4, i], x[5, i], x[6, i],
+        x[7, i] * vh, x[8, i] * vh, x[9, i] * vh, x[10, i] * wh, x[11, i] * wh, x[12, i] * wh)
+    wx, wy, wz = _matvec(prm, 11, j, lx, ly, lz)
+    speed = math.sqrt(wx * wx + wy * wy + wz * wz)
+    if not math.isfinite(h * speed * math.sqrt(lx * lx + ly * ly + lz * lz)):
+        return True, speed
+    return _free_rotation_midpoint(prm, j, h, lx, ly, lz)[6], speed
 
 
 @_jit

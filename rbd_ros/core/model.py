@@ -41,11 +41,15 @@ class BodyModel:
         Its force ``M g`` acts at the centre of mass and so produces no torque.
     :param linear_damping_per_s: ``c_v`` in 1/s; the linear velocity obeys
         ``v̇ = -c_v v`` (besides the forces), applied as its exact flow ``v ← v·exp(-c_v h)``.
-    :param angular_damping_per_s: ``c_ω`` in 1/s; likewise ``ω_b ← ω_b·exp(-c_ω h)``.
+    :param angular_damping_per_s: ``c_ω`` in 1/s; likewise ``ω̇_b = -c_ω ω_b`` (besides the
+        torques), ``ω_b ← ω_b·exp(-c_ω h)``.
 
-    Damping is applied as the exact exponential flow, split symmetrically around each step
-    (half before, half after), so a body under damping alone decays as ``exp(-c t)`` at every
-    step boundary whatever the step size. There is no other, hidden damping.
+    Every integrator reproduces damping alone exactly, so a body under damping alone decays as
+    ``exp(-c t)`` at every step boundary whatever the step size: the first-order and the
+    midpoint integrators split the exact flow symmetrically around each step (half before,
+    half after; this keeps their order, 1 and 2), ``rk4`` takes it as an integrating factor
+    inside its step (Lawson's RK4; fourth order with damping). There is no other, hidden
+    damping.
     """
 
     mass_kg: float

@@ -19,7 +19,7 @@ import math
 import numpy as np
 import pytest
 from rbd_ros.config import NodeConfig
-from rbd_ros.core import AppliedWrench, BodyState, Simulator
+from rbd_ros.core import AppliedWrench, BodyState, ConvergenceError, Simulator
 from rbd_ros.inputs import WrenchRejected
 from rbd_ros.session import SimSession
 
@@ -70,9 +70,30 @@ def test_rejections_are_counted_by_reason_and_change_nothing(frame_id, force, to
     assert np.array_equal(s.state.linear_velocity_w, [0.0, 0.0, 0.0])
 
 
-def test_limits_are_inclusive():
+@pytest.mark.parametrize('max_force_n, max_torque_nm', [(10.0, 5.0), (9.9, 4.9), (1e-3, 3e-3)])
+def test_limits_are_inclusive(max_force_n, max_torque_nm):
+    s = session(max_force_n=max_force_n, max_torque_nm=max_torque_nm)
+    # |(0, -f, 0)| is f exactly, so these are exactly at the limits: accepted, and applied.
+    force, torque = (0.0, -max_force_n, 0.0), (0.0, 0.0, max_torque_nm)
+    wrench = s.submit('wrench', 'world', force, torque)
+    assert np.array_equal(wrench.force, force) and np.array_equal(wrench.torque, torque)
+    assert s.inputs.rejected_total == 0 and s.inputs.has_pending
+    s.advance(1)
+    assert s.inputs.held['wrench'][1].force[1] == -max_force_n   # (t_effect_ns, wrench)
+    assert s.state.linear_velocity_w[1] < 0.0   # it pushed (m = 1 kg, one step)
+    # The next float beyond either limit is refused, by the reason of that limit.
+    for reason, force, torque in (
+            ('force_limit', (0.0, -np.nextafter(max_force_n, np.inf), 0.0), (0.0, 0.0, 0.0)),
+            ('torque_limit', (0.0, 0.0, 0.0), (0.0, 0.0, np.nextafter(max_torque_nm, np.inf)))):
+        with pytest.raises(WrenchRejected) as info:
+            s.submit('wrench', 'world', force, torque)
+        assert info.value.reason == reason
+        assert s.inputs.rejected[reason] == 1
+    assert s.inputs.rejected_total == 2 and s.inputs.received_total == 3
+    # (6, 8, 0) has the norm 10 exactly in floating point too: on the limit, accepted.
     s = session(max_force_n=10.0, max_torque_nm=5.0)
-    s.submit('wrench', 'world', (6.0, 8.0, 0.0), (0.0, 3.0, 4.0))  # exactly at the limits
+    s.submit('wrench', 'world', (6.0, 8.0, 0.0), (0.0, 3.0, 4.0))
+    assert s.inputs.rejected_total == 0 and s.inputs.has_pending
 
 
 def test_unknown_input_is_rejected():
@@ -211,3 +232,17 @@ def test_non_finite_step_pauses_the_session_with_a_message():
     parts = (state.position_w, state.orientation_wb, state.linear_velocity_w,
              state.angular_velocity_b)
     assert all(np.isfinite(v).all() for v in parts)
+
+
+def test_a_too_large_step_for_the_spin_pauses_the_session_and_names_h_omega():
+    # The T-handle spun at 10 rad/s with 1 s steps: h|ω| ≈ 10 rad, beyond what the implicit
+    # midpoint solve of the default integrator converges for. The step is refused, the session
+    # pauses, and its error (what /diagnostics and the log show) says why and what to change.
+    s = session(inertia=[0.0010, 0.0030, 0.0038, 0.0, 0.0, 0.0], timestep_s=1.0,
+                initial_angular_velocity=[0.1, 10.0, 0.2])
+    with pytest.raises(ConvergenceError):
+        s.advance(1)
+    assert s.paused and s.time_ns == 0
+    assert 'did not converge' in s.error and 'h|ω| = 10 rad' in s.error
+    assert 'smaller timestep_s' in s.error
+    assert np.array_equal(s.state.angular_velocity_b, [0.1, 10.0, 0.2])
