@@ -470,20 +470,3 @@ def test_bad_arguments(tmp_path):
     writer.close()
     with pytest.raises(RecordingError, match='closed'):
         writer.write('/z', b'', 0)
-
-
-def test_write_is_cheap(tmp_path):
-    """µs per write(); the node's as-fast-as-possible loop publishes ~3 messages per sample."""
-    writer = BagWriter(str(tmp_path / 'speed'))
-    writer.add_topic('/odom', 'nav_msgs/msg/Odometry')
-    data = serialize_message(Odometry())
-    n = 20_000
-    t0 = time.perf_counter()
-    for k in range(n):
-        writer.write('/odom', data, k * STEP_NS)
-    per_write_us = (time.perf_counter() - t0) / n * 1e6
-    writer.close()
-    print(f'BagWriter.write: {per_write_us:.1f} us per message')
-    # ~6 us measured on the 2-core CI machine; 100 us leaves room for a loaded machine and is
-    # still far below the node's ~1 ms wall budget per 100 Hz sample in AFAP mode at 1000x.
-    assert per_write_us < 100
