@@ -43,10 +43,6 @@ from rclpy.serialization import serialize_message
 from rclpy.signals import SignalHandlerOptions
 from std_srvs.srv import SetBool, Trigger
 
-try:  # rclpy's C++ events executor: a third of the CPU of the Python one at 1 kHz ticks.
-    from rclpy.experimental import EventsExecutor
-except ImportError:  # pragma: no cover - older rclpy
-    EventsExecutor = None
 try:  # tf2_msgs is on every Jazzy install but not in the PyPI wheels.
     from tf2_msgs.msg import TFMessage
 except ImportError:  # pragma: no cover - depends on the install
@@ -255,13 +251,28 @@ class RigidBodyNode(Node):
             level,
             s.error or ('paused' if s.paused else 'running'), values), s.time_ns)
 
+    REJECT_WARN_PERIOD_NS = 1_000_000_000  # at most one 'wrench rejected' warning per second
+    _warn_after_ns = 0  # no rejection warning before this monotonic time
+    _unwarned = 0  # rejections since the last warning
+
     def _on_wrench(self, name, msg):
         frame_id, force, torque = conv.wrench_from_msg(msg)
         try:
             self.session.submit(name, frame_id, force, torque, tag=msg)
         except WrenchRejected as exc:
-            self.get_logger().warning(f'wrench rejected ({exc.reason}): {exc}',
-                                      throttle_duration_sec=1.0)
+            # Counted by the session; warned at most once a second, throttled here with one
+            # clock read: rclpy's own throttle inspects the caller's frame and reads its source
+            # file on every call, even when it drops the message, so a flood of bad wrenches
+            # used to stall the node.
+            now = time.monotonic_ns()
+            if now < self._warn_after_ns:
+                self._unwarned += 1
+                return
+            self._warn_after_ns = now + self.REJECT_WARN_PERIOD_NS
+            more = f' ({self._unwarned} more since the last warning, see /diagnostics)' \
+                if self._unwarned else ''
+            self._unwarned = 0
+            self.get_logger().warning(f'wrench rejected ({exc.reason}): {exc}{more}')
             return
         if self._rtf > 0:  # run a step that became due since the last tick now: less latency
             self._tick()
@@ -305,6 +316,18 @@ class RigidBodyNode(Node):
         return self.exit_status
 
 
+def _seconds_to_next_step(node, longest_s=0.1):
+    """Wall seconds until the node's next physics step is due (0 at RTF 0, ``longest_s`` cap)."""
+    session, rtf = node.session, node._rtf
+    if session.paused or node.done:
+        return longest_s
+    if rtf == 0:
+        return 0.0
+    due_ns = node._wall_anchor_ns + (
+        session.time_ns + session.timestep_ns - node._sim_anchor_ns) / rtf
+    return min(longest_s, max(0.0, (due_ns - time.monotonic_ns()) * 1e-9))
+
+
 def main(args=None):
     """Run the node until ``duration_s`` passes or SIGINT/SIGTERM; exit 0, or 2 on bad input."""
     # Our own signal handlers: stop between callbacks, then finalise. (rclpy's would shut the
@@ -319,11 +342,18 @@ def main(args=None):
         print(f'rigid_body_node: {exc}', file=sys.stderr, flush=True)
         rclpy.try_shutdown()
         sys.exit(2)
-    executor = EventsExecutor() if EventsExecutor is not None else SingleThreadedExecutor()
+    # Not rclpy's experimental EventsExecutor: its event queue is unbounded, so a wrench flood
+    # faster than the node grew memory without limit. This one takes at most one message per
+    # subscription per wait; what it cannot take, DDS keep-last drops. It rebuilds its wait set
+    # at every wake-up, so instead of the half-step tick timer (2 kHz of wake-ups, half a core)
+    # the loop waits until the next step is due, or a message or request comes, and then ticks.
+    executor = SingleThreadedExecutor()
     executor.add_node(node)
+    node._timer.cancel()
     try:
         while rclpy.ok() and not node.done and not stop:
-            executor.spin_once(timeout_sec=0.1)
+            executor.spin_once(timeout_sec=_seconds_to_next_step(node))
+            node._tick()
     except ExternalShutdownException:
         pass
     finally:
