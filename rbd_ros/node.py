@@ -30,7 +30,7 @@ import time
 
 from rbd_ros import config as cfg
 from rbd_ros import conversions as conv
-from rbd_ros.core import NonFiniteError, RbdError, RecordingError
+from rbd_ros.core import jitcache, NonFiniteError, RbdError, RecordingError
 from rbd_ros.inputs import WrenchRejected
 from rbd_ros.session import SimSession
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
@@ -80,7 +80,7 @@ class RigidBodyNode(Node):
             self._declare(spec, config.parameters[spec.name])
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.session = SimSession(config)
-        self.session.warm_up()
+        self._warm_up()
         self.done = False
         self.exit_status = 0
         self._rtf = config.real_time_factor
@@ -250,6 +250,19 @@ class RigidBodyNode(Node):
             s.time_ns, f'{self.get_fully_qualified_name()}: rigid body', self.config.body_frame,
             level,
             s.error or ('paused' if s.paused else 'running'), values), s.time_ns)
+
+    def _warm_up(self):
+        """Compile (or load from numba's cache) the physics kernel; log it when it compiles."""
+        on_disk = jitcache.kernels_on_disk()
+        if not on_disk:
+            where = (f'first start, can take a minute; cached in {jitcache.CACHE_DIR}'
+                     if jitcache.CACHE_DIR else f'can take a minute; {jitcache.PROBLEM}')
+            self.get_logger().info(f'compiling the physics kernels ({where})')
+        start = time.monotonic()
+        self.session.warm_up()
+        if not on_disk:
+            self.get_logger().info(
+                f'physics kernels compiled in {time.monotonic() - start:.1f} s')
 
     REJECT_WARN_PERIOD_NS = 1_000_000_000  # at most one 'wrench rejected' warning per second
     _warn_after_ns = 0  # no rejection warning before this monotonic time
