@@ -42,7 +42,7 @@ if __name__ == '__main__' or os.path.basename(sys.argv[0]) == 'rigid_body_node':
 
 from rbd_ros import config as cfg
 from rbd_ros import conversions as conv
-from rbd_ros.core import ConfigError, NonFiniteError, RbdError, RecordingError
+from rbd_ros.core import ConfigError, jitcache, NonFiniteError, RbdError, RecordingError
 from rbd_ros.inputs import WrenchRejected
 from rbd_ros.session import SimSession
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
@@ -59,10 +59,6 @@ from rclpy.serialization import serialize_message
 from rclpy.signals import SignalHandlerOptions
 from std_srvs.srv import SetBool, Trigger
 
-try:  # rclpy's C++ events executor: a third of the CPU of the Python one at 1 kHz ticks.
-    from rclpy.experimental import EventsExecutor
-except ImportError:  # pragma: no cover - older rclpy
-    EventsExecutor = None
 try:  # tf2_msgs is on every Jazzy install but not in the PyPI wheels.
     from tf2_msgs.msg import TFMessage
 except ImportError:  # pragma: no cover - depends on the install
@@ -70,7 +66,6 @@ except ImportError:  # pragma: no cover - depends on the install
 
 MAX_STEPS_PER_TICK = 1000  # the catch-up cap
 AS_FAST_BUDGET_NS = 10_000_000  # wall time per tick at real_time_factor 0 (then serve callbacks)
-MIN_TICK_S = 0.0005  # rclpy cannot run timers much faster; several steps per tick instead
 _TYPES = {cfg.BOOL: ParameterType.PARAMETER_BOOL, cfg.INTEGER: ParameterType.PARAMETER_INTEGER,
           cfg.DOUBLE: ParameterType.PARAMETER_DOUBLE, cfg.STRING: ParameterType.PARAMETER_STRING,
           cfg.DOUBLE_ARRAY: ParameterType.PARAMETER_DOUBLE_ARRAY,
@@ -117,7 +112,7 @@ class RigidBodyNode(Node):
             self._declare(spec, config.parameters[spec.name])
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.session = SimSession(config)
-        self.session.warm_up()
+        self._warm_up()
         self.done = False
         self.exit_status = 0
         self._rtf = config.real_time_factor
@@ -152,9 +147,9 @@ class RigidBodyNode(Node):
         self.create_service(Trigger, '~/step', self._on_step)
         if config.record_path:
             self._open_recording()
-        period = MIN_TICK_S if self._rtf == 0 else config.timestep_ns * 0.5e-9 / self._rtf
-        steady = Clock(clock_type=ClockType.STEADY_TIME)  # whatever use_sim_time says
-        self._timer = self.create_timer(max(MIN_TICK_S, period), self._tick, clock=steady)
+        # Physics ticks come from the spin loop in main() (seconds_to_next_step, then tick);
+        # the diagnostics timer runs on a steady clock, whatever use_sim_time says.
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(1.0, self._publish_diagnostics, clock=steady)
         self._publish_sample()
         self._anchor()  # sim time 0 = now: pacing starts when the node is ready
@@ -286,7 +281,19 @@ class RigidBodyNode(Node):
         self._wall_anchor_ns = time.monotonic_ns()
         self._sim_anchor_ns = self.session.time_ns
 
-    def _tick(self):
+    def seconds_to_next_step(self, longest_s=0.1):
+        """Wall seconds until the next physics step is due (0 at RTF 0, ``longest_s`` cap)."""
+        session, rtf = self.session, self._rtf
+        if session.paused or self.done:
+            return longest_s
+        if rtf == 0:
+            return 0.0
+        due_ns = self._wall_anchor_ns + (
+            session.time_ns + session.timestep_ns - self._sim_anchor_ns) / rtf
+        return min(longest_s, max(0.0, (due_ns - time.monotonic_ns()) * 1e-9))
+
+    def tick(self):
+        """Run the physics steps that are due by the wall clock (all the wall budget at RTF 0)."""
         session = self.session
         if session.paused or self.done:
             return
@@ -372,16 +379,44 @@ class RigidBodyNode(Node):
             s.time_ns, f'{self.get_fully_qualified_name()}: rigid body', self.config.body_frame,
             level, message, values), s.time_ns)
 
+    def _warm_up(self):
+        """Compile (or load from numba's cache) the physics kernel; log it when it compiles."""
+        on_disk = jitcache.kernels_on_disk()
+        if not on_disk:
+            where = (f'first start, can take a minute; cached in {jitcache.CACHE_DIR}'
+                     if jitcache.CACHE_DIR else f'can take a minute; {jitcache.PROBLEM}')
+            self.get_logger().info(f'compiling the physics kernels ({where})')
+        start = time.monotonic()
+        self.session.warm_up()
+        if not on_disk:
+            self.get_logger().info(
+                f'physics kernels compiled in {time.monotonic() - start:.1f} s')
+
+    REJECT_WARN_PERIOD_NS = 1_000_000_000  # at most one 'wrench rejected' warning per second
+    _warn_after_ns = 0  # no rejection warning before this monotonic time
+    _unwarned = 0  # rejections since the last warning
+
     def _on_wrench(self, name, msg):
         frame_id, force, torque = conv.wrench_from_msg(msg)
         try:
             self.session.submit(name, frame_id, force, torque, tag=msg)
         except WrenchRejected as exc:
-            self.get_logger().warning(f'wrench rejected ({exc.reason}): {exc}',
-                                      throttle_duration_sec=1.0)
+            # Counted by the session; warned at most once a second, throttled here with one
+            # clock read: rclpy's own throttle inspects the caller's frame and reads its source
+            # file on every call, even when it drops the message, so a flood of bad wrenches
+            # used to stall the node.
+            now = time.monotonic_ns()
+            if now < self._warn_after_ns:
+                self._unwarned += 1
+                return
+            self._warn_after_ns = now + self.REJECT_WARN_PERIOD_NS
+            more = f' ({self._unwarned} more since the last warning, see /diagnostics)' \
+                if self._unwarned else ''
+            self._unwarned = 0
+            self.get_logger().warning(f'wrench rejected ({exc.reason}): {exc}{more}')
             return
         if self._rtf > 0:  # run a step that became due since the last tick now: less latency
-            self._tick()
+            self.tick()
 
     def _on_reset(self, request, response):
         self.session.reset()
@@ -478,11 +513,17 @@ def main(args=None):
         print(f'rigid_body_node: {exc}', file=sys.stderr, flush=True)
         rclpy.try_shutdown()
         sys.exit(2)
-    executor = EventsExecutor() if EventsExecutor is not None else SingleThreadedExecutor()
+    # Not rclpy's experimental EventsExecutor: its event queue is unbounded, so a wrench flood
+    # faster than the node grew memory without limit. This one takes at most one message per
+    # subscription per wait; what it cannot take, DDS keep-last drops. It rebuilds its wait set
+    # at every wake-up, so instead of the half-step tick timer (2 kHz of wake-ups, half a core)
+    # the loop waits until the next step is due, or a message or request comes, and then ticks.
+    executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:
         while rclpy.ok() and not node.done and not stop:
-            executor.spin_once(timeout_sec=0.1)
+            executor.spin_once(timeout_sec=node.seconds_to_next_step())
+            node.tick()
     except ExternalShutdownException:
         pass
     finally:

@@ -38,6 +38,7 @@ import math
 
 import numba as nb
 import numpy as np
+from rbd_ros.core import jitcache
 
 # Integrator ids; names, orders and documentation live in rbd_ros.core.integrators.
 SE_MATRIX = 0
@@ -67,10 +68,14 @@ _RESIDUAL_TOL_ULPS = 64.0 * 2.220446049250313e-16
 # Fixed-point iterations tried before Newton; at h|ω| = 1e-3 they reach round-off in ~5.
 _FIXED_POINT_ITER = 8
 
-_jit = nb.njit(cache=True, fastmath=False, nogil=True)
+#: numba's on-disk cache (a private per-user directory, see :mod:`rbd_ros.core.jitcache`), or
+#: None: then every start compiles in memory. Chosen before the first decorator below.
+CACHE_DIR = jitcache.configure()
+_CACHE = CACHE_DIR is not None
+_jit = nb.njit(cache=_CACHE, fastmath=False, nogil=True)
 # Small helpers are inlined at numba IR level: measured 20-25 % faster per body-step than
 # leaving them to LLVM, for a longer first compilation (cached on disk afterwards).
-_inl = nb.njit(cache=True, fastmath=False, nogil=True, inline='always')
+_inl = nb.njit(cache=_CACHE, fastmath=False, nogil=True, inline='always')
 
 
 @_inl
@@ -653,7 +658,7 @@ def advance(x, prm, ld, t, method, h, dt_ns, n_steps):
     return failed
 
 
-@nb.njit(cache=True, fastmath=False, nogil=True, parallel=True)
+@nb.njit(cache=_CACHE, fastmath=False, nogil=True, parallel=True)
 def advance_parallel(x, prm, ld, t, method, h, dt_ns, n_steps):
     """:func:`advance` over threads; each body runs the same scalar code (bit-identical)."""
     n = x.shape[1]

@@ -1,0 +1,82 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+First start: the node says it compiles, and numba's cache goes to a private per-user directory.
+
+numba loads its cache with pickle, so the cache must never sit in the installed package or in a
+directory that other users can write (see :mod:`rbd_ros.core.jitcache`). A cold compile costs
+~20-60 s of CPU, so one test does the cold start and the warm one after it.
+"""
+
+import os
+import pathlib
+import stat
+import subprocess
+import sys
+
+from conftest import NodeProcess, REPO
+
+PACKAGE = REPO / 'rbd_ros'
+
+
+def numba_files(root):
+    """Return ``{path: mtime_ns}`` of numba's cache files (index .nbi, data .nbc) under root."""
+    return {p: p.stat().st_mtime_ns for p in pathlib.Path(root).rglob('*')
+            if p.suffix in ('.nbi', '.nbc')}
+
+
+def test_a_cold_start_logs_the_compile_and_caches_in_the_users_cache_dir(tmp_path, monkeypatch):
+    cache_home = tmp_path / 'xdg_cache'
+    monkeypatch.setenv('XDG_CACHE_HOME', str(cache_home))
+    monkeypatch.delenv('NUMBA_CACHE_DIR', raising=False)  # set by this process's own import
+    in_package = numba_files(PACKAGE)
+    params = {'duration_s': 0.01, 'start_paused': False}
+
+    cold = NodeProcess(tmp_path, params, namespace=True)
+    assert cold.wait(900) == 0, cold.stderr
+    cache_dir = cache_home / 'rbd_ros' / 'numba'
+    assert f'compiling the physics kernels (first start, can take a minute; cached in ' \
+           f'{cache_dir})' in cold.stderr, cold.stderr
+    assert 'physics kernels compiled in' in cold.stderr, cold.stderr
+    written = numba_files(cache_dir)
+    assert any(p.suffix == '.nbi' for p in written) and any(p.suffix == '.nbc' for p in written)
+    for directory in (cache_dir, cache_dir.parent):
+        assert stat.S_IMODE(directory.stat().st_mode) == 0o700, directory
+    assert numba_files(PACKAGE) == in_package  # nothing written or rewritten in the package
+
+    warm = NodeProcess(tmp_path, params, namespace=True)
+    assert warm.wait(300) == 0, warm.stderr
+    assert 'compiling the physics kernels' not in warm.stderr, warm.stderr
+    assert numba_files(cache_dir) == written  # loaded, not compiled again
+
+
+def test_a_cache_dir_that_others_can_write_is_refused(tmp_path, monkeypatch):
+    cache_dir = tmp_path / 'rbd_ros' / 'numba'
+    cache_dir.mkdir(parents=True)
+    cache_dir.parent.chmod(0o700)
+    cache_dir.chmod(0o775)  # group-writable: someone else could plant a pickle in it
+    monkeypatch.setenv('XDG_CACHE_HOME', str(tmp_path))
+    monkeypatch.delenv('NUMBA_CACHE_DIR', raising=False)
+    probe = ('from rbd_ros.core import jitcache, kernels; '
+             'print(jitcache.CACHE_DIR, type(kernels.advance._cache).__name__)')
+    result = subprocess.run([sys.executable, '-c', probe], capture_output=True, text=True,
+                            env=dict(os.environ), timeout=300, cwd=str(tmp_path))
+    assert result.returncode == 0, result.stderr
+    # No cache directory, and numba's null cache: it neither loads nor writes anything.
+    assert result.stdout.split() == ['None', 'NullCache'], result.stdout
+    assert f'numba cache directory {cache_dir}: writable by group or others (mode 0775); ' \
+           'compiling the physics kernels in memory at every start' in result.stderr, \
+        result.stderr
+    assert not list(cache_dir.iterdir())
