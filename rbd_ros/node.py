@@ -107,12 +107,11 @@ class RigidBodyNode(Node):
                 self.get_logger().warning(f'ignoring unknown parameter {name} = {value!r}')
         self.config = config = cfg.NodeConfig.from_parameters(params)
         self._check_input_topics()
-        cfg.check_first_step(config)
+        self.session = SimSession(config)
+        self._warm_up()
         for spec in config.all_specs():
             self._declare(spec, config.parameters[spec.name])
         self.add_on_set_parameters_callback(self._on_set_parameters)
-        self.session = SimSession(config)
-        self._warm_up()
         self.done = False
         self.exit_status = 0
         self._rtf = config.real_time_factor
@@ -380,14 +379,19 @@ class RigidBodyNode(Node):
             level, message, values), s.time_ns)
 
     def _warm_up(self):
-        """Compile (or load from numba's cache) the physics kernel; log it when it compiles."""
+        """
+        Compile (or load from numba's cache) the physics kernel; log it when it compiles.
+
+        The compiling step is :func:`rbd_ros.config.check_first_step` on a throw-away copy, so
+        a configuration whose first step is not finite is refused here, naming the parameter.
+        """
         on_disk = jitcache.kernels_on_disk()
         if not on_disk:
             where = (f'first start, can take a minute; cached in {jitcache.CACHE_DIR}'
                      if jitcache.CACHE_DIR else f'can take a minute; {jitcache.PROBLEM}')
             self.get_logger().info(f'compiling the physics kernels ({where})')
         start = time.monotonic()
-        self.session.warm_up()
+        cfg.check_first_step(self.config)
         if not on_disk:
             self.get_logger().info(
                 f'physics kernels compiled in {time.monotonic() - start:.1f} s')
