@@ -51,7 +51,6 @@ import time
 
 from mcap.data_stream import RecordBuilder
 from mcap.exceptions import McapError
-from mcap.reader import make_reader
 from mcap.records import Channel, Footer, Header, Message, Metadata, Schema, Statistics
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
@@ -248,11 +247,10 @@ class BagWriter:
         self._prepare_directory(overwrite)
         try:
             self._stream = open(self.mcap_path, 'xb')
+            # The mcap Writer would end a chunk only on reaching chunk_size; we end chunks on sim
+            # time and size ourselves through its public Writer.flush().
             self._mcap = Writer(
                 self._stream, chunk_size=1 << 62, compression=_COMPRESSION[compression])
-            # The mcap Writer ends a chunk only when it reaches chunk_size; we end chunks on
-            # sim time and size ourselves through its (private) chunk finaliser.
-            self._finalize_chunk = self._mcap._Writer__finalize_chunk
             self._mcap.start(profile='ros2', library=f'rbd_ros-{__version__}')
             self._mcap.add_metadata(CONFIG_METADATA_NAME, self._config_record(extra_metadata))
             self._mcap.add_metadata('rosbag2', self._rosbag2_record())
@@ -445,7 +443,7 @@ class BagWriter:
             return
         try:
             if self._chunk_messages:
-                self._end_chunk(flush=False)
+                self._end_chunk(fsync=False)
             if run_metadata is not None:
                 self._mcap.add_metadata(
                     RUN_METADATA_NAME, {str(k): str(v) for k, v in run_metadata.items()})
@@ -491,14 +489,13 @@ class BagWriter:
             except OSError:
                 pass
 
-    def _end_chunk(self, flush=True):
+    def _end_chunk(self, fsync=True):
+        """Write the open chunk with its message indexes and hand it to the OS (mcap's flush)."""
         self._defs_in_chunk_only = []  # the chunk carries them
         try:
-            self._finalize_chunk()
-            if flush:
-                self._stream.flush()
-                if self._fsync:
-                    os.fsync(self._stream.fileno())
+            self._mcap.flush()
+            if fsync and self._fsync:
+                os.fsync(self._stream.fileno())
         except OSError as exc:
             self._fail(exc)
         self._chunk_messages = 0
@@ -857,9 +854,3 @@ def open_bag(path):
     if meta is None:
         bag.notes.append(f'{path}: no metadata.yaml next to the MCAP file')
     return bag
-
-
-def summary_of(mcap_path):
-    """Return the MCAP summary read through the footer (None if there is none)."""
-    with open(mcap_path, 'rb') as f:
-        return make_reader(f).get_summary()
