@@ -33,9 +33,10 @@ import os
 import sys
 
 import numpy as np
+from rbd_ros.cli import open_bag_with_notes, run_on_bag
 from rbd_ros.core import RbdError
 from rbd_ros.core.rotations import quat_log, quat_to_matrix
-from rbd_ros.recording import open_bag, run_on_bag
+from rbd_ros.recording import open_bag
 
 _NS_PER_S = 1e9
 SAVE_DPI = 90
@@ -47,10 +48,6 @@ def _vec(msg):
 
 def _quat(msg):
     return (msg.w, msg.x, msg.y, msg.z)
-
-
-def _stamp(msg):
-    return int(msg.sec) * 1_000_000_000 + int(msg.nanosec)
 
 
 def load_series(bag):
@@ -282,9 +279,7 @@ def main(argv=None):
     out = args.output or os.path.basename(os.path.normpath(args.bag)).split('.')[0] + '.png'
 
     def run():
-        bag = open_bag(args.bag)
-        for note in bag.notes:
-            print(f'plot: note: {note}', file=sys.stderr)
+        bag = open_bag_with_notes('plot', args.bag)
         render(bag, out, args.title)
 
     status, _ = run_on_bag('plot', args.bag, 'plotted', run)

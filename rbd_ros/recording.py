@@ -46,7 +46,6 @@ import os
 import re
 import stat
 import struct
-import sys
 import time
 
 from mcap.data_stream import RecordBuilder
@@ -56,7 +55,7 @@ from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 from rbd_ros import __version__
 from rbd_ros import schemas
-from rbd_ros.core.errors import RbdError, RecordingError
+from rbd_ros.core.errors import RecordingError
 import yaml
 
 #: Name of the MCAP metadata record holding the node configuration.
@@ -350,10 +349,7 @@ class BagWriter:
                     f'topic {topic!r} already recorded with type {existing.type_name!r}, '
                     f'not {type_name!r}')
             return
-        try:
-            definition = schemas.message_definition(type_name)
-        except ValueError as exc:
-            raise RecordingError(str(exc)) from None
+        definition = schemas.message_definition(type_name)
         type_hash = schemas.type_hash(type_name)
         profile = normalize_qos(qos)
         try:
@@ -803,28 +799,6 @@ def _load_metadata_yaml(meta_path):
             meta.get('rosbag2_bagfile_information'), dict):
         raise RecordingError(f'{meta_path}: not a rosbag2 metadata file')
     return meta
-
-
-def run_on_bag(prog, bag_path, verb, action):
-    """
-    Run ``action()`` for a command-line tool; every failure becomes one stderr line.
-
-    :returns: ``(status, result)``: 0 and ``action()``'s result, 2 on any error (``prog: error:
-        ...``; a corrupt file can fail anywhere in the decoders, so anything is caught), 130 on
-        Ctrl-C.
-    """
-    try:
-        return 0, action()
-    except KeyboardInterrupt:
-        print(f'{prog}: interrupted', file=sys.stderr)
-        return 130, None
-    except (RbdError, OSError) as exc:
-        print(f'{prog}: error: {exc}', file=sys.stderr)
-        return 2, None
-    except Exception as exc:  # the one-line promise covers every decoder failure
-        print(f'{prog}: error: {bag_path}: cannot be {verb} ({type(exc).__name__}: {exc})',
-              file=sys.stderr)
-        return 2, None
 
 
 def open_bag(path):

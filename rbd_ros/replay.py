@@ -51,12 +51,13 @@ import sys
 
 import numpy as np
 from rbd_ros import conversions
+from rbd_ros.cli import open_bag_with_notes, run_on_bag
 from rbd_ros.config import NodeConfig
 from rbd_ros.core import NonFiniteError
-from rbd_ros.core.errors import RecordingError
+from rbd_ros.core.errors import RbdError
 from rbd_ros.core.rotations import quat_angle_between
 from rbd_ros.inputs import WrenchRejected
-from rbd_ros.recording import open_bag, run_on_bag
+from rbd_ros.recording import open_bag
 from rbd_ros.session import AppliedDigest, SimSession
 
 WRENCH_TYPE = 'geometry_msgs/msg/WrenchStamped'
@@ -71,8 +72,12 @@ _NS_PER_S = 1_000_000_000
 _BIG_STEPS = 1 << 62  # "as many steps as needed": SimSession.advance stops at until_ns
 
 
-class ReplayError(RecordingError):
-    """The recording cannot be replayed (no configuration, unknown wrench topic, ...)."""
+class ReplayError(RbdError):
+    """
+    The recording cannot be replayed (no configuration, unknown wrench topic, crafted times, ...).
+
+    An :class:`RbdError`, not an :class:`OSError`: the file was read; what it holds is wrong.
+    """
 
 
 @dataclasses.dataclass
@@ -630,9 +635,7 @@ def main(argv=None):
     def run():
         if args.tolerance is not None and not args.tolerance >= 0.0:
             raise ReplayError(f'--tolerance {args.tolerance}: must be >= 0')
-        bag = open_bag(args.bag)
-        for note in bag.notes:
-            print(f'replay: note: {note}', file=sys.stderr)
+        bag = open_bag_with_notes('replay', args.bag)
         return replay_bag(bag, tolerance=args.tolerance, integrator=args.integrator,
                           timestep_s=args.timestep, progress=progress)
 

@@ -508,3 +508,13 @@ def test_bad_arguments(tmp_path):
     writer.close()
     with pytest.raises(RecordingError, match='closed'):
         writer.write('/z', b'', 0)
+
+
+@pytest.mark.parametrize('type_name', ['no_such_msgs/msg/Nothing', 'not/a/msg/type'])
+def test_schema_errors_are_recording_errors(type_name):
+    """A type we cannot record is a RecordingError naming it, never a bare ValueError."""
+    from rbd_ros.schemas import message_definition, SchemaError
+    with pytest.raises(SchemaError, match=type_name) as info:
+        message_definition(type_name)
+    assert isinstance(info.value, RecordingError)
+    assert not isinstance(info.value, ValueError)

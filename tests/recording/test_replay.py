@@ -236,3 +236,16 @@ def test_console_entry_point_no_traceback(bad_inputs):
         assert proc.returncode == 2, proc.stderr
         assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
         assert 'Traceback' not in proc.stderr
+
+
+def test_replay_error_is_an_rbd_error_not_an_os_error():
+    """A bag whose content cannot be replayed is not an I/O failure: ReplayError is an RbdError."""
+    from types import SimpleNamespace
+
+    from rbd_ros.core.errors import RbdError
+    from rbd_ros.replay import recorded_failure, ReplayError
+    bag = SimpleNamespace(mcap_path='b_0.mcap', run_metadata={'failure_time_ns': '1.5'})
+    with pytest.raises(ReplayError, match="failure_time_ns '1.5', not an integer") as info:
+        recorded_failure(bag)
+    assert isinstance(info.value, RbdError)
+    assert not isinstance(info.value, OSError)
