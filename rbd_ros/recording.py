@@ -47,6 +47,8 @@ import re
 import stat
 import struct
 import time
+from typing import (Any, Callable, Dict, Iterable, Iterator, List, Mapping, Optional, Tuple,
+                    Union)
 
 from mcap.data_stream import RecordBuilder
 from mcap.exceptions import McapError
@@ -105,7 +107,7 @@ def _os_error_text(exc):
     return text
 
 
-def normalize_qos(qos):
+def normalize_qos(qos: Optional[Mapping[str, Any]]) -> Dict[str, Any]:
     """
     Return a complete rosbag2 v9 QoS profile dict (string enums) from a partial one.
 
@@ -163,7 +165,7 @@ class _Loader(yaml.SafeLoader):
         return super().compose_node(parent, index)
 
 
-def load_yaml(text, what):
+def load_yaml(text: Union[str, bytes], what: str) -> Any:
     """
     Parse YAML ``text`` read from a recording: no anchors/aliases, at most MAX_YAML_BYTES.
 
@@ -211,9 +213,10 @@ class BagWriter:
     :raises RecordingError: the path exists, cannot be created or written.
     """
 
-    def __init__(self, path, config=None, *, overwrite=False, compression='zstd',
-                 chunk_duration_ns=1_000_000_000, chunk_bytes=1 << 20, fsync=False,
-                 extra_metadata=None):
+    def __init__(self, path: Union[str, os.PathLike], config: Optional[Mapping[str, Any]] = None,
+                 *, overwrite: bool = False, compression: str = 'zstd',
+                 chunk_duration_ns: int = 1_000_000_000, chunk_bytes: int = 1 << 20,
+                 fsync: bool = False, extra_metadata: Optional[Mapping[str, Any]] = None):
         path = os.fspath(path)
         if '{stamp}' in path:
             path = path.replace('{stamp}', time.strftime('%Y_%m_%d-%H_%M_%S', time.gmtime()))
@@ -324,16 +327,17 @@ class BagWriter:
 
     # ------------------------------------------------------------------ API
     @property
-    def closed(self):
+    def closed(self) -> bool:
         """Return whether :meth:`close` has been called."""
         return self._closed
 
     @property
-    def failed(self):
+    def failed(self) -> Optional[RecordingError]:
         """Return the :class:`RecordingError` that stopped the recording, or None."""
         return self._failed
 
-    def add_topic(self, topic, type_name, qos=None):
+    def add_topic(self, topic: str, type_name: str,
+                  qos: Optional[Mapping[str, Any]] = None) -> None:
         """
         Declare a topic (absolute name) of type ``pkg/msg/Type`` with the QoS it is offered at.
 
@@ -369,7 +373,8 @@ class BagWriter:
             self._fail(exc)
         self._topics[topic] = _Topic(topic, type_name, profile, type_hash, channel_id)
 
-    def write(self, topic, data, log_time_ns, publish_time_ns=None):
+    def write(self, topic: str, data: bytes, log_time_ns: int,
+              publish_time_ns: Optional[int] = None) -> None:
         """
         Append one CDR-serialised message (with its 4-byte encapsulation header).
 
@@ -399,7 +404,7 @@ class BagWriter:
         if log_time_ns > self._end_ns:
             self._end_ns = log_time_ns
 
-    def flush(self):
+    def flush(self) -> None:
         """
         End the current chunk and hand everything written so far to the operating system.
 
@@ -423,7 +428,7 @@ class BagWriter:
         except OSError as exc:
             self._fail(exc)
 
-    def close(self, run_metadata=None):
+    def close(self, run_metadata: Optional[Mapping[str, Any]] = None) -> None:
         """
         Finalise the bag; idempotent.
 
@@ -497,7 +502,7 @@ class BagWriter:
         self._chunk_messages = 0
         self._chunk_bytes = 0
 
-    def metadata(self):
+    def metadata(self) -> Dict[str, Any]:
         """
         Return the rosbag2 ``BagMetadata`` (v9) of what has been written, as a bare dict.
 
@@ -558,7 +563,7 @@ class TopicInfo:
 
     name: str
     type_name: str
-    qos: list
+    qos: List[Dict[str, Any]]
     type_hash: str
     message_count: int
     schema_encoding: str
@@ -590,7 +595,7 @@ class Bag:
     record or None), ``message_count``, ``start_ns``, ``end_ns``.
     """
 
-    def __init__(self, path, mcap_path, metadata_yaml):
+    def __init__(self, path: str, mcap_path: str, metadata_yaml: Optional[Dict[str, Any]]):
         self.path = path
         self.mcap_path = mcap_path
         self.metadata_yaml = metadata_yaml
@@ -612,7 +617,7 @@ class Bag:
         self._channels = {}
 
     @property
-    def finalised(self):
+    def finalised(self) -> bool:
         """Return True when the MCAP summary, its statistics and metadata.yaml are all there."""
         return (self.has_footer and self.statistics is not None and not self.truncated
                 and self.metadata_yaml is not None)
@@ -635,7 +640,7 @@ class Bag:
                             f'incomplete or unreadable record ({type(exc).__name__}), e.g. '
                             'cut off by SIGKILL; reading the complete records before it')
 
-    def messages(self, topics=None):
+    def messages(self, topics: Optional[Iterable[str]] = None) -> Iterator[RawMessage]:
         """Yield :class:`RawMessage` in file order (log time order for our recordings)."""
         wanted = None if topics is None else set(topics)
         for record in self._records():
@@ -649,7 +654,8 @@ class Bag:
                     yield RawMessage(channel.topic, record.log_time, record.publish_time,
                                      record.data)
 
-    def decoded_messages(self, topics=None):
+    def decoded_messages(
+            self, topics: Optional[Iterable[str]] = None) -> Iterator[Tuple[RawMessage, Any]]:
         """Yield ``(RawMessage, decoded)`` decoded with the stored schemas (no rclpy)."""
         decoders = {}
         for raw in self.messages(topics):
@@ -658,7 +664,7 @@ class Bag:
                 decoder = decoders[raw.topic] = self.decoder(raw.topic)
             yield raw, decoder(raw.data)
 
-    def decoder(self, topic):
+    def decoder(self, topic: str) -> Callable[[bytes], Any]:
         """Return a function CDR bytes -> message object for ``topic``, from its schema."""
         from mcap_ros2.decoder import DecoderFactory
         info = self.topics[topic]
@@ -801,7 +807,7 @@ def _load_metadata_yaml(meta_path):
     return meta
 
 
-def open_bag(path):
+def open_bag(path: Union[str, os.PathLike]) -> Bag:
     """
     Open a recording (a bag directory or an ``.mcap`` file), finalised or not.
 

@@ -135,7 +135,7 @@ def _typestore():
 
 
 @functools.lru_cache(maxsize=None)
-def message_definition(type_name):
+def message_definition(type_name: str) -> bytes:
     """
     Return the ``ros2msg`` schema text of ``type_name`` (``pkg/msg/Type``) as bytes.
 
@@ -154,7 +154,7 @@ def message_definition(type_name):
 
 
 @functools.lru_cache(maxsize=None)
-def type_hash(type_name):
+def type_hash(type_name: str) -> str:
     """Return the RIHS01 type description hash of ``type_name``, or ``''`` if unknown."""
     pkg, name = _split(type_name)
     path = _find_share_file(pkg, name, 'json')
