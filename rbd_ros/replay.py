@@ -528,40 +528,38 @@ class Replayer:
         Nothing else may take effect either (exact replay only: a coarser step of a study may
         merge wrenches).
         """
-        result, pending = self.result, self._pending
+        pending = self._pending
         for event in self._applied:
             key = (event.time_ns, event.input_name)
             if key in pending:
                 pending.remove(key)
             elif not self.study:
-                result.wrench_mismatches += 1
-                result.problems.append(
-                    f'a wrench on input {event.input_name!r} took effect at {event.time_ns} ns '
-                    'where none was recorded')
+                self._wrench_mismatch(f'a wrench on input {event.input_name!r} took effect at '
+                                      f'{event.time_ns} ns where none was recorded')
         self._applied.clear()
         late = [key for key in pending if key[0] < self.session.time_ns]
         for key in late:
             pending.remove(key)
             if not self.study:
-                result.wrench_mismatches += 1
-                result.problems.append(
-                    f'the wrench on input {key[1]!r} recorded at {key[0]} ns did not take '
-                    'effect on replay')
+                self._wrench_mismatch(f'the wrench on input {key[1]!r} recorded at {key[0]} ns '
+                                      'did not take effect on replay')
+
+    def _wrench_mismatch(self, problem: str) -> None:
+        self.result.wrench_mismatches += 1
+        self.result.problems.append(problem)
 
     def replay_wrench(self, raw: RawMessage, msg) -> None:
         """Submit the recorded wrench ``msg`` now, to take effect at the step starting now."""
-        result, t = self.result, raw.log_time_ns
+        t = raw.log_time_ns
         frame_id, force, torque = conversions.wrench_from_msg(msg)
-        result.wrenches += 1
+        self.result.wrenches += 1
         if self.session.time_ns != t and not self.study:
-            result.wrench_mismatches += 1
-            result.problems.append(f'the wrench recorded at {t} ns is not on the '
-                                   f'{self.config.timestep_ns} ns step grid')
+            self._wrench_mismatch(f'the wrench recorded at {t} ns is not on the '
+                                  f'{self.config.timestep_ns} ns step grid')
         try:
             self.session.submit(self.inputs[raw.topic], frame_id, force, torque)
         except WrenchRejected as exc:
-            result.wrench_mismatches += 1
-            result.problems.append(f'the wrench recorded at {t} ns is rejected on replay: {exc}')
+            self._wrench_mismatch(f'the wrench recorded at {t} ns is rejected on replay: {exc}')
         else:
             self._pending.append((self.session.time_ns, self.inputs[raw.topic]))
 
