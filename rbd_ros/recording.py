@@ -35,6 +35,13 @@ Message log times are sim time in integer nanoseconds.  A chunk is closed and fl
 operating system before it covers more than ``chunk_duration_ns`` of sim time (1 s by default)
 or ``chunk_bytes`` of data, so a run killed with SIGKILL leaves a file whose completed chunks
 stay readable (:func:`open_bag` reads such a file and says it was not finalised).
+The mcap ``Writer`` is used through its public API only: it would end a chunk only on reaching
+``chunk_size``, so chunks are ended on sim time and size with its ``flush()``.
+
+Every failure is a :class:`RecordingError` naming the file, the value or the OS error (a
+type that cannot be recorded: :class:`rbd_ros.schemas.SchemaError`, one of them).  It is an
+:class:`OSError` too, as most are file failures (path exists, cannot be created, disk full,
+truncated or unreadable file).
 
 This module does not import rclpy: the node serialises messages with
 ``rclpy.serialization.serialize_message`` and hands the CDR bytes to :meth:`BagWriter.write`.
@@ -149,10 +156,6 @@ def _dump_yaml(data):
     return yaml.dump(data, Dumper=_Dumper, sort_keys=False, default_flow_style=False)
 
 
-def _qos_yaml(profiles):
-    return _dump_yaml(profiles)
-
-
 class _Loader(yaml.SafeLoader):
     """A safe YAML loader that refuses anchors and aliases (an alias bomb expands to GBs)."""
 
@@ -202,9 +205,9 @@ class BagWriter:
         ``YYYY_MM_DD-HH_MM_SS`` (rosbag2's default naming).
     :param config: the node parameters (``NodeConfig.to_parameters()``), stored as YAML in the
         ``rbd_ros`` metadata record.
-    :param overwrite: replace an existing bag directory (only one that looks like a bag: holding
-        ``metadata.yaml`` or ``*.mcap`` files and nothing else); otherwise an existing path is a
-        :class:`RecordingError`.
+    :param overwrite: replace an existing bag directory, only one holding nothing but regular
+        files ``metadata.yaml`` and ``<name>_<N>.mcap`` (see :meth:`_prepare_directory`);
+        otherwise an existing path is a :class:`RecordingError`.
     :param compression: chunk compression, ``'zstd'`` (default), ``'lz4'`` or ``'none'``.
     :param chunk_duration_ns: a chunk is closed before it would cover this much sim time.
     :param chunk_bytes: a chunk is closed once it holds this many bytes of message data.
@@ -363,7 +366,7 @@ class BagWriter:
                 self._schema_ids[type_name] = schema_id
                 self._defs_in_chunk_only.append(Schema(
                     id=schema_id, name=type_name, encoding='ros2msg', data=definition))
-            channel_metadata = {'offered_qos_profiles': _qos_yaml([profile]),
+            channel_metadata = {'offered_qos_profiles': _dump_yaml([profile]),
                                 'topic_type_hash': type_hash}
             channel_id = self._mcap.register_channel(topic, 'cdr', schema_id, channel_metadata)
             self._defs_in_chunk_only.append(Channel(
