@@ -49,6 +49,7 @@ This module does not import rclpy: the node serialises messages with
 
 import dataclasses
 import glob
+import importlib.metadata
 import os
 import re
 import stat
@@ -249,6 +250,10 @@ class BagWriter:
         self._end_ns = 0
         self._stream = None
         self._defs_in_chunk_only = []  # Schema/Channel records not yet on disk
+        if not callable(getattr(Writer, 'flush', None)):
+            raise RecordingError(
+                f'mcap {importlib.metadata.version("mcap")}: its Writer has no public flush() '
+                'to end a chunk with; rbd_ros needs mcap 1.6.0 or newer')
         self._prepare_directory(overwrite)
         try:
             self._stream = open(self.mcap_path, 'xb')

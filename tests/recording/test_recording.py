@@ -518,3 +518,11 @@ def test_schema_errors_are_recording_errors(type_name):
         message_definition(type_name)
     assert isinstance(info.value, RecordingError)
     assert not isinstance(info.value, ValueError)
+
+
+def test_an_mcap_without_a_public_writer_flush_is_named(tmp_path, monkeypatch):
+    """We end chunks with mcap's public Writer.flush(); an mcap without it is one clear line."""
+    monkeypatch.setattr(recording, 'Writer', type('Writer', (), {}))
+    with pytest.raises(RecordingError, match=r'mcap 1\.\d+\.\d+: .*no public flush\(\)') as info:
+        BagWriter(str(tmp_path / 'b'))
+    assert '\n' not in str(info.value) and not (tmp_path / 'b').exists()
