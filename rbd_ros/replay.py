@@ -18,10 +18,11 @@ Replay a recording and check that the simulator reproduces it (``ros2 run rbd_ro
 The recording holds the node's parameters (MCAP metadata record ``rbd_ros``), every wrench as it
 took effect (log time = sim time of the start of the step it was applied at) and the output
 samples (``pose``, ``twist``, ``odom``, ``/clock``; log time = sim time of the sample).  Replay
-rebuilds :class:`rbd_ros.config.NodeConfig` from the stored parameters, drives a fresh
-:class:`rbd_ros.session.SimSession` to each recorded time, submits each recorded wrench so that
-it takes effect at the step starting at its recorded time, recomputes every recorded output
-through :mod:`rbd_ros.conversions` and compares it field by field with the recorded message.
+rebuilds :class:`rbd_ros.config.NodeConfig` from the stored parameters; a :class:`Replayer`
+drives a fresh :class:`rbd_ros.session.SimSession` to each recorded time, submits each recorded
+wrench so that it takes effect at the step starting at its recorded time, recomputes every
+recorded output through :mod:`rbd_ros.conversions` and compares it field by field with the
+recorded message.
 
 The inputs are checked too: replay digests the wrenches that took effect
 (:class:`rbd_ros.session.AppliedDigest`) and compares with the digest the node stored in the
