@@ -31,29 +31,39 @@ schemas stored in the file; rclpy is not imported.
 import argparse
 import os
 import sys
+from typing import Any, Dict, List, Optional, Tuple, Union
 
 import numpy as np
+from rbd_ros.cli import open_bag_with_notes, run_on_bag
 from rbd_ros.core import RbdError
+from rbd_ros.core.model import BodyModel
 from rbd_ros.core.rotations import quat_log, quat_to_matrix
-from rbd_ros.recording import open_bag, run_on_bag
+from rbd_ros.recording import Bag, open_bag
 
 _NS_PER_S = 1e9
 SAVE_DPI = 90
 
 
-def _vec(msg):
+_ODOM = 'nav_msgs/msg/Odometry'
+_POSE = 'geometry_msgs/msg/PoseStamped'
+_TWIST = 'geometry_msgs/msg/TwistStamped'
+_WRENCH = 'geometry_msgs/msg/WrenchStamped'
+_AXES = ('x', 'y', 'z')
+_NAN3 = (np.nan,) * 3
+
+#: One input's wrenches as recorded: ``(t_s, force (3,), torque (3,))`` per message.
+WrenchSamples = List[Tuple[float, Tuple[float, ...], Tuple[float, ...]]]
+
+
+def _vec(msg) -> Tuple[float, float, float]:
     return (msg.x, msg.y, msg.z)
 
 
-def _quat(msg):
+def _quat(msg) -> Tuple[float, float, float, float]:
     return (msg.w, msg.x, msg.y, msg.z)
 
 
-def _stamp(msg):
-    return int(msg.sec) * 1_000_000_000 + int(msg.nanosec)
-
-
-def load_series(bag):
+def load_series(bag: Bag) -> Dict[str, Any]:
     """
     Return the time series of a recording as numpy arrays.
 
@@ -61,21 +71,43 @@ def load_series(bag):
     ``velocity_w`` (N, 3), ``omega_b`` (N, 3) (NaN when not recorded), ``wrenches``
     (topic -> list of ``(t_s, force(3), torque(3))``), ``model`` (BodyModel or None),
     ``timeout_s``.
+
+    :raises RbdError: the recording has no odom, pose or twist topic.
     """
+    state_topics, wrench_topics = _plotted_topics(bag)
+    twist_frame = (bag.config or {}).get('twist_frame', 'world')
+    rows, wrenches = _read_samples(bag, state_topics, wrench_topics, twist_frame)
+    times = sorted(rows)
+    series = _state_series(rows, times)
+    model, timeout_s = _body_model(bag)
+    return {'t_s': np.array(times, dtype=float) / _NS_PER_S, **series,
+            'wrenches': wrenches, 'model': model, 'timeout_s': timeout_s}
+
+
+def _plotted_topics(bag: Bag) -> Tuple[List[str], List[str]]:
+    """Return the state topics (``odom``, else ``pose`` + ``twist``) and the wrench topics."""
     by_type = {}
     for topic, info in bag.topics.items():
         by_type.setdefault(info.type_name, []).append(topic)
-    odom = by_type.get('nav_msgs/msg/Odometry', [])
-    poses = by_type.get('geometry_msgs/msg/PoseStamped', [])
-    twists = by_type.get('geometry_msgs/msg/TwistStamped', [])
-    wrench_topics = by_type.get('geometry_msgs/msg/WrenchStamped', [])
-    state_topics = odom[:1] or (poses[:1] + twists[:1])
+    state_topics = by_type.get(_ODOM, [])[:1] or (
+        by_type.get(_POSE, [])[:1] + by_type.get(_TWIST, [])[:1])
     if not state_topics:
         raise RbdError(f'{bag.mcap_path}: no odom, pose or twist topic to plot '
                        f'(topics: {sorted(bag.topics)})')
-    twist_frame = (bag.config or {}).get('twist_frame', 'world')
+    return state_topics, by_type.get(_WRENCH, [])
+
+
+def _read_samples(bag: Bag, state_topics: List[str], wrench_topics: List[str],
+                  twist_frame: str) -> Tuple[Dict[int, dict], Dict[str, WrenchSamples]]:
+    """
+    Decode the recording into state rows by log time and wrench samples by topic.
+
+    A row holds what was recorded at that time: ``p``, ``q`` (w-first) and velocities keyed by
+    their frame, ``v_w``/``w_w`` (world) or ``v_b``/``w_b`` (body).
+    """
     rows = {}
     wrenches = {topic: [] for topic in wrench_topics}
+    velocity_frame = 'b' if twist_frame == 'body' else 'w'
     for raw, msg in bag.decoded_messages(state_topics + wrench_topics):
         t = raw.log_time_ns
         if raw.topic in wrenches:
@@ -83,55 +115,58 @@ def load_series(bag):
                 (t / _NS_PER_S, _vec(msg.wrench.force), _vec(msg.wrench.torque)))
             continue
         row = rows.setdefault(t, {})
-        info = bag.topics[raw.topic]
-        if info.type_name == 'nav_msgs/msg/Odometry':
+        type_name = bag.topics[raw.topic].type_name
+        if type_name == _ODOM:
             row['p'] = _vec(msg.pose.pose.position)
             row['q'] = _quat(msg.pose.pose.orientation)
             row['v_b'] = _vec(msg.twist.twist.linear)
             row['w_b'] = _vec(msg.twist.twist.angular)
-        elif info.type_name == 'geometry_msgs/msg/PoseStamped':
+        elif type_name == _POSE:
             row['p'] = _vec(msg.pose.position)
             row['q'] = _quat(msg.pose.orientation)
         else:
-            key = 'b' if twist_frame == 'body' else 'w'
-            row['v_' + key] = _vec(msg.twist.linear)
-            row['w_' + key] = _vec(msg.twist.angular)
-    times = sorted(rows)
-    nan3 = (np.nan,) * 3
-    p = np.array([rows[t].get('p', nan3) for t in times], dtype=float).reshape(-1, 3)
+            row['v_' + velocity_frame] = _vec(msg.twist.linear)
+            row['w_' + velocity_frame] = _vec(msg.twist.angular)
+    return rows, wrenches
+
+
+def _state_series(rows: Dict[int, dict], times: List[int]) -> Dict[str, np.ndarray]:
+    """Return position, orientation, ``v_w`` and ``ω_b`` arrays, each velocity in its frame."""
+    p = np.array([rows[t].get('p', _NAN3) for t in times], dtype=float).reshape(-1, 3)
     q = np.array([rows[t].get('q', (1.0, 0.0, 0.0, 0.0)) for t in times],
                  dtype=float).reshape(-1, 4)
     rot = quat_to_matrix(q) if len(q) else np.zeros((0, 3, 3))
     rot_t = np.swapaxes(rot, -1, -2)
 
-    def series(prefix):
-        world = np.array([rows[t].get(prefix + '_w', nan3) for t in times], float).reshape(-1, 3)
-        body = np.array([rows[t].get(prefix + '_b', nan3) for t in times], float).reshape(-1, 3)
+    def world_and_body(prefix):
+        # v_w = R v_b and v_b = R^T v_w fill whichever frame was not recorded.
+        world = np.array([rows[t].get(prefix + '_w', _NAN3) for t in times],
+                         float).reshape(-1, 3)
+        body = np.array([rows[t].get(prefix + '_b', _NAN3) for t in times], float).reshape(-1, 3)
         from_body = np.einsum('nij,nj->ni', rot, body)
         from_world = np.einsum('nij,nj->ni', rot_t, world)
-        return np.where(np.isnan(world), from_body, world), np.where(
-            np.isnan(body), from_world, body)
+        return (np.where(np.isnan(world), from_body, world),
+                np.where(np.isnan(body), from_world, body))
 
-    velocity_w, _ = series('v')
-    _, omega_b = series('w')
-    model = None
-    timeout_s = 0.0
-    if bag.config is not None:
-        try:
-            from rbd_ros.config import NodeConfig
-            config = NodeConfig.from_parameters(bag.config)
-            model = config.model
-            timeout_s = config.wrench_timeout_ns / _NS_PER_S
-        except RbdError:
-            model = None
-    return {
-        't_s': np.array(times, dtype=float) / _NS_PER_S, 'position_w': p,
-        'orientation_wb': q, 'velocity_w': velocity_w, 'omega_b': omega_b,
-        'wrenches': wrenches, 'model': model, 'timeout_s': timeout_s,
-    }
+    velocity_w, _ = world_and_body('v')
+    _, omega_b = world_and_body('w')
+    return {'position_w': p, 'orientation_wb': q, 'velocity_w': velocity_w, 'omega_b': omega_b}
 
 
-def _held(samples, timeout_s, t_end):
+def _body_model(bag: Bag) -> Tuple[Optional[BodyModel], float]:
+    """Return the body model and the wrench timeout (s) of the stored configuration."""
+    if bag.config is None:
+        return None, 0.0
+    from rbd_ros.config import NodeConfig
+    try:
+        config = NodeConfig.from_parameters(bag.config)
+    except RbdError:
+        return None, 0.0
+    return config.model, config.wrench_timeout_ns / _NS_PER_S
+
+
+def _held(samples: WrenchSamples, timeout_s: float,
+          t_end: float) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Zero-order-hold step lines of one input's wrenches: (t, force (n,3), torque (n,3))."""
     ts, forces, torques = [], [], []
     for index, (t, force, torque) in enumerate(samples):
@@ -147,7 +182,7 @@ def _held(samples, timeout_s, t_end):
     return np.array(ts), np.array(forces).reshape(-1, 3), np.array(torques).reshape(-1, 3)
 
 
-def _conserved_scale(ax):
+def _conserved_scale(ax) -> None:
     """Show a quantity constant to round-off as flat, and say how constant it is."""
     ax.ticklabel_format(axis='y', useOffset=False)
     values = np.concatenate([line.get_ydata() for line in ax.get_lines()] or [np.zeros(0)])
@@ -163,44 +198,36 @@ def _conserved_scale(ax):
                 fontsize=8)
 
 
-def draw(bag, title=None):
-    """
-    Draw the recording ``bag`` (opened or a path) into a new matplotlib figure.
+def _note(ax, text: str) -> str:
+    """Write ``text`` in the middle of an empty panel; return it."""
+    ax.text(0.5, 0.5, text, ha='center', va='center', transform=ax.transAxes)
+    return text
 
-    :returns: ``(figure, panels)``; ``panels`` lists the eight panels in reading order, each a
-        dict with ``title``, ``box`` (its axes as figure fractions ``(x0, y0, x1, y1)``, origin
-        bottom left, as laid out for saving), ``lines`` (label -> ``(x, y)`` arrays of every
-        curve drawn, x in sim seconds) and ``note`` (the text drawn instead of curves, or None).
-        The caller closes the figure (``matplotlib.pyplot.close``).
-    """
-    import matplotlib
-    matplotlib.use('Agg')
-    from matplotlib import pyplot as plt
 
-    if not hasattr(bag, 'messages'):
-        bag = open_bag(bag)
-    data = load_series(bag)
+def _draw_vectors(ax, t: np.ndarray, values: np.ndarray, title: str, unit: str) -> None:
+    """Draw the x, y, z components of ``values`` (N, 3) over sim time ``t``."""
+    for k, name in enumerate(_AXES):
+        ax.plot(t, values[:, k], label=name, linewidth=1.0)
+    ax.set_title(title, fontsize=10)
+    ax.set_ylabel(unit)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, loc='best')
+
+
+def _draw_state(axes, data: Dict[str, Any]) -> None:
+    """Panels 0-3: position, orientation (rotation vector), ``v_w`` and ``ω_b``."""
     t = data['t_s']
-    fig, axes = plt.subplots(4, 2, figsize=(13, 12), sharex=True)
-    axes = axes.ravel()
-    labels = ('x', 'y', 'z')
-
-    def lines(ax, values, title_text, unit, names=labels):
-        for k, name in enumerate(names):
-            ax.plot(t, values[:, k], label=name, linewidth=1.0)
-        ax.set_title(title_text, fontsize=10)
-        ax.set_ylabel(unit)
-        ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=8, loc='best')
-
-    lines(axes[0], data['position_w'], 'COM position (world)', 'm')
+    _draw_vectors(axes[0], t, data['position_w'], 'COM position (world)', 'm')
     rotvec = quat_log(data['orientation_wb']) if len(t) else np.zeros((0, 3))
-    lines(axes[1], rotvec, 'orientation: rotation vector log(q_wb) (world)', 'rad')
-    lines(axes[2], data['velocity_w'], 'linear velocity v_w (world)', 'm/s')
-    lines(axes[3], data['omega_b'], 'angular velocity ω_b (body)', 'rad/s')
+    _draw_vectors(axes[1], t, rotvec, 'orientation: rotation vector log(q_wb) (world)', 'rad')
+    _draw_vectors(axes[2], t, data['velocity_w'], 'linear velocity v_w (world)', 'm/s')
+    _draw_vectors(axes[3], t, data['omega_b'], 'angular velocity ω_b (body)', 'rad/s')
 
+
+def _draw_wrenches(axes, data: Dict[str, Any], notes: List[Optional[str]]) -> None:
+    """Panels 4-5: each input's force and torque, held as the node held them."""
+    t = data['t_s']
     t_end = float(t[-1]) if len(t) else 0.0
-    notes = [None] * len(axes)
     for panel, index, what, unit in ((4, 1, 'force', 'N'), (5, 2, 'torque', 'N·m')):
         ax = axes[panel]
         drawn = False
@@ -208,7 +235,7 @@ def draw(bag, title=None):
             if not samples:
                 continue
             held = _held(samples, data['timeout_s'], t_end)
-            for k, name in enumerate(labels):
+            for k, name in enumerate(_AXES):
                 ax.plot(held[0], held[index][:, k], label=f'{topic} {name}', linewidth=1.0)
             drawn = True
         ax.set_title(f'applied wrenches: {what} (as received, in its frame_id)', fontsize=10)
@@ -217,10 +244,16 @@ def draw(bag, title=None):
         if drawn:
             ax.legend(fontsize=7, loc='best', ncol=2)
         else:
-            notes[panel] = 'no wrench recorded'
-            ax.text(0.5, 0.5, notes[panel], ha='center', va='center', transform=ax.transAxes)
+            notes[panel] = _note(ax, 'no wrench recorded')
 
-    model = data['model']
+
+def _draw_invariants(axes, data: Dict[str, Any], notes: List[Optional[str]]) -> None:
+    """
+    Panels 6-7: energy and ``|L|`` about the COM, flat when constant to round-off.
+
+    ``E = m v·v / 2 + ω_b·I_b ω_b / 2`` (plus ``-m p·g`` under gravity), ``L_b = I_b ω_b``.
+    """
+    t, model = data['t_s'], data['model']
     if model is not None and len(t):
         inertia_b = np.asarray(model.inertia_b)
         v = data['velocity_w']
@@ -237,8 +270,7 @@ def draw(bag, title=None):
         axes[7].plot(t, momentum, color='tab:purple', linewidth=1.2, label='|L|')
     else:
         for k, ax in enumerate(axes[6:], 6):
-            notes[k] = 'no body model in the recording'
-            ax.text(0.5, 0.5, notes[k], ha='center', va='center', transform=ax.transAxes)
+            notes[k] = _note(ax, 'no body model in the recording')
     for ax in axes[6:]:
         _conserved_scale(ax)
     axes[6].set_title('energy', fontsize=10)
@@ -248,19 +280,50 @@ def draw(bag, title=None):
     for ax in axes[6:]:
         ax.grid(True, alpha=0.3)
         ax.set_xlabel('sim time (s)')
+
+
+def _panel_summaries(axes, notes: List[Optional[str]]) -> List[Dict[str, Any]]:
+    """Describe each laid-out panel: title, box, every curve's data, note."""
+    return [{'title': ax.get_title(), 'box': tuple(ax.get_position().extents),
+             'lines': {line.get_label(): (np.asarray(line.get_xdata(), dtype=float),
+                                          np.asarray(line.get_ydata(), dtype=float))
+                       for line in ax.get_lines()},
+             'note': note} for ax, note in zip(axes, notes)]
+
+
+def draw(bag: Union[str, os.PathLike, Bag],
+         title: Optional[str] = None) -> Tuple[Any, List[Dict[str, Any]]]:
+    """
+    Draw the recording ``bag`` (opened or a path) into a new matplotlib figure.
+
+    :returns: ``(figure, panels)``; ``panels`` lists the eight panels in reading order, each a
+        dict with ``title``, ``box`` (its axes as figure fractions ``(x0, y0, x1, y1)``, origin
+        bottom left, as laid out for saving), ``lines`` (label -> ``(x, y)`` arrays of every
+        curve drawn, x in sim seconds) and ``note`` (the text drawn instead of curves, or None).
+        The caller closes the figure (``matplotlib.pyplot.close``).
+    """
+    import matplotlib
+    matplotlib.use('Agg')
+    from matplotlib import pyplot as plt
+
+    if not isinstance(bag, Bag):
+        bag = open_bag(bag)
+    data = load_series(bag)
+    fig, axes = plt.subplots(4, 2, figsize=(13, 12), sharex=True)
+    axes = axes.ravel()
+    notes = [None] * len(axes)
+    _draw_state(axes, data)
+    _draw_wrenches(axes, data, notes)
+    _draw_invariants(axes, data, notes)
     status = '' if bag.finalised else '  [not finalised]'
     fig.suptitle(title or f'{os.path.basename(os.path.normpath(bag.path))}{status}')
     fig.tight_layout()
-    panels = [{'title': ax.get_title(), 'box': tuple(ax.get_position().extents),
-               'lines': {line.get_label(): (np.asarray(line.get_xdata(), dtype=float),
-                                            np.asarray(line.get_ydata(), dtype=float))
-                         for line in ax.get_lines()},
-               'note': note} for ax, note in zip(axes, notes)]
-    return fig, panels
+    return fig, _panel_summaries(axes, notes)
 
 
-def render(bag, out_path, title=None):
-    """Render the recording ``bag`` (opened or a path) to the PNG ``out_path``."""
+def render(bag: Union[str, os.PathLike, Bag], out_path: str,
+           title: Optional[str] = None) -> str:
+    """Render the recording ``bag`` (opened or a path) to the PNG ``out_path``; return it."""
     fig, _ = draw(bag, title)
     from matplotlib import pyplot as plt   # after draw() selected the Agg backend
     try:
@@ -270,7 +333,7 @@ def render(bag, out_path, title=None):
     return out_path
 
 
-def main(argv=None):
+def main(argv: Optional[List[str]] = None) -> int:
     """Run the ``plot`` executable; return the exit status."""
     parser = argparse.ArgumentParser(
         prog='plot', description='Plot an rbd_ros recording to one PNG.')
@@ -282,9 +345,7 @@ def main(argv=None):
     out = args.output or os.path.basename(os.path.normpath(args.bag)).split('.')[0] + '.png'
 
     def run():
-        bag = open_bag(args.bag)
-        for note in bag.notes:
-            print(f'plot: note: {note}', file=sys.stderr)
+        bag = open_bag_with_notes('plot', args.bag)
         render(bag, out, args.title)
 
     status, _ = run_on_bag('plot', args.bag, 'plotted', run)

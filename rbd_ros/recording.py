@@ -35,6 +35,13 @@ Message log times are sim time in integer nanoseconds.  A chunk is closed and fl
 operating system before it covers more than ``chunk_duration_ns`` of sim time (1 s by default)
 or ``chunk_bytes`` of data, so a run killed with SIGKILL leaves a file whose completed chunks
 stay readable (:func:`open_bag` reads such a file and says it was not finalised).
+The mcap ``Writer`` is used through its public API only: it would end a chunk only on reaching
+``chunk_size``, so chunks are ended on sim time and size with its ``flush()``.
+
+Every failure is a :class:`RecordingError` naming the file, the value or the OS error (a
+type that cannot be recorded: :class:`rbd_ros.schemas.SchemaError`, one of them).  It is an
+:class:`OSError` too, as most are file failures (path exists, cannot be created, disk full,
+truncated or unreadable file).
 
 This module does not import rclpy: the node serialises messages with
 ``rclpy.serialization.serialize_message`` and hands the CDR bytes to :meth:`BagWriter.write`.
@@ -42,22 +49,23 @@ This module does not import rclpy: the node serialises messages with
 
 import dataclasses
 import glob
+import importlib.metadata
 import os
 import re
 import stat
 import struct
-import sys
 import time
+from typing import (Any, Callable, Dict, Iterable, Iterator, List, Mapping, Optional, Tuple,
+                    Union)
 
 from mcap.data_stream import RecordBuilder
 from mcap.exceptions import McapError
-from mcap.reader import make_reader
 from mcap.records import Channel, Footer, Header, Message, Metadata, Schema, Statistics
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 from rbd_ros import __version__
 from rbd_ros import schemas
-from rbd_ros.core.errors import RbdError, RecordingError
+from rbd_ros.core.errors import RecordingError
 import yaml
 
 #: Name of the MCAP metadata record holding the node configuration.
@@ -107,7 +115,7 @@ def _os_error_text(exc):
     return text
 
 
-def normalize_qos(qos):
+def normalize_qos(qos: Optional[Mapping[str, Any]]) -> Dict[str, Any]:
     """
     Return a complete rosbag2 v9 QoS profile dict (string enums) from a partial one.
 
@@ -149,10 +157,6 @@ def _dump_yaml(data):
     return yaml.dump(data, Dumper=_Dumper, sort_keys=False, default_flow_style=False)
 
 
-def _qos_yaml(profiles):
-    return _dump_yaml(profiles)
-
-
 class _Loader(yaml.SafeLoader):
     """A safe YAML loader that refuses anchors and aliases (an alias bomb expands to GBs)."""
 
@@ -165,7 +169,7 @@ class _Loader(yaml.SafeLoader):
         return super().compose_node(parent, index)
 
 
-def load_yaml(text, what):
+def load_yaml(text: Union[str, bytes], what: str) -> Any:
     """
     Parse YAML ``text`` read from a recording: no anchors/aliases, at most MAX_YAML_BYTES.
 
@@ -202,9 +206,9 @@ class BagWriter:
         ``YYYY_MM_DD-HH_MM_SS`` (rosbag2's default naming).
     :param config: the node parameters (``NodeConfig.to_parameters()``), stored as YAML in the
         ``rbd_ros`` metadata record.
-    :param overwrite: replace an existing bag directory (only one that looks like a bag: holding
-        ``metadata.yaml`` or ``*.mcap`` files and nothing else); otherwise an existing path is a
-        :class:`RecordingError`.
+    :param overwrite: replace an existing bag directory, only one holding nothing but regular
+        files ``metadata.yaml`` and ``<name>_<N>.mcap`` (see :meth:`_prepare_directory`);
+        otherwise an existing path is a :class:`RecordingError`.
     :param compression: chunk compression, ``'zstd'`` (default), ``'lz4'`` or ``'none'``.
     :param chunk_duration_ns: a chunk is closed before it would cover this much sim time.
     :param chunk_bytes: a chunk is closed once it holds this many bytes of message data.
@@ -213,9 +217,10 @@ class BagWriter:
     :raises RecordingError: the path exists, cannot be created or written.
     """
 
-    def __init__(self, path, config=None, *, overwrite=False, compression='zstd',
-                 chunk_duration_ns=1_000_000_000, chunk_bytes=1 << 20, fsync=False,
-                 extra_metadata=None):
+    def __init__(self, path: Union[str, os.PathLike], config: Optional[Mapping[str, Any]] = None,
+                 *, overwrite: bool = False, compression: str = 'zstd',
+                 chunk_duration_ns: int = 1_000_000_000, chunk_bytes: int = 1 << 20,
+                 fsync: bool = False, extra_metadata: Optional[Mapping[str, Any]] = None):
         path = os.fspath(path)
         if '{stamp}' in path:
             path = path.replace('{stamp}', time.strftime('%Y_%m_%d-%H_%M_%S', time.gmtime()))
@@ -245,14 +250,17 @@ class BagWriter:
         self._end_ns = 0
         self._stream = None
         self._defs_in_chunk_only = []  # Schema/Channel records not yet on disk
+        if not callable(getattr(Writer, 'flush', None)):
+            raise RecordingError(
+                f'mcap {importlib.metadata.version("mcap")}: its Writer has no public flush() '
+                'to end a chunk with; rbd_ros needs mcap 1.6.0 or newer')
         self._prepare_directory(overwrite)
         try:
             self._stream = open(self.mcap_path, 'xb')
+            # The mcap Writer would end a chunk only on reaching chunk_size; we end chunks on sim
+            # time and size ourselves through its public Writer.flush().
             self._mcap = Writer(
                 self._stream, chunk_size=1 << 62, compression=_COMPRESSION[compression])
-            # The mcap Writer ends a chunk only when it reaches chunk_size; we end chunks on
-            # sim time and size ourselves through its (private) chunk finaliser.
-            self._finalize_chunk = self._mcap._Writer__finalize_chunk
             self._mcap.start(profile='ros2', library=f'rbd_ros-{__version__}')
             self._mcap.add_metadata(CONFIG_METADATA_NAME, self._config_record(extra_metadata))
             self._mcap.add_metadata('rosbag2', self._rosbag2_record())
@@ -327,16 +335,17 @@ class BagWriter:
 
     # ------------------------------------------------------------------ API
     @property
-    def closed(self):
+    def closed(self) -> bool:
         """Return whether :meth:`close` has been called."""
         return self._closed
 
     @property
-    def failed(self):
+    def failed(self) -> Optional[RecordingError]:
         """Return the :class:`RecordingError` that stopped the recording, or None."""
         return self._failed
 
-    def add_topic(self, topic, type_name, qos=None):
+    def add_topic(self, topic: str, type_name: str,
+                  qos: Optional[Mapping[str, Any]] = None) -> None:
         """
         Declare a topic (absolute name) of type ``pkg/msg/Type`` with the QoS it is offered at.
 
@@ -352,10 +361,7 @@ class BagWriter:
                     f'topic {topic!r} already recorded with type {existing.type_name!r}, '
                     f'not {type_name!r}')
             return
-        try:
-            definition = schemas.message_definition(type_name)
-        except ValueError as exc:
-            raise RecordingError(str(exc)) from None
+        definition = schemas.message_definition(type_name)
         type_hash = schemas.type_hash(type_name)
         profile = normalize_qos(qos)
         try:
@@ -365,7 +371,7 @@ class BagWriter:
                 self._schema_ids[type_name] = schema_id
                 self._defs_in_chunk_only.append(Schema(
                     id=schema_id, name=type_name, encoding='ros2msg', data=definition))
-            channel_metadata = {'offered_qos_profiles': _qos_yaml([profile]),
+            channel_metadata = {'offered_qos_profiles': _dump_yaml([profile]),
                                 'topic_type_hash': type_hash}
             channel_id = self._mcap.register_channel(topic, 'cdr', schema_id, channel_metadata)
             self._defs_in_chunk_only.append(Channel(
@@ -375,7 +381,8 @@ class BagWriter:
             self._fail(exc)
         self._topics[topic] = _Topic(topic, type_name, profile, type_hash, channel_id)
 
-    def write(self, topic, data, log_time_ns, publish_time_ns=None):
+    def write(self, topic: str, data: bytes, log_time_ns: int,
+              publish_time_ns: Optional[int] = None) -> None:
         """
         Append one CDR-serialised message (with its 4-byte encapsulation header).
 
@@ -405,7 +412,7 @@ class BagWriter:
         if log_time_ns > self._end_ns:
             self._end_ns = log_time_ns
 
-    def flush(self):
+    def flush(self) -> None:
         """
         End the current chunk and hand everything written so far to the operating system.
 
@@ -429,7 +436,7 @@ class BagWriter:
         except OSError as exc:
             self._fail(exc)
 
-    def close(self, run_metadata=None):
+    def close(self, run_metadata: Optional[Mapping[str, Any]] = None) -> None:
         """
         Finalise the bag; idempotent.
 
@@ -445,7 +452,7 @@ class BagWriter:
             return
         try:
             if self._chunk_messages:
-                self._end_chunk(flush=False)
+                self._end_chunk(fsync=False)
             if run_metadata is not None:
                 self._mcap.add_metadata(
                     RUN_METADATA_NAME, {str(k): str(v) for k, v in run_metadata.items()})
@@ -491,20 +498,19 @@ class BagWriter:
             except OSError:
                 pass
 
-    def _end_chunk(self, flush=True):
+    def _end_chunk(self, fsync=True):
+        """Write the open chunk with its message indexes and hand it to the OS (mcap's flush)."""
         self._defs_in_chunk_only = []  # the chunk carries them
         try:
-            self._finalize_chunk()
-            if flush:
-                self._stream.flush()
-                if self._fsync:
-                    os.fsync(self._stream.fileno())
+            self._mcap.flush()
+            if fsync and self._fsync:
+                os.fsync(self._stream.fileno())
         except OSError as exc:
             self._fail(exc)
         self._chunk_messages = 0
         self._chunk_bytes = 0
 
-    def metadata(self):
+    def metadata(self) -> Dict[str, Any]:
         """
         Return the rosbag2 ``BagMetadata`` (v9) of what has been written, as a bare dict.
 
@@ -565,7 +571,7 @@ class TopicInfo:
 
     name: str
     type_name: str
-    qos: list
+    qos: List[Dict[str, Any]]
     type_hash: str
     message_count: int
     schema_encoding: str
@@ -597,7 +603,7 @@ class Bag:
     record or None), ``message_count``, ``start_ns``, ``end_ns``.
     """
 
-    def __init__(self, path, mcap_path, metadata_yaml):
+    def __init__(self, path: str, mcap_path: str, metadata_yaml: Optional[Dict[str, Any]]):
         self.path = path
         self.mcap_path = mcap_path
         self.metadata_yaml = metadata_yaml
@@ -619,7 +625,7 @@ class Bag:
         self._channels = {}
 
     @property
-    def finalised(self):
+    def finalised(self) -> bool:
         """Return True when the MCAP summary, its statistics and metadata.yaml are all there."""
         return (self.has_footer and self.statistics is not None and not self.truncated
                 and self.metadata_yaml is not None)
@@ -642,7 +648,7 @@ class Bag:
                             f'incomplete or unreadable record ({type(exc).__name__}), e.g. '
                             'cut off by SIGKILL; reading the complete records before it')
 
-    def messages(self, topics=None):
+    def messages(self, topics: Optional[Iterable[str]] = None) -> Iterator[RawMessage]:
         """Yield :class:`RawMessage` in file order (log time order for our recordings)."""
         wanted = None if topics is None else set(topics)
         for record in self._records():
@@ -656,7 +662,8 @@ class Bag:
                     yield RawMessage(channel.topic, record.log_time, record.publish_time,
                                      record.data)
 
-    def decoded_messages(self, topics=None):
+    def decoded_messages(
+            self, topics: Optional[Iterable[str]] = None) -> Iterator[Tuple[RawMessage, Any]]:
         """Yield ``(RawMessage, decoded)`` decoded with the stored schemas (no rclpy)."""
         decoders = {}
         for raw in self.messages(topics):
@@ -665,7 +672,7 @@ class Bag:
                 decoder = decoders[raw.topic] = self.decoder(raw.topic)
             yield raw, decoder(raw.data)
 
-    def decoder(self, topic):
+    def decoder(self, topic: str) -> Callable[[bytes], Any]:
         """Return a function CDR bytes -> message object for ``topic``, from its schema."""
         from mcap_ros2.decoder import DecoderFactory
         info = self.topics[topic]
@@ -808,29 +815,7 @@ def _load_metadata_yaml(meta_path):
     return meta
 
 
-def run_on_bag(prog, bag_path, verb, action):
-    """
-    Run ``action()`` for a command-line tool; every failure becomes one stderr line.
-
-    :returns: ``(status, result)``: 0 and ``action()``'s result, 2 on any error (``prog: error:
-        ...``; a corrupt file can fail anywhere in the decoders, so anything is caught), 130 on
-        Ctrl-C.
-    """
-    try:
-        return 0, action()
-    except KeyboardInterrupt:
-        print(f'{prog}: interrupted', file=sys.stderr)
-        return 130, None
-    except (RbdError, OSError) as exc:
-        print(f'{prog}: error: {exc}', file=sys.stderr)
-        return 2, None
-    except Exception as exc:  # the one-line promise covers every decoder failure
-        print(f'{prog}: error: {bag_path}: cannot be {verb} ({type(exc).__name__}: {exc})',
-              file=sys.stderr)
-        return 2, None
-
-
-def open_bag(path):
+def open_bag(path: Union[str, os.PathLike]) -> Bag:
     """
     Open a recording (a bag directory or an ``.mcap`` file), finalised or not.
 
@@ -857,9 +842,3 @@ def open_bag(path):
     if meta is None:
         bag.notes.append(f'{path}: no metadata.yaml next to the MCAP file')
     return bag
-
-
-def summary_of(mcap_path):
-    """Return the MCAP summary read through the footer (None if there is none)."""
-    with open(mcap_path, 'rb') as f:
-        return make_reader(f).get_summary()

@@ -18,10 +18,11 @@ Replay a recording and check that the simulator reproduces it (``ros2 run rbd_ro
 The recording holds the node's parameters (MCAP metadata record ``rbd_ros``), every wrench as it
 took effect (log time = sim time of the start of the step it was applied at) and the output
 samples (``pose``, ``twist``, ``odom``, ``/clock``; log time = sim time of the sample).  Replay
-rebuilds :class:`rbd_ros.config.NodeConfig` from the stored parameters, drives a fresh
-:class:`rbd_ros.session.SimSession` to each recorded time, submits each recorded wrench so that
-it takes effect at the step starting at its recorded time, recomputes every recorded output
-through :mod:`rbd_ros.conversions` and compares it field by field with the recorded message.
+rebuilds :class:`rbd_ros.config.NodeConfig` from the stored parameters; a :class:`Replayer`
+drives a fresh :class:`rbd_ros.session.SimSession` to each recorded time, submits each recorded
+wrench so that it takes effect at the step starting at its recorded time, recomputes every
+recorded output through :mod:`rbd_ros.conversions` and compares it field by field with the
+recorded message.
 
 The inputs are checked too: replay digests the wrenches that took effect
 (:class:`rbd_ros.session.AppliedDigest`) and compares with the digest the node stored in the
@@ -47,16 +48,19 @@ import argparse
 import dataclasses
 import json
 import math
+import os
 import sys
+from typing import Collection, Dict, Iterable, List, Optional, Tuple, Union
 
 import numpy as np
 from rbd_ros import conversions
+from rbd_ros.cli import open_bag_with_notes, run_on_bag
 from rbd_ros.config import NodeConfig
 from rbd_ros.core import NonFiniteError
-from rbd_ros.core.errors import RecordingError
+from rbd_ros.core.errors import RbdError
 from rbd_ros.core.rotations import quat_angle_between
-from rbd_ros.inputs import WrenchRejected
-from rbd_ros.recording import open_bag, run_on_bag
+from rbd_ros.inputs import AppliedEvent, WrenchRejected
+from rbd_ros.recording import Bag, open_bag, RawMessage
 from rbd_ros.session import AppliedDigest, SimSession
 
 WRENCH_TYPE = 'geometry_msgs/msg/WrenchStamped'
@@ -71,8 +75,12 @@ _NS_PER_S = 1_000_000_000
 _BIG_STEPS = 1 << 62  # "as many steps as needed": SimSession.advance stops at until_ns
 
 
-class ReplayError(RecordingError):
-    """The recording cannot be replayed (no configuration, unknown wrench topic, ...)."""
+class ReplayError(RbdError):
+    """
+    The recording cannot be replayed (no configuration, unknown wrench topic, crafted times, ...).
+
+    An :class:`RbdError`, not an :class:`OSError`: the file was read; what it holds is wrong.
+    """
 
 
 @dataclasses.dataclass
@@ -89,49 +97,52 @@ class TopicResult:
     samples: int = 0
     mismatches: int = 0
     bit_exact: bool = True
-    max_position_error_m: float = None
-    max_orientation_error_rad: float = None
-    max_linear_velocity_error_m_s: float = None
-    max_angular_velocity_error_rad_s: float = None
-    first_mismatch: str = None
+    max_position_error_m: Optional[float] = None
+    max_orientation_error_rad: Optional[float] = None
+    max_linear_velocity_error_m_s: Optional[float] = None
+    max_angular_velocity_error_rad_s: Optional[float] = None
+    first_mismatch: Optional[str] = None
 
-    def _update(self, name, value):
+    def take_error(self, name: str, value: float) -> None:
+        """Raise the maximum error ``name`` (one of the ``max_*`` fields) to ``value``."""
         current = getattr(self, name)
         setattr(self, name, value if current is None else max(current, value))
+
+    _update = take_error  # the name _compare calls it by (until _compare is rewritten)
 
 
 @dataclasses.dataclass
 class ReplayResult:
-    """The outcome of :func:`replay_bag`; ``match`` decides the exit status."""
+    """The outcome of :func:`replay_bag` (:class:`Replayer`); ``match`` decides the exit status."""
 
     bag: str
     finalised: bool
-    notes: list
+    notes: List[str]
     integrator: str
     timestep_ns: int
     recorded_integrator: str
     recorded_timestep_ns: int
-    tolerance: float
-    topics: dict
+    tolerance: Optional[float]
+    topics: Dict[str, TopicResult]
     wrenches: int = 0
     wrench_mismatches: int = 0
     wrench_digest_checked: bool = False
-    failure_reproduced: str = None
-    remarks: list = dataclasses.field(default_factory=list)
-    problems: list = dataclasses.field(default_factory=list)
+    failure_reproduced: Optional[str] = None
+    remarks: List[str] = dataclasses.field(default_factory=list)
+    problems: List[str] = dataclasses.field(default_factory=list)
 
     @property
-    def compared(self):
+    def compared(self) -> int:
         """Return the number of output samples compared."""
         return sum(t.samples for t in self.topics.values())
 
     @property
-    def match(self):
+    def match(self) -> bool:
         """Return True when every sample and wrench matched and nothing else went wrong."""
         return (not self.problems and self.wrench_mismatches == 0
                 and all(t.mismatches == 0 for t in self.topics.values()))
 
-    def to_dict(self):
+    def to_dict(self) -> dict:
         """Return a JSON-ready dict."""
         return {
             'bag': self.bag,
@@ -154,7 +165,8 @@ class ReplayResult:
         }
 
 
-def config_from_bag(bag, integrator=None, timestep_s=None):
+def config_from_bag(bag: Bag, integrator: Optional[str] = None,
+                    timestep_s: Optional[float] = None) -> NodeConfig:
     """
     Rebuild the :class:`NodeConfig` of a recording, optionally with another integrator/step.
 
@@ -193,7 +205,8 @@ def _input_for_topic(config, topic):
     return best.name
 
 
-def check_times(bag, config, messages, output_topics):
+def check_times(bag: Bag, config: NodeConfig, messages: Iterable[RawMessage],
+                output_topics: Collection[str]) -> None:
     """
     Refuse a recording whose log times cannot come from one run of ``config`` (before stepping).
 
@@ -225,7 +238,7 @@ def check_times(bag, config, messages, output_topics):
             last_sample = t
 
 
-def recorded_failure(bag):
+def recorded_failure(bag: Bag) -> Optional[Tuple[int, str]]:
     """Return ``(time_ns, message)`` of the recorded run's non-finite step, or None."""
     run = bag.run_metadata or {}
     text = run.get('failure_time_ns', '')
@@ -348,7 +361,9 @@ class _Progress:
             self.stream.flush()
 
 
-def replay_bag(bag, *, tolerance=None, integrator=None, timestep_s=None, progress=False):
+def replay_bag(bag: Union[str, os.PathLike, Bag], *, tolerance: Optional[float] = None,
+               integrator: Optional[str] = None, timestep_s: Optional[float] = None,
+               progress: bool = False) -> ReplayResult:
     """
     Replay ``bag`` (a path or an opened :class:`rbd_ros.recording.Bag`) and compare.
 
@@ -357,151 +372,207 @@ def replay_bag(bag, *, tolerance=None, integrator=None, timestep_s=None, progres
     :param timestep_s: replay with this physics step instead of the recorded one, s.
     :param progress: draw a progress bar on stderr.
     :returns: a :class:`ReplayResult`.
-    :raises RecordingError: the bag cannot be read or replayed at all.
+    :raises RbdError: the bag cannot be read (:class:`RecordingError`) or replayed at all
+        (:class:`ReplayError`, or the stored configuration is invalid).
     """
-    if not hasattr(bag, 'messages'):
+    if not isinstance(bag, Bag):
         bag = open_bag(bag)
-    recorded = config_from_bag(bag)
-    config = config_from_bag(bag, integrator, timestep_s)
-    session = SimSession(config)
-    session.paused = False
-    h = config.timestep_ns
+    replayer = Replayer(bag, tolerance=tolerance, integrator=integrator, timestep_s=timestep_s)
+    messages = replayer.recorded_messages()
+    if messages is not None:
+        replayer.run(messages, progress)
+    return replayer.result
 
-    kinds = {}
-    inputs = {}
-    for topic, info in bag.topics.items():
-        if info.type_name in OUTPUT_KINDS:
-            kinds[topic] = OUTPUT_KINDS[info.type_name]
-        elif info.type_name == WRENCH_TYPE:
-            inputs[topic] = _input_for_topic(config, topic)
-    result = ReplayResult(
-        bag=str(bag.path), finalised=bag.finalised, notes=[], integrator=config.integrator,
-        timestep_ns=h, recorded_integrator=recorded.integrator,
-        recorded_timestep_ns=recorded.timestep_ns, tolerance=tolerance,
-        topics={topic: TopicResult(topic, kind) for topic, kind in sorted(kinds.items())})
 
-    wanted = list(kinds) + list(inputs)
-    messages = list(bag.messages(wanted))
-    result.notes = list(bag.notes)
-    last_time = {}
-    for raw in messages:
-        if raw.log_time_ns < last_time.get(raw.topic, -1):
-            result.problems.append(
-                f'{raw.topic}: log time goes back from {last_time[raw.topic]} ns to '
-                f'{raw.log_time_ns} ns (a ~/reset during the run?); replay covers runs '
-                'without resets')
-            return result
-        last_time[raw.topic] = raw.log_time_ns
-    messages.sort(key=lambda m: m.log_time_ns)  # stable: keeps file order at equal times
-    if not any(m.topic in kinds for m in messages):
-        raise ReplayError(f'{bag.mcap_path}: no recorded output samples to compare '
-                          f'({len(messages)} messages on the replayed topics)')
-    check_times(bag, recorded, messages, kinds)
-    failure = recorded_failure(bag)
-    if failure is not None and failure[0] > (messages[-1].log_time_ns + recorded.timestep_ns
-                                             + recorded.publish_period_ns):
-        raise ReplayError(
-            f'{bag.mcap_path}: the rbd_ros.run record puts the failure at {failure[0]} ns, more '
-            'than one publish period + one step after the last recorded message at '
-            f'{messages[-1].log_time_ns} ns')
+class Replayer:
+    """
+    Re-drive one recording through a fresh :class:`SimSession`: advance, check events, compare.
 
-    decoders = {topic: bag.decoder(topic) for topic in wanted}
-    study = integrator is not None or timestep_s is not None
-    bar = _Progress(len(messages), progress)
-    pending = []  # (time_ns, input_name) of submitted wrenches not yet seen taking effect
-    applied = []  # AppliedEvent reported by the session
-    digest = AppliedDigest()  # over every wrench that took effect on replay, in order
+    :meth:`recorded_messages` reads and vets what is to be replayed; :meth:`run` then steps to
+    each message, submits each recorded wrench (:meth:`replay_wrench`), compares each recorded
+    sample (:meth:`compare_sample`), checks after each advance that exactly the recorded
+    wrenches took effect (:meth:`check_events`), and judges a recorded failure and the wrench
+    digest at the end.  Everything found goes into :attr:`result`.
 
-    def took_effect(events):
+    :param bag: the opened recording.
+    :param tolerance: None = bit-exact; else the largest accepted error (m, rad, m/s, rad/s).
+    :param integrator: replay with this integrator instead of the recorded one (a study).
+    :param timestep_s: replay with this physics step in s instead of the recorded one (a study).
+    :raises ReplayError: no configuration, or a wrench topic that matches no input.
+    """
+
+    def __init__(self, bag: Bag, *, tolerance: Optional[float] = None,
+                 integrator: Optional[str] = None, timestep_s: Optional[float] = None):
+        self.bag = bag
+        self.recorded = config_from_bag(bag)
+        self.config = config_from_bag(bag, integrator, timestep_s)
+        #: Another integrator or step: report how far the result moves, do not judge wrenches.
+        self.study = integrator is not None or timestep_s is not None
+        self.tolerance = tolerance
+        self.session = SimSession(self.config)
+        self.session.paused = False
+        self.kinds = {}  # output topic -> kind ('pose', 'twist', 'odom', 'clock')
+        self.inputs = {}  # wrench topic -> input name
+        for topic, info in bag.topics.items():
+            if info.type_name in OUTPUT_KINDS:
+                self.kinds[topic] = OUTPUT_KINDS[info.type_name]
+            elif info.type_name == WRENCH_TYPE:
+                self.inputs[topic] = _input_for_topic(self.config, topic)
+        self.result = ReplayResult(
+            bag=str(bag.path), finalised=bag.finalised, notes=[],
+            integrator=self.config.integrator, timestep_ns=self.config.timestep_ns,
+            recorded_integrator=self.recorded.integrator,
+            recorded_timestep_ns=self.recorded.timestep_ns, tolerance=tolerance,
+            topics={topic: TopicResult(topic, kind) for topic, kind in sorted(self.kinds.items())})
+        self.failure = recorded_failure(bag)
+        self.digest = AppliedDigest()  # over every wrench that took effect on replay, in order
+        self._pending = []  # (time_ns, input_name) of submitted wrenches not yet taking effect
+        self._applied = []  # AppliedEvent reported by the session, not yet checked
+        self._decoders = {}
+
+    def recorded_messages(self) -> Optional[List[RawMessage]]:
+        """
+        Return the messages to replay in log time order, or None after a reset (a problem).
+
+        :raises ReplayError: no output sample, or log times (or the recorded failure time) that
+            cannot come from one run of the recorded configuration (:func:`check_times`).
+        """
+        bag, result = self.bag, self.result
+        wanted = list(self.kinds) + list(self.inputs)
+        messages = list(bag.messages(wanted))
+        result.notes = list(bag.notes)
+        last_time = {}
+        for raw in messages:
+            if raw.log_time_ns < last_time.get(raw.topic, -1):
+                result.problems.append(
+                    f'{raw.topic}: log time goes back from {last_time[raw.topic]} ns to '
+                    f'{raw.log_time_ns} ns (a ~/reset during the run?); replay covers runs '
+                    'without resets')
+                return None
+            last_time[raw.topic] = raw.log_time_ns
+        messages.sort(key=lambda m: m.log_time_ns)  # stable: keeps file order at equal times
+        if not any(m.topic in self.kinds for m in messages):
+            raise ReplayError(f'{bag.mcap_path}: no recorded output samples to compare '
+                              f'({len(messages)} messages on the replayed topics)')
+        check_times(bag, self.recorded, messages, self.kinds)
+        last = messages[-1].log_time_ns
+        if self.failure is not None and self.failure[0] > (
+                last + self.recorded.timestep_ns + self.recorded.publish_period_ns):
+            raise ReplayError(
+                f'{bag.mcap_path}: the rbd_ros.run record puts the failure at '
+                f'{self.failure[0]} ns, more than one publish period + one step after the last '
+                f'recorded message at {last} ns')
+        self._decoders = {topic: bag.decoder(topic) for topic in wanted}
+        return messages
+
+    def run(self, messages: List[RawMessage], progress: bool = False) -> ReplayResult:
+        """Replay ``messages`` (from :meth:`recorded_messages`); return :attr:`result`."""
+        session, result = self.session, self.result
+        bar = _Progress(len(messages), progress)
+        replay_failure = None
+        index = -1
+        try:
+            for index, raw in enumerate(messages):
+                if not self.advance_to(raw.log_time_ns):
+                    result.problems.append(
+                        f'the recording goes on to {raw.log_time_ns} ns, past the end of the '
+                        f'replayed run ({session.time_ns} ns; duration_s = '
+                        f'{self.config.duration_ns / 1e9:g} s)')
+                    break
+                self.check_events()
+                msg = self._decoders[raw.topic](raw.data)
+                if raw.topic in self.inputs:
+                    self.replay_wrench(raw, msg)
+                else:
+                    self.compare_sample(raw, msg)
+                bar.update(index + 1)
+            if self.failure is not None and not self.study:
+                # The recorded failing step: it must fail again.
+                self.advance_to(self.failure[0] + self.config.timestep_ns)
+            if self._pending and not session.finished:
+                # Let the wrenches recorded at the last time take effect, to confirm them.
+                self.took_effect(session.advance(1).events)
+            self.check_events()
+        except NonFiniteError as exc:
+            self.took_effect(getattr(exc, 'events', ()))
+            self.check_events()
+            replay_failure = (session.time_ns, str(exc))
+            left = len(messages) - index - 1
+            if left:
+                result.remarks.append(f'{left} recorded messages after the failing step were '
+                                      'not replayed')
+        finally:
+            bar.close()
+        _judge_failure(result, self.failure, replay_failure, self.study)
+        _judge_digest(result, self.bag, self.digest, self.study)
+        return result
+
+    def took_effect(self, events: Iterable[AppliedEvent]) -> None:
+        """Digest the wrenches the session reports as applied and keep them for checking."""
         for event in events:
-            digest.update(event)
-        applied.extend(events)
+            self.digest.update(event)
+            self._applied.append(event)
 
-    def advance_to(t_ns):
-        while session.time_ns < t_ns:
-            report = session.advance(_BIG_STEPS, until_ns=t_ns)
-            took_effect(report.events)
+    def advance_to(self, t_ns: int) -> bool:
+        """Step the session to sim time ``t_ns``; return False if it ended before."""
+        while self.session.time_ns < t_ns:
+            report = self.session.advance(_BIG_STEPS, until_ns=t_ns)
+            self.took_effect(report.events)
             if report.steps == 0:
                 return False
         return True
 
-    def check_events():
-        # Every wrench submitted at time t must take effect at the step starting at t, and
-        # nothing else may take effect (exact replay only: a coarser step may merge wrenches).
-        for event in applied:
+    def check_events(self) -> None:
+        """
+        Check that each submitted wrench took effect at the step starting at its time.
+
+        Nothing else may take effect either (exact replay only: a coarser step of a study may
+        merge wrenches).
+        """
+        pending = self._pending
+        for event in self._applied:
             key = (event.time_ns, event.input_name)
             if key in pending:
                 pending.remove(key)
-            elif not study:
-                result.wrench_mismatches += 1
-                result.problems.append(
-                    f'a wrench on input {event.input_name!r} took effect at {event.time_ns} ns '
-                    'where none was recorded')
-        applied.clear()
-        late = [key for key in pending if key[0] < session.time_ns]
+            elif not self.study:
+                self._wrench_mismatch(f'a wrench on input {event.input_name!r} took effect at '
+                                      f'{event.time_ns} ns where none was recorded')
+        self._applied.clear()
+        late = [key for key in pending if key[0] < self.session.time_ns]
         for key in late:
             pending.remove(key)
-            if not study:
-                result.wrench_mismatches += 1
-                result.problems.append(
-                    f'the wrench on input {key[1]!r} recorded at {key[0]} ns did not take '
-                    'effect on replay')
+            if not self.study:
+                self._wrench_mismatch(f'the wrench on input {key[1]!r} recorded at {key[0]} ns '
+                                      'did not take effect on replay')
 
-    replay_failure = None
-    index = -1
-    try:
-        for index, raw in enumerate(messages):
-            t = raw.log_time_ns
-            if not advance_to(t):
-                result.problems.append(
-                    f'the recording goes on to {t} ns, past the end of the replayed run '
-                    f'({session.time_ns} ns; duration_s = {config.duration_ns / 1e9:g} s)')
-                break
-            check_events()
-            msg = decoders[raw.topic](raw.data)
-            if raw.topic in inputs:
-                frame_id, force, torque = conversions.wrench_from_msg(msg)
-                result.wrenches += 1
-                if session.time_ns != t and not study:
-                    result.wrench_mismatches += 1
-                    result.problems.append(
-                        f'the wrench recorded at {t} ns is not on the {h} ns step grid')
-                try:
-                    session.submit(inputs[raw.topic], frame_id, force, torque)
-                except WrenchRejected as exc:
-                    result.wrench_mismatches += 1
-                    result.problems.append(
-                        f'the wrench recorded at {t} ns is rejected on replay: {exc}')
-                else:
-                    pending.append((session.time_ns, inputs[raw.topic]))
-            else:
-                kind = kinds[raw.topic]
-                expected = expected_message(kind, session.state, config)
-                if session.time_ns != t:
-                    # Replayed with another step: compare the values at the first step end at
-                    # or after t (the stamp is not what is being studied).
-                    expected = _restamp(kind, expected, t)
-                _compare(result.topics[raw.topic], kind, t, expected, msg, tolerance)
-            bar.update(index + 1)
-        if failure is not None and not study:
-            advance_to(failure[0] + h)  # the recorded failing step: it must fail again
-        if pending and not session.finished:
-            # Let the wrenches recorded at the last time take effect, to confirm them.
-            took_effect(session.advance(1).events)
-        check_events()
-    except NonFiniteError as exc:
-        took_effect(getattr(exc, 'events', ()))
-        check_events()
-        replay_failure = (session.time_ns, str(exc))
-        left = len(messages) - index - 1
-        if left:
-            result.remarks.append(f'{left} recorded messages after the failing step were not '
-                                  'replayed')
-    finally:
-        bar.close()
-    _judge_failure(result, failure, replay_failure, study)
-    _judge_digest(result, bag, digest, study)
-    return result
+    def _wrench_mismatch(self, problem: str) -> None:
+        self.result.wrench_mismatches += 1
+        self.result.problems.append(problem)
+
+    def replay_wrench(self, raw: RawMessage, msg) -> None:
+        """Submit the recorded wrench ``msg`` now, to take effect at the step starting now."""
+        t = raw.log_time_ns
+        frame_id, force, torque = conversions.wrench_from_msg(msg)
+        self.result.wrenches += 1
+        if self.session.time_ns != t and not self.study:
+            self._wrench_mismatch(f'the wrench recorded at {t} ns is not on the '
+                                  f'{self.config.timestep_ns} ns step grid')
+        try:
+            self.session.submit(self.inputs[raw.topic], frame_id, force, torque)
+        except WrenchRejected as exc:
+            self._wrench_mismatch(f'the wrench recorded at {t} ns is rejected on replay: {exc}')
+        else:
+            self._pending.append((self.session.time_ns, self.inputs[raw.topic]))
+
+    def compare_sample(self, raw: RawMessage, msg) -> bool:
+        """Compare the recorded output sample ``msg`` with the one recomputed now."""
+        kind, t = self.kinds[raw.topic], raw.log_time_ns
+        expected = expected_message(kind, self.session.state, self.config)
+        if self.session.time_ns != t:
+            # Replayed with another step: compare the values at the first step end at or after
+            # t (the stamp is not what is being studied).
+            expected = _restamp(kind, expected, t)
+        return _compare(self.result.topics[raw.topic], kind, t, expected, msg, self.tolerance)
 
 
 def _judge_failure(result, recorded, replayed, study):
@@ -562,7 +633,7 @@ def _fmt_error(value):
     return '-' if value is None else f'{value:.3g}'
 
 
-def format_summary(result):
+def format_summary(result: ReplayResult) -> str:
     """Return the human-readable per-topic summary as a string."""
     lines = []
     what = 'bit-exact' if result.tolerance is None else f'tolerance {result.tolerance:g}'
@@ -601,7 +672,7 @@ def format_summary(result):
     return '\n'.join(lines)
 
 
-def build_parser():
+def build_parser() -> argparse.ArgumentParser:
     """Return the argument parser of the ``replay`` executable."""
     parser = argparse.ArgumentParser(
         prog='replay',
@@ -622,7 +693,7 @@ def build_parser():
     return parser
 
 
-def main(argv=None):
+def main(argv: Optional[List[str]] = None) -> int:
     """Run the ``replay`` executable; return the exit status."""
     args = build_parser().parse_args(argv)
     progress = args.progress if args.progress is not None else sys.stderr.isatty()
@@ -630,9 +701,7 @@ def main(argv=None):
     def run():
         if args.tolerance is not None and not args.tolerance >= 0.0:
             raise ReplayError(f'--tolerance {args.tolerance}: must be >= 0')
-        bag = open_bag(args.bag)
-        for note in bag.notes:
-            print(f'replay: note: {note}', file=sys.stderr)
+        bag = open_bag_with_notes('replay', args.bag)
         return replay_bag(bag, tolerance=args.tolerance, integrator=args.integrator,
                           timestep_s=args.timestep, progress=progress)
 
@@ -646,7 +715,7 @@ def main(argv=None):
     return 0 if result.match else 1
 
 
-def entry_point():
+def entry_point() -> None:
     """Console-script entry point: exit with :func:`main`'s status."""
     sys.exit(main())
 

@@ -32,7 +32,14 @@ import os
 import re
 import sys
 
+from rbd_ros.core.errors import RecordingError
+
 SEPARATOR = '=' * 80
+
+
+class SchemaError(RecordingError):
+    """A message type is malformed or has no definition to record it with (names the type)."""
+
 
 _PRIMITIVES = frozenset((
     'bool', 'byte', 'char', 'float32', 'float64', 'int8', 'uint8', 'int16', 'uint16',
@@ -57,7 +64,7 @@ def _split(type_name):
         return parts[0], parts[2]
     if len(parts) == 2:
         return parts[0], parts[1]
-    raise ValueError(f'message type {type_name!r} is not of the form pkg/msg/Type')
+    raise SchemaError(f'message type {type_name!r} is not of the form pkg/msg/Type')
 
 
 @functools.lru_cache(maxsize=None)
@@ -128,25 +135,26 @@ def _typestore():
 
 
 @functools.lru_cache(maxsize=None)
-def message_definition(type_name):
+def message_definition(type_name: str) -> bytes:
     """
     Return the ``ros2msg`` schema text of ``type_name`` (``pkg/msg/Type``) as bytes.
 
-    :raises ValueError: if the type is known neither to the installed packages nor to rosbags.
+    :raises SchemaError: the type is malformed or known neither to the installed packages nor
+        to rosbags.
     """
     text = _local_definition(type_name)
     if text is None:
         try:
             text = _typestore().generate_msgdef(type_name, ros_version=2)[0]
         except Exception as exc:  # rosbags raises its own TypesysError family
-            raise ValueError(
+            raise SchemaError(
                 f'message type {type_name!r}: no .msg definition found under '
                 f'{_share_dirs()} nor in the rosbags Jazzy typestore ({exc})') from None
     return text.encode('utf-8')
 
 
 @functools.lru_cache(maxsize=None)
-def type_hash(type_name):
+def type_hash(type_name: str) -> str:
     """Return the RIHS01 type description hash of ``type_name``, or ``''`` if unknown."""
     pkg, name = _split(type_name)
     path = _find_share_file(pkg, name, 'json')

@@ -28,26 +28,11 @@ import pytest
 from rbd_ros import conversions
 from rbd_ros.recording import open_bag
 from rbd_ros.replay import main, replay_bag
-import rclpy
-from rclpy.executors import SingleThreadedExecutor
+from ros_context import ros_fixture  # noqa: F401 - the fixture ros
 from rosbags.rosbag2 import Reader as RosbagsReader
 from std_srvs.srv import SetBool
 
 S = 1_000_000_000
-
-
-@pytest.fixture
-def ros():
-    """Yield a test-side rclpy node and executor in a private context."""
-    context = rclpy.Context()
-    context.init()
-    node = rclpy.create_node('recording_test_talker', context=context)
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
-    yield node, executor
-    executor.shutdown()
-    node.destroy_node()
-    context.try_shutdown()
 
 
 def _recorded_until(path, t_ns):

@@ -19,8 +19,10 @@ Messages are serialised with rclpy (as the node does) and read back with our rea
 ``mcap`` reader plus ``mcap-ros2-support`` decoding, and with ``rosbags``.
 """
 
+import errno
 import os
 from pathlib import Path
+import re
 import shutil
 import time
 
@@ -440,13 +442,37 @@ def test_unwritable_path_is_a_clear_error(tmp_path):
     assert str(blocker) in str(info.value)
 
 
+class _FillingDisk:
+    """The bag file as a disk that fills up: writes fail with ENOSPC once ``full`` is set."""
+
+    def __init__(self, file):
+        self._file = file
+        self.full = False
+
+    def write(self, data):
+        if self.full:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), self._file.name)
+        return self._file.write(data)
+
+    def __getattr__(self, name):
+        return getattr(self._file, name)
+
+
 def test_disk_full_is_a_clear_error(tmp_path, monkeypatch):
+    disks = []
+
+    def open_on_filling_disk(path, mode='r', *args, **kwargs):
+        file = open(path, mode, *args, **kwargs)
+        if mode == 'xb':  # the MCAP file; metadata.yaml and reading stay on the real disk
+            file = _FillingDisk(file)
+            disks.append(file)
+        return file
+
+    monkeypatch.setattr(recording, 'open', open_on_filling_disk, raising=False)
     writer = BagWriter(str(tmp_path / 'full'), chunk_duration_ns=STEP_NS)
     writer.add_topic('/pose', 'geometry_msgs/msg/PoseStamped')
-    # Swap the file for /dev/full, where every flush fails with ENOSPC.
-    full = open('/dev/full', 'wb')
-    writer._stream = full
-    writer._mcap._Writer__stream = full
+    writer.flush()
+    disks[0].full = True  # every later write fails as on a full disk
     data = serialize_message(PoseStamped())
     with pytest.raises(RecordingError, match='No space left on device'):
         for k in range(10):
@@ -455,6 +481,18 @@ def test_disk_full_is_a_clear_error(tmp_path, monkeypatch):
         writer.write('/pose', data, 20 * STEP_NS)  # stays failed, says why again
     writer.close()  # releases the file, does not raise a second time
     writer.close()
+    assert writer.failed is not None and '\n' not in str(writer.failed)
+
+
+def test_no_private_names_of_dependencies():
+    """Our code and tests use only public APIs of mcap & co: no name-mangled attributes."""
+    root = Path(__file__).resolve().parents[2]
+    mangled = re.compile(r'\._[A-Z]\w*__\w')  # an attribute mangled by a class's __name
+    found = [f'{path.relative_to(root)}:{number}: {line.strip()}'
+             for folder in ('rbd_ros', 'tests') for path in sorted((root / folder).rglob('*.py'))
+             for number, line in enumerate(path.read_text().splitlines(), 1)
+             if mangled.search(line)]
+    assert found == []
 
 
 def test_bad_arguments(tmp_path):
@@ -470,3 +508,21 @@ def test_bad_arguments(tmp_path):
     writer.close()
     with pytest.raises(RecordingError, match='closed'):
         writer.write('/z', b'', 0)
+
+
+@pytest.mark.parametrize('type_name', ['no_such_msgs/msg/Nothing', 'not/a/msg/type'])
+def test_schema_errors_are_recording_errors(type_name):
+    """A type we cannot record is a RecordingError naming it, never a bare ValueError."""
+    from rbd_ros.schemas import message_definition, SchemaError
+    with pytest.raises(SchemaError, match=type_name) as info:
+        message_definition(type_name)
+    assert isinstance(info.value, RecordingError)
+    assert not isinstance(info.value, ValueError)
+
+
+def test_an_mcap_without_a_public_writer_flush_is_named(tmp_path, monkeypatch):
+    """We end chunks with mcap's public Writer.flush(); an mcap without it is one clear line."""
+    monkeypatch.setattr(recording, 'Writer', type('Writer', (), {}))
+    with pytest.raises(RecordingError, match=r'mcap 1\.\d+\.\d+: .*no public flush\(\)') as info:
+        BagWriter(str(tmp_path / 'b'))
+    assert '\n' not in str(info.value) and not (tmp_path / 'b').exists()

@@ -236,3 +236,43 @@ def test_console_entry_point_no_traceback(bad_inputs):
         assert proc.returncode == 2, proc.stderr
         assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
         assert 'Traceback' not in proc.stderr
+
+
+def test_replay_error_is_an_rbd_error_not_an_os_error():
+    """A bag whose content cannot be replayed is not an I/O failure: ReplayError is an RbdError."""
+    from types import SimpleNamespace
+
+    from rbd_ros.core.errors import RbdError
+    from rbd_ros.replay import recorded_failure, ReplayError
+    bag = SimpleNamespace(mcap_path='b_0.mcap', run_metadata={'failure_time_ns': '1.5'})
+    with pytest.raises(ReplayError, match="failure_time_ns '1.5', not an integer") as info:
+        recorded_failure(bag)
+    assert isinstance(info.value, RbdError)
+    assert not isinstance(info.value, OSError)
+
+
+def test_replayer_steps_in_named_parts():
+    """The Replayer's steps, driven one by one, replay a reference bag to the same MATCH."""
+    from rbd_ros.replay import Replayer, TopicResult
+    bag = open_bag(str(REPO / 'bags' / 'box_pushed'))
+    replayer = Replayer(bag)
+    messages = replayer.recorded_messages()
+    wrenches = [m for m in messages if m.topic in replayer.inputs]
+    assert wrenches and [m.log_time_ns for m in messages] == sorted(
+        m.log_time_ns for m in messages)
+    # Stepping to the first wrench, submitting it and stepping one step: it took effect there.
+    first = wrenches[0]
+    assert replayer.advance_to(first.log_time_ns)
+    replayer.replay_wrench(first, bag.decoder(first.topic)(first.data))
+    assert replayer.advance_to(first.log_time_ns + replayer.config.timestep_ns)
+    replayer.check_events()
+    assert replayer.result.problems == [] and replayer.digest.count == 1
+    # The whole run, on a fresh replayer.
+    replayer = Replayer(bag)
+    result = replayer.run(replayer.recorded_messages())
+    assert result.match and result.compared > 0 and result.wrenches == len(wrenches)
+    # Errors are kept as maxima through the public method.
+    topic = TopicResult('/pose', 'pose')
+    for value in (2.0, 5.0, 3.0):
+        topic.take_error('max_position_error_m', value)
+    assert topic.max_position_error_m == 5.0 and topic.max_orientation_error_rad is None
