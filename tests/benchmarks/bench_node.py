@@ -15,7 +15,8 @@
 """
 Benchmark of ``rigid_body_node`` through real DDS (not collected by pytest).
 
-``.venv/bin/python tests/benchmarks/bench_node.py [--seconds 60] [--runs 3] [--trials 200]``
+``.venv/bin/python tests/benchmarks/bench_node.py [--seconds 60] [--runs 3] [--trials 200]
+[--fast-long-s 41] [--only latency|pacing|fast|breakdown]``
 
 1. latency: 1 kHz physics, 1 kHz publishing, real time. Each trial resets the body (at rest, no
    wrench, so x stays exactly 0), waits a random 5-25 ms, publishes a 1 N world force and times
@@ -36,6 +37,7 @@ Prints the median over ``--runs`` runs of each figure.
 """
 
 import argparse
+import math
 import os
 import random
 import statistics
@@ -199,10 +201,11 @@ def report_outside(runs, long_s, short_s=1.0):
     Print ``(long_s - short_s) / (median wall(long) - median wall(short))`` per mode.
 
     Start-up and shut-down (1-3 s, jittering by a few 0.1 s on a loaded machine) cancel in the
-    difference; a difference within that jitter is reported as unresolved (use a longer
-    ``--fast-long-s``).
+    difference. Also printed: the worst case over the runs (slowest long run minus fastest
+    short run), a bound the jitter cannot flatter; PASS/SHORT judges the median.
     """
     load = os.getloadavg()
+    sim_s = long_s - short_s
     print(f'as fast as possible, measured from outside (median wall of {len(runs)} runs of '
           f'{long_s:g} s minus that of {short_s:g} s; load average {load[0]:.2f} {load[1]:.2f} '
           f'{load[2]:.2f} on {os.cpu_count()} CPUs):', flush=True)
@@ -210,16 +213,16 @@ def report_outside(runs, long_s, short_s=1.0):
         short = [run[mode, short_s] for run in runs]
         long = [run[mode, long_s] for run in runs]
         diff = statistics.median(long) - statistics.median(short)
-        jitter = max(short) - min(short)
+        worst = sim_s / (max(long) - min(short)) if max(long) > min(short) else math.inf
         walls = f'walls {[round(w, 2) for w in short]} s and {[round(w, 2) for w in long]} s'
-        if diff <= jitter:
-            print(f'  {mode}: unresolved, the difference {diff:.2f} s is within the start-up '
-                  f'jitter {jitter:.2f} s ({walls})', flush=True)
+        if diff <= 0.0:
+            print(f'  {mode}: unresolved, the median difference {diff:.2f} s is not positive '
+                  f'(start-up jitter; use a longer --fast-long-s) ({walls})', flush=True)
             continue
-        factor = (long_s - short_s) / diff
+        factor = sim_s / diff
         verdict = 'PASS' if factor >= target else f'SHORT by {target - factor:.0f}x'
-        print(f'  {mode}: {factor:.0f}x real time (target >= {target:g}x: {verdict}; {walls})',
-              flush=True)
+        print(f'  {mode}: {factor:.0f}x real time, worst case {worst:.0f}x (target >= '
+              f'{target:g}x: {verdict}; {walls})', flush=True)
 
 
 def breakdown(sim_seconds=20):
