@@ -19,8 +19,8 @@ One output sample: state → values → CDR bytes (and messages), for the node, 
 node's output messages (``pose``, ``twist``, ``odom``, ``/clock``, ``/tf``). The node publishes
 the CDR bytes of :meth:`SampleBuilder.serialize` and records the SAME bytes; replay recomputes
 the samples with :meth:`SampleBuilder.messages`, built from the same values, so "replay
-rebuilds exactly what the node published" holds by construction (a test checks that the bytes
-equal ``rclpy.serialization.serialize_message`` of the messages).
+rebuilds exactly what the node published" holds by construction (a test checks that rclpy
+deserialises the bytes into exactly those messages, at the length rclpy serialises them).
 
 Frames (REP 103 / REP 105):
 
@@ -43,7 +43,8 @@ right (never a BLAS product, whose fused multiply-adds depend on the CPU).
 
 No rclpy here: the message classes are plain rosidl Python classes. CDR is XCDR1 little
 endian (encapsulation ``00 01 00 00``; alignment counted after those 4 bytes), as rmw
-serialises these types.
+serialises these types; padding bytes are zeros (rclpy's serialiser leaves them uninitialised,
+so two serialisations of one message could differ there).
 """
 
 import collections
