@@ -17,8 +17,9 @@ The node's parameters as data, and :class:`NodeConfig`, the validated configurat
 
 :data:`PARAMETERS` is the one table of the public parameter interface: name, type, default,
 unit, description, allowed range and whether it is read-only.  The node declares its ROS
-parameters from it (descriptions, ``FloatingPointRange``/``IntegerRange``), the README tables are
-generated from it, and :meth:`NodeConfig.from_parameters` validates against it.
+parameters from it (descriptions, ``FloatingPointRange``/``IntegerRange``),
+:meth:`NodeConfig.from_parameters` validates against it, and a test checks that the README's
+parameter tables list exactly these names with these defaults and units.
 
 :meth:`NodeConfig.from_parameters` takes a plain ``dict`` name → value (missing names take their
 default) and either returns a frozen :class:`NodeConfig` or raises :class:`ConfigError` /
@@ -42,7 +43,6 @@ import math
 
 import numpy as np
 
-from rbd_ros import conversions
 from rbd_ros.core import (BodyModel, BodyState, ConfigError, DEFAULT_INTEGRATOR, INTEGRATORS,
                           ModelError, NonFiniteError, Simulator)
 from rbd_ros.core.inertia import from_shape, inertia_from_components, SHAPES
@@ -65,7 +65,7 @@ MAIN_INPUT = 'wrench'
 DEFAULT_SHAPE = 'box'
 DEFAULT_DIMENSIONS_M = (0.2, 0.1, 0.05)
 
-_NS_PER_S = 1_000_000_000
+NS_PER_S = 1_000_000_000  # the one ns-per-second constant of rbd_ros
 # A time in seconds must be within this many ns of a whole number of ns: float64 writes decimal
 # steps such as 0.001 s with a relative error <= 2^-53, far below 1e-3 ns for any step < 1e3 s.
 _NS_TOLERANCE = 1e-3
@@ -293,7 +293,7 @@ def _check_range(spec, value):
 
 
 def _to_ns(spec, seconds):
-    ns = seconds * _NS_PER_S
+    ns = seconds * NS_PER_S
     rounded = round(ns)
     if abs(ns - rounded) > _NS_TOLERANCE:
         _fail(spec, seconds, 'must be a whole number of nanoseconds')
@@ -377,145 +377,17 @@ class NodeConfig:
             triangle inequality), both ``inertia`` and ``shape`` given, ...
         """
         params = dict(params or {})
-        values = {}
-        for spec in PARAMETERS:
-            value = _coerce(spec, params.pop(spec.name, spec.default))
-            if spec.kind in (DOUBLE, INTEGER):
-                _check_range(spec, value)
-            values[spec.name] = value
-        p = PARAMETERS_BY_NAME
-
-        names = values['wrench_inputs']
-        for name in names:
-            if not name or not (name.replace('_', 'a').isalnum() and name.isascii()):
-                _fail(p['wrench_inputs'], list(names),
-                      f'input name {name!r} must be letters, digits and _')
-            if name == MAIN_INPUT:
-                _fail(p['wrench_inputs'], list(names), f'{MAIN_INPUT!r} is the main input')
-        if len(set(names)) != len(names):
-            _fail(p['wrench_inputs'], list(names), 'names must be distinct')
-        extra_specs = []
-        for name in names:
-            for spec in input_parameter_specs(name):
-                value = _coerce(spec, params.pop(spec.name, spec.default))
-                values[spec.name] = value
-            extra_specs.append(name)
+        values = _table_values(params)
+        input_names = _input_values(values, params)
         if params:
             unknown = sorted(params)[0]
             raise ConfigError(
                 f'parameter {unknown} = {_fmt(params[unknown])}: unknown parameter name '
                 f'(known: see README; wrench input parameters need their name in wrench_inputs)')
-
-        # Model.
-        mass_kg = values['mass_kg']
-        if not mass_kg > 0.0:
-            _fail(p['mass_kg'], mass_kg, 'must be > 0')
-        inertia = values['inertia']
-        shape = values['shape']
-        dims = values['dimensions_m']
-        if inertia and shape:
-            raise ModelError(
-                f'parameter inertia = {_fmt(inertia)} kg·m² and parameter shape = {shape!r}: '
-                'give either inertia or shape (with dimensions_m), not both')
-        if dims and not shape:
-            _fail(p['dimensions_m'], dims, 'needs shape (or remove it and give inertia)')
-        if inertia:
-            if len(inertia) != 6:
-                _fail(p['inertia'], inertia,
-                      'must have 6 values [ixx, iyy, izz, ixy, ixz, iyz]')
-            inertia_b = _reraise(p['inertia'], inertia,
-                                 inertia_from_components, *inertia)
-        else:
-            if not shape:
-                shape, dims = DEFAULT_SHAPE, DEFAULT_DIMENSIONS_M
-            if shape not in SHAPES:
-                _fail(p['shape'], shape, 'must be one of ' + ', '.join(SHAPES),
-                      ModelError)
-            props = _reraise(p['dimensions_m'], dims, from_shape,
-                             shape, dims, mass_kg)
-            inertia_b = props.inertia_b
-        gravity = _vector3(p['gravity'], values['gravity'])
-        model = _reraise(p['inertia'] if inertia else p['dimensions_m'],
-                         inertia or dims, BodyModel, mass_kg, inertia_b, gravity,
-                         values['linear_damping'], values['angular_damping'])
-
-        # Initial state.
-        position = _vector3(p['initial_position'], values['initial_position'])
-        q_xyzw = values['initial_orientation']
-        if len(q_xyzw) != 4:
-            _fail(p['initial_orientation'], q_xyzw, 'must have 4 values [x, y, z, w]')
-        norm = math.sqrt(sum(v * v for v in q_xyzw))
-        if abs(norm - 1.0) > 1e-3:
-            _fail(p['initial_orientation'], q_xyzw,
-                  f'norm {norm:.6g} must be within 1e-3 of 1 ([x, y, z, w] order)')
-        q_wxyz = np.asarray(conversions.xyzw_to_wxyz(q_xyzw)) / norm
-        velocity = _vector3(p['initial_linear_velocity'], values['initial_linear_velocity'])
-        omega_b = _vector3(p['initial_angular_velocity'], values['initial_angular_velocity'])
-        initial_state = BodyState(position_w=np.array(position), orientation_wb=q_wxyz,
-                                  linear_velocity_w=np.array(velocity),
-                                  angular_velocity_b=np.array(omega_b), time_ns=0)
-
-        # Integrator and time.
-        if values['integrator'] not in INTEGRATORS:
-            _fail(p['integrator'], values['integrator'],
-                  'must be one of ' + ', '.join(INTEGRATORS))
-        if not values['timestep_s'] > 0.0:
-            _fail(p['timestep_s'], values['timestep_s'], 'must be > 0')
-        timestep_ns = _to_ns(p['timestep_s'], values['timestep_s'])
-        if not values['publish_rate_hz'] > 0.0:
-            _fail(p['publish_rate_hz'], values['publish_rate_hz'], 'must be > 0')
-        if values['publish_rate_hz'] < MIN_PUBLISH_RATE_HZ:
-            _fail(p['publish_rate_hz'], values['publish_rate_hz'],
-                  f'must be >= {MIN_PUBLISH_RATE_HZ:g} Hz (a publish period of at most 1e6 s)')
-        check_real_time_factor(values['real_time_factor'])
-        publish_period_ns = max(1, round(_NS_PER_S / values['publish_rate_hz']))
-        duration_ns = _to_ns(p['duration_s'], values['duration_s'])
-        timeout_ns = _to_ns(p['wrench_timeout_s'], values['wrench_timeout_s'])
-
-        # Frames.
-        for name in ('world_frame', 'body_frame'):
-            if not values[name]:
-                _fail(p[name], values[name], 'must not be empty')
-        if values['world_frame'] == values['body_frame']:
-            _fail(p['body_frame'], values['body_frame'], 'must differ from world_frame')
-        for name in ('twist_frame', 'default_wrench_frame'):
-            if values[name] not in FRAME_KEYWORDS:
-                _fail(p[name], values[name], "must be 'world' or 'body'")
-        if values['record_on_error'] not in ('continue', 'stop'):
-            _fail(p['record_on_error'], values['record_on_error'], "must be 'continue' or 'stop'")
-        for name in ('max_force_n', 'max_torque_nm'):
-            if not values[name] > 0.0:
-                _fail(p[name], values[name], 'must be > 0')
-
-        # Wrench inputs.
-        inputs = [WrenchInputSpec(MAIN_INPUT, 'wrench', values['default_wrench_frame'])]
-        topics = {'wrench'}
-        for name in extra_specs:
-            topic_spec, frame_spec, point_spec = input_parameter_specs(name)
-            topic = values[topic_spec.name]
-            if not topic:
-                _fail(topic_spec, topic, 'must not be empty')
-            if topic in topics:
-                _fail(topic_spec, topic, 'is already used by another wrench input')
-            topics.add(topic)
-            frame = values[frame_spec.name]
-            if frame not in FRAME_KEYWORDS:
-                _fail(frame_spec, frame, "must be 'world' or 'body'")
-            point_b = _vector3(point_spec, values[point_spec.name])
-            inputs.append(WrenchInputSpec(name, topic, frame, point_b))
-
         return cls(
-            model=model, initial_state=initial_state, integrator=values['integrator'],
-            timestep_ns=timestep_ns, publish_period_ns=publish_period_ns,
-            real_time_factor=values['real_time_factor'], duration_ns=duration_ns,
-            start_paused=values['start_paused'], world_frame=values['world_frame'],
-            body_frame=values['body_frame'], twist_frame=values['twist_frame'],
-            default_wrench_frame=values['default_wrench_frame'],
-            wrench_timeout_ns=timeout_ns, max_force_n=values['max_force_n'],
-            max_torque_nm=values['max_torque_nm'], wrench_inputs=tuple(inputs),
-            publish_clock=values['publish_clock'], publish_tf=values['publish_tf'],
-            record_path=values['record_path'], record_overwrite=values['record_overwrite'],
-            record_on_error=values['record_on_error'],
+            model=_model(values), initial_state=_initial_state(values),
+            **_time_settings(values), **_frame_settings(values),
+            **_limits_and_recording(values), wrench_inputs=_wrench_inputs(values, input_names),
             parameters=values)
 
     def to_parameters(self):
@@ -523,22 +395,168 @@ class NodeConfig:
         return {name: list(value) if isinstance(value, tuple) else value
                 for name, value in self.parameters.items()}
 
-    def spec(self, name):
-        """Return the :class:`ParamSpec` of parameter ``name`` (including input parameters)."""
-        if name in PARAMETERS_BY_NAME:
-            return PARAMETERS_BY_NAME[name]
-        for input_name in self.parameters['wrench_inputs']:
-            for spec in input_parameter_specs(input_name):
-                if spec.name == name:
-                    return spec
-        raise ConfigError(f'parameter {name}: unknown parameter name')
-
     def all_specs(self):
         """Return the specs of every parameter of this config (table + wrench input ones)."""
         specs = list(PARAMETERS)
         for input_name in self.parameters['wrench_inputs']:
             specs.extend(input_parameter_specs(input_name))
         return tuple(specs)
+
+
+def _table_values(params):
+    """Take the table's parameters out of ``params`` (defaults for the missing ones); coerce."""
+    values = {}
+    for spec in PARAMETERS:
+        value = _coerce(spec, params.pop(spec.name, spec.default))
+        if spec.kind in (DOUBLE, INTEGER):
+            _check_range(spec, value)
+        values[spec.name] = value
+    return values
+
+
+def _input_values(values, params):
+    """Check ``wrench_inputs``; take each input's parameters out of ``params`` into ``values``."""
+    spec = PARAMETERS_BY_NAME['wrench_inputs']
+    names = values['wrench_inputs']
+    for name in names:
+        if not name or not (name.replace('_', 'a').isalnum() and name.isascii()):
+            _fail(spec, list(names), f'input name {name!r} must be letters, digits and _')
+        if name == MAIN_INPUT:
+            _fail(spec, list(names), f'{MAIN_INPUT!r} is the main input')
+    if len(set(names)) != len(names):
+        _fail(spec, list(names), 'names must be distinct')
+    for name in names:
+        for input_spec in input_parameter_specs(name):
+            values[input_spec.name] = _coerce(
+                input_spec, params.pop(input_spec.name, input_spec.default))
+    return names
+
+
+def _model(values):
+    """Build the :class:`BodyModel`: mass, inertia (given, or of a shape), gravity, damping."""
+    p = PARAMETERS_BY_NAME
+    mass_kg = values['mass_kg']
+    if not mass_kg > 0.0:
+        _fail(p['mass_kg'], mass_kg, 'must be > 0')
+    inertia = values['inertia']
+    shape = values['shape']
+    dims = values['dimensions_m']
+    if inertia and shape:
+        raise ModelError(
+            f'parameter inertia = {_fmt(inertia)} kg·m² and parameter shape = {shape!r}: '
+            'give either inertia or shape (with dimensions_m), not both')
+    if dims and not shape:
+        _fail(p['dimensions_m'], dims, 'needs shape (or remove it and give inertia)')
+    if inertia:
+        if len(inertia) != 6:
+            _fail(p['inertia'], inertia, 'must have 6 values [ixx, iyy, izz, ixy, ixz, iyz]')
+        inertia_b = _reraise(p['inertia'], inertia, inertia_from_components, *inertia)
+    else:
+        if not shape:
+            shape, dims = DEFAULT_SHAPE, DEFAULT_DIMENSIONS_M
+        if shape not in SHAPES:
+            _fail(p['shape'], shape, 'must be one of ' + ', '.join(SHAPES), ModelError)
+        inertia_b = _reraise(p['dimensions_m'], dims, from_shape, shape, dims,
+                             mass_kg).inertia_b
+    gravity = _vector3(p['gravity'], values['gravity'])
+    return _reraise(p['inertia'] if inertia else p['dimensions_m'], inertia or dims, BodyModel,
+                    mass_kg, inertia_b, gravity, values['linear_damping'],
+                    values['angular_damping'])
+
+
+def xyzw_to_wxyz(q_xyzw):
+    """Reorder a plain ``[x, y, z, w]`` sequence (geometry_msgs order) to ``(w, x, y, z)``."""
+    x, y, z, w = q_xyzw
+    return (w, x, y, z)
+
+
+def _initial_state(values):
+    """Build the :class:`BodyState` at time 0 (``initial_orientation`` is [x, y, z, w])."""
+    p = PARAMETERS_BY_NAME
+    position = _vector3(p['initial_position'], values['initial_position'])
+    q_xyzw = values['initial_orientation']
+    if len(q_xyzw) != 4:
+        _fail(p['initial_orientation'], q_xyzw, 'must have 4 values [x, y, z, w]')
+    norm = math.sqrt(sum(v * v for v in q_xyzw))
+    if abs(norm - 1.0) > 1e-3:
+        _fail(p['initial_orientation'], q_xyzw,
+              f'norm {norm:.6g} must be within 1e-3 of 1 ([x, y, z, w] order)')
+    q_wxyz = np.asarray(xyzw_to_wxyz(q_xyzw)) / norm
+    velocity = _vector3(p['initial_linear_velocity'], values['initial_linear_velocity'])
+    omega_b = _vector3(p['initial_angular_velocity'], values['initial_angular_velocity'])
+    return BodyState(position_w=np.array(position), orientation_wb=q_wxyz,
+                     linear_velocity_w=np.array(velocity), angular_velocity_b=np.array(omega_b),
+                     time_ns=0)
+
+
+def _time_settings(values):
+    """Check integrator, step, publish period, real-time factor, duration, wrench timeout."""
+    p = PARAMETERS_BY_NAME
+    if values['integrator'] not in INTEGRATORS:
+        _fail(p['integrator'], values['integrator'], 'must be one of ' + ', '.join(INTEGRATORS))
+    if not values['timestep_s'] > 0.0:
+        _fail(p['timestep_s'], values['timestep_s'], 'must be > 0')
+    timestep_ns = _to_ns(p['timestep_s'], values['timestep_s'])
+    if not values['publish_rate_hz'] > 0.0:
+        _fail(p['publish_rate_hz'], values['publish_rate_hz'], 'must be > 0')
+    if values['publish_rate_hz'] < MIN_PUBLISH_RATE_HZ:
+        _fail(p['publish_rate_hz'], values['publish_rate_hz'],
+              f'must be >= {MIN_PUBLISH_RATE_HZ:g} Hz (a publish period of at most 1e6 s)')
+    check_real_time_factor(values['real_time_factor'])
+    return {'integrator': values['integrator'], 'timestep_ns': timestep_ns,
+            'publish_period_ns': max(1, round(NS_PER_S / values['publish_rate_hz'])),
+            'real_time_factor': values['real_time_factor'],
+            'duration_ns': _to_ns(p['duration_s'], values['duration_s']),
+            'start_paused': values['start_paused'],
+            'wrench_timeout_ns': _to_ns(p['wrench_timeout_s'], values['wrench_timeout_s'])}
+
+
+def _frame_settings(values):
+    """Check the frame ids and keywords; the optional outputs (``/clock``, ``/tf``)."""
+    p = PARAMETERS_BY_NAME
+    for name in ('world_frame', 'body_frame'):
+        if not values[name]:
+            _fail(p[name], values[name], 'must not be empty')
+    if values['world_frame'] == values['body_frame']:
+        _fail(p['body_frame'], values['body_frame'], 'must differ from world_frame')
+    for name in ('twist_frame', 'default_wrench_frame'):
+        if values[name] not in FRAME_KEYWORDS:
+            _fail(p[name], values[name], "must be 'world' or 'body'")
+    return {name: values[name] for name in (
+        'world_frame', 'body_frame', 'twist_frame', 'default_wrench_frame', 'publish_clock',
+        'publish_tf')}
+
+
+def _limits_and_recording(values):
+    """Check the wrench limits and the ``record_*`` settings."""
+    p = PARAMETERS_BY_NAME
+    if values['record_on_error'] not in ('continue', 'stop'):
+        _fail(p['record_on_error'], values['record_on_error'], "must be 'continue' or 'stop'")
+    for name in ('max_force_n', 'max_torque_nm'):
+        if not values[name] > 0.0:
+            _fail(p[name], values[name], 'must be > 0')
+    return {name: values[name] for name in (
+        'max_force_n', 'max_torque_nm', 'record_path', 'record_overwrite', 'record_on_error')}
+
+
+def _wrench_inputs(values, input_names):
+    """Build the :class:`WrenchInputSpec` tuple: the main input, then each extra one."""
+    inputs = [WrenchInputSpec(MAIN_INPUT, 'wrench', values['default_wrench_frame'])]
+    topics = {'wrench'}
+    for name in input_names:
+        topic_spec, frame_spec, point_spec = input_parameter_specs(name)
+        topic = values[topic_spec.name]
+        if not topic:
+            _fail(topic_spec, topic, 'must not be empty')
+        if topic in topics:
+            _fail(topic_spec, topic, 'is already used by another wrench input')
+        topics.add(topic)
+        frame = values[frame_spec.name]
+        if frame not in FRAME_KEYWORDS:
+            _fail(frame_spec, frame, "must be 'world' or 'body'")
+        point_b = _vector3(point_spec, values[point_spec.name])
+        inputs.append(WrenchInputSpec(name, topic, frame, point_b))
+    return tuple(inputs)
 
 
 def _reraise(spec, value, func, *args):

@@ -111,11 +111,6 @@ class WrenchInputs:
         self._loads = ()
 
     @property
-    def names(self):
-        """Return the input names, the main input first."""
-        return tuple(self._specs)
-
-    @property
     def received_total(self):
         """Return the number of wrenches received on all inputs (accepted or not)."""
         return sum(self.received.values())

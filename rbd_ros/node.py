@@ -13,17 +13,19 @@
 # limitations under the License.
 
 """
-``rigid_body_node``: the only rclpy code. Parameters in, wrenches in, state out; time is sim time.
+``rigid_body_node``: the simulator's rclpy node. Parameters in, wrenches in, state out.
 
-Everything else lives in ROS-free modules: :mod:`rbd_ros.config` (parameters),
-:mod:`rbd_ros.session` (stepping, wrench hold and expiry, publish schedule) and
-:mod:`rbd_ros.conversions` (messages). The wall clock only paces the fixed physics step: the
-sim time due is ``sim_anchor + (wall_now - wall_anchor) * real_time_factor`` against an absolute
-wall anchor (re-anchored on pause, reset and a change of the factor), so pacing error does not
-accumulate; at most :data:`MAX_STEPS_PER_TICK` steps run per tick, and a larger backlog is
-dropped (counted in ``/diagnostics`` as ``wall_time_dropped_s``). Timers run on a steady clock,
-so ``use_sim_time`` (which launch files set on every node) cannot freeze the node: its stamps are
-always its own sim time.
+Time is sim time. (:mod:`rbd_ros.demo` is the other rclpy code: a client of this node.)
+Everything else lives in rclpy-free modules: :mod:`rbd_ros.config` (parameters),
+:mod:`rbd_ros.session` (stepping, wrench hold and expiry, publish schedule),
+:mod:`rbd_ros.outputs` (a sample's messages as CDR bytes, published and recorded alike) and
+:mod:`rbd_ros.conversions` (the other messages). The wall clock only paces the fixed physics
+step: the sim time due is ``sim_anchor + (wall_now - wall_anchor) * real_time_factor`` against
+an absolute wall anchor (re-anchored on pause, reset and a change of the factor), so pacing
+error does not accumulate; at most :data:`MAX_STEPS_PER_TICK` steps run per tick, and a larger
+backlog is dropped (counted in ``/diagnostics`` as ``wall_time_dropped_s``). Timers run on a
+steady clock, so ``use_sim_time`` (which launch files set on every node) cannot freeze the
+node: its stamps are always its own sim time.
 """
 
 import math
@@ -42,6 +44,7 @@ if __name__ == '__main__' or os.path.basename(sys.argv[0]) == 'rigid_body_node':
 
 from rbd_ros import config as cfg
 from rbd_ros import conversions as conv
+from rbd_ros import outputs
 from rbd_ros.core import ConfigError, jitcache, NonFiniteError, RbdError, RecordingError
 from rbd_ros.inputs import WrenchRejected
 from rbd_ros.session import SimSession
@@ -58,11 +61,6 @@ from rclpy.qos_overriding_options import QoSOverridingOptions
 from rclpy.serialization import serialize_message
 from rclpy.signals import SignalHandlerOptions
 from std_srvs.srv import SetBool, Trigger
-
-try:  # tf2_msgs is on every Jazzy install but not in the PyPI wheels.
-    from tf2_msgs.msg import TFMessage
-except ImportError:  # pragma: no cover - depends on the install
-    TFMessage = None
 
 MAX_STEPS_PER_TICK = 1000  # the catch-up cap
 AS_FAST_BUDGET_NS = 10_000_000  # wall time per tick at real_time_factor 0 (then serve callbacks)
@@ -107,11 +105,11 @@ class RigidBodyNode(Node):
                 self.get_logger().warning(f'ignoring unknown parameter {name} = {value!r}')
         self.config = config = cfg.NodeConfig.from_parameters(params)
         self._check_input_topics()
-        self.session = SimSession(config)
         self._warm_up()
         for spec in config.all_specs():
             self._declare(spec, config.parameters[spec.name])
         self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.session = SimSession(config)
         self.done = False
         self.exit_status = 0
         self._rtf = config.real_time_factor
@@ -119,19 +117,24 @@ class RigidBodyNode(Node):
         self._lag_max_ns = 0  # largest wall-minus-sim lag seen at a tick, since the last diag
 
         self._recorder = None
-        self._pubs = {'pose': self._publisher(conv.PoseStamped, 'pose', STATE_QOS),
-                      'twist': self._publisher(conv.TwistStamped, 'twist', STATE_QOS),
-                      'odom': self._publisher(conv.Odometry, 'odom', STATE_QOS),
+        self._builder = outputs.SampleBuilder(config)
+        self._state_column = self.session.state_column
+        types = outputs.MESSAGE_TYPES
+        self._pubs = {'pose': self._publisher(types['pose'], 'pose', STATE_QOS),
+                      'twist': self._publisher(types['twist'], 'twist', STATE_QOS),
+                      'odom': self._publisher(types['odom'], 'odom', STATE_QOS),
                       'diagnostics': self._publisher(conv.DiagnosticArray, '/diagnostics', 10)}
-        if config.publish_clock:
-            self._pubs['clock'] = self._publisher(conv.Clock, '/clock', 10)
-        if config.publish_tf and TFMessage is not None:
-            self._pubs['tf'] = self._publisher(TFMessage, '/tf', 100)
+        if 'clock' in self._builder.kinds:
+            self._pubs['clock'] = self._publisher(types['clock'], '/clock', 10)
+        if 'tf' in self._builder.kinds:
+            self._pubs['tf'] = self._publisher(types['tf'], '/tf', 100)
+        self._sample_pubs = [(kind, self._pubs[kind].publish, self._pubs[kind].topic_name)
+                             for kind in self._builder.kinds]
         self._input_subs = [self._qos_checked(
             spec.topic, 'subscription', self.create_subscription, conv.WrenchStamped, spec.topic,
             lambda msg, name=spec.name: self._on_wrench(name, msg), 10,
             qos_overriding_options=QOS_OVERRIDES) for spec in config.wrench_inputs]
-        if config.publish_tf and TFMessage is None:
+        if config.publish_tf and 'tf' not in self._builder.kinds:
             self.get_logger().info('tf2_msgs is not importable: not broadcasting /tf')
         for name in self._parameter_overrides:
             if name.startswith('qos_overrides.') and not self.has_parameter(name):
@@ -260,9 +263,11 @@ class RigidBodyNode(Node):
             self._record(self._input_topics[event.input_name], event.tag, event.time_ns)
 
     def _record(self, topic, msg, time_ns):
+        """Record ``msg`` (a message, or its CDR bytes) if recording."""
         if self._recorder is not None:
             try:
-                self._recorder.write(topic, serialize_message(msg), time_ns)
+                self._recorder.write(
+                    topic, msg if isinstance(msg, bytes) else serialize_message(msg), time_ns)
             except RecordingError as exc:
                 stop = self.config.record_on_error == 'stop'
                 then = 'stopping the node (record_on_error: stop)' if stop else 'simulating on'
@@ -336,18 +341,13 @@ class RigidBodyNode(Node):
             n_steps -= report.steps
 
     def _publish_sample(self):
-        state, c = self.session.state, self.config
-        t = state.time_ns
-        pose, twist, odom = conv.state_to_messages(state, c.twist_frame, c.world_frame,
-                                                   c.body_frame)
-        self._publish('pose', pose, t)
-        self._publish('twist', twist, t)
-        self._publish('odom', odom, t)
-        if 'clock' in self._pubs:
-            self._publish('clock', conv.clock_to_msg(t), t)
-        if 'tf' in self._pubs:
-            self._publish('tf', TFMessage(transforms=[conv.state_to_transform(
-                state, c.world_frame, c.body_frame)]), t)
+        """Publish the current sample; record the same CDR bytes."""
+        builder, t = self._builder, self.session.time_ns
+        samples = builder.serialize(t, builder.column_values(self._state_column))
+        for (_, publish, topic), (_, data) in zip(self._sample_pubs, samples):
+            publish(data)
+            if self._recorder is not None:
+                self._record(topic, data, t)
 
     def _publish_diagnostics(self):
         s, now = self.session, time.monotonic_ns()
@@ -380,10 +380,10 @@ class RigidBodyNode(Node):
 
     def _warm_up(self):
         """
-        Compile (or load from numba's cache) the physics kernel; log it when it compiles.
+        Take the first physics step on a throw-away simulator (:func:`cfg.check_first_step`).
 
-        The compiling step is :func:`rbd_ros.config.check_first_step` on a throw-away copy, so
-        a configuration whose first step is not finite is refused here, naming the parameter.
+        That compiles the physics kernels (or loads them from numba's cache): logged when it
+        compiles, so the check comes after the look into the cache.
         """
         on_disk = jitcache.kernels_on_disk()
         if not on_disk:

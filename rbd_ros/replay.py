@@ -54,6 +54,7 @@ from typing import Collection, Dict, Iterable, List, Optional, Tuple, Union
 
 import numpy as np
 from rbd_ros import conversions
+from rbd_ros import outputs
 from rbd_ros.cli import open_bag_with_notes, run_on_bag
 from rbd_ros.config import NodeConfig
 from rbd_ros.core import NonFiniteError
@@ -71,7 +72,6 @@ OUTPUT_KINDS = {
     'nav_msgs/msg/Odometry': 'odom',
     'rosgraph_msgs/msg/Clock': 'clock',
 }
-_NS_PER_S = 1_000_000_000
 _BIG_STEPS = 1 << 62  # "as many steps as needed": SimSession.advance stops at until_ns
 
 
@@ -107,8 +107,6 @@ class TopicResult:
         """Raise the maximum error ``name`` (one of the ``max_*`` fields) to ``value``."""
         current = getattr(self, name)
         setattr(self, name, value if current is None else max(current, value))
-
-    _update = take_error  # the name _compare calls it by (until _compare is rewritten)
 
 
 @dataclasses.dataclass
@@ -251,46 +249,26 @@ def recorded_failure(bag: Bag) -> Optional[Tuple[int, str]]:
                           f'{text!r}, not an integer (ns)') from None
 
 
-def _stamp_ns(msg):
-    return int(msg.sec) * _NS_PER_S + int(msg.nanosec)
-
-
-def _vec(msg):
-    return np.array((msg.x, msg.y, msg.z), dtype=np.float64)
-
-
-def _quat(msg):
-    return np.array(conversions.quaternion_from_msg(msg), dtype=np.float64)
-
-
 def _fields(kind, msg):
     """Return ``(stamp_ns, frame_ids, {field: array})`` of an output message, by field name."""
+    vec, quat = conversions.vector_from_msg, conversions.quaternion_from_msg
     if kind == 'clock':
-        return _stamp_ns(msg.clock), (), {}
-    stamp = _stamp_ns(msg.header.stamp)
+        return conversions.time_from_msg(msg.clock), (), {}
+    stamp = conversions.time_from_msg(msg.header.stamp)
     if kind == 'pose':
         return stamp, (msg.header.frame_id,), {
-            'position': _vec(msg.pose.position), 'orientation': _quat(msg.pose.orientation)}
+            'position': vec(msg.pose.position), 'orientation': quat(msg.pose.orientation)}
     if kind == 'twist':
         return stamp, (msg.header.frame_id,), {
-            'linear': _vec(msg.twist.linear), 'angular': _vec(msg.twist.angular)}
+            'linear': vec(msg.twist.linear), 'angular': vec(msg.twist.angular)}
     return stamp, (msg.header.frame_id, msg.child_frame_id), {
-        'position': _vec(msg.pose.pose.position),
-        'orientation': _quat(msg.pose.pose.orientation),
-        'linear': _vec(msg.twist.twist.linear), 'angular': _vec(msg.twist.twist.angular)}
+        'position': vec(msg.pose.pose.position), 'orientation': quat(msg.pose.pose.orientation),
+        'linear': vec(msg.twist.twist.linear), 'angular': vec(msg.twist.twist.angular)}
 
 
 def expected_message(kind, state, config):
-    """Recompute the output message of ``kind`` for ``state`` exactly as the node builds it."""
-    if kind == 'pose':
-        return conversions.state_to_pose(state, config.world_frame)
-    if kind == 'twist':
-        return conversions.state_to_twist(state, config.twist_frame, config.world_frame,
-                                          config.body_frame)
-    if kind == 'odom':
-        return conversions.state_to_odometry(state, config.world_frame, config.body_frame)
-    from rosgraph_msgs.msg import Clock
-    return Clock(clock=conversions.time_to_msg(state.time_ns))
+    """Recompute the output message of ``kind`` for ``state``: the node's own builder."""
+    return outputs.sample_builder(config).message(kind, state)
 
 
 _ERROR_FIELDS = {
@@ -313,21 +291,22 @@ def _compare(result, kind, t_ns, expected, recorded, tolerance):
         reasons.append(f'frame ids {r_frames} recorded, {e_frames} recomputed')
     for name, e_value in e_fields.items():
         r_value = r_fields[name]
-        if name == 'orientation':
-            error = float(quat_angle_between(e_value, r_value))
-            if e_value.tobytes() == r_value.tobytes():
-                error = 0.0
+        # Bit for bit (tuples of floats: 0.0 == -0.0, so compare the float64 bytes).
+        exact = np.array(e_value).tobytes() == np.array(r_value).tobytes()
+        if exact:
+            error = 0.0
+        elif name == 'orientation':
+            error = float(quat_angle_between(np.array(e_value), np.array(r_value)))
         else:
-            error = float(np.linalg.norm(e_value - r_value))
+            error = float(np.linalg.norm(np.subtract(e_value, r_value)))
         if not math.isfinite(error):
             error = math.inf
-        result._update(_ERROR_FIELDS[name], error)
-        exact = e_value.tobytes() == r_value.tobytes()
+        result.take_error(_ERROR_FIELDS[name], error)
         if not exact:
             result.bit_exact = False
         if (not exact) if tolerance is None else not error <= tolerance:
-            reasons.append(f'{name} differs by {error:.3g} ({r_value.tolist()} recorded, '
-                           f'{e_value.tolist()} recomputed)')
+            reasons.append(f'{name} differs by {error:.3g} ({list(r_value)} recorded, '
+                           f'{list(e_value)} recomputed)')
     if reasons:
         result.mismatches += 1
         if result.first_mismatch is None:

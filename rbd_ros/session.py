@@ -139,6 +139,17 @@ class SimSession:
         return self.simulator.state
 
     @property
+    def state_column(self):
+        """
+        Return a read-only view of the packed state ``(p, q, v, ω_b)`` (13 floats).
+
+        The view follows the simulator (steps and resets write in place): take it once.
+        :meth:`rbd_ros.outputs.SampleBuilder.column_values` reads it without building a
+        :class:`rbd_ros.core.BodyState` per sample.
+        """
+        return self.simulator.arrays[0][:, 0]
+
+    @property
     def timestep_ns(self):
         """Return the physics step, int ns."""
         return self.config.timestep_ns

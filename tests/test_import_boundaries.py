@@ -11,8 +11,14 @@
 # WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
 # See the License for the specific language governing permissions and
 # limitations under the License.
+"""
+Dependencies point one way, checked in fresh interpreters.
 
-"""Dependencies point one way: core, recording, replay and plot never import rclpy."""
+Below the node (core, config, session, inputs, recording, schemas) no rclpy and no message
+package: these layers work with plain values and CDR bytes. The message modules
+(conversions, outputs) and the tools on top of them (replay, plot) use message classes but
+never rclpy. Only the node and the demo import rclpy.
+"""
 
 from pathlib import Path
 import subprocess
@@ -21,22 +27,41 @@ import sys
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
+RCLPY = ('rclpy',)
+MESSAGE_PACKAGES = ('geometry_msgs', 'nav_msgs', 'diagnostic_msgs', 'rosgraph_msgs',
+                    'tf2_msgs', 'builtin_interfaces', 'std_msgs')
 
 
-@pytest.mark.parametrize('modules', [
-    ('rbd_ros.core',),
-    ('rbd_ros.core', 'rbd_ros.recording', 'rbd_ros.replay'),
-    ('rbd_ros.schemas', 'rbd_ros.recording'),
-    ('rbd_ros.plot',),
-])
-def test_no_rclpy_in_a_fresh_interpreter(modules):
+def imported(modules, packages):
+    """Import ``modules`` in a fresh interpreter; return which of ``packages`` got loaded."""
     code = (
         'import importlib, sys\n'
         f'for name in {modules!r}:\n'
         '    importlib.import_module(name)\n'
-        'print(sorted(m for m in sys.modules if m == "rclpy" or m.startswith("rclpy.")))\n'
+        f'print(sorted({{m.split(".")[0] for m in sys.modules}} & set({packages!r})))\n'
     )
     proc = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
                           cwd=REPO, timeout=120)
     assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.strip() == '[]', f'{modules} imported {proc.stdout.strip()}'
+    return proc.stdout.strip()
+
+
+@pytest.mark.parametrize('modules', [
+    ('rbd_ros.core',),
+    ('rbd_ros.core.contact',),
+    ('rbd_ros.config', 'rbd_ros.inputs', 'rbd_ros.session'),
+    ('rbd_ros.schemas', 'rbd_ros.recording'),
+])
+def test_no_rclpy_and_no_messages_below_the_message_modules(modules):
+    found = imported(modules, RCLPY + MESSAGE_PACKAGES)
+    assert found == '[]', f'{modules} imported {found}'
+
+
+@pytest.mark.parametrize('modules', [
+    ('rbd_ros.conversions', 'rbd_ros.outputs'),
+    ('rbd_ros.core', 'rbd_ros.recording', 'rbd_ros.replay'),
+    ('rbd_ros.plot',),
+])
+def test_no_rclpy_in_the_message_modules_and_tools(modules):
+    found = imported(modules, RCLPY)
+    assert found == '[]', f'{modules} imported {found}'

@@ -15,7 +15,8 @@
 """
 Benchmark of ``rigid_body_node`` through real DDS (not collected by pytest).
 
-``.venv/bin/python tests/benchmarks/bench_node.py [--seconds 60] [--runs 3] [--trials 200]``
+``.venv/bin/python tests/benchmarks/bench_node.py [--seconds 60] [--runs 3] [--trials 200]
+[--fast-long-s 41] [--only latency|pacing|fast|breakdown]``
 
 1. latency: 1 kHz physics, 1 kHz publishing, real time. Each trial resets the body (at rest, no
    wrench, so x stays exactly 0), waits a random 5-25 ms, publishes a 1 N world force and times
@@ -25,15 +26,18 @@ Benchmark of ``rigid_body_node`` through real DDS (not collected by pytest).
    wall clock at a timer tick (``pacing_lag_max_ms`` of /diagnostics), and the drift of the sim
    stamps of received poses against their wall arrival times (end minus start, medians over
    1 s windows, so delivery jitter averages out); target: within 2 steps (2 ms).
-3. as fast as possible: ``real_time_factor`` 0, 100 Hz publishing: the achieved factor (median
-   of /diagnostics ``real_time_factor``), without and with a (Python, same machine) subscriber
-   to ``pose``; target >= 100. Then an in-process breakdown of where
-   the time goes per sim second (physics, state snapshot, message building, rclpy publish).
+3. as fast as possible, measured from outside as issue 8 says: ``real_time_factor`` 0, 1 ms
+   steps, 100 Hz pose, twist, odom, /clock and /tf; the wall time of a 41 s run minus that of
+   a 1 s run (start-up and shut-down cancel), for the node plain (target >= 100x), the node
+   recording (>= 50x) and ``replay`` of the recordings (>= 200x); PASS/SHORT with the load
+   average. Then an in-process breakdown of where the time goes per sim second (physics and
+   session, sample values, CDR serialisation, rclpy publish of the bytes, recording write).
 
 Prints the median over ``--runs`` runs of each figure.
 """
 
 import argparse
+import math
 import os
 import random
 import statistics
@@ -154,32 +158,86 @@ def bench_pacing(tmp, seconds):
     return max(lags), drift, max(dropped or [0.0])
 
 
-def bench_fast(tmp, sim_seconds, subscribe_pose):
-    node = NodeProcess(tmp, {'timestep_s': 0.001, 'publish_rate_hz': 100.0,
-                             'real_time_factor': 0.0, 'duration_s': float(sim_seconds)},
-                       namespace=True)
-    probe = Probe(node.namespace,
-                  outputs=('pose', 'diagnostics') if subscribe_pose else ('diagnostics',))
-    try:
-        probe.wait_connected(services=False)
-        probe.wait(lambda: node.process.poll() is not None, 600, 'the node to finish')
-        factors = [float(kv.value) for msg in probe.diagnostics[1:]
-                   for kv in msg.status[0].values if kv.key == 'real_time_factor']
-    finally:
-        probe.close()
-        node.stop()
-    return statistics.median(factors) if factors else float('nan')
+FAST_PARAMS = ('-p', 'real_time_factor:=0.0', '-p', 'timestep_s:=0.001', '-p',
+               'publish_rate_hz:=100.0', '-p', 'publish_clock:=true')
+TARGETS = {'plain': 100.0, 'recording': 50.0, 'replay': 200.0}
+
+
+def _wall(cmd, env):
+    """Run ``cmd`` to its end; return its wall time, s (it must exit 0)."""
+    start = time.perf_counter()
+    proc = subprocess.run(cmd, cwd=REPO, env=env, capture_output=True, text=True, timeout=900)
+    wall = time.perf_counter() - start
+    if proc.returncode != 0:
+        raise SystemExit(f'bench_node: {" ".join(cmd)} exited {proc.returncode}: '
+                         f'{proc.stderr.strip()[-400:]}')
+    return wall
+
+
+def bench_outside(tmp, long_s, short_s=1.0):
+    """
+    Wall times, s, of one run of each mode at ``short_s`` and ``long_s`` of sim time.
+
+    ``plain``: the node with 100 Hz pose, twist, odom, /clock and /tf (the default) at 1 ms
+    steps, as fast as possible; ``recording``: the same with ``record_path``; ``replay``:
+    ``replay`` on that recording.
+    """
+    env = dict(os.environ)
+    node = [sys.executable, '-m', 'rbd_ros.node', '--ros-args', *FAST_PARAMS]
+    walls = {}
+    for duration in (short_s, long_s):
+        bag = os.path.join(tmp, f'fast_{duration:g}')
+        walls['plain', duration] = _wall(node + ['-p', f'duration_s:={duration}'], env)
+        walls['recording', duration] = _wall(
+            node + ['-p', f'duration_s:={duration}', '-p', f'record_path:={bag}', '-p',
+                    'record_overwrite:=true'], env)
+        walls['replay', duration] = _wall(
+            [sys.executable, '-m', 'rbd_ros.replay', '--no-progress', bag], env)
+    return walls
+
+
+def report_outside(runs, long_s, short_s=1.0):
+    """
+    Print ``(long_s - short_s) / (median wall(long) - median wall(short))`` per mode.
+
+    Start-up and shut-down (1-3 s, jittering by a few 0.1 s on a loaded machine) cancel in the
+    difference. Also printed: the worst case over the runs (slowest long run minus fastest
+    short run), a bound the jitter cannot flatter; PASS/SHORT judges the median.
+    """
+    load = os.getloadavg()
+    sim_s = long_s - short_s
+    print(f'as fast as possible, measured from outside (median wall of {len(runs)} runs of '
+          f'{long_s:g} s minus that of {short_s:g} s; load average {load[0]:.2f} {load[1]:.2f} '
+          f'{load[2]:.2f} on {os.cpu_count()} CPUs):', flush=True)
+    for mode, target in TARGETS.items():
+        short = [run[mode, short_s] for run in runs]
+        long = [run[mode, long_s] for run in runs]
+        diff = statistics.median(long) - statistics.median(short)
+        worst = sim_s / (max(long) - min(short)) if max(long) > min(short) else math.inf
+        walls = f'walls {[round(w, 2) for w in short]} s and {[round(w, 2) for w in long]} s'
+        if diff <= 0.0:
+            print(f'  {mode}: unresolved, the median difference {diff:.2f} s is not positive '
+                  f'(start-up jitter; use a longer --fast-long-s) ({walls})', flush=True)
+            continue
+        factor = sim_s / diff
+        verdict = 'PASS' if factor >= target else f'SHORT by {target - factor:.0f}x'
+        print(f'  {mode}: {factor:.0f}x real time, worst case {worst:.0f}x (target >= '
+              f'{target:g}x: {verdict}; {walls})', flush=True)
 
 
 def breakdown(sim_seconds=20):
-    """Time per sim second of each part of the node's work, in-process (no DDS peer)."""
-    from rbd_ros import conversions as conv
+    """Time per sim second of each part of the node's work, in-process (rclpy, no DDS peer)."""
+    from rbd_ros import outputs
     from rbd_ros.config import NodeConfig
+    from rbd_ros.recording import BagWriter
     from rbd_ros.session import SimSession
     import rclpy
-    c = NodeConfig.from_parameters({'publish_rate_hz': 100.0, 'real_time_factor': 0.0})
+    c = NodeConfig.from_parameters({'publish_rate_hz': 100.0, 'real_time_factor': 0.0,
+                                    'publish_clock': True})
     session = SimSession(c)
     session.warm_up()
+    builder = outputs.SampleBuilder(c)
+    column = session.state_column
     n = sim_seconds * 1000
     t = time.perf_counter()
     steps = 0
@@ -189,28 +247,42 @@ def breakdown(sim_seconds=20):
         steps += report.steps
         samples += report.sample_due
     physics = time.perf_counter() - t
-    state = session.state
     t = time.perf_counter()
     for _ in range(samples):
-        state = session.state
-    snapshot = time.perf_counter() - t
-    t = time.perf_counter()
-    for _ in range(samples):
-        msgs = conv.state_to_messages(state, 'world', 'world', 'base_link')
+        values = builder.column_values(column)
     build = time.perf_counter() - t
+    t = time.perf_counter()
+    for _ in range(samples):
+        data = builder.serialize(session.time_ns, values)
+    serialize = time.perf_counter() - t
     rclpy.init()
     node = rclpy.create_node('bench_breakdown')
-    pubs = [node.create_publisher(type(m), f'bench_{i}', 10) for i, m in enumerate(msgs)]
+    pubs = [node.create_publisher(outputs.MESSAGE_TYPES[kind], f'bench_{kind}', 10)
+            for kind in builder.kinds]
     t = time.perf_counter()
     for _ in range(samples):
-        for pub, msg in zip(pubs, msgs):
-            pub.publish(msg)
+        for pub, (_, raw) in zip(pubs, data):
+            pub.publish(raw)
     publish = time.perf_counter() - t
     node.destroy_node()
     rclpy.try_shutdown()
+    with tempfile.TemporaryDirectory() as tmp:
+        writer = BagWriter(os.path.join(tmp, 'bag'), config=c.to_parameters())
+        for kind in builder.kinds:
+            writer.add_topic('/' + kind, outputs.TYPE_NAMES[kind], {'depth': 10})
+        t = time.perf_counter()
+        for i in range(samples):
+            for kind, raw in data:
+                writer.write('/' + kind, raw, i)
+        record = time.perf_counter() - t
+        writer.close()
     per_s = 1.0 / sim_seconds * 1e3
-    return {'physics (1000 steps)': physics * per_s, 'state snapshot (100x)': snapshot * per_s,
-            'message building (300x)': build * per_s, 'rclpy publish (300x)': publish * per_s}
+    k = len(builder.kinds)
+    return {'physics and session (1000 steps)': physics * per_s,
+            'sample values (100x)': build * per_s,
+            f'CDR serialise ({k}00 msgs)': serialize * per_s,
+            f'rclpy publish bytes ({k}00x)': publish * per_s,
+            f'recording write ({k}00x, when recording)': record * per_s}
 
 
 def main():
@@ -218,8 +290,8 @@ def main():
     parser.add_argument('--seconds', type=float, default=60.0, help='pacing run length (60)')
     parser.add_argument('--runs', type=int, default=3, help='runs per figure (3)')
     parser.add_argument('--trials', type=int, default=200, help='latency trials per run (200)')
-    parser.add_argument('--fast-sim-seconds', type=int, default=600,
-                        help='sim seconds of the as-fast-as-possible run (600)')
+    parser.add_argument('--fast-long-s', type=float, default=41.0,
+                        help='sim seconds of the long as-fast run (41, as issue 8 measures)')
     parser.add_argument('--only', choices=('latency', 'pacing', 'fast', 'breakdown'),
                         action='append', help='run only these parts (repeatable)')
     args = parser.parse_args()
@@ -235,9 +307,8 @@ def main():
         if 'pacing' in parts:
             report_pacing(args, [bench_pacing(tmp, args.seconds) for _ in range(args.runs)])
         if 'fast' in parts:
-            for subscribed in (False, True):
-                report_fast(subscribed, [bench_fast(tmp, args.fast_sim_seconds, subscribed)
-                                         for _ in range(args.runs)])
+            report_outside([bench_outside(tmp, args.fast_long_s) for _ in range(args.runs)],
+                           args.fast_long_s)
     if 'breakdown' in parts:
         report_breakdown(breakdown())
 
@@ -257,17 +328,13 @@ def report_pacing(args, pace):
           f'{[tuple(round(x, 3) for x in p) for p in pace]})', flush=True)
 
 
-def report_fast(subscribed, fast):
-    who = 'a Python subscriber on pose' if subscribed else 'no subscriber on the state topics'
-    print(f'as fast as possible, 1 kHz physics, 100 Hz publishing, {who}: real-time factor '
-          f'{statistics.median(fast):.1f}x (runs: {[round(f, 1) for f in fast]})', flush=True)
-
-
 def report_breakdown(parts):
     total = sum(parts.values())
     print('where the wall time goes per sim second (in-process, ms): ' + ', '.join(
         f'{k} {v:.2f}' for k, v in parts.items()) + f'; total {total:.2f} ms '
-        f'-> at most {1000.0 / total:.0f}x before executor and recording overhead')
+        f'(the last one only when recording) -> at most '
+        f'{1000.0 / (total - list(parts.values())[-1]):.0f}x plain, {1000.0 / total:.0f}x '
+        "recording, before the executor's share")
 
 
 if __name__ == '__main__':

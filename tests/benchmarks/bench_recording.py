@@ -17,9 +17,10 @@ Recording overhead (not a test; prints only): ``python tests/benchmarks/bench_re
 
 Target (recording issue): recording must not cut the node's as-fast-as-possible rate by more
 than 2x. Measured on the node's own loop without DDS: SimSession stepping at 1 kHz with
-100 Hz samples built by the conversions, with and without serialising and writing them (what
-recording adds per sample). Leaving out the DDS publish makes the un-recorded loop cheaper
-than the node's, so the ratio here is an upper bound on the node's slowdown. Also
+100 Hz samples serialised by the node's :class:`rbd_ros.outputs.SampleBuilder`, with and
+without writing the bytes (what recording adds per sample). Leaving out the DDS publish
+makes the un-recorded loop cheaper than the node's, so the ratio here is an upper bound on
+the node's slowdown. Also
 ``BagWriter.write()`` in µs per message. Medians of several repeats, with the machine load.
 """
 
@@ -34,8 +35,8 @@ import time
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2]))
 
 from nav_msgs.msg import Odometry  # noqa: E402
-from rbd_ros import conversions  # noqa: E402
 from rbd_ros.config import NodeConfig  # noqa: E402
+from rbd_ros.outputs import SampleBuilder, TYPE_NAMES  # noqa: E402
 from rbd_ros.recording import BagWriter  # noqa: E402
 from rbd_ros.session import SimSession  # noqa: E402
 from rclpy.serialization import serialize_message  # noqa: E402
@@ -48,22 +49,20 @@ def _run(writer):
     session = SimSession(config)
     session.warm_up()
     session.paused = False
+    builder = SampleBuilder(config, tf=False)
+    column = session.state_column
     if writer is not None:
-        for topic, type_name in (('/pose', 'geometry_msgs/msg/PoseStamped'),
-                                 ('/twist', 'geometry_msgs/msg/TwistStamped'),
-                                 ('/odom', 'nav_msgs/msg/Odometry')):
-            writer.add_topic(topic, type_name, {'depth': 10})
+        for kind in builder.kinds:
+            writer.add_topic('/' + kind, TYPE_NAMES[kind], {'depth': 10})
     start = time.perf_counter()
     while session.time_ns < SIM_NS:
         report = session.advance(1000, until_ns=SIM_NS)
         if report.sample_due:
-            state, t = session.state, session.time_ns
-            msgs = (('/pose', conversions.state_to_pose(state, 'world')),
-                    ('/twist', conversions.state_to_twist(state, 'world', 'world', 'base_link')),
-                    ('/odom', conversions.state_to_odometry(state, 'world', 'base_link')))
+            t = session.time_ns
+            samples = builder.serialize(t, builder.column_values(column))
             if writer is not None:
-                for topic, msg in msgs:
-                    writer.write(topic, serialize_message(msg), t)
+                for kind, data in samples:
+                    writer.write('/' + kind, data, t)
     return time.perf_counter() - start
 
 

@@ -17,23 +17,18 @@ Record a scripted run by driving SimSession + BagWriter directly (the node's pat
 
 It records what the node records: each wrench as it took effect (``WrenchStamped`` on the
 input's absolute topic, log time = start of the step it was applied at), the outputs
-``/pose``, ``/twist``, ``/odom`` (and ``/clock`` when ``publish_clock``) at every sample the
-session reports, serialised with rclpy like the node does, and at close the ``rbd_ros.run``
-record (digest of the applied wrenches; no failure).
+``/pose``, ``/twist``, ``/odom`` (and ``/clock`` when ``publish_clock``; no ``/tf``) at every
+sample the session reports, as the CDR bytes of the node's own
+:class:`rbd_ros.outputs.SampleBuilder`, and at close the ``rbd_ros.run`` record (digest of the
+applied wrenches; no failure).
 """
 
 from rbd_ros import conversions
 from rbd_ros.config import NodeConfig
+from rbd_ros.outputs import SampleBuilder, TYPE_NAMES
 from rbd_ros.recording import BagWriter, open_bag
 from rbd_ros.session import AppliedDigest, SimSession
 from rclpy.serialization import serialize_message
-from rosgraph_msgs.msg import Clock
-
-OUTPUT_TOPICS = (
-    ('/pose', 'geometry_msgs/msg/PoseStamped'),
-    ('/twist', 'geometry_msgs/msg/TwistStamped'),
-    ('/odom', 'nav_msgs/msg/Odometry'),
-)
 
 
 def record_scripted_run(path, params, script, duration_ns, **writer_options):
@@ -49,11 +44,10 @@ def record_scripted_run(path, params, script, duration_ns, **writer_options):
     session = SimSession(config)
     session.paused = False
     writer = BagWriter(path, config=config.to_parameters(), **writer_options)
-    outputs = list(OUTPUT_TOPICS)
-    if config.publish_clock:
-        outputs.append(('/clock', 'rosgraph_msgs/msg/Clock'))
-    for topic, type_name in outputs:
-        writer.add_topic(topic, type_name, {'depth': 10})
+    builder = SampleBuilder(config, tf=False)
+    topics = {kind: '/clock' if kind == 'clock' else '/' + kind for kind in builder.kinds}
+    for kind in builder.kinds:
+        writer.add_topic(topics[kind], TYPE_NAMES[kind], {'depth': 10})
     input_topics = {}
     for spec in config.wrench_inputs:
         input_topics[spec.name] = '/' + spec.topic
@@ -62,16 +56,8 @@ def record_scripted_run(path, params, script, duration_ns, **writer_options):
     digest = AppliedDigest()
 
     def publish(state):
-        t = state.time_ns
-        writer.write('/pose', serialize_message(
-            conversions.state_to_pose(state, config.world_frame)), t)
-        writer.write('/twist', serialize_message(conversions.state_to_twist(
-            state, config.twist_frame, config.world_frame, config.body_frame)), t)
-        writer.write('/odom', serialize_message(conversions.state_to_odometry(
-            state, config.world_frame, config.body_frame)), t)
-        if config.publish_clock:
-            writer.write('/clock', serialize_message(
-                Clock(clock=conversions.time_to_msg(t))), t)
+        for kind, data in builder.serialize(state.time_ns, builder.values(state)):
+            writer.write(topics[kind], data, state.time_ns)
 
     publish(session.state)
     queue = list(script)

@@ -12,12 +12,17 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""Message conversions: quaternion order by field name, frames of twists, REP 105, time."""
+"""Output samples and message conversions: field order, frames, REP 105, time, CDR bytes."""
+
+import types
 
 import numpy as np
 import pytest
 from rbd_ros import conversions as conv
+from rbd_ros import outputs
+from rbd_ros.config import NodeConfig, xyzw_to_wxyz
 from rbd_ros.core import BodyState, rotations
+from rclpy.serialization import deserialize_message, serialize_message
 
 # A generic state: rotated about a skew axis, moving and spinning.
 Q_WB = rotations.quat_from_axis_angle([1.0, 2.0, 3.0], 0.7)
@@ -25,6 +30,12 @@ STATE = BodyState(position_w=(1.0, -2.0, 3.0), orientation_wb=Q_WB,
                   linear_velocity_w=(0.5, 0.25, -1.0), angular_velocity_b=(0.1, -0.2, 0.3),
                   time_ns=12_345_678_901)
 R_WB = rotations.quat_to_matrix(Q_WB)
+
+
+def builder(twist_frame='world', world='world', body='base_link', clock=True, tf=True):
+    return outputs.SampleBuilder(types.SimpleNamespace(
+        world_frame=world, body_frame=body, twist_frame=twist_frame, publish_clock=clock,
+        publish_tf=tf))
 
 
 def xyz(v):
@@ -39,7 +50,7 @@ def test_time_round_trip():
 
 
 def test_pose_uses_field_names_for_the_quaternion():
-    msg = conv.state_to_pose(STATE, 'world')
+    msg = builder().message('pose', STATE)
     assert msg.header.frame_id == 'world'
     assert conv.time_from_msg(msg.header.stamp) == STATE.time_ns
     q = msg.pose.orientation
@@ -47,14 +58,13 @@ def test_pose_uses_field_names_for_the_quaternion():
     assert np.array_equal(xyz(msg.pose.position), STATE.position_w)
 
 
-def test_plain_reordering_helpers():
-    assert conv.xyzw_to_wxyz([1, 2, 3, 4]) == (4, 1, 2, 3)
-    assert conv.wxyz_to_xyzw((4, 1, 2, 3)) == (1, 2, 3, 4)
+def test_plain_reordering_helper():
+    assert xyzw_to_wxyz([1, 2, 3, 4]) == (4, 1, 2, 3)
 
 
 def test_twist_in_world_and_body_frames():
-    world = conv.state_to_twist(STATE, 'world', 'world', 'base_link')
-    body = conv.state_to_twist(STATE, 'body', 'world', 'base_link')
+    world = builder('world').message('twist', STATE)
+    body = builder('body').message('twist', STATE)
     assert world.header.frame_id == 'world' and body.header.frame_id == 'base_link'
     # Round-off of one 3x3 product: 1e-15 is a few ε of these O(1) values.
     np.testing.assert_allclose(xyz(world.twist.linear), STATE.linear_velocity_w, atol=0)
@@ -63,12 +73,12 @@ def test_twist_in_world_and_body_frames():
     np.testing.assert_allclose(xyz(body.twist.linear), R_WB.T @ STATE.linear_velocity_w,
                                atol=1e-15)
     np.testing.assert_allclose(xyz(body.twist.angular), STATE.angular_velocity_b, atol=0)
-    with pytest.raises(ValueError):
-        conv.state_to_twist(STATE, 'odom', 'world', 'base_link')
+    with pytest.raises(ValueError, match='twist_frame'):
+        builder('odom')
 
 
 def test_odometry_follows_rep_105():
-    msg = conv.state_to_odometry(STATE, 'world', 'base_link')
+    msg = builder().message('odom', STATE)
     assert msg.header.frame_id == 'world' and msg.child_frame_id == 'base_link'
     assert np.array_equal(xyz(msg.pose.pose.position), STATE.position_w)
     np.testing.assert_allclose(xyz(msg.twist.twist.linear), R_WB.T @ STATE.linear_velocity_w,
@@ -77,11 +87,75 @@ def test_odometry_follows_rep_105():
 
 
 def test_transform_world_to_body():
-    msg = conv.state_to_transform(STATE, 'world', 'base_link')
+    (msg,) = builder().message('tf', STATE).transforms
     assert (msg.header.frame_id, msg.child_frame_id) == ('world', 'base_link')
     r = msg.transform.rotation
     assert (r.w, r.x, r.y, r.z) == tuple(Q_WB)
     assert np.array_equal(xyz(msg.transform.translation), STATE.position_w)
+    assert conv.time_from_msg(builder().message('clock', STATE).clock) == STATE.time_ns
+
+
+def random_states(seed, count):
+    rng = np.random.default_rng(seed)
+    for _ in range(count):
+        yield BodyState(rng.normal(size=3) * 10.0, rng.normal(size=4),
+                        rng.normal(size=3) * 5.0, rng.normal(size=3) * 10.0 ** rng.uniform(-3, 3),
+                        int(rng.integers(0, 2**40)))
+
+
+def test_values_are_the_core_arithmetic_bit_for_bit():
+    # The recorded reference: ω_w = state.angular_velocity_w() (quat_rotate) and
+    # v_b = Rᵀ v_w summed left to right from state.rotation_wb() (quat_to_matrix). Equality of
+    # the float64 bytes, no tolerance: replay compares bit for bit.
+    world, body = builder('world'), builder('body')
+    for state in random_states(1, 3000):
+        r, v = state.rotation_wb(), state.linear_velocity_w
+        v_b = [r[0, i] * v[0] + r[1, i] * v[1] + r[2, i] * v[2] for i in range(3)]
+        twist_b = (*v_b, *state.angular_velocity_b)
+        p, q, twist, odom_twist = world.values(state)
+        assert np.array(twist).tobytes() == np.concatenate(
+            (v, state.angular_velocity_w())).tobytes()
+        assert np.array(odom_twist).tobytes() == np.array(twist_b).tobytes()
+        assert np.array(p + q).tobytes() == np.concatenate(
+            (state.position_w, state.orientation_wb)).tobytes()
+        assert body.values(state)[2] == body.values(state)[3]
+        assert np.array(body.values(state)[2]).tobytes() == np.array(twist_b).tobytes()
+
+
+def test_column_values_equal_the_body_state_values():
+    b = builder('body')
+    for state in random_states(2, 500):
+        column = np.concatenate((state.position_w, state.orientation_wb,
+                                 state.linear_velocity_w, state.angular_velocity_b))
+        assert b.column_values(column) == b.values(state)
+    # Not unit to round-off: normalised as BodyState normalises it.
+    column = np.array([1.0, 2.0, 3.0, 2.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0])
+    assert b.column_values(column)[1] == [1.0, 0.0, 0.0, 0.0]
+    assert b.column_values(column) == b.values(BodyState(
+        column[0:3], column[3:7], column[7:10], column[10:13]))
+
+
+@pytest.mark.parametrize('twist_frame', ['world', 'body'])
+def test_cdr_bytes_are_rclpy_serialisations_of_the_messages(twist_frame):
+    # Frame ids of every length mod 8 move the padding before the float64 fields. rclpy leaves
+    # padding bytes uninitialised, so the bytes are compared through rclpy's deserialiser
+    # (repr shows every float exactly, -0.0 included) and by length; ours pads with zeros.
+    for n, state in enumerate(random_states(3, 64)):
+        b = builder(twist_frame, world='w' * (n % 9), body='body'[:n % 5] + 'x' * (n % 3))
+        samples = b.serialize(state.time_ns, b.values(state))
+        assert [kind for kind, _ in samples] == list(b.kinds) == list(outputs.KINDS)
+        for kind, data in samples:
+            msg = b.message(kind, state)
+            assert len(data) == len(serialize_message(msg))
+            assert repr(deserialize_message(data, outputs.MESSAGE_TYPES[kind])) == repr(msg)
+
+
+def test_kinds_follow_the_configuration():
+    assert builder(clock=False, tf=False).kinds == ('pose', 'twist', 'odom')
+    config = NodeConfig.from_parameters({'publish_clock': True})
+    assert outputs.SampleBuilder(config, tf=False).kinds == ('pose', 'twist', 'odom', 'clock')
+    assert outputs.sample_builder(config) is outputs.sample_builder(
+        NodeConfig.from_parameters({'publish_clock': True}))
 
 
 def test_wrench_round_trip():

@@ -14,8 +14,10 @@
 
 """The parameter table and NodeConfig (no ROS): defaults, validation messages, round trip."""
 
+from dataclasses import replace as dataclass_replace
 import math
 import pathlib
+import re
 import subprocess
 import sys
 
@@ -216,3 +218,40 @@ def test_readme_documents_every_parameter_and_starts_with_the_two_commands():
     assert lines[0] == '```bash' and lines[3] == '```'
     assert lines[1].startswith('bash .ci/setup && .venv/bin/python -m rbd_ros.demo')
     assert lines[2].startswith('bash .ci/run')
+
+
+README_TYPES = {cfg.BOOL: 'bool', cfg.INTEGER: 'integer', cfg.DOUBLE: 'double',
+                cfg.STRING: 'string', cfg.DOUBLE_ARRAY: 'double[]', cfg.STRING_ARRAY: 'string[]'}
+
+
+def _readme_value(text):
+    text = text.strip('`')
+    if text == "''":
+        return ''
+    try:
+        return float(text)
+    except ValueError:
+        value = yaml.safe_load(text)
+        return tuple(value) if isinstance(value, list) else value
+
+
+def test_the_readme_parameter_table_is_the_parameter_table():
+    rows = {}
+    for line in (REPO / 'README.md').read_text(encoding='utf-8').splitlines():
+        cells = [c.strip() for c in re.split(r'(?<!\\)\|', line)[1:-1]]  # '\|' is text
+        if line.startswith('| `') and len(cells) == 6 and cells[1] in README_TYPES.values():
+            rows[cells[0].strip('`')] = cells[1:4]
+    specs = list(cfg.PARAMETERS) + [
+        dataclass_replace(spec, name=spec.name.replace('.x.', '.<name>.'),
+                          default=spec.default.replace('_x', '_<name>')
+                          if spec.kind == cfg.STRING else spec.default)
+        for spec in cfg.input_parameter_specs('x')]
+    assert sorted(rows) == sorted(spec.name for spec in specs)
+    for spec in specs:
+        kind, default, unit = rows[spec.name]
+        assert kind == README_TYPES[spec.kind], spec.name
+        assert unit == spec.unit, spec.name
+        expected = spec.default
+        if spec.kind == cfg.DOUBLE:
+            expected = float(expected)
+        assert _readme_value(default) == expected, spec.name

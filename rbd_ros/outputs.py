@@ -1,0 +1,282 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+One output sample: state → values → CDR bytes (and messages), for the node, replay and tests.
+
+:class:`SampleBuilder` is the only place that turns a :class:`rbd_ros.core.BodyState` into the
+node's output messages (``pose``, ``twist``, ``odom``, ``/clock``, ``/tf``). The node publishes
+the CDR bytes of :meth:`SampleBuilder.serialize` and records the SAME bytes; replay recomputes
+the samples with :meth:`SampleBuilder.messages`, built from the same values, so "replay
+rebuilds exactly what the node published" holds by construction (a test checks that rclpy
+deserialises the bytes into exactly those messages, at the length rclpy serialises them).
+
+Frames (REP 103 / REP 105):
+
+- ``PoseStamped``: the body pose in the world frame (``header.frame_id`` = world frame id).
+- ``TwistStamped``: ``twist_frame='world'`` → ``v_w`` and ``ω_w = R ω_b``, ``frame_id`` =
+  world frame id; ``'body'`` → ``v_b = Rᵀ v_w`` and ``ω_b``, ``frame_id`` = body frame id.
+- ``Odometry``: pose in ``header.frame_id`` (world), twist in ``child_frame_id`` (body) as
+  REP 105 requires. Covariances are left zero: the state is the simulator's exact state.
+- ``TFMessage``: one transform world → body (translation = position, rotation = orientation).
+
+Velocities are the integrator's own state variables, never finite differences of poses.
+
+Speed: one sample costs a few µs (plain float arithmetic and one ``struct.pack`` per message)
+where numpy on single quaternions and rclpy's serialiser took 50-70 µs a message. The
+arithmetic is the recorded reference, bit for bit: ``R`` is the core's
+:func:`rbd_ros.core.rotations.quat_to_matrix` written out (``|q|²`` summed left to right, as
+numpy's ``linalg.norm`` does for 4 values), ``ω_w`` is
+:func:`rbd_ros.core.rotations.quat_rotate` written out, and ``Rᵀ v_w`` is summed left to
+right (never a BLAS product, whose fused multiply-adds depend on the CPU).
+
+No rclpy here: the message classes are plain rosidl Python classes. CDR is XCDR1 little
+endian (encapsulation ``00 01 00 00``; alignment counted after those 4 bytes), as rmw
+serialises these types; padding bytes are zeros (rclpy's serialiser leaves them uninitialised,
+so two serialisations of one message could differ there).
+"""
+
+import collections
+import functools
+import math
+import struct
+
+from geometry_msgs.msg import PoseStamped, TransformStamped, TwistStamped
+from nav_msgs.msg import Odometry
+import numpy as np
+from rbd_ros import conversions as conv
+from rbd_ros.config import NS_PER_S
+from rbd_ros.core import BodyState
+from rosgraph_msgs.msg import Clock
+
+try:  # tf2_msgs is on every Jazzy install but not in the PyPI wheels.
+    from tf2_msgs.msg import TFMessage
+except ImportError:  # pragma: no cover - depends on the install
+    TFMessage = None
+
+#: Output kinds in publishing order, with their message types.
+KINDS = ('pose', 'twist', 'odom', 'clock', 'tf')
+TYPE_NAMES = {'pose': 'geometry_msgs/msg/PoseStamped',
+              'twist': 'geometry_msgs/msg/TwistStamped', 'odom': 'nav_msgs/msg/Odometry',
+              'clock': 'rosgraph_msgs/msg/Clock', 'tf': 'tf2_msgs/msg/TFMessage'}
+MESSAGE_TYPES = {'pose': PoseStamped, 'twist': TwistStamped, 'odom': Odometry, 'clock': Clock,
+                 'tf': TFMessage}
+
+_ENCAPSULATION = b'\x00\x01\x00\x00'  # CDR little endian, no options
+_COVARIANCE_BYTES = 36 * 8  # float64[36] of zeros
+# |q|² this close to 1 keeps a simulator's quaternion as BodyState keeps it (BodyState allows
+# 8 eps; half of that leaves room for a different summation order there).
+_UNIT_NORM_SQ_TOL = 4 * np.finfo(np.float64).eps
+
+
+def _layout(*fields):
+    """
+    Return a ``struct`` format for CDR fields (after the encapsulation header).
+
+    :param fields: ``'i'``/``'I'`` (4 bytes, 4-aligned), ``'d'`` (8 bytes, 8-aligned),
+        ``bytes`` (a constant string: its uint32 length and its bytes with the NUL are packed
+        from the arguments) or an int ``n`` (n zero bytes).
+    """
+    fmt, offset = ['<4s'], 0
+    for field in fields:
+        if isinstance(field, bytes):
+            field = ('I', len(field))
+        if isinstance(field, int):
+            fmt.append(f'{field}x')
+            offset += field
+            continue
+        code, size = (field, 0) if isinstance(field, str) else field
+        align = 8 if code == 'd' else 4
+        pad = -offset % align
+        fmt.append(f'{pad}x{code}' if pad else code)
+        offset += pad + 4 + (4 if code == 'd' else 0)
+        if size:
+            fmt.append(f'{size}s')
+            offset += size
+    return struct.Struct(''.join(fmt))
+
+
+def _cdr_string(text):
+    return text.encode('utf-8') + b'\x00'
+
+
+class SampleBuilder:
+    """
+    The output messages of one sample, as CDR bytes (node) or message objects (replay, tests).
+
+    Built once per configuration.
+
+    :param config: a :class:`rbd_ros.config.NodeConfig` (frames, ``twist_frame``,
+        ``publish_clock``, ``publish_tf``).
+    :param tf: False leaves ``/tf`` out whatever ``publish_tf`` says (tf2_msgs missing, or a
+        caller that does not output it).
+    """
+
+    def __init__(self, config, tf=True):
+        self.world_frame, self.body_frame = config.world_frame, config.body_frame
+        self.twist_frame = config.twist_frame
+        if self.twist_frame not in ('world', 'body'):
+            raise ValueError(f"twist_frame: {self.twist_frame!r} must be 'world' or 'body'")
+        self.kinds = ('pose', 'twist', 'odom') + (('clock',) if config.publish_clock else ()) \
+            + (('tf',) if tf and config.publish_tf and TFMessage is not None else ())
+        world, body = _cdr_string(self.world_frame), _cdr_string(self.body_frame)
+        twist_frame = world if self.twist_frame == 'world' else body
+        header = ('i', 'I')
+        self._pose = _layout(*header, world, *'d' * 7)
+        self._twist = _layout(*header, twist_frame, *'d' * 6)
+        self._odom = _layout(*header, world, body, *'d' * 7, _COVARIANCE_BYTES, *'d' * 6,
+                             _COVARIANCE_BYTES)
+        self._clock = _layout(*header)
+        self._tf = _layout('I', *header, world, body, *'d' * 7)
+        self._consts = (world, body, twist_frame)
+
+    def values(self, state):
+        """
+        Return the sample's plain floats ``(p, q, twist, twist_b)`` of ``state``.
+
+        ``p = (x, y, z)`` m, ``q = (w, x, y, z)``, ``twist = (vx, vy, vz, ωx, ωy, ωz)`` in
+        ``twist_frame`` (m/s, rad/s), ``twist_b`` the same in the body frame (odometry).
+        """
+        return _values(state.position_w.tolist(), state.orientation_wb.tolist(),
+                       state.linear_velocity_w.tolist(), state.angular_velocity_b.tolist(),
+                       self.twist_frame == 'world')
+
+    def column_values(self, column):
+        """
+        Return :meth:`values` from a simulator's packed 13-float state column (no BodyState).
+
+        A quaternion not unit to round-off goes through :class:`BodyState` (which normalises
+        it), so the result is always that of :meth:`values` on ``simulator.state``.
+        """
+        x = column.tolist()
+        q = x[3:7]
+        if abs(((q[0] * q[0] + q[1] * q[1]) + q[2] * q[2]) + q[3] * q[3] - 1.0) \
+                > _UNIT_NORM_SQ_TOL:
+            return self.values(BodyState(x[0:3], q, x[7:10], x[10:13]))
+        return _values(x[0:3], q, x[7:10], x[10:13], self.twist_frame == 'world')
+
+    def serialize(self, time_ns, values):
+        """Return ``[(kind, CDR bytes)]`` of one sample, in :data:`KINDS` order."""
+        (px, py, pz), (qw, qx, qy, qz), twist, twist_b = values
+        sec, nanosec = divmod(time_ns, NS_PER_S)
+        world, body, twist_frame = self._consts
+        enc = _ENCAPSULATION
+        out = [
+            ('pose', self._pose.pack(enc, sec, nanosec, len(world), world,
+                                     px, py, pz, qx, qy, qz, qw)),
+            ('twist', self._twist.pack(enc, sec, nanosec, len(twist_frame), twist_frame,
+                                       *twist)),
+            ('odom', self._odom.pack(enc, sec, nanosec, len(world), world, len(body), body,
+                                     px, py, pz, qx, qy, qz, qw, *twist_b))]
+        kinds = self.kinds
+        if 'clock' in kinds:
+            out.append(('clock', self._clock.pack(enc, sec, nanosec)))
+        if 'tf' in kinds:
+            out.append(('tf', self._tf.pack(enc, 1, sec, nanosec, len(world), world,
+                                            len(body), body, px, py, pz, qx, qy, qz, qw)))
+        return out
+
+    def messages(self, state):
+        """Return ``{kind: message}`` of one sample of ``state`` (new objects each call)."""
+        return {kind: self.message(kind, state) for kind in self.kinds}
+
+    def message(self, kind, state):
+        """Return a new message of ``kind`` (any of :data:`KINDS`) for ``state``."""
+        (px, py, pz), (qw, qx, qy, qz), twist, twist_b = self.values(state)
+        stamp = state.time_ns
+        if kind == 'clock':
+            return Clock(clock=conv.time_to_msg(stamp))
+        if kind == 'pose':
+            msg = PoseStamped()
+            _header(msg.header, stamp, self.world_frame)
+            _pose(msg.pose, px, py, pz, qw, qx, qy, qz)
+        elif kind == 'twist':
+            msg = TwistStamped()
+            _header(msg.header, stamp,
+                    self.world_frame if self.twist_frame == 'world' else self.body_frame)
+            _twist(msg.twist, twist)
+        elif kind == 'odom':
+            msg = Odometry()
+            _header(msg.header, stamp, self.world_frame)
+            msg.child_frame_id = self.body_frame
+            _pose(msg.pose.pose, px, py, pz, qw, qx, qy, qz)
+            _twist(msg.twist.twist, twist_b)
+        elif kind == 'tf' and TFMessage is not None:
+            transform = TransformStamped()
+            _header(transform.header, stamp, self.world_frame)
+            transform.child_frame_id = self.body_frame
+            translation, rotation = transform.transform.translation, transform.transform.rotation
+            translation.x, translation.y, translation.z = px, py, pz
+            rotation.x, rotation.y, rotation.z, rotation.w = qx, qy, qz, qw
+            msg = TFMessage(transforms=[transform])
+        else:
+            raise ValueError(f'kind: {kind!r} is not one of {KINDS} (tf needs tf2_msgs)')
+        return msg
+
+
+@functools.lru_cache(maxsize=16)
+def _cached_builder(world_frame, body_frame, twist_frame, publish_clock, publish_tf):
+    return SampleBuilder(_Frames(world_frame, body_frame, twist_frame, publish_clock, publish_tf))
+
+
+def sample_builder(config):
+    """Return a (shared) :class:`SampleBuilder` for ``config``; replay calls this per sample."""
+    return _cached_builder(config.world_frame, config.body_frame, config.twist_frame,
+                           config.publish_clock, config.publish_tf)
+
+
+_Frames = collections.namedtuple(
+    '_Frames', 'world_frame body_frame twist_frame publish_clock publish_tf')
+
+
+def _header(header, time_ns, frame_id):
+    header.stamp = conv.time_to_msg(time_ns)
+    header.frame_id = frame_id
+
+
+def _pose(pose, px, py, pz, qw, qx, qy, qz):
+    position, orientation = pose.position, pose.orientation
+    position.x, position.y, position.z = px, py, pz
+    orientation.x, orientation.y, orientation.z, orientation.w = qx, qy, qz, qw
+
+
+def _twist(twist, values):
+    linear, angular = twist.linear, twist.angular
+    linear.x, linear.y, linear.z, angular.x, angular.y, angular.z = values
+
+
+def _values(p, q, v, omega_b, twist_world):
+    """Compute the sample's values by the scalar path (module docstring: why each sum so)."""
+    qw, qx, qy, qz = q
+    norm = math.sqrt(((qw * qw + qx * qx) + qy * qy) + qz * qz)
+    s = 2.0 / (norm * norm)
+    # R = quat_to_matrix(q): xx = s x x, xy = s x y, ...
+    sx, sy, sz, sw = s * qx, s * qy, s * qz, s * qw
+    xx, yy, zz = sx * qx, sy * qy, sz * qz
+    xy, xz, yz = sx * qy, sx * qz, sy * qz
+    wx, wy, wz = sw * qx, sw * qy, sw * qz
+    r00, r01, r02 = 1.0 - (yy + zz), xy - wz, xz + wy
+    r10, r11, r12 = xy + wz, 1.0 - (xx + zz), yz - wx
+    r20, r21, r22 = xz - wy, yz + wx, 1.0 - (xx + yy)
+    v0, v1, v2 = v
+    twist_b = (r00 * v0 + r10 * v1 + r20 * v2, r01 * v0 + r11 * v1 + r21 * v2,
+               r02 * v0 + r12 * v1 + r22 * v2, *omega_b)
+    if not twist_world:
+        return p, q, twist_b, twist_b
+    # ω_w = quat_rotate(q, ω_b) = ω + w t + u × t with t = s (u × ω), u = (x, y, z).
+    o0, o1, o2 = omega_b
+    t0, t1, t2 = s * (qy * o2 - qz * o1), s * (qz * o0 - qx * o2), s * (qx * o1 - qy * o0)
+    omega_w = ((o0 + qw * t0) + (qy * t2 - qz * t1), (o1 + qw * t1) + (qz * t0 - qx * t2),
+               (o2 + qw * t2) + (qx * t1 - qy * t0))
+    return p, q, (v0, v1, v2, *omega_w), twist_b
