@@ -35,12 +35,13 @@ from typing import Any, Dict, List, Optional, Tuple, Union
 
 import numpy as np
 from rbd_ros.cli import open_bag_with_notes, run_on_bag
-from rbd_ros.core import RbdError
+from rbd_ros.config import NS_PER_S
+from rbd_ros.conversions import quaternion_from_msg as _quat, vector_from_msg as _vec
+from rbd_ros.core import BodyState, RbdError
 from rbd_ros.core.model import BodyModel
 from rbd_ros.core.rotations import quat_log, quat_to_matrix
 from rbd_ros.recording import Bag, open_bag
 
-_NS_PER_S = 1e9
 SAVE_DPI = 90
 
 
@@ -53,14 +54,6 @@ _NAN3 = (np.nan,) * 3
 
 #: One input's wrenches as recorded: ``(t_s, force (3,), torque (3,))`` per message.
 WrenchSamples = List[Tuple[float, Tuple[float, ...], Tuple[float, ...]]]
-
-
-def _vec(msg) -> Tuple[float, float, float]:
-    return (msg.x, msg.y, msg.z)
-
-
-def _quat(msg) -> Tuple[float, float, float, float]:
-    return (msg.w, msg.x, msg.y, msg.z)
 
 
 def load_series(bag: Bag) -> Dict[str, Any]:
@@ -80,7 +73,7 @@ def load_series(bag: Bag) -> Dict[str, Any]:
     times = sorted(rows)
     series = _state_series(rows, times)
     model, timeout_s = _body_model(bag)
-    return {'t_s': np.array(times, dtype=float) / _NS_PER_S, **series,
+    return {'t_s': np.array(times, dtype=float) / NS_PER_S, **series,
             'wrenches': wrenches, 'model': model, 'timeout_s': timeout_s}
 
 
@@ -112,7 +105,7 @@ def _read_samples(bag: Bag, state_topics: List[str], wrench_topics: List[str],
         t = raw.log_time_ns
         if raw.topic in wrenches:
             wrenches[raw.topic].append(
-                (t / _NS_PER_S, _vec(msg.wrench.force), _vec(msg.wrench.torque)))
+                (t / NS_PER_S, _vec(msg.wrench.force), _vec(msg.wrench.torque)))
             continue
         row = rows.setdefault(t, {})
         type_name = bag.topics[raw.topic].type_name
@@ -162,7 +155,7 @@ def _body_model(bag: Bag) -> Tuple[Optional[BodyModel], float]:
         config = NodeConfig.from_parameters(bag.config)
     except RbdError:
         return None, 0.0
-    return config.model, config.wrench_timeout_ns / _NS_PER_S
+    return config.model, config.wrench_timeout_ns / NS_PER_S
 
 
 def _held(samples: WrenchSamples, timeout_s: float,
@@ -247,26 +240,35 @@ def _draw_wrenches(axes, data: Dict[str, Any], notes: List[Optional[str]]) -> No
             notes[panel] = _note(ax, 'no wrench recorded')
 
 
+def _body_states(data: Dict[str, Any]) -> List[Optional[BodyState]]:
+    """Return the recorded samples as :class:`BodyState` (None where a field is missing)."""
+    states = []
+    for p, q, v, w in zip(data['position_w'], data['orientation_wb'], data['velocity_w'],
+                          data['omega_b']):
+        finite = all(np.all(np.isfinite(x)) for x in (p, q, v, w))
+        states.append(BodyState(position_w=p, orientation_wb=q, linear_velocity_w=v,
+                                angular_velocity_b=w) if finite else None)
+    return states
+
+
 def _draw_invariants(axes, data: Dict[str, Any], notes: List[Optional[str]]) -> None:
     """
     Panels 6-7: energy and ``|L|`` about the COM, flat when constant to round-off.
 
-    ``E = m v·v / 2 + ω_b·I_b ω_b / 2`` (plus ``-m p·g`` under gravity), ``L_b = I_b ω_b``.
+    Asked of :class:`BodyState` per sample: ``kinetic_energy`` (plus ``potential_energy`` under
+    gravity) and ``|angular_momentum_w|``.
     """
     t, model = data['t_s'], data['model']
     if model is not None and len(t):
-        inertia_b = np.asarray(model.inertia_b)
-        v = data['velocity_w']
-        w = data['omega_b']
-        kinetic = 0.5 * model.mass_kg * np.einsum('ni,ni->n', v, v) + 0.5 * np.einsum(
-            'ni,ij,nj->n', w, inertia_b, w)
+        states = _body_states(data)
+        kinetic = np.array([s.kinetic_energy(model) if s else np.nan for s in states])
         axes[6].plot(t, kinetic, label='kinetic', linewidth=1.2)
-        gravity = np.asarray(model.gravity_w)
-        if np.any(gravity != 0.0):
-            potential = -model.mass_kg * data['position_w'] @ gravity
+        if np.any(np.asarray(model.gravity_w) != 0.0):
+            potential = np.array([s.potential_energy(model) if s else np.nan for s in states])
             axes[6].plot(t, kinetic + potential, label='kinetic + potential', linewidth=1.2)
         axes[6].legend(fontsize=8, loc='best')
-        momentum = np.linalg.norm(w @ inertia_b.T, axis=1)
+        momentum = np.array([np.linalg.norm(s.angular_momentum_w(model)) if s else np.nan
+                             for s in states])
         axes[7].plot(t, momentum, color='tab:purple', linewidth=1.2, label='|L|')
     else:
         for k, ax in enumerate(axes[6:], 6):
