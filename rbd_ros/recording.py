@@ -60,6 +60,7 @@ from typing import (Any, Callable, Dict, Iterable, Iterator, List, Mapping, Opti
 
 from mcap.data_stream import RecordBuilder
 from mcap.exceptions import McapError
+from mcap.reader import make_reader
 from mcap.records import Channel, Footer, Header, Message, Metadata, Schema, Statistics
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
@@ -686,6 +687,45 @@ class Bag:
         return decoder
 
     def _scan(self):
+        counts = self._scan_summary()
+        if counts is None:
+            counts = self._scan_records()
+        self._take_channels(counts)
+
+    def _scan_summary(self):
+        """
+        Read a finalised file through its footer: header, summary and metadata records only.
+
+        The chunks are not read (replay reads them once, in :meth:`messages`): the schemas,
+        channels and per-channel counts come from the summary and its statistics record, the
+        metadata records through the summary's metadata indexes. Returns the counts by channel
+        id, or None when the file has no readable summary with statistics (then every record
+        is scanned).
+        """
+        try:
+            with open(self.mcap_path, 'rb') as f:
+                reader = make_reader(f)
+                header = reader.get_header()
+                summary = reader.get_summary()
+                if summary is None or summary.statistics is None:
+                    return None
+                metadata = list(reader.iter_metadata())
+        except (McapError, EOFError, ValueError, struct.error, KeyError, OSError):
+            return None
+        self.profile, self.library = header.profile, header.library
+        self._schemas.update(summary.schemas)
+        self._channels.update(summary.channels)
+        self.statistics = stats = summary.statistics
+        self.has_footer = True
+        self.message_count = stats.message_count
+        if stats.message_count:
+            self.start_ns, self.end_ns = stats.message_start_time, stats.message_end_time
+        for record in metadata:
+            self._take_metadata(record)
+        return dict(stats.channel_message_counts)
+
+    def _scan_records(self):
+        """Read every record (an unfinalised or summary-less file); return counts by channel."""
         counts = {}
         for record in self._records():
             if isinstance(record, Header):
@@ -707,6 +747,9 @@ class Bag:
                 self.statistics = record
             elif isinstance(record, Footer):
                 self.has_footer = True
+        return counts
+
+    def _take_channels(self, counts):
         for channel in self._channels.values():
             schema = self._schemas.get(channel.schema_id)
             qos = []
