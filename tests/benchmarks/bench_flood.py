@@ -49,14 +49,7 @@ import tempfile
 import threading
 import time
 
-REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-sys.path.insert(0, REPO)
-sys.path.insert(0, os.path.join(REPO, 'tests'))
-sys.path.insert(0, os.path.join(REPO, 'tests', 'ros'))
-os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 101))
-os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
-os.environ['PYTHONPATH'] = REPO
-
+from bench_env import REPO  # noqa: I100 (first: puts the test helpers on sys.path)
 from conftest import NodeProcess  # noqa: E402, I100
 from ros_probe import Probe  # noqa: E402
 
