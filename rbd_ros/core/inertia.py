@@ -35,7 +35,7 @@ import numbers
 
 import numpy as np
 
-from rbd_ros.core.errors import ModelError
+from rbd_ros.core.errors import finite_vector, ModelError, positive
 
 __all__ = [
     'MassProperties',
@@ -83,20 +83,6 @@ def _fmt(values):
     return '[' + ', '.join(_fmt(v) for v in values) + ']'
 
 
-def _positive(value, name, unit):
-    """Return ``value`` as a float after checking it is a finite real number > 0."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        if not (isinstance(value, np.ndarray) and value.shape == ()
-                and np.issubdtype(value.dtype, np.number)):
-            raise ModelError(f'{name}: {value!r} is not a number in {unit}')
-    number = float(value)
-    if not math.isfinite(number):
-        raise ModelError(f'{name}: {number!r} {unit} must be finite')
-    if number <= 0.0:
-        raise ModelError(f'{name}: {number!r} {unit} must be > 0')
-    return number
-
-
 def validate_mass(mass_kg, name='mass_kg'):
     """
     Return ``mass_kg`` as a float after checking it is a finite real number > 0.
@@ -106,7 +92,7 @@ def validate_mass(mass_kg, name='mass_kg'):
     :raises ModelError: naming ``name``, the value in kg and the rule, e.g.
         ``mass_kg: -1.0 kg must be > 0``.
     """
-    return _positive(mass_kg, name, 'kg')
+    return positive(mass_kg, name, 'kg', ModelError)
 
 
 def validate_inertia(inertia, name='inertia'):
@@ -152,26 +138,12 @@ def validate_inertia(inertia, name='inertia'):
 
 
 def _validate_vector(value, name, unit, size=3):
-    try:
-        arr = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ModelError(f'{name}: {value!r} is not {size} numbers in {unit}') from None
-    if arr.shape != (size,):
-        raise ModelError(f'{name}: shape {arr.shape} must be ({size},) ({unit})')
-    if not np.all(np.isfinite(arr)):
-        raise ModelError(f'{name}: {arr.tolist()} {unit} must be finite')
-    return arr
+    return finite_vector(value, name, unit, size, ModelError, frozen=False)
 
 
 def _validate_length(value, name):
     """Return ``value`` (m) as a float after checking it is finite and > 0."""
-    if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.floating,
-                                                         np.integer)):
-        raise ModelError(f'{name}: {value!r} is not a length in m')
-    length = float(value)
-    if not (math.isfinite(length) and length > 0.0):
-        raise ModelError(f'{name}: {length!r} m must be finite and > 0')
-    return length
+    return positive(value, name, 'm', ModelError)
 
 
 @dataclass(frozen=True, eq=False)
@@ -629,6 +601,6 @@ def triangle_mesh(vertices, faces, mass_kg=None, density=None):
         mass = validate_mass(mass_kg)
         rho = mass / volume
     else:
-        rho = _positive(density, 'density', 'kg/m³')
+        rho = positive(density, 'density', 'kg/m³', ModelError)
         mass = rho * volume
     return MassProperties(mass, com + origin, rho * inertia_unit)

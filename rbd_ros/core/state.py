@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rbd_ros.core.errors import frozen_vector as _vector, InputError
+from rbd_ros.core.errors import finite_vector as _vector, InputError, whole_number
 from rbd_ros.core.rotations import quat_normalize, quat_rotate, quat_to_matrix
 
 
@@ -70,14 +70,7 @@ class BodyState:
              _vector(self.linear_velocity_w, 'linear_velocity_w', 'm/s'))
         set_(self, 'angular_velocity_b',
              _vector(self.angular_velocity_b, 'angular_velocity_b', 'rad/s'))
-        if isinstance(self.time_ns, bool) or not isinstance(self.time_ns, (int, np.integer)):
-            raise InputError(f'time_ns: {self.time_ns!r} must be an integer number of ns')
-        set_(self, 'time_ns', int(self.time_ns))
-
-    @classmethod
-    def at_rest(cls, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0.0, 0.0, 0.0)):
-        """Return a state with zero velocities at time 0."""
-        return cls(position_w=position_w, orientation_wb=orientation_wb)
+        set_(self, 'time_ns', whole_number(self.time_ns, 'time_ns', 'ns'))
 
     def __eq__(self, other):
         if not isinstance(other, BodyState):
