@@ -23,8 +23,9 @@ batch are bit-identical. Time is integer nanoseconds and advances in fixed steps
 
 import numpy as np
 
-from rbd_ros.core import kernels
-from rbd_ros.core.errors import ConfigError, ConvergenceError, InputError, NonFiniteError
+from rbd_ros.core import kernels, layout
+from rbd_ros.core.errors import (ConfigError, ConvergenceError, InputError, NonFiniteError,
+                                 whole_number)
 from rbd_ros.core.integrators import DEFAULT_INTEGRATOR, integrator_info
 from rbd_ros.core.loads import AppliedWrench, Spring
 from rbd_ros.core.model import BodyModel
@@ -39,48 +40,20 @@ MIDPOINT_SAFE_ROTATION_RAD = 2.0
 PARALLEL_MIN_BODIES = 2048
 
 
-def _params(model):
-    """Pack a :class:`BodyModel` into the kernel's parameter column (see kernels)."""
-    column = np.empty(kernels.N_PARAM)
-    column[0] = model.mass_kg
-    column[1] = 1.0 / model.mass_kg
-    column[2:11] = model.inertia_b.reshape(9)
-    column[11:20] = model.inertia_inv_b.reshape(9)
-    column[20:23] = model.gravity_w
-    column[23] = model.linear_damping_per_s
-    column[24] = model.angular_damping_per_s
-    inertia = model.inertia_b
-    column[25] = 1.0 if np.count_nonzero(inertia - np.diag(np.diag(inertia))) == 0 else 0.0
-    return column
-
-
-def _state_column(state):
-    return np.concatenate((state.position_w, state.orientation_wb, state.linear_velocity_w,
-                           state.angular_velocity_b))
-
-
 def _load_rows(wrenches, springs):
-    """Pack loads into kernel rows ``[kind, point_b, a, b, 0, 0]``."""
-    rows = np.zeros((len(wrenches) + len(springs), kernels.N_LOAD))
+    """Pack loads into kernel rows (:mod:`rbd_ros.core.layout`)."""
+    rows = np.zeros((len(wrenches) + len(springs), layout.N_LOAD))
     for row, wrench in zip(rows, wrenches):
         if not isinstance(wrench, AppliedWrench):
             raise InputError(f'wrenches: {wrench!r} is not an AppliedWrench')
-        row[0] = kernels.LOAD_WORLD if wrench.frame == 'world' else kernels.LOAD_BODY
-        row[1:4], row[4:7], row[7:10] = wrench.point_b, wrench.force, wrench.torque
+        kind = layout.LOAD_WORLD if wrench.frame == 'world' else layout.LOAD_BODY
+        layout.pack_wrench(row, kind, wrench.point_b, wrench.force, wrench.torque)
     for row, spring in zip(rows[len(wrenches):], springs):
         if not isinstance(spring, Spring):
             raise InputError(f'springs: {spring!r} is not a Spring')
-        row[0] = kernels.LOAD_SPRING
-        row[1:4], row[4:7] = spring.point_b, spring.anchor_w
-        row[7:10] = (spring.stiffness_n_per_m, spring.damping_n_s_per_m, spring.rest_length_m)
+        layout.pack_spring(row, spring.point_b, spring.anchor_w, spring.stiffness_n_per_m,
+                           spring.damping_n_s_per_m, spring.rest_length_m)
     return rows
-
-
-def _timestep(timestep_ns):
-    if isinstance(timestep_ns, bool) or not isinstance(timestep_ns, (int, np.integer)) \
-            or timestep_ns <= 0:
-        raise ConfigError(f'timestep_ns: {timestep_ns!r} ns must be a positive integer')
-    return int(timestep_ns)
 
 
 class BatchSimulator:
@@ -103,17 +76,18 @@ class BatchSimulator:
             raise ConfigError(
                 f'models: {len(models)} models for {len(states)} states; give one or N')
         self._info = integrator_info(integrator)
-        self._timestep_ns = _timestep(timestep_ns)
+        self._timestep_ns = whole_number(timestep_ns, 'timestep_ns', 'ns', positive=True,
+                                         error=ConfigError)
         self._h = self._timestep_ns * 1e-9
         self._models = tuple(models)
         self._initial_states = tuple(states)
         # One shared parameter column when every body has the same model (less memory traffic).
         shared = all(m is models[0] or m == models[0] for m in models)
         self._params = np.ascontiguousarray(np.stack(
-            [_params(m) for m in (models[:1] if shared else models)], axis=1))
-        self._x = np.empty((kernels.N_STATE, len(states)))
+            [layout.pack_params(m) for m in (models[:1] if shared else models)], axis=1))
+        self._x = np.empty((layout.N_STATE, len(states)))
         self._t = np.empty(len(states), dtype=np.int64)
-        self._loads = np.zeros((len(states), 0, kernels.N_LOAD))
+        self._loads = np.zeros((len(states), 0, layout.N_LOAD))
         self._kernel = (kernels.advance_parallel if len(states) >= PARALLEL_MIN_BODIES
                         else kernels.advance)
         self._step_count = 0
@@ -154,9 +128,7 @@ class BatchSimulator:
 
     def body_state(self, index):
         """Return the state of body ``index`` as a :class:`BodyState` value."""
-        column = self._x[:, index]
-        return BodyState(column[0:3], column[3:7], column[7:10], column[10:13],
-                         int(self._t[index]))
+        return BodyState(**layout.unpack_state(self._x[:, index]), time_ns=int(self._t[index]))
 
     def reset(self, states=None):
         """Put every body back to its initial state (or to ``states``); step count 0."""
@@ -166,7 +138,7 @@ class BatchSimulator:
         for i, state in enumerate(states):
             if not isinstance(state, BodyState):
                 raise InputError(f'states[{i}]: {state!r} is not a BodyState')
-            self._x[:, i] = _state_column(state)
+            self._x[:, i] = layout.pack_state(state)
             self._t[i] = state.time_ns
         self._t0 = self._t.copy()
         self._step_count = 0
@@ -175,7 +147,7 @@ class BatchSimulator:
         """Hold these loads on body ``index`` from the next step until replaced."""
         rows = _load_rows(tuple(wrenches), tuple(springs))
         if rows.shape[0] > self._loads.shape[1]:
-            grown = np.zeros((self.size, rows.shape[0], kernels.N_LOAD))
+            grown = np.zeros((self.size, rows.shape[0], layout.N_LOAD))
             grown[:, :self._loads.shape[1]] = self._loads
             self._loads = grown
         self._loads[index] = 0.0
@@ -191,10 +163,8 @@ class BatchSimulator:
         torque_w = np.asarray(torque_w, dtype=np.float64).reshape(self.size, 3)
         if not (np.all(np.isfinite(force_w)) and np.all(np.isfinite(torque_w))):
             raise InputError('force_w/torque_w: batch wrench contains non-finite values (N, N·m)')
-        loads = np.zeros((self.size, 1, kernels.N_LOAD))
-        loads[:, 0, 0] = kernels.LOAD_WORLD
-        loads[:, 0, 4:7] = force_w
-        loads[:, 0, 7:10] = torque_w
+        loads = np.zeros((self.size, 1, layout.N_LOAD))
+        layout.pack_wrench(loads[:, 0], layout.LOAD_WORLD, 0.0, force_w, torque_w)
         self._loads = loads
 
     def step(self, n=1):
@@ -305,9 +275,9 @@ def net_wrench_w(model, state, wrenches=(), springs=()):
 
     The same compiled function the integrators use (:func:`kernels.net_wrench_w`).
     """
-    x = _state_column(state)[:, np.newaxis]
+    x = layout.pack_state(state)[:, np.newaxis]
     out = np.empty((6, 1))
-    kernels.net_wrench_batch(x, _params(model)[:, np.newaxis],
+    kernels.net_wrench_batch(x, layout.pack_params(model)[:, np.newaxis],
                              _load_rows(tuple(wrenches), tuple(springs))[np.newaxis], out)
     return out[0:3, 0], out[3:6, 0]
 
