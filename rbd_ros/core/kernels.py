@@ -43,6 +43,11 @@ RK4 = 4
 MIDPOINT_CAYLEY = 5
 
 
+# Below this half-angle x (rad) sin(x)/x and cos(x) are taken from their Taylor series
+# (next terms x⁶/5040 < 2e-28 and x⁶/720 < 2e-27: exact to round-off); rbd_ros.core.rotations
+# uses the same threshold, so the kernel and the numpy rotations switch at the same angle.
+SINC_SERIES_BELOW = 1e-4
+
 # Newton iterations of the implicit midpoint solve stop when the update is below this many
 # units of round-off of |Π|; 4 ulp is the floor the iteration reaches in practice (the residual
 # itself carries ~1 ulp per term), and stopping there keeps the step energy-exact to round-off.
@@ -216,7 +221,12 @@ def _quat_to_matrix(qw, qx, qy, qz):
 
 @_jit
 def _matrix_to_quat(m, pw, px, py, pz):
-    """Shepperd's method; the sign is chosen nearest to the previous ``p`` (continuity)."""
+    """
+    Shepperd's method; the sign is chosen nearest to the previous ``p`` (continuity).
+
+    The same branch choice and sign rule as :func:`rbd_ros.core.rotations.matrix_to_quat`
+    with ``reference=p`` (``q·p >= 0``); ``tests/core/test_rotations.py`` checks they agree.
+    """
     trace = m[0, 0] + m[1, 1] + m[2, 2]
     if trace >= m[0, 0] and trace >= m[1, 1] and trace >= m[2, 2]:
         s = 2.0 * math.sqrt(1.0 + trace)
@@ -307,7 +317,7 @@ def _quat_exp_half(wx, wy, wz, h):
     """``exp((0, h ω / 2))``: rotation by ``h|ω|`` about ``ω``; Taylor series near 0."""
     speed = math.sqrt(wx * wx + wy * wy + wz * wz)
     half = 0.5 * h * speed
-    if half < 1e-4:
+    if half < SINC_SERIES_BELOW:
         # sin(x)/x = 1 - x²/6 + x⁴/120 - ...; at x < 1e-4 the next term (x⁶/5040 < 2e-28)
         # is far below double round-off, so the truncated series is exact to the last bit.
         x2 = half * half

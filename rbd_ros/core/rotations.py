@@ -37,6 +37,7 @@ and pi and accurate (to a few ulp) for angles near them.
 import numpy as np
 
 from rbd_ros.core.errors import InputError
+from rbd_ros.core.kernels import SINC_SERIES_BELOW
 
 __all__ = [
     'axis_angle_to_matrix',
@@ -60,12 +61,13 @@ __all__ = [
 ]
 
 # Below this |x| the function sin(x) / x is evaluated by its Taylor series
-# 1 - x**2 / 6 + x**4 / 120.  The first omitted term is x**6 / 5040, which at x = 1e-3 is
-# 2e-22, far below the float64 unit round-off 1.1e-16, so the series is exact to round-off on
-# [0, 1e-3].  Above the threshold np.sin(x) / x is accurate to about one ulp (x is exact and
-# np.sin is faithfully rounded), so the switch-over costs no accuracy; the series is needed only
-# to avoid 0 / 0 at x = 0 (and loss of the tiny quotient for subnormal x).
-_SINC_SERIES_BELOW = 1e-3
+# 1 - x**2 / 6 + x**4 / 120.  The first omitted term is x**6 / 5040, which at x = 1e-4 is
+# 2e-28, far below the float64 unit round-off 1.1e-16, so the series is exact to round-off.
+# Above the threshold np.sin(x) / x is accurate to about one ulp (x is exact and np.sin is
+# faithfully rounded), so the switch-over costs no accuracy; the series is needed only to avoid
+# 0 / 0 at x = 0 (and loss of the tiny quotient for subnormal x).  The compiled kernel's
+# exponential map switches at the same half-angle: one constant for both.
+_SINC_SERIES_BELOW = SINC_SERIES_BELOW
 
 
 def _as_array(value, last, name):
@@ -266,18 +268,21 @@ def quat_to_matrix(q):
     )
 
 
-def matrix_to_quat(rot):
+def matrix_to_quat(rot, reference=None):
     """
-    Return the canonical unit quaternion ``q`` with ``quat_to_matrix(q) == rot``.
+    Return the unit quaternion ``q`` with ``quat_to_matrix(q) == rot``.
 
     Shepperd's method (S. W. Shepperd, "Quaternion from rotation matrix", J. Guidance and
     Control 1(3), 1978): of the four equivalent formulas, the one that divides by the largest of
     ``|w|, |x|, |y|, |z|`` is used, so the result is accurate for every angle including 180
     degrees.  Each candidate is ``4 q_k q`` and is normalised, which also gives a sensible
     answer for a slightly non-orthogonal ``rot`` (use :func:`gram_schmidt` for a drifted one).
-    The sign is canonical (see :func:`quat_canonical`).
+    The sign is canonical (see :func:`quat_canonical`), or, with ``reference``, the one nearest
+    to it (``q · reference >= 0``): the kernel's rule for a trajectory, which keeps ``q``
+    continuous from step to step.
 
     :param rot: rotation matrix(es), shape ``(..., 3, 3)``, with ``v_w = rot @ v_b``.
+    :param reference: optional quaternion(s) ``(..., 4)`` whose hemisphere ``q`` is put in.
     :returns: shape ``(..., 4)``, ``(w, x, y, z)``.
     :raises InputError: if ``rot`` is not ``(..., 3, 3)`` or not finite.
     """
@@ -305,7 +310,11 @@ def matrix_to_quat(rot):
                          1.0 - m00 - m11 + m22], axis=-1)
     best = np.argmax(diagonal, axis=-1)[..., None, None]
     q = np.take_along_axis(candidates, best, axis=-2)[..., 0, :]
-    return quat_canonical(q, 'rot')
+    if reference is None:
+        return quat_canonical(q, 'rot')
+    reference = _as_array(reference, 4, 'reference')
+    q = quat_normalize(q, 'rot')
+    return np.where(np.sum(q * reference, axis=-1, keepdims=True) < 0.0, -q, q)
 
 
 def _axis_and_angle(axis, angle_rad):
@@ -368,9 +377,9 @@ def quat_exp(rotvec):
     Return the unit quaternion of the rotation by ``|rotvec|`` rad about ``rotvec / |rotvec|``.
 
     ``quat_exp(r) = exp((0, r / 2)) = (cos(t / 2), sinc(t / 2) r / 2)`` with ``t = |r|`` and
-    ``sinc(x) = sin(x) / x``.  ``sinc`` uses its Taylor series for ``x < 1e-3`` (truncation
-    error ``x**6 / 5040 < 2e-22``), so the result is accurate to round-off for every angle,
-    including exactly 0 (identity).  Angles above pi give ``w < 0``; the rotation is still
+    ``sinc(x) = sin(x) / x``.  ``sinc`` uses its Taylor series for ``x < 1e-4``, the kernel's
+    ``SINC_SERIES_BELOW`` (truncation error ``x**6 / 5040 < 2e-28``), so the result is
+    accurate to round-off for every angle, including exactly 0 (identity).  Angles above pi give ``w < 0``; the rotation is still
     right.
 
     :param rotvec: rotation vector(s) in rad, shape ``(..., 3)``.
