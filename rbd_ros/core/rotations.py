@@ -379,8 +379,8 @@ def quat_exp(rotvec):
     ``quat_exp(r) = exp((0, r / 2)) = (cos(t / 2), sinc(t / 2) r / 2)`` with ``t = |r|`` and
     ``sinc(x) = sin(x) / x``.  ``sinc`` uses its Taylor series for ``x < 1e-4``, the kernel's
     ``SINC_SERIES_BELOW`` (truncation error ``x**6 / 5040 < 2e-28``), so the result is
-    accurate to round-off for every angle, including exactly 0 (identity).  Angles above pi give ``w < 0``; the rotation is still
-    right.
+    accurate to round-off for every angle, including exactly 0 (identity).  Angles above pi
+    give ``w < 0``; the rotation is still right.
 
     :param rotvec: rotation vector(s) in rad, shape ``(..., 3)``.
     :returns: shape ``(..., 4)``.
