@@ -23,11 +23,12 @@ at start-up) or counted, throttled warnings; it never swallows them.
 
 import math
 import numbers
+from typing import Optional
 
 import numpy as np
 
 
-def finite_vector(value, name: str, unit: str, size: int = 3, error: type = None,
+def finite_vector(value, name: str, unit: str, size: int = 3, error: Optional[type] = None,
                   frozen: bool = True) -> np.ndarray:
     """
     Return ``value`` as a float64 array of ``size`` finite numbers (read-only if ``frozen``).
@@ -49,8 +50,8 @@ def finite_vector(value, name: str, unit: str, size: int = 3, error: type = None
     return array
 
 
-def finite_scalar(value, name: str, unit: str, *, minimum: float = None, strict: bool = False,
-                  error: type = None) -> float:
+def finite_scalar(value, name: str, unit: str, *, minimum: Optional[float] = None,
+                  strict: bool = False, error: Optional[type] = None) -> float:
     """
     Return ``value`` as a float after checking it is a real number, finite and in range.
 
@@ -74,18 +75,18 @@ def finite_scalar(value, name: str, unit: str, *, minimum: float = None, strict:
     return number
 
 
-def positive(value, name: str, unit: str, error: type = None) -> float:
+def positive(value, name: str, unit: str, error: Optional[type] = None) -> float:
     """Return ``value`` as a float after checking it is finite and > 0 (see finite_scalar)."""
     return finite_scalar(value, name, unit, minimum=0.0, strict=True, error=error)
 
 
-def non_negative(value, name: str, unit: str, error: type = None) -> float:
+def non_negative(value, name: str, unit: str, error: Optional[type] = None) -> float:
     """Return ``value`` as a float after checking it is finite and >= 0 (see finite_scalar)."""
     return finite_scalar(value, name, unit, minimum=0.0, error=error)
 
 
 def whole_number(value, name: str, unit: str, *, positive: bool = False,
-                 error: type = None) -> int:
+                 error: Optional[type] = None) -> int:
     """
     Return ``value`` as an ``int`` after checking it is an integer (not a bool, not a float).
 
