@@ -32,6 +32,7 @@ Units: kg, m, kg·m², kg/m³.  Off-diagonal entries are the matrix entries ``I[
 from dataclasses import dataclass
 import math
 import numbers
+from typing import Tuple
 
 import numpy as np
 
@@ -83,7 +84,7 @@ def _fmt(values):
     return '[' + ', '.join(_fmt(v) for v in values) + ']'
 
 
-def validate_mass(mass_kg, name='mass_kg'):
+def validate_mass(mass_kg, name: str = 'mass_kg') -> float:
     """
     Return ``mass_kg`` as a float after checking it is a finite real number > 0.
 
@@ -95,7 +96,7 @@ def validate_mass(mass_kg, name='mass_kg'):
     return positive(mass_kg, name, 'kg', ModelError)
 
 
-def validate_inertia(inertia, name='inertia'):
+def validate_inertia(inertia, name='inertia') -> np.ndarray:
     """
     Return ``inertia`` as a (3, 3) float64 array after checking it is a physical inertia tensor.
 
@@ -202,7 +203,7 @@ def _triaxial(mass_kg, lengths_m, name, divisor):
                            mass * (x * x + y * y) / divisor])
 
 
-def box(mass_kg, size_m):
+def box(mass_kg, size_m) -> 'MassProperties':
     """
     Return a solid box of full edge lengths ``size_m = (x, y, z)`` centred at the origin.
 
@@ -211,21 +212,21 @@ def box(mass_kg, size_m):
     return _triaxial(mass_kg, size_m, 'size_m', 12.0)
 
 
-def solid_sphere(mass_kg, radius_m):
+def solid_sphere(mass_kg, radius_m) -> 'MassProperties':
     """Return a solid sphere centred at the origin: ``I = 2 m r^2 / 5`` about every axis."""
     mass = validate_mass(mass_kg)
     r = _validate_length(radius_m, 'radius_m')
     return _central(mass, [0.4 * mass * r * r] * 3)
 
 
-def spherical_shell(mass_kg, radius_m):
+def spherical_shell(mass_kg, radius_m) -> 'MassProperties':
     """Return a thin spherical shell centred at the origin: ``I = 2 m r^2 / 3``."""
     mass = validate_mass(mass_kg)
     r = _validate_length(radius_m, 'radius_m')
     return _central(mass, [2.0 * mass * r * r / 3.0] * 3)
 
 
-def solid_cylinder(mass_kg, radius_m, length_m):
+def solid_cylinder(mass_kg, radius_m, length_m) -> 'MassProperties':
     """
     Return a solid cylinder along z centred at the origin.
 
@@ -238,7 +239,7 @@ def solid_cylinder(mass_kg, radius_m, length_m):
     return _central(mass, [transverse, transverse, 0.5 * mass * r * r])
 
 
-def hollow_cylinder(mass_kg, inner_radius_m, outer_radius_m, length_m):
+def hollow_cylinder(mass_kg, inner_radius_m, outer_radius_m, length_m) -> 'MassProperties':
     """
     Return a thick-walled tube along z centred at the origin (``inner < outer``).
 
@@ -256,7 +257,7 @@ def hollow_cylinder(mass_kg, inner_radius_m, outer_radius_m, length_m):
     return _central(mass, [transverse, transverse, 0.5 * mass * sq])
 
 
-def solid_ellipsoid(mass_kg, semi_axes_m):
+def solid_ellipsoid(mass_kg, semi_axes_m) -> 'MassProperties':
     """
     Return a solid ellipsoid with semi-axes ``(a, b, c)`` along x, y, z, centred at the origin.
 
@@ -265,7 +266,7 @@ def solid_ellipsoid(mass_kg, semi_axes_m):
     return _triaxial(mass_kg, semi_axes_m, 'semi_axes_m', 5.0)
 
 
-def capsule(mass_kg, radius_m, length_m):
+def capsule(mass_kg, radius_m, length_m) -> 'MassProperties':
     """
     Return a capsule along z centred at the origin: a cylinder plus two hemispherical caps.
 
@@ -307,7 +308,7 @@ _SHAPE_BUILDERS = {
 SHAPES = tuple(_SHAPE_BUILDERS)
 
 
-def from_shape(shape, dimensions_m, mass_kg):
+def from_shape(shape, dimensions_m, mass_kg) -> 'MassProperties':
     """
     Return the mass properties of a named solid of uniform density, centred at the origin.
 
@@ -348,7 +349,7 @@ def from_shape(shape, dimensions_m, mass_kg):
     return builder(mass_kg, dims)
 
 
-def inertia_from_components(ixx, iyy, izz, ixy=0.0, ixz=0.0, iyz=0.0):
+def inertia_from_components(ixx, iyy, izz, ixy=0.0, ixz=0.0, iyz=0.0) -> np.ndarray:
     """
     Return the (3, 3) tensor from its six components in the ROS / URDF order and convention.
 
@@ -359,7 +360,7 @@ def inertia_from_components(ixx, iyy, izz, ixy=0.0, ixz=0.0, iyz=0.0):
     return np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]], dtype=np.float64)
 
 
-def parallel_axis(inertia_com, mass_kg, offset_m):
+def parallel_axis(inertia_com, mass_kg, offset_m) -> np.ndarray:
     """
     Return the inertia about a point displaced by ``offset_m`` from the COM.
 
@@ -372,7 +373,7 @@ def parallel_axis(inertia_com, mass_kg, offset_m):
     return np.asarray(inertia_com, dtype=np.float64) + mass_kg * shift
 
 
-def rotate_inertia(inertia, rot):
+def rotate_inertia(inertia, rot) -> np.ndarray:
     """
     Return ``R I R^T``: the tensor ``inertia`` given along frame b re-expressed along frame a.
 
@@ -383,7 +384,7 @@ def rotate_inertia(inertia, rot):
     return rot @ np.asarray(inertia, dtype=np.float64) @ np.swapaxes(rot, -1, -2)
 
 
-def principal_axes(inertia):
+def principal_axes(inertia) -> Tuple[np.ndarray, np.ndarray]:
     """
     Return ``(moments, rot)`` with ``inertia == rot @ diag(moments) @ rot.T``.
 
@@ -408,7 +409,7 @@ def principal_axes(inertia):
     return moments, rot
 
 
-def point_masses(masses_kg, points_b):
+def point_masses(masses_kg, points_b) -> 'MassProperties':
     """
     Return the mass properties of point masses ``masses_kg`` (kg, (n,)) at ``points_b`` (m).
 
@@ -435,7 +436,7 @@ def point_masses(masses_kg, points_b):
     return MassProperties(total, com, inertia)
 
 
-def bounding_box(points_b, mass_kg):
+def bounding_box(points_b, mass_kg) -> 'MassProperties':
     """
     Return the lecture's bounding-box approximation of a body sampled by ``points_b`` (m).
 
@@ -458,7 +459,7 @@ def bounding_box(points_b, mass_kg):
     return MassProperties(shape.mass_kg, 0.5 * (low + high), shape.inertia_b)
 
 
-def point_sampling(inside, bounds_min, bounds_max, mass_kg, n, rng=None):
+def point_sampling(inside, bounds_min, bounds_max, mass_kg, n, rng=None) -> 'MassProperties':
     """
     Return the lecture's point-sampling approximation of a uniform solid.
 
@@ -527,7 +528,7 @@ def _subexpressions(w0, w1, w2):
     return f1, f2, f3, g0, g1, g2
 
 
-def triangle_mesh(vertices, faces, mass_kg=None, density=None):
+def triangle_mesh(vertices, faces, mass_kg=None, density=None) -> 'MassProperties':
     """
     Return the exact mass properties of a closed triangle mesh of uniform density.
 

@@ -106,7 +106,7 @@ def _sinc(x):
     return np.where(small, series, np.sin(safe_x) / safe_x)
 
 
-def skew(a):
+def skew(a) -> np.ndarray:
     """
     Return the skew-symmetric cross-product matrix ``[a]``.
 
@@ -128,14 +128,14 @@ def skew(a):
     )
 
 
-def quat_identity(shape=()):
+def quat_identity(shape=()) -> np.ndarray:
     """Return identity quaternion(s) ``(1, 0, 0, 0)`` of shape ``shape + (4,)``."""
     q = np.zeros(tuple(shape) + (4,))
     q[..., 0] = 1.0
     return q
 
 
-def quat_multiply(q1, q2):
+def quat_multiply(q1, q2) -> np.ndarray:
     """
     Return the Hamilton product ``q1 * q2``: the rotation "first ``q2``, then ``q1``".
 
@@ -156,7 +156,7 @@ def quat_multiply(q1, q2):
     return np.concatenate([w, v], axis=-1)
 
 
-def quat_conjugate(q):
+def quat_conjugate(q) -> np.ndarray:
     """
     Return the conjugate ``(w, -x, -y, -z)``.
 
@@ -178,7 +178,7 @@ def _norm_checked(q, name):
     return norm
 
 
-def quat_inverse(q):
+def quat_inverse(q) -> np.ndarray:
     """
     Return ``q^-1 = conj(q) / |q|^2``, so that ``q * q^-1 == (1, 0, 0, 0)``.
 
@@ -189,7 +189,7 @@ def quat_inverse(q):
     return quat_conjugate(q) / (norm * norm)
 
 
-def quat_normalize(q, name='q'):
+def quat_normalize(q, name: str = 'q') -> np.ndarray:
     """
     Return ``q / |q|``.
 
@@ -202,7 +202,7 @@ def quat_normalize(q, name='q'):
     return q / _norm_checked(q, name)
 
 
-def quat_canonical(q, name='q'):
+def quat_canonical(q, name: str = 'q') -> np.ndarray:
     """
     Return ``q / |q|`` with a canonical sign (``q`` and ``-q`` are the same rotation).
 
@@ -218,7 +218,7 @@ def quat_canonical(q, name='q'):
     return q * sign
 
 
-def quat_rotate(q, v):
+def quat_rotate(q, v) -> np.ndarray:
     """
     Rotate vector(s) ``v`` by quaternion(s) ``q``, equal to ``quat_to_matrix(q) @ v``.
 
@@ -239,7 +239,7 @@ def quat_rotate(q, v):
     return v + w * t + np.cross(u, t)
 
 
-def quat_to_matrix(q):
+def quat_to_matrix(q) -> np.ndarray:
     """
     Return the rotation matrix ``R`` of quaternion(s) ``q``.
 
@@ -268,7 +268,7 @@ def quat_to_matrix(q):
     )
 
 
-def matrix_to_quat(rot, reference=None):
+def matrix_to_quat(rot, reference=None) -> np.ndarray:
     """
     Return the unit quaternion ``q`` with ``quat_to_matrix(q) == rot``.
 
@@ -338,7 +338,7 @@ def _axis_and_angle(axis, angle_rad):
     return unit, angle
 
 
-def quat_from_axis_angle(axis, angle_rad):
+def quat_from_axis_angle(axis, angle_rad) -> np.ndarray:
     """
     Return ``q = (cos(angle / 2), sin(angle / 2) axis / |axis|)``.
 
@@ -354,7 +354,7 @@ def quat_from_axis_angle(axis, angle_rad):
     return np.concatenate([np.cos(half), np.sin(half) * unit], axis=-1)
 
 
-def axis_angle_to_matrix(axis, angle_rad):
+def axis_angle_to_matrix(axis, angle_rad) -> np.ndarray:
     """
     Return ``Rot(angle, axis)`` by Rodrigues' formula ``I + sin(t) [k] + (1 - cos(t)) [k]^2``.
 
@@ -372,7 +372,7 @@ def axis_angle_to_matrix(axis, angle_rad):
     return np.eye(3) + np.sin(angle) * k + (1.0 - np.cos(angle)) * (k @ k)
 
 
-def quat_exp(rotvec):
+def quat_exp(rotvec) -> np.ndarray:
     """
     Return the unit quaternion of the rotation by ``|rotvec|`` rad about ``rotvec / |rotvec|``.
 
@@ -391,7 +391,7 @@ def quat_exp(rotvec):
     return np.concatenate([np.cos(half), 0.5 * _sinc(half) * rotvec], axis=-1)
 
 
-def quat_log(q):
+def quat_log(q) -> np.ndarray:
     """
     Return the rotation vector ``r`` with ``quat_exp(r) == +-q / |q|`` and ``|r|`` in ``[0, pi]``.
 
@@ -410,7 +410,7 @@ def quat_log(q):
     return 2.0 * v / _sinc(0.5 * angle)
 
 
-def matrix_exp(rotvec):
+def matrix_exp(rotvec) -> np.ndarray:
     """
     Return ``expm([rotvec]) = Rot(|rotvec|, rotvec / |rotvec|)``, exact at 0.
 
@@ -420,7 +420,7 @@ def matrix_exp(rotvec):
     return quat_to_matrix(quat_exp(rotvec))
 
 
-def matrix_log(rot):
+def matrix_log(rot) -> np.ndarray:
     """
     Return the rotation vector ``r`` (angle in ``[0, pi]``) with ``matrix_exp(r) == rot``.
 
@@ -433,7 +433,7 @@ def matrix_log(rot):
     return quat_log(matrix_to_quat(rot))
 
 
-def gram_schmidt(rot):
+def gram_schmidt(rot) -> np.ndarray:
     """
     Return the right-handed orthonormal matrix nearest in the Gram-Schmidt sense to ``rot``.
 
@@ -466,7 +466,7 @@ def gram_schmidt(rot):
     return np.stack([c0, c1, c2], axis=-1)
 
 
-def quat_angle_between(q1, q2):
+def quat_angle_between(q1, q2) -> np.ndarray:
     """
     Return the geodesic angle in rad, in ``[0, pi]``, of the rotation taking ``q1`` to ``q2``.
 
