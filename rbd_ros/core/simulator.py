@@ -141,10 +141,13 @@ class BatchSimulator:
         self._x = np.empty((layout.N_STATE, len(states)))
         self._t = np.empty(len(states), dtype=np.int64)
         self._loads = np.zeros((len(states), 0, layout.N_LOAD))
-        self._fixed_threads = None if threads is None else choose_threads(len(states), threads)
-        self._threads = 1
+        # Automatic threads only where they can pay (N >= PARALLEL_MIN_BODIES); a single body
+        # pays nothing for the choice on its hot path.
+        self._threads_auto = threads is None and len(states) >= PARALLEL_MIN_BODIES
         self._threads_checked = -float('inf')
-        self._update_threads()
+        self._set_threads(1 if threads is None else choose_threads(len(states), threads))
+        # One flag on the hot path: is there anything to do about threads before a step?
+        self._threads_prepare = self._threads_auto or self._threads > 1
         self._step_count = 0
         self.reset()
 
@@ -153,14 +156,19 @@ class BatchSimulator:
         """Return the number of threads the next step uses (1: the serial kernel)."""
         return self._threads
 
-    def _update_threads(self):
-        if self._fixed_threads is not None:
-            self._threads = self._fixed_threads
-        elif self.size >= PARALLEL_MIN_BODIES:
+    def _set_threads(self, threads):
+        self._threads = threads
+        self._kernel = kernels.advance if threads == 1 else kernels.advance_parallel
+
+    def _prepare_threads(self):
+        """Re-choose the automatic thread count when due; tell numba the count to use."""
+        if self._threads_auto:
             now = time.monotonic()
             if now - self._threads_checked >= THREADS_RECHECK_S:
-                self._threads = choose_threads(self.size)
+                self._set_threads(choose_threads(self.size))
                 self._threads_checked = now
+        if self._threads > 1:
+            numba.set_num_threads(self._threads)
 
     @property
     def size(self) -> int:
@@ -246,14 +254,10 @@ class BatchSimulator:
         :raises ConvergenceError: (a :class:`NonFiniteError`) likewise, when the cause is that
             ``midpoint_cayley``'s implicit solve did not converge (``h|ω|`` too large).
         """
-        self._update_threads()
-        if self._threads == 1:
-            kernel = kernels.advance
-        else:
-            kernel = kernels.advance_parallel
-            numba.set_num_threads(self._threads)
-        failed = kernel(self._x, self._params, self._loads, self._t, self._info.kernel_id,
-                        self._h, self._timestep_ns, n)
+        if self._threads_prepare:
+            self._prepare_threads()
+        failed = self._kernel(self._x, self._params, self._loads, self._t,
+                              self._info.kernel_id, self._h, self._timestep_ns, n)
         self._step_count += n
         if failed:
             self._raise_non_finite()

@@ -389,7 +389,7 @@ def test_results_do_not_depend_on_the_thread_count():
     mixed = BatchSimulator(model, states, threads=2)
     mixed.set_wrenches_w(force_w, torque_w)
     mixed.step(2)
-    mixed._fixed_threads = 1   # as if the load changed between calls
+    mixed._set_threads(1)   # as if the load changed between calls
     mixed.step(2)
     assert np.array_equal(mixed.arrays[0], results[1])
 
