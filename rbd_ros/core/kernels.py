@@ -29,6 +29,7 @@ import math
 import numba as nb
 import numpy as np
 
+from rbd_ros.core import layout
 from rbd_ros.core.layout import (L_A, L_B, L_KIND, L_POINT, LOAD_BODY, LOAD_NONE, LOAD_WORLD,
                                  N_STATE, P_ANG_DAMPING, P_DIAGONAL, P_GRAVITY, P_INERTIA,
                                  P_INV_INERTIA, P_INV_MASS, P_LIN_DAMPING, P_MASS, S_OMEGA,
@@ -131,6 +132,15 @@ def _read_state(x, i):
             x[S_QUAT, i], x[S_QUAT + 1, i], x[S_QUAT + 2, i], x[S_QUAT + 3, i],
             x[S_VEL, i], x[S_VEL + 1, i], x[S_VEL + 2, i],
             x[S_OMEGA, i], x[S_OMEGA + 1, i], x[S_OMEGA + 2, i])
+
+
+@_inl
+def _write_state(x, i, s):
+    """Store the 13-tuple ``s = (p_w, q_wb, v_w, ω_b)`` as body ``i``'s state column."""
+    x[S_POS, i], x[S_POS + 1, i], x[S_POS + 2, i] = s[0], s[1], s[2]
+    x[S_QUAT, i], x[S_QUAT + 1, i], x[S_QUAT + 2, i], x[S_QUAT + 3, i] = s[3], s[4], s[5], s[6]
+    x[S_VEL, i], x[S_VEL + 1, i], x[S_VEL + 2, i] = s[7], s[8], s[9]
+    x[S_OMEGA, i], x[S_OMEGA + 1, i], x[S_OMEGA + 2, i] = s[10], s[11], s[12]
 
 
 @_inl
@@ -649,8 +659,7 @@ def step_body(x, prm, ld, t, i, j, method, h, dt_ns, n_steps):
             break
         s = new
         done += 1
-    for k in range(N_STATE):
-        x[k, i] = s[k]
+    _write_state(x, i, s)
     t[i] += done * dt_ns
     return done
 
@@ -718,3 +727,20 @@ def net_wrench_batch(x, prm, ld, out):
         w = net_wrench_w(px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz, prm, ld, i, j)
         for k in range(6):
             out[k, i] = w[k]
+
+
+@_jit
+def _layout_as_compiled():
+    """Return ``layout.FINGERPRINT`` as the (possibly cached) compiled code saw it."""
+    return layout.FINGERPRINT
+
+
+# numba keys its on-disk cache by this file's bytecode and time stamp, not by the values of
+# the globals it imports: after an offset changes in layout.py, cached machine code would go on
+# using the old one. When the cached fingerprint differs from the layout's, drop this module's
+# cached kernels; they then compile afresh (and are cached again) on first use.
+if _layout_as_compiled() != layout.FINGERPRINT:
+    for _dispatcher in list(globals().values()):
+        if isinstance(_dispatcher, nb.core.dispatcher.Dispatcher):
+            _dispatcher._cache.flush()
+    _layout_as_compiled.recompile()

@@ -71,6 +71,14 @@ LOAD_BODY = 2
 LOAD_SPRING = 3
 
 
+# Every constant above, in a fixed order: the kernel checks at import that its cached machine
+# code was compiled with these values (numba keys its disk cache by the kernel file, not by
+# the values of the globals it imports from here).
+FINGERPRINT = (S_POS, S_QUAT, S_VEL, S_OMEGA, N_STATE, P_MASS, P_INV_MASS, P_INERTIA,
+               P_INV_INERTIA, P_GRAVITY, P_LIN_DAMPING, P_ANG_DAMPING, P_DIAGONAL, N_PARAM,
+               L_KIND, L_POINT, L_A, L_B, N_LOAD, LOAD_NONE, LOAD_WORLD, LOAD_BODY, LOAD_SPRING)
+
+
 def pack_state(state) -> np.ndarray:
     """Return the state column (``N_STATE``,) of a :class:`~rbd_ros.core.state.BodyState`."""
     column = np.empty(N_STATE)

@@ -26,7 +26,8 @@ import re
 
 import numpy as np
 
-from rbd_ros.core import (AppliedWrench, BatchSimulator, BodyModel, BodyState, layout, Spring)
+from rbd_ros.core import (AppliedWrench, BatchSimulator, BodyModel, BodyState, kernels, layout,
+                          Spring)
 
 CORE = pathlib.Path(layout.__file__).parent
 
@@ -138,3 +139,13 @@ def test_core_modules_address_packed_arrays_by_name_only():
             if BARE_INDEX.search(line):
                 offenders.append(f'{name}:{number}: {line.strip()}')
     assert not offenders, '\n'.join(offenders)
+
+
+def test_fingerprint_lists_every_constant_and_matches_the_compiled_kernel():
+    # numba caches the kernel by its own file, not by the layout values it imports; the kernel
+    # compares this fingerprint with the one its cached code returns and drops a stale cache.
+    constants = {name for name in dir(layout) if name.isupper() and name != 'FINGERPRINT'
+                 and isinstance(getattr(layout, name), int)}
+    assert len(layout.FINGERPRINT) == len(constants)
+    assert sorted(layout.FINGERPRINT) == sorted(getattr(layout, name) for name in constants)
+    assert kernels._layout_as_compiled() == layout.FINGERPRINT
