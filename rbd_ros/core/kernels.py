@@ -613,13 +613,16 @@ def _all_finite(s):
     return True
 
 
-@_jit
+@_inl
 def step_body(x, prm, ld, t, i, j, method, h, dt_ns, n_steps):
     """
     Advance body ``i`` (parameters in column ``j`` of ``prm``) by up to ``n_steps`` steps.
 
     Each step is computed in registers and written back only if every component is finite;
     otherwise the body stays at its last finite state. Returns the number of steps taken.
+    Inlined into :func:`advance` and :func:`advance_parallel`: a compiled call per body (its
+    array arguments and their reference counts) cost ~20 ns of ~128 per body-step with one
+    step per call (10 000 bodies: 7.8 → 9.4 M body-steps/s, CPU time); same numbers.
     """
     damped = prm[P_LIN_DAMPING, j] != 0.0 or prm[P_ANG_DAMPING, j] != 0.0
     decay_v_half = 1.0
