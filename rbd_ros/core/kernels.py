@@ -168,22 +168,23 @@ def net_wrench_w(px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz, prm, ld, i,
         if kind == LOAD_NONE:
             continue
         rx, ry, rz = 0.0, 0.0, 0.0
-        ox, oy, oz = ld[i, k, L_POINT], ld[i, k, L_POINT + 1], ld[i, k, L_POINT + 2]
-        if ox != 0.0 or oy != 0.0 or oz != 0.0:
-            rx, ry, rz = _rotate(qw, qx, qy, qz, ox, oy, oz)
-        ax, ay, az = ld[i, k, L_A], ld[i, k, L_A + 1], ld[i, k, L_A + 2]
-        bx, by, bz = ld[i, k, L_B], ld[i, k, L_B + 1], ld[i, k, L_B + 2]
+        if ld[i, k, L_POINT] != 0.0 or ld[i, k, L_POINT + 1] != 0.0 \
+                or ld[i, k, L_POINT + 2] != 0.0:
+            rx, ry, rz = _rotate(qw, qx, qy, qz,
+                                 ld[i, k, L_POINT], ld[i, k, L_POINT + 1], ld[i, k, L_POINT + 2])
         if kind == LOAD_WORLD:
-            gx, gy, gz = ax, ay, az
-            cx, cy, cz = bx, by, bz
+            gx, gy, gz = ld[i, k, L_A], ld[i, k, L_A + 1], ld[i, k, L_A + 2]
+            cx, cy, cz = ld[i, k, L_B], ld[i, k, L_B + 1], ld[i, k, L_B + 2]
         elif kind == LOAD_BODY:
-            gx, gy, gz = _rotate(qw, qx, qy, qz, ax, ay, az)
-            cx, cy, cz = _rotate(qw, qx, qy, qz, bx, by, bz)
+            gx, gy, gz = _rotate(qw, qx, qy, qz,
+                                 ld[i, k, L_A], ld[i, k, L_A + 1], ld[i, k, L_A + 2])
+            cx, cy, cz = _rotate(qw, qx, qy, qz,
+                                 ld[i, k, L_B], ld[i, k, L_B + 1], ld[i, k, L_B + 2])
         else:   # LOAD_SPRING: a = anchor_w, b = (k, c, l0)
-            stiffness, damping, rest = bx, by, bz
-            dx = px + rx - ax
-            dy = py + ry - ay
-            dz = pz + rz - az
+            stiffness, damping, rest = ld[i, k, L_B], ld[i, k, L_B + 1], ld[i, k, L_B + 2]
+            dx = px + rx - ld[i, k, L_A]
+            dy = py + ry - ld[i, k, L_A + 1]
+            dz = pz + rz - ld[i, k, L_A + 2]
             ow_x, ow_y, ow_z = _rotate(qw, qx, qy, qz, wx, wy, wz)
             ux, uy, uz = _cross(ow_x, ow_y, ow_z, rx, ry, rz)
             ux, uy, uz = vx + ux, vy + uy, vz + uz
@@ -613,16 +614,19 @@ def _all_finite(s):
     return True
 
 
-@_inl
+@_jit
 def step_body(x, prm, ld, t, i, j, method, h, dt_ns, n_steps):
     """
     Advance body ``i`` (parameters in column ``j`` of ``prm``) by up to ``n_steps`` steps.
 
     Each step is computed in registers and written back only if every component is finite;
     otherwise the body stays at its last finite state. Returns the number of steps taken.
-    Inlined into :func:`advance` and :func:`advance_parallel`: a compiled call per body (its
-    array arguments and their reference counts) cost ~20 ns of ~128 per body-step with one
-    step per call (10 000 bodies: 7.8 → 9.4 M body-steps/s, CPU time); same numbers.
+    The serial :func:`advance` (single bodies) calls it compiled on its own; the batch kernel
+    :func:`advance_parallel` inlines the same code (:data:`_step_body_inline`): there a
+    compiled call per body (its array arguments and their reference counts) costs ~20 ns of
+    ~128 per body-step with one step per call (10 000 bodies, 1 thread, CPU time: 7.8 → 11.7
+    M body-steps/s); same numbers. Inlining it into :func:`advance` too would lengthen the
+    first compilation of the single-body path from ≈ 17 s to ≈ 26 s of CPU.
     """
     damped = prm[P_LIN_DAMPING, j] != 0.0 or prm[P_ANG_DAMPING, j] != 0.0
     decay_v_half = 1.0
@@ -667,6 +671,12 @@ def step_body(x, prm, ld, t, i, j, method, h, dt_ns, n_steps):
     return done
 
 
+# The same Python function, inlined at numba IR level where it is called (never compiled or
+# cached on its own): one source for both kernels.
+_step_body_inline = nb.njit(cache=True, fastmath=False, nogil=True,
+                            inline='always')(step_body.py_func)
+
+
 @_jit
 def advance(x, prm, ld, t, method, h, dt_ns, n_steps):
     """Advance every body ``n_steps`` steps; return how many bodies stopped early (non-finite)."""
@@ -687,7 +697,8 @@ def advance_parallel(x, prm, ld, t, method, h, dt_ns, n_steps):
     done = np.empty(n, dtype=np.int64)
     for i in nb.prange(n):
         # i - i keeps j the type of the prange index (a literal 0 would not unify).
-        done[i] = step_body(x, prm, ld, t, i, i - i if shared else i, method, h, dt_ns, n_steps)
+        done[i] = _step_body_inline(x, prm, ld, t, i, i - i if shared else i, method, h,
+                                    dt_ns, n_steps)
     failed = 0
     for i in range(n):
         if done[i] != n_steps:

@@ -147,18 +147,22 @@ class BatchSimulator:
         self._threads_checked = -float('inf')
         self._set_threads(1 if threads is None else choose_threads(len(states), threads))
         # One flag on the hot path: is there anything to do about threads before a step?
-        self._threads_prepare = self._threads_auto or self._threads > 1
+        self._threads_prepare = self._kernel is kernels.advance_parallel
         self._step_count = 0
         self.reset()
 
     @property
     def threads(self) -> int:
-        """Return the number of threads the next step uses (1: the serial kernel)."""
+        """Return the number of threads the next step uses."""
         return self._threads
 
     def _set_threads(self, threads):
+        # Batches of PARALLEL_MIN_BODIES or more always run the batch kernel, on 1 thread too
+        # (its per-body code is inlined: ~20 % faster with one step per call); smaller ones
+        # the serial kernel unless more threads were asked for. Same numbers either way.
         self._threads = threads
-        self._kernel = kernels.advance if threads == 1 else kernels.advance_parallel
+        batch = threads > 1 or self.size >= PARALLEL_MIN_BODIES
+        self._kernel = kernels.advance_parallel if batch else kernels.advance
 
     def _prepare_threads(self):
         """Re-choose the automatic thread count when due; tell numba the count to use."""
@@ -167,8 +171,7 @@ class BatchSimulator:
             if now - self._threads_checked >= THREADS_RECHECK_S:
                 self._set_threads(choose_threads(self.size))
                 self._threads_checked = now
-        if self._threads > 1:
-            numba.set_num_threads(self._threads)
+        numba.set_num_threads(self._threads)
 
     @property
     def size(self) -> int:
