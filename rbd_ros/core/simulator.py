@@ -50,6 +50,13 @@ PARALLEL_MIN_BODIES = 2048
 THREADS_RECHECK_S = 1.0
 
 
+def _cores():
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:   # not on Linux
+        return os.cpu_count() or 1
+
+
 def free_cores() -> int:
     """
     Return how many of this process's CPUs are not busy with other processes (at least 1).
@@ -58,10 +65,7 @@ def free_cores() -> int:
     of the others (the load less the one runnable thread of this process, when it is stepping),
     rounded to the nearest whole core.
     """
-    try:
-        cores = len(os.sched_getaffinity(0))
-    except AttributeError:   # not on Linux
-        cores = os.cpu_count() or 1
+    cores = _cores()
     try:
         others = max(0.0, os.getloadavg()[0] - 1.0)
     except OSError:
@@ -148,6 +152,14 @@ class BatchSimulator:
         self._set_threads(1 if threads is None else choose_threads(len(states), threads))
         # One flag on the hot path: is there anything to do about threads before a step?
         self._threads_prepare = self._kernel is kernels.advance_parallel
+        # Automatic threads: wall seconds per step of the last call on each candidate count.
+        most = min(numba.config.NUMBA_NUM_THREADS, len(states) // PARALLEL_MIN_BODIES,
+                   _cores())
+        self._cost_s = {}
+        if self._threads_auto:
+            self._set_threads(choose_threads(len(states)))
+            self._threads_checked = time.monotonic()
+            self._candidates = (1, most) if most > 1 else (1,)
         self._step_count = 0
         self.reset()
 
@@ -165,12 +177,25 @@ class BatchSimulator:
         self._kernel = kernels.advance_parallel if batch else kernels.advance
 
     def _prepare_threads(self):
-        """Re-choose the automatic thread count when due; tell numba the count to use."""
+        """
+        Choose the automatic thread count when due; tell numba the count to use.
+
+        Automatic: the two candidates are 1 thread and one per core (:func:`choose_threads`
+        with every core free); each step call is timed, and every ``THREADS_RECHECK_S`` one
+        call runs on the other candidate, so the faster of the two as measured now is used.
+        This sees a core taken by another process at once, where the 1-minute load average
+        (:func:`free_cores`, the first choice) lags by a minute.
+        """
         if self._threads_auto:
             now = time.monotonic()
             if now - self._threads_checked >= THREADS_RECHECK_S:
-                self._set_threads(choose_threads(self.size))
                 self._threads_checked = now
+                if len(self._cost_s) == 2:
+                    # Try the other candidate for one call (its figure may be stale).
+                    other = [k for k in self._cost_s if k != self._threads][0]
+                    self._set_threads(other)
+            elif len(self._cost_s) == 2:
+                self._set_threads(min(self._cost_s, key=self._cost_s.get))
         numba.set_num_threads(self._threads)
 
     @property
@@ -259,8 +284,15 @@ class BatchSimulator:
         """
         if self._threads_prepare:
             self._prepare_threads()
+        if self._threads_auto:
+            start = time.perf_counter()
         failed = self._kernel(self._x, self._params, self._loads, self._t,
                               self._info.kernel_id, self._h, self._timestep_ns, n)
+        if self._threads_auto and self._threads in self._candidates:
+            self._cost_s[self._threads] = (time.perf_counter() - start) / n
+            if len(self._cost_s) < len(self._candidates):
+                # Measure the other candidate on the next call, once, to start with.
+                self._set_threads([k for k in self._candidates if k not in self._cost_s][0])
         self._step_count += n
         if failed:
             self._raise_non_finite()

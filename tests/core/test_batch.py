@@ -407,3 +407,18 @@ def test_thread_choice():
         with pytest.raises(ConfigError, match=f'threads: {bad!r} threads must be a positive'):
             BatchSimulator(_random_models(np.random.default_rng(0), 1)[0],
                            _random_states(np.random.default_rng(0), 3), threads=bad)
+
+
+def test_automatic_threads_time_both_candidates():
+    # The automatic choice times a step on 1 thread and on one per core, and then runs the
+    # faster; results stay bit-identical to a fixed single thread (checked above).
+    n = 2 * PARALLEL_MIN_BODIES
+    rng = np.random.default_rng(SEED + 2)
+    batch = BatchSimulator(_random_models(rng, 1)[0], _random_states(rng, n))
+    most = min(numba.config.NUMBA_NUM_THREADS, len(os.sched_getaffinity(0)), 2)
+    assert batch._candidates == ((1, most) if most > 1 else (1,))
+    for _ in range(3):
+        batch.step()
+    assert set(batch._cost_s) == set(batch._candidates)
+    assert all(cost > 0.0 for cost in batch._cost_s.values())
+    assert batch.threads in batch._candidates
