@@ -21,12 +21,19 @@ at start-up) or counted, throttled warnings; it never swallows them.
 """
 
 
+import math
+import numbers
+from typing import Optional
+
 import numpy as np
 
 
-def frozen_vector(value, name, unit, size=3, error=None):
+def finite_vector(value, name: str, unit: str, size: int = 3, error: Optional[type] = None,
+                  frozen: bool = True) -> np.ndarray:
     """
-    Return ``value`` as a read-only float64 array of ``size`` finite numbers.
+    Return ``value`` as a float64 array of ``size`` finite numbers (read-only if ``frozen``).
+
+    The one vector validator of the core: models, states, loads and inertia use it.
 
     :raises RbdError: (``error``, :class:`InputError` by default) naming ``name``, the value
         and ``unit`` when it is not ``size`` numbers or not finite.
@@ -37,9 +44,61 @@ def frozen_vector(value, name, unit, size=3, error=None):
     except (TypeError, ValueError):
         raise error(f'{name}: expected {size} numbers in {unit}, got {value!r}') from None
     if not np.all(np.isfinite(array)):
-        raise error(f'{name}: {array.tolist()} {unit} is not finite')
-    array.flags.writeable = False
+        raise error(f'{name}: {array.tolist()} {unit} must be finite')
+    if frozen:
+        array.flags.writeable = False
     return array
+
+
+def finite_scalar(value, name: str, unit: str, *, minimum: Optional[float] = None,
+                  strict: bool = False, error: Optional[type] = None) -> float:
+    """
+    Return ``value`` as a float after checking it is a real number, finite and in range.
+
+    The one scalar validator of the core. ``minimum`` (optional) is inclusive, or exclusive
+    with ``strict``. Booleans are refused; numpy scalars and 0-d arrays are accepted.
+
+    :raises RbdError: (``error``, :class:`InputError` by default) naming ``name``, the value,
+        ``unit`` and the rule, e.g. ``mass_kg: -1.0 kg must be > 0``.
+    """
+    error = InputError if error is None else error
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        if not (isinstance(value, np.ndarray) and value.shape == ()
+                and (np.issubdtype(value.dtype, np.floating)
+                     or np.issubdtype(value.dtype, np.integer))):
+            raise error(f'{name}: {value!r} is not a number in {unit}')
+    number = float(value)
+    if not math.isfinite(number):
+        raise error(f'{name}: {number!r} {unit} must be finite')
+    if minimum is not None and (number <= minimum if strict else number < minimum):
+        raise error(f'{name}: {number!r} {unit} must be {">" if strict else ">="} {minimum:g}')
+    return number
+
+
+def positive(value, name: str, unit: str, error: Optional[type] = None) -> float:
+    """Return ``value`` as a float after checking it is finite and > 0 (see finite_scalar)."""
+    return finite_scalar(value, name, unit, minimum=0.0, strict=True, error=error)
+
+
+def non_negative(value, name: str, unit: str, error: Optional[type] = None) -> float:
+    """Return ``value`` as a float after checking it is finite and >= 0 (see finite_scalar)."""
+    return finite_scalar(value, name, unit, minimum=0.0, error=error)
+
+
+def whole_number(value, name: str, unit: str, *, positive: bool = False,
+                 error: Optional[type] = None) -> int:
+    """
+    Return ``value`` as an ``int`` after checking it is an integer (not a bool, not a float).
+
+    :raises RbdError: (``error``, :class:`InputError` by default) naming ``name``, the value and
+        ``unit``, also when ``positive`` and the value is not > 0.
+    """
+    error = InputError if error is None else error
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
+            or (positive and value <= 0):
+        rule = 'a positive integer' if positive else 'an integer'
+        raise error(f'{name}: {value!r} {unit} must be {rule}')
+    return int(value)
 
 
 class RbdError(Exception):

@@ -32,10 +32,11 @@ Units: kg, m, kg·m², kg/m³.  Off-diagonal entries are the matrix entries ``I[
 from dataclasses import dataclass
 import math
 import numbers
+from typing import Tuple
 
 import numpy as np
 
-from rbd_ros.core.errors import ModelError
+from rbd_ros.core.errors import finite_vector, ModelError, positive
 
 __all__ = [
     'MassProperties',
@@ -83,21 +84,7 @@ def _fmt(values):
     return '[' + ', '.join(_fmt(v) for v in values) + ']'
 
 
-def _positive(value, name, unit):
-    """Return ``value`` as a float after checking it is a finite real number > 0."""
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        if not (isinstance(value, np.ndarray) and value.shape == ()
-                and np.issubdtype(value.dtype, np.number)):
-            raise ModelError(f'{name}: {value!r} is not a number in {unit}')
-    number = float(value)
-    if not math.isfinite(number):
-        raise ModelError(f'{name}: {number!r} {unit} must be finite')
-    if number <= 0.0:
-        raise ModelError(f'{name}: {number!r} {unit} must be > 0')
-    return number
-
-
-def validate_mass(mass_kg, name='mass_kg'):
+def validate_mass(mass_kg, name: str = 'mass_kg') -> float:
     """
     Return ``mass_kg`` as a float after checking it is a finite real number > 0.
 
@@ -106,10 +93,10 @@ def validate_mass(mass_kg, name='mass_kg'):
     :raises ModelError: naming ``name``, the value in kg and the rule, e.g.
         ``mass_kg: -1.0 kg must be > 0``.
     """
-    return _positive(mass_kg, name, 'kg')
+    return positive(mass_kg, name, 'kg', ModelError)
 
 
-def validate_inertia(inertia, name='inertia'):
+def validate_inertia(inertia, name='inertia') -> np.ndarray:
     """
     Return ``inertia`` as a (3, 3) float64 array after checking it is a physical inertia tensor.
 
@@ -152,26 +139,12 @@ def validate_inertia(inertia, name='inertia'):
 
 
 def _validate_vector(value, name, unit, size=3):
-    try:
-        arr = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise ModelError(f'{name}: {value!r} is not {size} numbers in {unit}') from None
-    if arr.shape != (size,):
-        raise ModelError(f'{name}: shape {arr.shape} must be ({size},) ({unit})')
-    if not np.all(np.isfinite(arr)):
-        raise ModelError(f'{name}: {arr.tolist()} {unit} must be finite')
-    return arr
+    return finite_vector(value, name, unit, size, ModelError, frozen=False)
 
 
 def _validate_length(value, name):
     """Return ``value`` (m) as a float after checking it is finite and > 0."""
-    if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.floating,
-                                                         np.integer)):
-        raise ModelError(f'{name}: {value!r} is not a length in m')
-    length = float(value)
-    if not (math.isfinite(length) and length > 0.0):
-        raise ModelError(f'{name}: {length!r} m must be finite and > 0')
-    return length
+    return positive(value, name, 'm', ModelError)
 
 
 @dataclass(frozen=True, eq=False)
@@ -230,7 +203,7 @@ def _triaxial(mass_kg, lengths_m, name, divisor):
                            mass * (x * x + y * y) / divisor])
 
 
-def box(mass_kg, size_m):
+def box(mass_kg, size_m) -> 'MassProperties':
     """
     Return a solid box of full edge lengths ``size_m = (x, y, z)`` centred at the origin.
 
@@ -239,21 +212,21 @@ def box(mass_kg, size_m):
     return _triaxial(mass_kg, size_m, 'size_m', 12.0)
 
 
-def solid_sphere(mass_kg, radius_m):
+def solid_sphere(mass_kg, radius_m) -> 'MassProperties':
     """Return a solid sphere centred at the origin: ``I = 2 m r^2 / 5`` about every axis."""
     mass = validate_mass(mass_kg)
     r = _validate_length(radius_m, 'radius_m')
     return _central(mass, [0.4 * mass * r * r] * 3)
 
 
-def spherical_shell(mass_kg, radius_m):
+def spherical_shell(mass_kg, radius_m) -> 'MassProperties':
     """Return a thin spherical shell centred at the origin: ``I = 2 m r^2 / 3``."""
     mass = validate_mass(mass_kg)
     r = _validate_length(radius_m, 'radius_m')
     return _central(mass, [2.0 * mass * r * r / 3.0] * 3)
 
 
-def solid_cylinder(mass_kg, radius_m, length_m):
+def solid_cylinder(mass_kg, radius_m, length_m) -> 'MassProperties':
     """
     Return a solid cylinder along z centred at the origin.
 
@@ -266,7 +239,7 @@ def solid_cylinder(mass_kg, radius_m, length_m):
     return _central(mass, [transverse, transverse, 0.5 * mass * r * r])
 
 
-def hollow_cylinder(mass_kg, inner_radius_m, outer_radius_m, length_m):
+def hollow_cylinder(mass_kg, inner_radius_m, outer_radius_m, length_m) -> 'MassProperties':
     """
     Return a thick-walled tube along z centred at the origin (``inner < outer``).
 
@@ -284,7 +257,7 @@ def hollow_cylinder(mass_kg, inner_radius_m, outer_radius_m, length_m):
     return _central(mass, [transverse, transverse, 0.5 * mass * sq])
 
 
-def solid_ellipsoid(mass_kg, semi_axes_m):
+def solid_ellipsoid(mass_kg, semi_axes_m) -> 'MassProperties':
     """
     Return a solid ellipsoid with semi-axes ``(a, b, c)`` along x, y, z, centred at the origin.
 
@@ -293,7 +266,7 @@ def solid_ellipsoid(mass_kg, semi_axes_m):
     return _triaxial(mass_kg, semi_axes_m, 'semi_axes_m', 5.0)
 
 
-def capsule(mass_kg, radius_m, length_m):
+def capsule(mass_kg, radius_m, length_m) -> 'MassProperties':
     """
     Return a capsule along z centred at the origin: a cylinder plus two hemispherical caps.
 
@@ -335,7 +308,7 @@ _SHAPE_BUILDERS = {
 SHAPES = tuple(_SHAPE_BUILDERS)
 
 
-def from_shape(shape, dimensions_m, mass_kg):
+def from_shape(shape, dimensions_m, mass_kg) -> 'MassProperties':
     """
     Return the mass properties of a named solid of uniform density, centred at the origin.
 
@@ -376,7 +349,7 @@ def from_shape(shape, dimensions_m, mass_kg):
     return builder(mass_kg, dims)
 
 
-def inertia_from_components(ixx, iyy, izz, ixy=0.0, ixz=0.0, iyz=0.0):
+def inertia_from_components(ixx, iyy, izz, ixy=0.0, ixz=0.0, iyz=0.0) -> np.ndarray:
     """
     Return the (3, 3) tensor from its six components in the ROS / URDF order and convention.
 
@@ -387,7 +360,7 @@ def inertia_from_components(ixx, iyy, izz, ixy=0.0, ixz=0.0, iyz=0.0):
     return np.array([[ixx, ixy, ixz], [ixy, iyy, iyz], [ixz, iyz, izz]], dtype=np.float64)
 
 
-def parallel_axis(inertia_com, mass_kg, offset_m):
+def parallel_axis(inertia_com, mass_kg, offset_m) -> np.ndarray:
     """
     Return the inertia about a point displaced by ``offset_m`` from the COM.
 
@@ -400,7 +373,7 @@ def parallel_axis(inertia_com, mass_kg, offset_m):
     return np.asarray(inertia_com, dtype=np.float64) + mass_kg * shift
 
 
-def rotate_inertia(inertia, rot):
+def rotate_inertia(inertia, rot) -> np.ndarray:
     """
     Return ``R I R^T``: the tensor ``inertia`` given along frame b re-expressed along frame a.
 
@@ -411,7 +384,7 @@ def rotate_inertia(inertia, rot):
     return rot @ np.asarray(inertia, dtype=np.float64) @ np.swapaxes(rot, -1, -2)
 
 
-def principal_axes(inertia):
+def principal_axes(inertia) -> Tuple[np.ndarray, np.ndarray]:
     """
     Return ``(moments, rot)`` with ``inertia == rot @ diag(moments) @ rot.T``.
 
@@ -436,7 +409,7 @@ def principal_axes(inertia):
     return moments, rot
 
 
-def point_masses(masses_kg, points_b):
+def point_masses(masses_kg, points_b) -> 'MassProperties':
     """
     Return the mass properties of point masses ``masses_kg`` (kg, (n,)) at ``points_b`` (m).
 
@@ -463,7 +436,7 @@ def point_masses(masses_kg, points_b):
     return MassProperties(total, com, inertia)
 
 
-def bounding_box(points_b, mass_kg):
+def bounding_box(points_b, mass_kg) -> 'MassProperties':
     """
     Return the lecture's bounding-box approximation of a body sampled by ``points_b`` (m).
 
@@ -486,7 +459,7 @@ def bounding_box(points_b, mass_kg):
     return MassProperties(shape.mass_kg, 0.5 * (low + high), shape.inertia_b)
 
 
-def point_sampling(inside, bounds_min, bounds_max, mass_kg, n, rng=None):
+def point_sampling(inside, bounds_min, bounds_max, mass_kg, n, rng=None) -> 'MassProperties':
     """
     Return the lecture's point-sampling approximation of a uniform solid.
 
@@ -555,7 +528,7 @@ def _subexpressions(w0, w1, w2):
     return f1, f2, f3, g0, g1, g2
 
 
-def triangle_mesh(vertices, faces, mass_kg=None, density=None):
+def triangle_mesh(vertices, faces, mass_kg=None, density=None) -> 'MassProperties':
     """
     Return the exact mass properties of a closed triangle mesh of uniform density.
 
@@ -629,6 +602,6 @@ def triangle_mesh(vertices, faces, mass_kg=None, density=None):
         mass = validate_mass(mass_kg)
         rho = mass / volume
     else:
-        rho = _positive(density, 'density', 'kg/m³')
+        rho = positive(density, 'density', 'kg/m³', ModelError)
         mass = rho * volume
     return MassProperties(mass, com + origin, rho * inertia_unit)

@@ -22,19 +22,12 @@ summed into one net force and torque about the centre of mass in one place,
 """
 
 from dataclasses import dataclass, field
-import math
 
 import numpy as np
 
-from rbd_ros.core.errors import frozen_vector as _vector, InputError
+from rbd_ros.core.errors import finite_vector as _vector, InputError, non_negative
 
 FRAMES = ('world', 'body')
-
-
-def _scalar(value, name, unit, minimum=0.0):
-    if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= minimum):
-        raise InputError(f'{name}: {value!r} {unit} must be finite and >= {minimum:g}')
-    return float(value)
 
 
 @dataclass(frozen=True)
@@ -89,9 +82,9 @@ class Spring:
     def __post_init__(self):
         object.__setattr__(self, 'point_b', _vector(self.point_b, 'point_b', 'm'))
         object.__setattr__(self, 'anchor_w', _vector(self.anchor_w, 'anchor_w', 'm'))
-        object.__setattr__(self, 'stiffness_n_per_m', _scalar(
+        object.__setattr__(self, 'stiffness_n_per_m', non_negative(
             self.stiffness_n_per_m, 'stiffness_n_per_m', 'N/m'))
-        object.__setattr__(self, 'damping_n_s_per_m', _scalar(
+        object.__setattr__(self, 'damping_n_s_per_m', non_negative(
             self.damping_n_s_per_m, 'damping_n_s_per_m', 'N·s/m'))
-        object.__setattr__(self, 'rest_length_m', _scalar(
+        object.__setattr__(self, 'rest_length_m', non_negative(
             self.rest_length_m, 'rest_length_m', 'm'))

@@ -20,11 +20,10 @@ separate value, and the simulator is the one mutable object.
 """
 
 from dataclasses import dataclass, field
-import math
 
 import numpy as np
 
-from rbd_ros.core.errors import frozen_vector, ModelError
+from rbd_ros.core.errors import finite_vector, ModelError, non_negative
 from rbd_ros.core.inertia import validate_inertia, validate_mass
 
 
@@ -71,14 +70,12 @@ class BodyModel:
         inverse = 0.5 * (inverse + inverse.T)
         inverse.flags.writeable = False
         for name in ('linear_damping_per_s', 'angular_damping_per_s'):
-            value = getattr(self, name)
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0.0):
-                raise ModelError(f'{name}: {value!r} 1/s must be finite and >= 0')
-            object.__setattr__(self, name, float(value))
+            object.__setattr__(self, name, non_negative(getattr(self, name), name, '1/s',
+                                                        error=ModelError))
         object.__setattr__(self, 'mass_kg', float(self.mass_kg))
         object.__setattr__(self, 'inertia_b', inertia)
         object.__setattr__(self, 'inertia_inv_b', inverse)
-        object.__setattr__(self, 'gravity_w', frozen_vector(
+        object.__setattr__(self, 'gravity_w', finite_vector(
             self.gravity_w, 'gravity_w', 'm/s²', error=ModelError))
 
     def __eq__(self, other):

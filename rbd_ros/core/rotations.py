@@ -37,6 +37,7 @@ and pi and accurate (to a few ulp) for angles near them.
 import numpy as np
 
 from rbd_ros.core.errors import InputError
+from rbd_ros.core.kernels import SINC_SERIES_BELOW
 
 __all__ = [
     'axis_angle_to_matrix',
@@ -60,12 +61,13 @@ __all__ = [
 ]
 
 # Below this |x| the function sin(x) / x is evaluated by its Taylor series
-# 1 - x**2 / 6 + x**4 / 120.  The first omitted term is x**6 / 5040, which at x = 1e-3 is
-# 2e-22, far below the float64 unit round-off 1.1e-16, so the series is exact to round-off on
-# [0, 1e-3].  Above the threshold np.sin(x) / x is accurate to about one ulp (x is exact and
-# np.sin is faithfully rounded), so the switch-over costs no accuracy; the series is needed only
-# to avoid 0 / 0 at x = 0 (and loss of the tiny quotient for subnormal x).
-_SINC_SERIES_BELOW = 1e-3
+# 1 - x**2 / 6 + x**4 / 120.  The first omitted term is x**6 / 5040, which at x = 1e-4 is
+# 2e-28, far below the float64 unit round-off 1.1e-16, so the series is exact to round-off.
+# Above the threshold np.sin(x) / x is accurate to about one ulp (x is exact and np.sin is
+# faithfully rounded), so the switch-over costs no accuracy; the series is needed only to avoid
+# 0 / 0 at x = 0 (and loss of the tiny quotient for subnormal x).  The compiled kernel's
+# exponential map switches at the same half-angle: one constant for both.
+_SINC_SERIES_BELOW = SINC_SERIES_BELOW
 
 
 def _as_array(value, last, name):
@@ -104,7 +106,7 @@ def _sinc(x):
     return np.where(small, series, np.sin(safe_x) / safe_x)
 
 
-def skew(a):
+def skew(a) -> np.ndarray:
     """
     Return the skew-symmetric cross-product matrix ``[a]``.
 
@@ -126,14 +128,14 @@ def skew(a):
     )
 
 
-def quat_identity(shape=()):
+def quat_identity(shape=()) -> np.ndarray:
     """Return identity quaternion(s) ``(1, 0, 0, 0)`` of shape ``shape + (4,)``."""
     q = np.zeros(tuple(shape) + (4,))
     q[..., 0] = 1.0
     return q
 
 
-def quat_multiply(q1, q2):
+def quat_multiply(q1, q2) -> np.ndarray:
     """
     Return the Hamilton product ``q1 * q2``: the rotation "first ``q2``, then ``q1``".
 
@@ -154,7 +156,7 @@ def quat_multiply(q1, q2):
     return np.concatenate([w, v], axis=-1)
 
 
-def quat_conjugate(q):
+def quat_conjugate(q) -> np.ndarray:
     """
     Return the conjugate ``(w, -x, -y, -z)``.
 
@@ -176,7 +178,7 @@ def _norm_checked(q, name):
     return norm
 
 
-def quat_inverse(q):
+def quat_inverse(q) -> np.ndarray:
     """
     Return ``q^-1 = conj(q) / |q|^2``, so that ``q * q^-1 == (1, 0, 0, 0)``.
 
@@ -187,7 +189,7 @@ def quat_inverse(q):
     return quat_conjugate(q) / (norm * norm)
 
 
-def quat_normalize(q, name='q'):
+def quat_normalize(q, name: str = 'q') -> np.ndarray:
     """
     Return ``q / |q|``.
 
@@ -200,7 +202,7 @@ def quat_normalize(q, name='q'):
     return q / _norm_checked(q, name)
 
 
-def quat_canonical(q, name='q'):
+def quat_canonical(q, name: str = 'q') -> np.ndarray:
     """
     Return ``q / |q|`` with a canonical sign (``q`` and ``-q`` are the same rotation).
 
@@ -216,7 +218,7 @@ def quat_canonical(q, name='q'):
     return q * sign
 
 
-def quat_rotate(q, v):
+def quat_rotate(q, v) -> np.ndarray:
     """
     Rotate vector(s) ``v`` by quaternion(s) ``q``, equal to ``quat_to_matrix(q) @ v``.
 
@@ -237,7 +239,7 @@ def quat_rotate(q, v):
     return v + w * t + np.cross(u, t)
 
 
-def quat_to_matrix(q):
+def quat_to_matrix(q) -> np.ndarray:
     """
     Return the rotation matrix ``R`` of quaternion(s) ``q``.
 
@@ -266,18 +268,21 @@ def quat_to_matrix(q):
     )
 
 
-def matrix_to_quat(rot):
+def matrix_to_quat(rot, reference=None) -> np.ndarray:
     """
-    Return the canonical unit quaternion ``q`` with ``quat_to_matrix(q) == rot``.
+    Return the unit quaternion ``q`` with ``quat_to_matrix(q) == rot``.
 
     Shepperd's method (S. W. Shepperd, "Quaternion from rotation matrix", J. Guidance and
     Control 1(3), 1978): of the four equivalent formulas, the one that divides by the largest of
     ``|w|, |x|, |y|, |z|`` is used, so the result is accurate for every angle including 180
     degrees.  Each candidate is ``4 q_k q`` and is normalised, which also gives a sensible
     answer for a slightly non-orthogonal ``rot`` (use :func:`gram_schmidt` for a drifted one).
-    The sign is canonical (see :func:`quat_canonical`).
+    The sign is canonical (see :func:`quat_canonical`), or, with ``reference``, the one nearest
+    to it (``q · reference >= 0``): the kernel's rule for a trajectory, which keeps ``q``
+    continuous from step to step.
 
     :param rot: rotation matrix(es), shape ``(..., 3, 3)``, with ``v_w = rot @ v_b``.
+    :param reference: optional quaternion(s) ``(..., 4)`` whose hemisphere ``q`` is put in.
     :returns: shape ``(..., 4)``, ``(w, x, y, z)``.
     :raises InputError: if ``rot`` is not ``(..., 3, 3)`` or not finite.
     """
@@ -305,7 +310,11 @@ def matrix_to_quat(rot):
                          1.0 - m00 - m11 + m22], axis=-1)
     best = np.argmax(diagonal, axis=-1)[..., None, None]
     q = np.take_along_axis(candidates, best, axis=-2)[..., 0, :]
-    return quat_canonical(q, 'rot')
+    if reference is None:
+        return quat_canonical(q, 'rot')
+    reference = _as_array(reference, 4, 'reference')
+    q = quat_normalize(q, 'rot')
+    return np.where(np.sum(q * reference, axis=-1, keepdims=True) < 0.0, -q, q)
 
 
 def _axis_and_angle(axis, angle_rad):
@@ -329,7 +338,7 @@ def _axis_and_angle(axis, angle_rad):
     return unit, angle
 
 
-def quat_from_axis_angle(axis, angle_rad):
+def quat_from_axis_angle(axis, angle_rad) -> np.ndarray:
     """
     Return ``q = (cos(angle / 2), sin(angle / 2) axis / |axis|)``.
 
@@ -345,7 +354,7 @@ def quat_from_axis_angle(axis, angle_rad):
     return np.concatenate([np.cos(half), np.sin(half) * unit], axis=-1)
 
 
-def axis_angle_to_matrix(axis, angle_rad):
+def axis_angle_to_matrix(axis, angle_rad) -> np.ndarray:
     """
     Return ``Rot(angle, axis)`` by Rodrigues' formula ``I + sin(t) [k] + (1 - cos(t)) [k]^2``.
 
@@ -363,15 +372,15 @@ def axis_angle_to_matrix(axis, angle_rad):
     return np.eye(3) + np.sin(angle) * k + (1.0 - np.cos(angle)) * (k @ k)
 
 
-def quat_exp(rotvec):
+def quat_exp(rotvec) -> np.ndarray:
     """
     Return the unit quaternion of the rotation by ``|rotvec|`` rad about ``rotvec / |rotvec|``.
 
     ``quat_exp(r) = exp((0, r / 2)) = (cos(t / 2), sinc(t / 2) r / 2)`` with ``t = |r|`` and
-    ``sinc(x) = sin(x) / x``.  ``sinc`` uses its Taylor series for ``x < 1e-3`` (truncation
-    error ``x**6 / 5040 < 2e-22``), so the result is accurate to round-off for every angle,
-    including exactly 0 (identity).  Angles above pi give ``w < 0``; the rotation is still
-    right.
+    ``sinc(x) = sin(x) / x``.  ``sinc`` uses its Taylor series for ``x < 1e-4``, the kernel's
+    ``SINC_SERIES_BELOW`` (truncation error ``x**6 / 5040 < 2e-28``), so the result is
+    accurate to round-off for every angle, including exactly 0 (identity).  Angles above pi
+    give ``w < 0``; the rotation is still right.
 
     :param rotvec: rotation vector(s) in rad, shape ``(..., 3)``.
     :returns: shape ``(..., 4)``.
@@ -382,7 +391,7 @@ def quat_exp(rotvec):
     return np.concatenate([np.cos(half), 0.5 * _sinc(half) * rotvec], axis=-1)
 
 
-def quat_log(q):
+def quat_log(q) -> np.ndarray:
     """
     Return the rotation vector ``r`` with ``quat_exp(r) == +-q / |q|`` and ``|r|`` in ``[0, pi]``.
 
@@ -401,7 +410,7 @@ def quat_log(q):
     return 2.0 * v / _sinc(0.5 * angle)
 
 
-def matrix_exp(rotvec):
+def matrix_exp(rotvec) -> np.ndarray:
     """
     Return ``expm([rotvec]) = Rot(|rotvec|, rotvec / |rotvec|)``, exact at 0.
 
@@ -411,7 +420,7 @@ def matrix_exp(rotvec):
     return quat_to_matrix(quat_exp(rotvec))
 
 
-def matrix_log(rot):
+def matrix_log(rot) -> np.ndarray:
     """
     Return the rotation vector ``r`` (angle in ``[0, pi]``) with ``matrix_exp(r) == rot``.
 
@@ -424,7 +433,7 @@ def matrix_log(rot):
     return quat_log(matrix_to_quat(rot))
 
 
-def gram_schmidt(rot):
+def gram_schmidt(rot) -> np.ndarray:
     """
     Return the right-handed orthonormal matrix nearest in the Gram-Schmidt sense to ``rot``.
 
@@ -457,7 +466,7 @@ def gram_schmidt(rot):
     return np.stack([c0, c1, c2], axis=-1)
 
 
-def quat_angle_between(q1, q2):
+def quat_angle_between(q1, q2) -> np.ndarray:
     """
     Return the geodesic angle in rad, in ``[0, pi]``, of the rotation taking ``q1`` to ``q2``.
 

@@ -21,11 +21,15 @@ velocity) plus the sim time. Its methods are the lecture's kinematics: ``x = p +
 """
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rbd_ros.core.errors import frozen_vector as _vector, InputError
+from rbd_ros.core.errors import finite_vector as _vector, InputError, whole_number
 from rbd_ros.core.rotations import quat_normalize, quat_rotate, quat_to_matrix
+
+if TYPE_CHECKING:
+    from rbd_ros.core.model import BodyModel
 
 
 # A quaternion whose |q|² is this close to 1 is unit to round-off (a few ulp, as the kernel's
@@ -70,14 +74,7 @@ class BodyState:
              _vector(self.linear_velocity_w, 'linear_velocity_w', 'm/s'))
         set_(self, 'angular_velocity_b',
              _vector(self.angular_velocity_b, 'angular_velocity_b', 'rad/s'))
-        if isinstance(self.time_ns, bool) or not isinstance(self.time_ns, (int, np.integer)):
-            raise InputError(f'time_ns: {self.time_ns!r} must be an integer number of ns')
-        set_(self, 'time_ns', int(self.time_ns))
-
-    @classmethod
-    def at_rest(cls, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0.0, 0.0, 0.0)):
-        """Return a state with zero velocities at time 0."""
-        return cls(position_w=position_w, orientation_wb=orientation_wb)
+        set_(self, 'time_ns', whole_number(self.time_ns, 'time_ns', 'ns'))
 
     def __eq__(self, other):
         if not isinstance(other, BodyState):
@@ -90,24 +87,25 @@ class BodyState:
 
     __hash__ = None
 
-    def rotation_wb(self):
+    def rotation_wb(self) -> np.ndarray:
         """Return ``R`` (3, 3): columns are the body axes in world coordinates."""
         return quat_to_matrix(self.orientation_wb)
 
-    def angular_velocity_w(self):
+    def angular_velocity_w(self) -> np.ndarray:
         """Return ``ω_w = R ω_b``, rad/s."""
         return quat_rotate(self.orientation_wb, self.angular_velocity_b)
 
-    def point_w(self, point_b):
+    def point_w(self, point_b) -> np.ndarray:
         """World coordinates of body point(s) ``x̄`` (..., 3): ``x = p + R x̄``, m."""
         return self.position_w + np.asarray(point_b, dtype=np.float64) @ self.rotation_wb().T
 
-    def point_velocity_w(self, point_b):
+    def point_velocity_w(self, point_b) -> np.ndarray:
         """Velocity of body point(s): ``ẋ = v + ω_w × (x − p)``, m/s, world coordinates."""
         r_w = np.asarray(point_b, dtype=np.float64) @ self.rotation_wb().T
         return self.linear_velocity_w + np.cross(self.angular_velocity_w(), r_w)
 
-    def point_acceleration_w(self, point_b, linear_acceleration_w, angular_acceleration_w):
+    def point_acceleration_w(self, point_b, linear_acceleration_w,
+                             angular_acceleration_w) -> np.ndarray:
         """
         Acceleration of body point(s): ``ẍ = a + α × r + ω × (ω × r)``, m/s², world.
 
@@ -119,32 +117,32 @@ class BodyState:
         return (np.asarray(linear_acceleration_w) + np.cross(angular_acceleration_w, r_w)
                 + np.cross(omega_w, np.cross(omega_w, r_w)))
 
-    def inertia_w(self, model):
+    def inertia_w(self, model: 'BodyModel') -> np.ndarray:
         """World inertia about the COM, ``I = R I_b Rᵀ``, kg·m²."""
         rotation = self.rotation_wb()
         return rotation @ model.inertia_b @ rotation.T
 
-    def linear_momentum_w(self, model):
+    def linear_momentum_w(self, model: 'BodyModel') -> np.ndarray:
         """``P = M v``, kg·m/s, world coordinates."""
         return model.mass_kg * self.linear_velocity_w
 
-    def angular_momentum_w(self, model):
+    def angular_momentum_w(self, model: 'BodyModel') -> np.ndarray:
         """``L = I ω = R (I_b ω_b)``, about the COM, kg·m²/s, world coordinates."""
         return quat_rotate(self.orientation_wb, model.inertia_b @ self.angular_velocity_b)
 
-    def kinetic_energy_linear(self, model):
+    def kinetic_energy_linear(self, model: 'BodyModel') -> float:
         """``½ M vᵀv``, J."""
         return 0.5 * model.mass_kg * float(self.linear_velocity_w @ self.linear_velocity_w)
 
-    def kinetic_energy_rotational(self, model):
+    def kinetic_energy_rotational(self, model: 'BodyModel') -> float:
         """``½ ωᵀ I ω = ½ ω_bᵀ I_b ω_b``, J."""
         omega_b = self.angular_velocity_b
         return 0.5 * float(omega_b @ model.inertia_b @ omega_b)
 
-    def kinetic_energy(self, model):
+    def kinetic_energy(self, model: 'BodyModel') -> float:
         """Total kinetic energy, linear plus rotational, J."""
         return self.kinetic_energy_linear(model) + self.kinetic_energy_rotational(model)
 
-    def potential_energy(self, model):
+    def potential_energy(self, model: 'BodyModel') -> float:
         """Potential energy in uniform gravity, ``−M g·p`` (zero at the world origin), J."""
         return -model.mass_kg * float(model.gravity_w @ self.position_w)

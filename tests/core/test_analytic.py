@@ -35,6 +35,7 @@ import pytest
 from rbd_ros.core import (AppliedWrench, BodyModel, BodyState, INTEGRATORS, net_wrench_w,
                           Simulator, Spring)
 from rbd_ros.core.inertia import point_masses
+from rbd_ros.core.layout import S_OMEGA, S_POS, S_VEL
 from rbd_ros.core.rotations import (quat_conjugate, quat_from_axis_angle, quat_log,
                                     quat_multiply, quat_rotate, quat_to_matrix)
 
@@ -324,8 +325,9 @@ def _spring_trajectory(integrator, damping, dt_ns, duration_ns=3_000_000_000):
     out = np.empty(n)
     for k in range(n):
         sim.step()
-        out[k] = x[0, 0]
-    assert np.array_equal(x[1:3, 0], np.zeros(2))   # stays on the line through the anchor
+        out[k] = x[S_POS, 0]
+    # Stays on the line through the anchor.
+    assert np.array_equal(x[S_POS + 1:S_POS + 3, 0], np.zeros(2))
     return (np.arange(1, n + 1) * dt_ns) * 1e-9, out
 
 
@@ -395,7 +397,7 @@ def test_exponential_damping_is_step_size_independent(integrator, dt_ns):
         sim.step()
         t = k * dt_ns * 1e-9
         # Two multiplications by exp(-c h / 2) per step: 2k roundings plus exp's own ulp.
-        assert np.allclose(x[7:10, 0], v0 * math.exp(-c_v * t), rtol=4 * k * EPS + 1e-15,
-                           atol=0.0)
-        assert np.allclose(x[10:13, 0], w0 * math.exp(-c_w * t), rtol=4 * k * EPS + 1e-15,
-                           atol=0.0)
+        assert np.allclose(x[S_VEL:S_VEL + 3, 0], v0 * math.exp(-c_v * t),
+                           rtol=4 * k * EPS + 1e-15, atol=0.0)
+        assert np.allclose(x[S_OMEGA:S_OMEGA + 3, 0], w0 * math.exp(-c_w * t),
+                           rtol=4 * k * EPS + 1e-15, atol=0.0)

@@ -23,12 +23,16 @@ shared kernel computes is checked here against an independent numpy reference of
 integrator (to round-off), so the bit-equalities do not merely compare the code with itself.
 """
 
+import os
+
+import numba
 import numpy as np
 import pytest
 
-from rbd_ros.core import (AppliedWrench, BatchSimulator, BodyModel, BodyState, INTEGRATORS,
-                          NonFiniteError, Simulator, Spring, step)
-from rbd_ros.core.simulator import PARALLEL_MIN_BODIES
+from rbd_ros.core import (AppliedWrench, BatchSimulator, BodyModel, BodyState, ConfigError,
+                          INTEGRATORS, NonFiniteError, Simulator, Spring, step)
+from rbd_ros.core.layout import S_QUAT
+from rbd_ros.core.simulator import choose_threads, free_cores, PARALLEL_MIN_BODIES
 
 SEED = 20260122
 N_STEPS = 25
@@ -105,16 +109,18 @@ def test_small_batch_with_mixed_loads_equals_single_bodies(integrator, per_body_
          states[0].angular_velocity_b)))
 
 
-@pytest.mark.parametrize('n', [7, PARALLEL_MIN_BODIES], ids=['serial', 'threaded'])
+@pytest.mark.parametrize('n, threads', [(7, None), (PARALLEL_MIN_BODIES, 2)],
+                         ids=['serial', 'threaded'])
 @pytest.mark.parametrize('integrator', INTEGRATORS)
-def test_vectorised_wrenches_equal_single_bodies(integrator, n):
+def test_vectorised_wrenches_equal_single_bodies(integrator, n, threads):
     rng = np.random.default_rng(SEED + n)
     states = _random_states(rng, n)
     models = _random_models(rng, 4)
     per_body = [models[k % 4] for k in range(n)]
     force_w = rng.normal(size=(n, 3))
     torque_w = rng.normal(size=(n, 3))
-    batch = BatchSimulator(per_body, states, integrator=integrator)
+    batch = BatchSimulator(per_body, states, integrator=integrator, threads=threads)
+    assert batch.threads == (1 if threads is None else 2)
     batch.set_wrenches_w(force_w, torque_w)
     batch.step(3)
     batch.step(2)   # two calls: the state carries over between kernel calls
@@ -142,8 +148,9 @@ def test_batch_of_one_equals_simulator(integrator):
     assert batch.body_state(0) == single.state
 
 
-@pytest.mark.parametrize('n', [5, PARALLEL_MIN_BODIES], ids=['serial', 'threaded'])
-def test_determinism_two_runs_and_reset(n):
+@pytest.mark.parametrize('n, threads', [(5, None), (PARALLEL_MIN_BODIES, 2)],
+                         ids=['serial', 'threaded'])
+def test_determinism_two_runs_and_reset(n, threads):
     rng = np.random.default_rng(SEED)
     states = _random_states(rng, n)
     force_w = rng.normal(size=(n, 3))
@@ -151,7 +158,7 @@ def test_determinism_two_runs_and_reset(n):
     model = _random_models(rng, 2)[1]
     results = []
     for _ in range(2):
-        batch = BatchSimulator(model, states)
+        batch = BatchSimulator(model, states, threads=threads)
         batch.set_wrenches_w(force_w, torque_w)
         batch.step(N_STEPS)
         results.append(batch.arrays[0].copy())
@@ -335,7 +342,7 @@ def test_restarting_from_a_reported_state_is_bit_identical(integrator):
     sim = Simulator(model, state, integrator=integrator)
     sim.set_loads(wrenches, springs)
     sim.step(100)
-    assert np.array_equal(sim.state.orientation_wb, sim.arrays[0][3:7, 0])
+    assert np.array_equal(sim.state.orientation_wb, sim.arrays[0][S_QUAT:S_QUAT + 4, 0])
     restarted = Simulator(model, sim.state, integrator=integrator)
     restarted.set_loads(wrenches, springs)
     sim.step(50)
@@ -360,3 +367,58 @@ def test_one_diverging_body_does_not_stop_the_others():
     assert times_ns[2] == states[2].time_ns          # and its time did not advance
     assert np.all(times_ns[[0, 1, 3]] == states[0].time_ns + 10 * batch.timestep_ns)
     assert np.all(np.isfinite(x))
+
+
+def test_results_do_not_depend_on_the_thread_count():
+    # 2 × PARALLEL_MIN_BODIES bodies: the automatic choice may use 1 or 2 threads; fixed counts
+    # 1, 2 and 3 (more threads than cores) and a count changed between calls all agree bit for
+    # bit with the serial kernel.
+    n = 2 * PARALLEL_MIN_BODIES
+    rng = np.random.default_rng(SEED + 1)
+    states = _random_states(rng, n)
+    model = _random_models(rng, 2)[1]
+    force_w, torque_w = rng.normal(size=(n, 3)), rng.normal(size=(n, 3))
+    results = {}
+    for threads in (1, 2, 3, None):
+        batch = BatchSimulator(model, states, threads=threads)
+        batch.set_wrenches_w(force_w, torque_w)
+        batch.step(4)
+        results[threads] = batch.arrays[0].copy()
+    for threads in (2, 3, None):
+        assert np.array_equal(results[threads], results[1]), f'threads={threads}'
+    mixed = BatchSimulator(model, states, threads=2)
+    mixed.set_wrenches_w(force_w, torque_w)
+    mixed.step(2)
+    mixed._set_threads(1)   # as if the load changed between calls
+    mixed.step(2)
+    assert np.array_equal(mixed.arrays[0], results[1])
+
+
+def test_thread_choice():
+    pool = numba.config.NUMBA_NUM_THREADS
+    assert choose_threads(PARALLEL_MIN_BODIES - 1) == 1          # too few bodies for threads
+    assert 1 <= choose_threads(10 * PARALLEL_MIN_BODIES) <= min(pool, free_cores())
+    assert choose_threads(10, threads=1) == 1
+    assert choose_threads(10, threads=pool + 5) == pool            # capped at numba's pool
+    assert 1 <= free_cores() <= len(os.sched_getaffinity(0))
+    assert BatchSimulator(_random_models(np.random.default_rng(0), 1)[0],
+                          _random_states(np.random.default_rng(0), 3)).threads == 1
+    for bad in (0, -1, 1.5, True, '2'):
+        with pytest.raises(ConfigError, match=f'threads: {bad!r} threads must be a positive'):
+            BatchSimulator(_random_models(np.random.default_rng(0), 1)[0],
+                           _random_states(np.random.default_rng(0), 3), threads=bad)
+
+
+def test_automatic_threads_time_both_candidates():
+    # The automatic choice times a step on 1 thread and on one per core, and then runs the
+    # faster; results stay bit-identical to a fixed single thread (checked above).
+    n = 2 * PARALLEL_MIN_BODIES
+    rng = np.random.default_rng(SEED + 2)
+    batch = BatchSimulator(_random_models(rng, 1)[0], _random_states(rng, n))
+    most = min(numba.config.NUMBA_NUM_THREADS, len(os.sched_getaffinity(0)), 2)
+    assert batch._candidates == ((1, most) if most > 1 else (1,))
+    for _ in range(3):
+        batch.step()
+    assert set(batch._cost_s) == set(batch._candidates)
+    assert all(cost > 0.0 for cost in batch._cost_s.values())
+    assert batch.threads in batch._candidates

@@ -29,6 +29,7 @@ import pytest
 
 from rbd_ros.core import (AppliedWrench, BodyModel, BodyState, INTEGRATORS, NonFiniteError,
                           Simulator)
+from rbd_ros.core.layout import N_STATE, S_OMEGA, S_QUAT
 from rbd_ros.core.rotations import quat_from_axis_angle, quat_rotate
 
 SE_NAMES = [name for name in INTEGRATORS if name.startswith('symplectic_euler')]
@@ -51,11 +52,11 @@ def _tumble_initial():
 def _history(sim, n):
     """Step ``n`` times; return q (n, 4) and ω_b (n, 3) after each step."""
     x, _ = sim.arrays
-    out = np.empty((n, 13))
+    out = np.empty((n, N_STATE))
     for k in range(n):
         sim.step()
         out[k] = x[:, 0]
-    return out[:, 3:7], out[:, 10:13]
+    return out[:, S_QUAT:S_QUAT + 4], out[:, S_OMEGA:S_OMEGA + 3]
 
 
 def _invariants(model, q, omega_b):
@@ -201,6 +202,6 @@ def test_unit_quaternion_after_a_million_steps(integrator):
     assert times_ns[0] == 1_000_000 * 1_000_000
     assert np.all(np.isfinite(x))
     # Renormalised every step: |q| is 1 to ~1 ulp whatever the step count (1e-12: the issue).
-    assert abs(math.sqrt(float(np.sum(x[3:7, 0] ** 2))) - 1.0) <= 1e-12
+    assert abs(math.sqrt(float(np.sum(x[S_QUAT:S_QUAT + 4, 0] ** 2))) - 1.0) <= 1e-12
     # And it did move: the body tumbled for 1000 s.
-    assert abs(x[3, 0]) < 1.0 - 1e-6
+    assert abs(x[S_QUAT, 0]) < 1.0 - 1e-6

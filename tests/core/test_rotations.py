@@ -24,6 +24,7 @@ margin; a wrong sign, order or factor shows up at 1e-3 or more.
 import numpy as np
 import pytest
 
+from rbd_ros.core import kernels, rotations
 from rbd_ros.core.errors import InputError
 from rbd_ros.core.rotations import (
     axis_angle_to_matrix,
@@ -325,3 +326,67 @@ def test_bad_shapes_and_values_refused():
         quat_exp([np.nan, 0, 0])
     with pytest.raises(InputError, match='cannot be orthonormalised'):
         gram_schmidt(np.ones((3, 3)))
+
+
+# The compiled kernel's rotation helpers and this module are two implementations of the same
+# maths (the kernel works on scalars in registers, this module on numpy arrays). They must
+# agree: same sign rule, same small-angle switch, results within ROUND_OFF (a few ulp of unit
+# magnitude; the two evaluate the same formulas in a different order).
+
+
+def test_kernel_and_rotations_share_the_small_angle_threshold():
+    assert rotations._SINC_SERIES_BELOW == kernels.SINC_SERIES_BELOW == 1e-4
+
+
+@pytest.mark.parametrize('half_angle', [0.0, 1e-9, 5e-5, 0.99e-4, 1e-4, 1.01e-4, 5e-4,
+                                        2e-3, 0.3, 1.5, 3.0])
+def test_kernel_exponential_map_agrees_with_quat_exp(half_angle, rng):
+    for _ in range(50):
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        h = 1e-3
+        omega = axis * (2.0 * half_angle / h)
+        compiled = np.array(kernels._quat_exp_half(*omega, h))
+        np.testing.assert_allclose(compiled, quat_exp(h * omega), rtol=0, atol=ROUND_OFF)
+
+
+def test_kernel_quaternion_helpers_agree_with_rotations(rng):
+    for q, p, v in zip(random_quats(rng, 500), random_quats(rng, 500), rng.normal(size=(500, 3))):
+        np.testing.assert_allclose(kernels._qmul(*q, *p), quat_multiply(q, p), rtol=0,
+                                   atol=ROUND_OFF)
+        np.testing.assert_allclose(kernels._rotate(*q, *v), quat_rotate(q, v), rtol=0,
+                                   atol=ROUND_OFF * 4)
+        np.testing.assert_allclose(kernels._rotate_inv(*q, *v),
+                                   quat_rotate(quat_conjugate(q), v), rtol=0, atol=ROUND_OFF * 4)
+        np.testing.assert_allclose(kernels._quat_to_matrix(*q), quat_to_matrix(q), rtol=0,
+                                   atol=ROUND_OFF)
+        axis, angle = v, float(np.linalg.norm(v))
+        np.testing.assert_allclose(kernels._rotation_about(*axis, 1.0),
+                                   axis_angle_to_matrix(axis, angle), rtol=0, atol=ROUND_OFF)
+
+
+def test_kernel_matrix_to_quat_has_the_same_sign_rule(rng):
+    # The kernel picks the hemisphere of the previous orientation; matrix_to_quat does the same
+    # with reference=, and without it the canonical sign (w >= 0).
+    for q, previous in zip(random_quats(rng, 1000), random_quats(rng, 1000)):
+        rot = quat_to_matrix(q)
+        compiled = np.array(kernels._matrix_to_quat(rot, *previous))
+        ours = matrix_to_quat(rot, reference=previous)
+        np.testing.assert_allclose(compiled, ours, rtol=0, atol=ROUND_OFF)
+        assert compiled @ previous >= 0.0
+        assert matrix_to_quat(rot)[0] >= 0.0
+    # Half turns: every Shepperd branch, both signs.
+    for axis in np.eye(3):
+        rot = axis_angle_to_matrix(axis, np.pi)
+        for previous in (np.r_[0.0, axis], np.r_[0.0, -axis]):
+            np.testing.assert_allclose(kernels._matrix_to_quat(rot, *previous),
+                                       matrix_to_quat(rot, reference=previous), rtol=0,
+                                       atol=ROUND_OFF)
+
+
+def test_kernel_gram_schmidt_agrees_with_rotations(rng):
+    for q in random_quats(rng, 300):
+        drifted = quat_to_matrix(q) + 1e-3 * rng.normal(size=(3, 3))
+        compiled = drifted.copy()
+        kernels._gram_schmidt(compiled)
+        np.testing.assert_allclose(compiled, gram_schmidt(drifted), rtol=0, atol=ROUND_OFF)
