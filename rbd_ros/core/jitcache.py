@@ -28,6 +28,8 @@ installed sources, is never used.
 anything (numba picks the cache location when a function is decorated).
 """
 
+import glob
+import hashlib
 import logging
 import os
 import stat
@@ -65,9 +67,11 @@ def unsafe_reason(path):
     return None
 
 
-def configure(environ=None):
+def configure(environ=None, subdir=None):
     """
     Choose numba's cache directory (see the module docstring); return it, or None if refused.
+
+    :param subdir: a directory below it to use instead (created and checked the same way).
 
     Sets ``NUMBA_CACHE_DIR`` in ``environ`` (numba re-reads its configuration from the
     environment when it compiles) and ``numba.config.CACHE_DIR`` if numba is already imported.
@@ -79,14 +83,16 @@ def configure(environ=None):
     # Our own directories: the leaf, and for the default also <cache>/rbd_ros above it (whoever
     # owns a parent can swap the leaf).
     ours = [path] if user_set else [os.path.dirname(path), path]
+    if subdir:
+        path = os.path.join(path, subdir)
+        ours.append(path)
     problem = None
-    try:
-        for directory in ours:
+    for directory in ours:  # outermost first: nothing is created below a refused directory
+        try:
             os.makedirs(directory, mode=0o700, exist_ok=True)
-    except OSError as exc:
-        problem = f'cannot create it ({exc.strerror})'
-    for directory in ours:
-        problem = problem or unsafe_reason(directory)
+            problem = unsafe_reason(directory)
+        except OSError as exc:
+            problem = f'cannot create it ({exc.strerror})'
         if problem:
             problem = f'numba cache directory {directory}: {problem}; compiling the physics ' \
                       'kernels in memory at every start (no on-disk cache)'
@@ -105,15 +111,23 @@ def kernels_on_disk():
     """
     Return True when the step kernel is in the on-disk cache, so a start will not compile.
 
-    Reads numba's cache index of :func:`rbd_ros.core.kernels.advance` (the kernel the simulator
-    steps with; the helpers are inlined into it), which numba treats as empty when the sources
-    changed. This uses numba internals; if they move, the answer is False (at worst a start
-    says it is compiling when it only loads).
+    Looks for numba's index file of :func:`rbd_ros.core.kernels.advance` (the kernel the
+    simulator steps with; the helpers are inlined into it), ``kernels.advance-<line>.py<ver>.nbi``
+    in numba's cache folder for this source directory, no older than ``kernels.py`` (numba
+    recompiles when the source is newer). A guess from file names and times, not numba's own
+    check: at worst a start says it is compiling when it only loads, or the other way round.
     """
     from rbd_ros.core import kernels
     if CACHE_DIR is None:
         return False
+    source = os.path.abspath(kernels.__file__)
+    source_dir = os.path.dirname(source)  # numba's folder for it: <dir name>_<sha1 of its path>
+    folder = os.path.join(CACHE_DIR, os.path.basename(source_dir) + '_'
+                          + hashlib.sha1(source_dir.encode()).hexdigest())
+    pattern = f'kernels.advance-*.py{sys.version_info[0]}{sys.version_info[1]}.nbi'
     try:
-        return bool(kernels.advance._cache._cache_file._load_index())
-    except Exception:  # noqa: B902 - numba internals: any failure means "don't know"
+        source_mtime = os.stat(source).st_mtime
+        return any(os.stat(index).st_mtime >= source_mtime
+                   for index in glob.glob(os.path.join(glob.escape(folder), pattern)))
+    except OSError:
         return False

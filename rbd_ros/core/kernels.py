@@ -64,8 +64,11 @@ _RESIDUAL_TOL_ULPS = 64.0 * 2.220446049250313e-16
 _FIXED_POINT_ITER = 8
 
 #: numba's on-disk cache (a private per-user directory, see :mod:`rbd_ros.core.jitcache`), or
-#: None: then every start compiles in memory. Chosen before the first decorator below.
-CACHE_DIR = jitcache.configure()
+#: None: then every start compiles in memory. Chosen before the first decorator below. numba
+#: keys its cache by this file, not by the values of the globals it imports from layout.py, so
+#: the directory is one per layout (``layout-<fingerprint hash>``): a changed offset compiles
+#: afresh instead of running machine code built for the old one.
+CACHE_DIR = jitcache.configure(subdir=f'layout-{layout.fingerprint_hash()}')
 _CACHE = CACHE_DIR is not None
 _jit = nb.njit(cache=_CACHE, fastmath=False, nogil=True)
 # Small helpers are inlined at numba IR level: measured 20-25 % faster per body-step than
@@ -746,20 +749,3 @@ def net_wrench_batch(x, prm, ld, out):
         w = net_wrench_w(px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz, prm, ld, i, j)
         for k in range(6):
             out[k, i] = w[k]
-
-
-@_jit
-def _layout_as_compiled():
-    """Return ``layout.FINGERPRINT`` as the (possibly cached) compiled code saw it."""
-    return layout.FINGERPRINT
-
-
-# numba keys its on-disk cache by this file's bytecode and time stamp, not by the values of
-# the globals it imports: after an offset changes in layout.py, cached machine code would go on
-# using the old one. When the cached fingerprint differs from the layout's, drop this module's
-# cached kernels; they then compile afresh (and are cached again) on first use.
-if _layout_as_compiled() != layout.FINGERPRINT:
-    for _dispatcher in list(globals().values()):
-        if isinstance(_dispatcher, nb.core.dispatcher.Dispatcher):
-            _dispatcher._cache.flush()
-    _layout_as_compiled.recompile()

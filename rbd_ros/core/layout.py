@@ -39,6 +39,8 @@ naming them costs nothing at run time. All arrays are float64 (times int64).
 * **Times** ``t`` (N,) int64 nanoseconds.
 """
 
+import hashlib
+
 import numpy as np
 
 # State rows (13, N).
@@ -71,12 +73,17 @@ LOAD_BODY = 2
 LOAD_SPRING = 3
 
 
-# Every constant above, in a fixed order: the kernel checks at import that its cached machine
-# code was compiled with these values (numba keys its disk cache by the kernel file, not by
-# the values of the globals it imports from here).
+# Every constant above, in a fixed order: numba's disk cache of the kernels is kept per value
+# of this (numba keys it by the kernel file, not by the values of the globals it imports from
+# here), see fingerprint_hash().
 FINGERPRINT = (S_POS, S_QUAT, S_VEL, S_OMEGA, N_STATE, P_MASS, P_INV_MASS, P_INERTIA,
                P_INV_INERTIA, P_GRAVITY, P_LIN_DAMPING, P_ANG_DAMPING, P_DIAGONAL, N_PARAM,
                L_KIND, L_POINT, L_A, L_B, N_LOAD, LOAD_NONE, LOAD_WORLD, LOAD_BODY, LOAD_SPRING)
+
+
+def fingerprint_hash() -> str:
+    """Return 12 hex digits of SHA-256 over :data:`FINGERPRINT` (names the kernel cache)."""
+    return hashlib.sha256(repr(FINGERPRINT).encode('ascii')).hexdigest()[:12]
 
 
 def pack_state(state) -> np.ndarray:

@@ -27,6 +27,7 @@ import subprocess
 import sys
 
 from conftest import NodeProcess, REPO
+from rbd_ros.core import layout
 
 PACKAGE = REPO / 'rbd_ros'
 
@@ -46,13 +47,13 @@ def test_a_cold_start_logs_the_compile_and_caches_in_the_users_cache_dir(tmp_pat
 
     cold = NodeProcess(tmp_path, params, namespace=True)
     assert cold.wait(900) == 0, cold.stderr
-    cache_dir = cache_home / 'rbd_ros' / 'numba'
+    cache_dir = cache_home / 'rbd_ros' / 'numba' / f'layout-{layout.fingerprint_hash()}'
     assert f'compiling the physics kernels (first start, can take a minute; cached in ' \
            f'{cache_dir})' in cold.stderr, cold.stderr
     assert 'physics kernels compiled in' in cold.stderr, cold.stderr
     written = numba_files(cache_dir)
     assert any(p.suffix == '.nbi' for p in written) and any(p.suffix == '.nbc' for p in written)
-    for directory in (cache_dir, cache_dir.parent):
+    for directory in (cache_dir, cache_dir.parent, cache_dir.parent.parent):
         assert stat.S_IMODE(directory.stat().st_mode) == 0o700, directory
     assert numba_files(PACKAGE) == in_package  # nothing written or rewritten in the package
 
@@ -69,13 +70,19 @@ def test_a_cache_dir_that_others_can_write_is_refused(tmp_path, monkeypatch):
     cache_dir.chmod(0o775)  # group-writable: someone else could plant a pickle in it
     monkeypatch.setenv('XDG_CACHE_HOME', str(tmp_path))
     monkeypatch.delenv('NUMBA_CACHE_DIR', raising=False)
-    probe = ('from rbd_ros.core import jitcache, kernels; '
-             'print(jitcache.CACHE_DIR, type(kernels.advance._cache).__name__)')
+    in_package = numba_files(PACKAGE)
+    # Import the core and take a step (which compiles the kernels) with the refused directory.
+    probe = ('from rbd_ros.core import jitcache; '
+             'from rbd_ros.config import NodeConfig, check_first_step; '
+             'check_first_step(NodeConfig.from_parameters({})); '
+             'print(jitcache.CACHE_DIR, jitcache.kernels_on_disk())')
     result = subprocess.run([sys.executable, '-c', probe], capture_output=True, text=True,
-                            env=dict(os.environ), timeout=300, cwd=str(tmp_path))
+                            env=dict(os.environ), timeout=600, cwd=str(tmp_path))
     assert result.returncode == 0, result.stderr
-    # No cache directory, and numba's null cache: it neither loads nor writes anything.
-    assert result.stdout.split() == ['None', 'NullCache'], result.stdout
+    # No cache directory in use, and nothing written: not there, not next to the package.
+    assert result.stdout.split() == ['None', 'False'], result.stdout
+    assert numba_files(tmp_path) == {}
+    assert numba_files(PACKAGE) == in_package
     assert f'numba cache directory {cache_dir}: writable by group or others (mode 0775); ' \
            'compiling the physics kernels in memory at every start' in result.stderr, \
         result.stderr
