@@ -52,6 +52,7 @@ __all__ = [
     'point_sampling',
     'principal_axes',
     'rotate_inertia',
+    'shape_dimensions',
     'solid_cylinder',
     'solid_ellipsoid',
     'solid_sphere',
@@ -329,24 +330,38 @@ def from_shape(shape, dimensions_m, mass_kg) -> 'MassProperties':
     """
     if shape not in _SHAPE_BUILDERS:
         raise ModelError(f'shape: {shape!r} is not one of {", ".join(SHAPES)}')
-    builder, names = _SHAPE_BUILDERS[shape]
+    builder, _ = _SHAPE_BUILDERS[shape]
+    dims = shape_dimensions(shape, dimensions_m)
+    return builder(mass_kg, dims)
+
+
+def shape_dimensions(shape: str, dimensions_m, field: str = '') -> np.ndarray:
+    """
+    Return the dimensions of ``shape`` (one of :data:`SHAPES`) as a float array, or raise.
+
+    :param field: prefix of the parameter name in messages (e.g. ``'obstacles.ramp.'``).
+    :raises ModelError: a wrong number of values or a dimension that is not finite and > 0,
+        naming ``<field>dimensions_m``, the value in m and what the shape needs.
+    """
+    names = _SHAPE_BUILDERS[shape][1]
+    expected = '[' + ', '.join(names) + ']'
     try:
         dims = np.array(dimensions_m, dtype=np.float64).reshape(-1)
     except (TypeError, ValueError):
         raise ModelError(
-            f'dimensions_m: {dimensions_m!r} is not a list of lengths in m') from None
-    expected = '[' + ', '.join(names) + ']'
+            f'{field}dimensions_m: {dimensions_m!r} is not a list of lengths in m '
+            f'({shape!r} needs {expected})') from None
     if dims.size != len(names):
         raise ModelError(
-            f'dimensions_m: {dims.tolist()} m has {dims.size} values; shape {shape!r} needs '
-            f'{len(names)}: {expected}')
+            f'{field}dimensions_m: {dims.tolist()} m has {dims.size} values; shape {shape!r} '
+            f'needs {len(names)}: {expected}')
     bad = ~(np.isfinite(dims) & (dims > 0.0))
     if np.any(bad):
         i = int(np.flatnonzero(bad)[0])
         raise ModelError(
-            f'dimensions_m: {dims.tolist()} m for shape {shape!r} {expected}: {names[i]} = '
-            f'{float(dims[i])!r} m must be finite and > 0')
-    return builder(mass_kg, dims)
+            f'{field}dimensions_m: {dims.tolist()} m for shape {shape!r} {expected}: '
+            f'{names[i]} = {float(dims[i])!r} m must be finite and > 0')
+    return dims
 
 
 def inertia_from_components(ixx, iyy, izz, ixy=0.0, ixz=0.0, iyz=0.0) -> np.ndarray:

@@ -61,7 +61,7 @@ import numpy as np
 
 from rbd_ros.core.contact import kernels as k
 from rbd_ros.core.errors import ModelError
-from rbd_ros.core.inertia import from_shape, triangle_mesh
+from rbd_ros.core.inertia import from_shape, shape_dimensions, triangle_mesh
 
 __all__ = [
     'CollisionShape', 'DEFAULT_SDF_CELLS', 'MAX_SDF_CELLS', 'PRIMITIVES', 'SDF_PAD_CELLS',
@@ -74,10 +74,6 @@ PRIMITIVES = ('box', 'sphere', 'spherical_shell', 'cylinder', 'capsule', 'ellips
 _KINDS = {'box': k.KIND_BOX, 'sphere': k.KIND_SPHERE, 'spherical_shell': k.KIND_SPHERE,
           'cylinder': k.KIND_CYLINDER, 'capsule': k.KIND_CAPSULE,
           'ellipsoid': k.KIND_ELLIPSOID}
-_DIM_NAMES = {'box': ('x', 'y', 'z'), 'sphere': ('radius',), 'spherical_shell': ('radius',),
-              'cylinder': ('radius', 'length'), 'capsule': ('radius', 'length'),
-              'ellipsoid': ('a', 'b', 'c')}
-
 #: SDF grid cells along the largest extent of a mesh's bounding box (spacing ``h = L / cells``).
 DEFAULT_SDF_CELLS = 64
 #: Largest ``sdf_cells`` accepted: a cube's grid then holds ~263³ nodes (145 MB of float64).
@@ -299,28 +295,6 @@ def _ellipsoid_points(axes, s):
     return np.concatenate([tips, _fibonacci(count) * axes])
 
 
-def _check_dimensions(shape, dimensions_m, field):
-    names = _DIM_NAMES[shape]
-    expected = '[' + ', '.join(names) + ']'
-    try:
-        dims = np.array(dimensions_m, dtype=np.float64).reshape(-1)
-    except (TypeError, ValueError):
-        raise ModelError(
-            f'{field}dimensions_m: {dimensions_m!r} is not a list of lengths in m '
-            f'({shape!r} needs {expected})') from None
-    if dims.size != len(names):
-        raise ModelError(
-            f'{field}dimensions_m: {dims.tolist()} m has {dims.size} values; shape {shape!r} '
-            f'needs {len(names)}: {expected}')
-    bad = ~(np.isfinite(dims) & (dims > 0.0))
-    if np.any(bad):
-        i = int(np.flatnonzero(bad)[0])
-        raise ModelError(
-            f'{field}dimensions_m: {dims.tolist()} m for shape {shape!r} {expected}: '
-            f'{names[i]} = {float(dims[i])!r} m must be finite and > 0')
-    return dims
-
-
 def primitive_shape(shape, dimensions_m, spacing_m=None, field=''):
     """
     Return the :class:`CollisionShape` of a primitive centred at the body origin.
@@ -335,7 +309,7 @@ def primitive_shape(shape, dimensions_m, spacing_m=None, field=''):
     if shape not in _KINDS:
         raise ModelError(
             f'{field}shape: {shape!r} is not one of {", ".join(PRIMITIVES + ("mesh",))}')
-    dims = _check_dimensions(shape, dimensions_m, field)
+    dims = shape_dimensions(shape, dimensions_m, field)
     kind = _KINDS[shape]
     if kind == k.KIND_BOX:
         half = 0.5 * dims
