@@ -51,38 +51,12 @@ import time
 
 from bench_env import REPO  # noqa: I100 (first: puts the test helpers on sys.path)
 from conftest import NodeProcess  # noqa: E402, I100
-from ros_probe import Probe  # noqa: E402
+from ros_probe import Probe, rss_mb  # noqa: E402
 
 PUBLISHER = os.path.join(REPO, 'tests', 'ros', 'flood_publisher.py')
 PARAMS = {'timestep_s': 0.001, 'publish_rate_hz': 100.0, 'real_time_factor': 1.0}
 POSE_RATE_HZ = 99.0
 RSS_GROWTH_MB = 5.0
-
-
-def rss_mb(pid):
-    """Return the resident set size of process ``pid`` in MB (VmRSS of /proc/<pid>/status)."""
-    with open(f'/proc/{pid}/status') as status:
-        for line in status:
-            if line.startswith('VmRSS:'):
-                return int(line.split()[1]) / 1024.0
-    raise RuntimeError(f'no VmRSS for pid {pid}')
-
-
-def counters(values):
-    keys = ('wrenches_received', 'wrenches_rejected')
-    return {k: int(v) for k, v in values.items() if k in keys}
-
-
-def settled_counters(probe, timeout_s=30.0):
-    """Wait for two consecutive /diagnostics with the same counters (the backlog is done)."""
-    def settled():
-        if len(probe.diagnostics) < 2:
-            return None
-        last = [counters({kv.key: kv.value for kv in m.status[0].values})
-                for m in probe.diagnostics[-2:]]
-        return last[1] if last[0] == last[1] else None
-    probe.diagnostics.clear()
-    return probe.wait(settled, timeout_s, 'the wrench counters to settle')
 
 
 def flood_run(tmp, frame_id, rate_hz, seconds, n_publishers):
@@ -93,7 +67,7 @@ def flood_run(tmp, frame_id, rate_hz, seconds, n_publishers):
     try:
         probe.wait_connected(services=False)
         probe.wait(lambda: len(probe.arrivals) > 10, 30, 'poses before the flood')
-        before = settled_counters(probe)
+        before = probe.settled_wrench_counters(30.0)
         pubs = [subprocess.Popen(
             [sys.executable, PUBLISHER, node.namespace, frame_id, str(rate_hz / n_publishers),
              str(seconds)], stdout=subprocess.PIPE, text=True) for _ in range(n_publishers)]
@@ -126,7 +100,7 @@ def flood_run(tmp, frame_id, rate_hz, seconds, n_publishers):
             reader.join(10.0)
         sent = sum(int(out[-1].split()[-1]) for out in lines)
         load_end = os.getloadavg()[0]
-        after = settled_counters(probe)
+        after = probe.settled_wrench_counters(30.0)
         rss_settled = rss_mb(node.process.pid)
         stamps = sorted({s for _, s in arrivals})
         window_s = wall1 - wall0 - 1.0

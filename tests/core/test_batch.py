@@ -33,6 +33,7 @@ from rbd_ros.core import (AppliedWrench, BatchSimulator, BodyModel, BodyState, C
                           INTEGRATORS, NonFiniteError, Simulator, Spring, step)
 from rbd_ros.core.layout import S_QUAT
 from rbd_ros.core.simulator import choose_threads, free_cores, PARALLEL_MIN_BODIES
+from reference_loads import spring_force_w
 
 SEED = 20260122
 N_STEPS = 25
@@ -201,15 +202,7 @@ def _net(model, p, rot, v, omega_w, wrenches, springs):
             f, couple = rot @ f, rot @ couple
         force, torque = force + f, torque + np.cross(r, f) + couple
     for spring in springs:
-        r = rot @ spring.point_b
-        d = p + r - spring.anchor_w
-        rate = v + np.cross(omega_w, r)
-        k, c, rest = spring.stiffness_n_per_m, spring.damping_n_s_per_m, spring.rest_length_m
-        if rest > 0.0:
-            n = d / np.linalg.norm(d)
-            f = -(k * (np.linalg.norm(d) - rest) + c * (rate @ n)) * n
-        else:
-            f = -k * d - c * rate
+        f, r = spring_force_w(spring, p, rot, v, omega_w)
         force, torque = force + f, torque + np.cross(r, f)
     return force, torque
 

@@ -26,6 +26,7 @@ import pytest
 from rbd_ros.core import (accelerations, AppliedWrench, BodyModel, BodyState, net_wrench_w,
                           Simulator, Spring)
 from rbd_ros.core.rotations import quat_to_matrix
+from reference_loads import spring_force_w
 
 TOL = 1e-13
 SEED = 20260122
@@ -43,15 +44,8 @@ def body():
 
 def _spring_reference(model, state, spring):
     rot = quat_to_matrix(state.orientation_wb)
-    r_w = rot @ spring.point_b
-    d = state.position_w + r_w - spring.anchor_w
-    xdot = state.linear_velocity_w + np.cross(rot @ state.angular_velocity_b, r_w)
-    k, c, rest = spring.stiffness_n_per_m, spring.damping_n_s_per_m, spring.rest_length_m
-    if rest > 0.0:
-        n = d / np.linalg.norm(d)
-        f = -(k * (np.linalg.norm(d) - rest) + c * (xdot @ n)) * n
-    else:
-        f = -k * d - c * xdot
+    f, r_w = spring_force_w(spring, state.position_w, rot, state.linear_velocity_w,
+                            rot @ state.angular_velocity_b)
     return f, np.cross(r_w, f)
 
 

@@ -37,6 +37,15 @@ from std_srvs.srv import SetBool, Trigger
 _COUNTER = itertools.count()
 
 
+def rss_mb(pid):
+    """Return the resident set size of process ``pid`` in MB (VmRSS of /proc/<pid>/status)."""
+    with open(f'/proc/{pid}/status') as status:
+        for line in status:
+            if line.startswith('VmRSS:'):
+                return int(line.split()[1]) / 1024.0
+    raise RuntimeError(f'no VmRSS for pid {pid}')
+
+
 class Probe:
     """
     Outputs in, wrenches and service calls out, for the ``rigid_body_node`` in ``namespace``.
@@ -95,6 +104,23 @@ class Probe:
     def wait(self, predicate, timeout_s=20.0, what='condition'):
         """Spin until ``predicate()`` is truthy (see :func:`conftest.wait_until`)."""
         return wait_until(predicate, timeout_s, self.spin, what)
+
+    def settled_wrench_counters(self, timeout_s=60.0):
+        """
+        Return the ``wrenches_*`` counters of ``/diagnostics`` once they stop changing.
+
+        Waits for two consecutive diagnostics (~1 s apart) with equal counters (the node has
+        worked off its backlog); needs ``'diagnostics'`` among the probe's outputs.
+        """
+        self.diagnostics.clear()
+
+        def same():
+            if len(self.diagnostics) < 2:
+                return None
+            last = [{kv.key: int(kv.value) for kv in m.status[0].values
+                     if kv.key.startswith('wrenches_')} for m in self.diagnostics[-2:]]
+            return last[1] if last[0] == last[1] else None
+        return self.wait(same, timeout_s, 'the wrench counters to settle')
 
     def wait_connected(self, timeout_s=60.0, services=True):
         """Wait until the node's outputs, our wrench publishers and its services are matched."""

@@ -30,33 +30,11 @@ from geometry_msgs.msg import WrenchStamped
 from rbd_ros.node import RigidBodyNode
 import rclpy
 from rclpy.context import Context
-from ros_probe import Probe
+from ros_probe import Probe, rss_mb
 
 PUBLISHER = pathlib.Path(__file__).with_name('flood_publisher.py')
 FLOOD_S = 4.0
 PARAMS = {'timestep_s': 0.001, 'publish_rate_hz': 100.0, 'real_time_factor': 1.0}
-
-
-def rss_mb(pid):
-    with open(f'/proc/{pid}/status') as status:
-        return next(int(line.split()[1]) for line in status if line.startswith('VmRSS:')) / 1024
-
-
-def counts(values):
-    return {k: int(v) for k, v in values.items() if k.startswith('wrenches_')}
-
-
-def settled(probe):
-    """Wait for two consecutive /diagnostics (~1 s apart) with equal counters; return them."""
-    probe.diagnostics.clear()
-
-    def same():
-        if len(probe.diagnostics) < 2:
-            return None
-        last = [counts({kv.key: kv.value for kv in m.status[0].values})
-                for m in probe.diagnostics[-2:]]
-        return last[1] if last[0] == last[1] else None
-    return probe.wait(same, 60, 'the wrench counters to settle')
 
 
 def test_a_flood_of_bad_wrenches_is_counted_and_the_simulation_goes_on(start_node):
@@ -65,7 +43,7 @@ def test_a_flood_of_bad_wrenches_is_counted_and_the_simulation_goes_on(start_nod
     try:
         probe.wait_connected(services=False)
         probe.wait(lambda: len(probe.arrivals) > 10, 30, 'poses before the flood')
-        before = settled(probe)
+        before = probe.settled_wrench_counters()
         flood = subprocess.Popen(
             [sys.executable, str(PUBLISHER), node.namespace, 'not_a_frame', '0', str(FLOOD_S)],
             stdout=subprocess.PIPE, text=True)
@@ -77,7 +55,7 @@ def test_a_flood_of_bad_wrenches_is_counted_and_the_simulation_goes_on(start_nod
         wall1 = time.monotonic_ns()
         rss_end = rss_mb(node.process.pid)
         sent = int(flood.stdout.read().split()[-1])
-        after = settled(probe)
+        after = probe.settled_wrench_counters()
         arrivals = list(probe.arrivals)
     finally:
         probe.close()
