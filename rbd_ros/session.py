@@ -197,17 +197,6 @@ class SimSession:
         """Take exactly one step, paused or not (the ``~/step`` service)."""
         return self._run(1, None, ignore_duration=True)
 
-    def warm_up(self):
-        """
-        Compile the physics kernel (numba) now, by stepping a throw-away copy of the simulator.
-
-        The first step otherwise pays the compilation, which would stall a wall-paced run.
-        The session's own state is untouched.
-        """
-        c = self.config
-        Simulator(c.model, c.initial_state, integrator=c.integrator,
-                  timestep_ns=c.timestep_ns).step(1)
-
     def reset(self):
         """Back to the initial state at time 0; pending and held wrenches are dropped."""
         self.simulator.reset()

@@ -221,14 +221,14 @@ def report_outside(runs, long_s, short_s=1.0):
 def breakdown(sim_seconds=20):
     """Time per sim second of each part of the node's work, in-process (rclpy, no DDS peer)."""
     from rbd_ros import outputs
-    from rbd_ros.config import NodeConfig
+    from rbd_ros.config import check_first_step, NodeConfig
     from rbd_ros.recording import BagWriter
     from rbd_ros.session import SimSession
     import rclpy
     c = NodeConfig.from_parameters({'publish_rate_hz': 100.0, 'real_time_factor': 0.0,
                                     'publish_clock': True})
+    check_first_step(c)  # compiles the kernel: not part of the figures
     session = SimSession(c)
-    session.warm_up()
     builder = outputs.SampleBuilder(c)
     column = session.state_column
     n = sim_seconds * 1000

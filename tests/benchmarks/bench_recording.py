@@ -35,7 +35,7 @@ import time
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2]))
 
 from nav_msgs.msg import Odometry  # noqa: E402
-from rbd_ros.config import NodeConfig  # noqa: E402
+from rbd_ros.config import check_first_step, NodeConfig  # noqa: E402
 from rbd_ros.outputs import SampleBuilder, TYPE_NAMES  # noqa: E402
 from rbd_ros.recording import BagWriter  # noqa: E402
 from rbd_ros.session import SimSession  # noqa: E402
@@ -46,8 +46,8 @@ SIM_NS = 20_000_000_000  # 20 s of sim time: 20000 steps, 2001 samples
 
 def _run(writer):
     config = NodeConfig.from_parameters({'initial_angular_velocity': [0.3, 2.0, 0.1]})
+    check_first_step(config)  # compiles the kernel: not part of the figures
     session = SimSession(config)
-    session.warm_up()
     session.paused = False
     builder = SampleBuilder(config, tf=False)
     column = session.state_column
