@@ -376,8 +376,8 @@ def _orient_matrix(method, h, qw, qx, qy, qz, wx, wy, wz):
 
 
 @_inl
-def _symplectic_euler(method, prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz,
-                      vx, vy, vz, wx, wy, wz):
+def se_velocity(prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz):
+    """Return symplectic Euler's ``(v_w, ω_b)`` after ``h`` of the start-of-step wrench."""
     # Net force and torque at the state of the start of the step (the lecture's scheme).
     fx, fy, fz, tx, ty, tz = net_wrench_w(
         px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz, prm, ld, i, j)
@@ -385,7 +385,12 @@ def _symplectic_euler(method, prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz,
     vx, vy, vz = vx + h * fx * inv_m, vy + h * fy * inv_m, vz + h * fz * inv_m
     tbx, tby, tbz = _to_body(qw, qx, qy, qz, tx, ty, tz)
     ax, ay, az = _omega_dot_b(prm, j, wx, wy, wz, tbx, tby, tbz)
-    wx, wy, wz = wx + h * ax, wy + h * ay, wz + h * az
+    return vx, vy, vz, wx + h * ax, wy + h * ay, wz + h * az
+
+
+@_inl
+def se_position(method, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz):
+    """Return symplectic Euler's ``(p_w, q_wb)`` after ``h`` at the new velocities."""
     px, py, pz = px + h * vx, py + h * vy, pz + h * vz
     if method == SE_QUAT_EXP:
         # q ← exp(h ω_w / 2) ⊗ q  ≡  q ⊗ exp(h ω_b / 2)
@@ -399,6 +404,16 @@ def _symplectic_euler(method, prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz,
         qw, qx, qy, qz = _normalize_q(qw + k * dw, qx + k * dx, qy + k * dy, qz + k * dz)
     else:
         qw, qx, qy, qz = _orient_matrix(method, h, qw, qx, qy, qz, wx, wy, wz)
+    return px, py, pz, qw, qx, qy, qz
+
+
+@_inl
+def _symplectic_euler(method, prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz,
+                      vx, vy, vz, wx, wy, wz):
+    vx, vy, vz, wx, wy, wz = se_velocity(prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz,
+                                         vx, vy, vz, wx, wy, wz)
+    px, py, pz, qw, qx, qy, qz = se_position(method, h, px, py, pz, qw, qx, qy, qz,
+                                             vx, vy, vz, wx, wy, wz)
     return px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz
 
 
@@ -572,7 +587,7 @@ def _free_rotation_midpoint(prm, j, h, lx, ly, lz):
 
 
 @_inl
-def _midpoint_first_kick(prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz):
+def midpoint_first_kick(prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz):
     """Half a step of force and torque as impulses: return ``(v_w, Π_b = I_b ω_b + h/2 τ_b)``."""
     half = 0.5 * h
     inv_m = prm[P_INV_MASS, j]
@@ -586,24 +601,28 @@ def _midpoint_first_kick(prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, v
 
 
 @_inl
-def _midpoint_cayley(prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz):
+def midpoint_drift(prm, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, lx, ly, lz):
+    """
+    Drift: exact free translation; torque-free rotation by implicit midpoint + Cayley.
+
+    Returns ``(p_w, q_wb, Π_b, ω_b, converged)`` with ``ω_b = I_b⁻¹ Π_b`` at the end.
+    """
     half = 0.5 * h
-    inv_m = prm[P_INV_MASS, j]
-    # Kick: half a step of force and torque, as impulses on v and on Π_b = I_b ω_b.
-    vx, vy, vz, lx, ly, lz = _midpoint_first_kick(prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz,
-                                                  vx, vy, vz, wx, wy, wz)
-    # Drift: exact free translation; torque-free rotation by implicit midpoint + Cayley.
     px, py, pz = px + h * vx, py + h * vy, pz + h * vz
     lx, ly, lz, mx, my, mz, converged = _free_rotation_midpoint(prm, j, h, lx, ly, lz)
-    if not converged:
-        # Refused like a non-finite step; midpoint_solve_check() tells the two apart.
-        nan = math.nan
-        return nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan
     # cay(h[ω]) is the rotation with quaternion (1, h ω / 2) / |(1, h ω / 2)|.
     nw, nx, ny, nz = _qmul(qw, qx, qy, qz, 1.0, half * mx, half * my, half * mz)
     qw, qx, qy, qz = _normalize_q(nw, nx, ny, nz)
     wx, wy, wz = _matvec(prm, P_INV_INERTIA, j, lx, ly, lz)
-    # Kick: the second half step with the wrench at the new configuration.
+    return px, py, pz, qw, qx, qy, qz, lx, ly, lz, wx, wy, wz, converged
+
+
+@_inl
+def midpoint_second_kick(prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz,
+                         lx, ly, lz, wx, wy, wz):
+    """Return ``(v_w, ω_b)`` after the second half kick (the wrench at the new pose)."""
+    half = 0.5 * h
+    inv_m = prm[P_INV_MASS, j]
     fx, fy, fz, tx, ty, tz = net_wrench_w(
         px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz, prm, ld, i, j)
     vx, vy, vz = vx + half * fx * inv_m, vy + half * fy * inv_m, vz + half * fz * inv_m
@@ -611,6 +630,22 @@ def _midpoint_cayley(prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, w
     if tbx != 0.0 or tby != 0.0 or tbz != 0.0:
         lx, ly, lz = lx + half * tbx, ly + half * tby, lz + half * tbz
         wx, wy, wz = _matvec(prm, P_INV_INERTIA, j, lx, ly, lz)
+    return vx, vy, vz, wx, wy, wz
+
+
+@_inl
+def _midpoint_cayley(prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz):
+    # Kick: half a step of force and torque, as impulses on v and on Π_b = I_b ω_b.
+    vx, vy, vz, lx, ly, lz = midpoint_first_kick(prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz,
+                                                 vx, vy, vz, wx, wy, wz)
+    px, py, pz, qw, qx, qy, qz, lx, ly, lz, wx, wy, wz, converged = midpoint_drift(
+        prm, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, lx, ly, lz)
+    if not converged:
+        # Refused like a non-finite step; midpoint_solve_check() tells the two apart.
+        nan = math.nan
+        return nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan, nan
+    vx, vy, vz, wx, wy, wz = midpoint_second_kick(prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz,
+                                                  vx, vy, vz, lx, ly, lz, wx, wy, wz)
     return px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz
 
 
@@ -682,7 +717,7 @@ def step_body(x, prm, ld, t, i, j, method, h, dt_ns, n_steps):
 # The same Python function, inlined at numba IR level where it is called (never compiled or
 # cached on its own): one source for both kernels.
 _step_body_inline = nb.njit(cache=True, fastmath=False, nogil=True,
-                            inline='always')(step_body.py_func)
+                            inline='always')(getattr(step_body, 'py_func', step_body))
 
 
 @_jit
@@ -729,7 +764,7 @@ def midpoint_solve_check(x, prm, ld, i, j, h):
     vh = math.exp(-0.5 * h * prm[P_LIN_DAMPING, j])
     wh = math.exp(-0.5 * h * prm[P_ANG_DAMPING, j])
     px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = _read_state(x, i)
-    _, _, _, lx, ly, lz = _midpoint_first_kick(
+    _, _, _, lx, ly, lz = midpoint_first_kick(
         prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz,
         vx * vh, vy * vh, vz * vh, wx * wh, wy * wh, wz * wh)
     wx, wy, wz = _matvec(prm, P_INV_INERTIA, j, lx, ly, lz)

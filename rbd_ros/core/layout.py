@@ -40,6 +40,7 @@ naming them costs nothing at run time. All arrays are float64 (times int64).
 """
 
 import hashlib
+import os
 
 import numpy as np
 
@@ -81,9 +82,26 @@ FINGERPRINT = (S_POS, S_QUAT, S_VEL, S_OMEGA, N_STATE, P_MASS, P_INV_MASS, P_INE
                L_KIND, L_POINT, L_A, L_B, N_LOAD, LOAD_NONE, LOAD_WORLD, LOAD_BODY, LOAD_SPRING)
 
 
+#: The compiled-kernel sources (relative to ``rbd_ros/core``).  A compiled function embeds the
+#: machine code of every function it calls or inlines, but numba checks only the caller's own
+#: file before loading it from its cache: the contact step inlines the integrator's kicks
+#: from ``kernels.py``, so an edit there would otherwise leave a stale step in the cache.
+KERNEL_SOURCES = ('layout.py', 'kernels.py', 'contact/kernels.py', 'contact/step.py')
+
+
 def fingerprint_hash() -> str:
-    """Return 12 hex digits of SHA-256 over :data:`FINGERPRINT` (names the kernel cache)."""
-    return hashlib.sha256(repr(FINGERPRINT).encode('ascii')).hexdigest()[:12]
+    """
+    Return 12 hex digits of SHA-256 over :data:`FINGERPRINT` and the kernel sources.
+
+    It names the kernel cache directory, so a changed offset or any changed kernel source
+    compiles afresh instead of running machine code built for the old one.
+    """
+    digest = hashlib.sha256(repr(FINGERPRINT).encode('ascii'))
+    here = os.path.dirname(os.path.abspath(__file__))
+    for name in KERNEL_SOURCES:
+        with open(os.path.join(here, name), 'rb') as source:
+            digest.update(source.read())
+    return digest.hexdigest()[:12]
 
 
 def pack_state(state) -> np.ndarray:

@@ -1,0 +1,302 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+A world of bodies with collision shapes and a static world, stepped with contact.
+
+:class:`WorldSimulator` is a :class:`~rbd_ros.core.simulator.BatchSimulator` (same state
+layout, loads and accessors) whose step is the contact step of
+:mod:`rbd_ros.core.contact.step`.  It is built once from frozen values
+(:class:`WorldBody`, :class:`~rbd_ros.core.contact.world.StaticWorld`), which are checked
+then: materials, shapes, bodies starting inside each other or inside the static world, and
+whether the integrator can take contact.
+"""
+
+from dataclasses import dataclass, field
+import math
+from typing import Optional, Sequence
+
+import numpy as np
+
+from rbd_ros.core.contact import kernels as ck
+from rbd_ros.core.contact import step as cs
+from rbd_ros.core.contact.shapes import CollisionShape
+from rbd_ros.core.contact.world import (check_overlaps, DEFAULT_OVERLAP_TOLERANCE_M, Material,
+                                        StaticWorld)
+from rbd_ros.core.errors import ConfigError, ModelError, NonFiniteError
+from rbd_ros.core.integrators import DEFAULT_INTEGRATOR, integrator_info
+from rbd_ros.core.model import BodyModel
+from rbd_ros.core.rotations import quat_to_matrix
+from rbd_ros.core.simulator import BatchSimulator
+from rbd_ros.core.state import BodyState
+
+__all__ = ['CONTACT_INTEGRATORS', 'Contacts', 'WorldBody', 'WorldSimulator']
+
+#: Integrators that take contact, and how each splits into velocity and position updates.
+CONTACT_INTEGRATORS = {
+    'midpoint_cayley': 'kick–drift–kick: contact after each half kick (second order)',
+    'symplectic_euler_matrix': 'velocity update, contact, then positions (first order)',
+    'symplectic_euler_axis_angle': 'velocity update, contact, then positions (first order)',
+    'symplectic_euler_quat_exp': 'velocity update, contact, then positions (first order)',
+    'symplectic_euler_quat_linear': 'velocity update, contact, then positions (first order)',
+}
+
+
+@dataclass(frozen=True, eq=False)
+class WorldBody:
+    """
+    One body of a world: its name, mass model, collision shape and material.
+
+    :param name: an identifier, used in error messages (``bodies.<name>.<field>``).
+    :param model: its :class:`BodyModel` (mass, inertia, gravity, damping).
+    :param shape: its :class:`CollisionShape` (not a plane).
+    :param material: its :class:`Material`.
+    """
+
+    name: str
+    model: BodyModel
+    shape: CollisionShape
+    material: Material = field(default_factory=Material)
+
+    def __post_init__(self):
+        where = f'bodies.{self.name}.'
+        if not isinstance(self.model, BodyModel):
+            raise ModelError(f'{where}model: a {type(self.model).__name__} is not a BodyModel')
+        if not isinstance(self.shape, CollisionShape):
+            raise ModelError(
+                f'{where}shape: a {type(self.shape).__name__} is not a CollisionShape')
+        if self.shape.kind == ck.KIND_PLANE:
+            raise ModelError(f'{where}shape: a plane is static; a body needs a solid shape')
+        if not isinstance(self.material, Material):
+            raise ModelError(f'{where}material: {self.material!r} is not a Material')
+
+
+@dataclass(frozen=True)
+class Contacts:
+    """
+    The contact points of one step, one row each (every stage of the step).
+
+    :ivar body_a: (C,) int index of body A.
+    :ivar body_b: (C,) int index of body B, or ``-1 - s`` for static object ``s`` (the ground
+        first, then the obstacles, as :meth:`StaticWorld.objects`).
+    :ivar point_w: (C, 3) world contact point, m.
+    :ivar normal_w: (C, 3) unit normal; the impulse on A is along it.
+    :ivar impulse_w: (C, 3) impulse on A (N·s): ``λ n`` plus the point's share of its patch
+        friction (B gets the opposite).
+    :ivar stage: (C,) int: 0 collisions, 1 first contact stage, 2 second (kick–drift–kick).
+    """
+
+    body_a: np.ndarray
+    body_b: np.ndarray
+    point_w: np.ndarray
+    normal_w: np.ndarray
+    impulse_w: np.ndarray
+    stage: np.ndarray
+
+    def __len__(self):
+        return int(self.body_a.shape[0])
+
+
+def _capsule_axis(radius, half_length, spacing):
+    count = max(2, math.ceil(2.0 * half_length / spacing) + 1)
+    return np.column_stack([np.zeros(count), np.zeros(count),
+                            np.linspace(-half_length, half_length, count)])
+
+
+def _contact_points(shape):
+    """Return ``(points, plane_points, radius)``: what a shape tests against others and planes."""
+    if shape.kind == ck.KIND_SPHERE:
+        centre = np.zeros((1, 3))
+        return centre, centre, float(shape.params[0])
+    if shape.kind == ck.KIND_CAPSULE:
+        axis = _capsule_axis(shape.params[0], shape.params[1], shape.spacing_m)
+        return axis, axis, float(shape.params[0])
+    points = shape.points_b
+    if shape.kind == ck.KIND_BOX:
+        # A linear function on a box is lowest at a corner: the first 8 points.
+        return points, points[:8], 0.0
+    if shape.kind == ck.KIND_MESH:
+        return points, shape.vertices_b, 0.0
+    if shape.kind == ck.KIND_CYLINDER:
+        r, hl = shape.params[0], shape.params[1]
+        rim = (np.isclose(np.abs(points[:, 2]), hl, rtol=0.0, atol=1e-12 * max(r, hl))
+               & np.isclose(np.hypot(points[:, 0], points[:, 1]), r, rtol=1e-12, atol=0.0))
+        return points, points[rim], 0.0
+    return points, points, 0.0
+
+
+def _shape_table(shapes, materials):
+    """Pack shapes and materials into the tuple of arrays the compiled stages read."""
+    kinds = np.array([s.kind for s in shapes], dtype=np.int64)
+    sparams = np.ascontiguousarray(np.stack([s.params for s in shapes]))
+    pts, ppts, radius = [], [], []
+    for shape in shapes:
+        if shape.kind == ck.KIND_PLANE:
+            pts.append(np.zeros((0, 3)))
+            ppts.append(np.zeros((0, 3)))
+            radius.append(0.0)
+            continue
+        p, pp, r = _contact_points(shape)
+        pts.append(p)
+        ppts.append(pp)
+        radius.append(r)
+    pt_off = np.concatenate([[0], np.cumsum([len(p) for p in pts])]).astype(np.int64)
+    ppt_off = np.concatenate([[0], np.cumsum([len(p) for p in ppts])]).astype(np.int64)
+    grids = [np.ascontiguousarray(s.grid, dtype=np.float64) for s in shapes]
+    grid_off = np.concatenate([[0], np.cumsum([g.size for g in grids])[:-1]]).astype(np.int64)
+    grid_dim = np.array([g.shape for g in grids], dtype=np.int64)
+    bound = np.array([s.bounding_radius_m for s in shapes], dtype=np.float64)
+    return (kinds, sparams, np.ascontiguousarray(np.concatenate(pts)), pt_off,
+            np.ascontiguousarray(np.concatenate(ppts)), ppt_off,
+            np.array(radius, dtype=np.float64), bound,
+            np.ascontiguousarray(np.concatenate([g.ravel() for g in grids])), grid_off,
+            grid_dim, np.array([m.friction for m in materials], dtype=np.float64),
+            np.array([m.restitution for m in materials], dtype=np.float64))
+
+
+def _static_table(objects):
+    """Pack the static objects' kinds, parameters, poses and world bounding boxes."""
+    m = len(objects)
+    kinds = np.array([o.shape.kind for o in objects], dtype=np.int64)
+    params = np.zeros((m, ck.N_SHAPE_PARAM))
+    rot = np.zeros((m, 3, 3))
+    pos = np.zeros((m, 3))
+    lo = np.full((m, 3), -np.inf)
+    hi = np.full((m, 3), np.inf)
+    for s, obj in enumerate(objects):
+        params[s] = obj.shape.params
+        rot[s] = quat_to_matrix(obj.orientation_wb)
+        pos[s] = obj.position_w
+        if obj.shape.kind != ck.KIND_PLANE:
+            corners = np.array([[x, y, z] for x in (obj.shape.aabb_min_b[0],
+                                                    obj.shape.aabb_max_b[0])
+                                for y in (obj.shape.aabb_min_b[1], obj.shape.aabb_max_b[1])
+                                for z in (obj.shape.aabb_min_b[2], obj.shape.aabb_max_b[2])])
+            world = corners @ rot[s].T + pos[s]
+            lo[s] = world.min(axis=0)
+            hi[s] = world.max(axis=0)
+    return (kinds, params, rot, pos, lo, hi)
+
+
+class WorldSimulator(BatchSimulator):
+    """
+    Bodies with collision shapes in a static world, stepped with frictional contact.
+
+    :param bodies: the :class:`WorldBody` values, names unique.
+    :param states: one :class:`BodyState` per body.
+    :param static: a :class:`StaticWorld` (ground plane and obstacles), or None.
+    :param integrator: one of :data:`CONTACT_INTEGRATORS`.
+    :param timestep_ns: the fixed step ``h``, integer nanoseconds > 0.
+    :param overlap_tolerance_m: how deep bodies may start inside each other or the static world.
+    :raises ModelError: a bad body, or bodies starting inside each other or the static world.
+    :raises ConfigError: an integrator that cannot take contact.
+    """
+
+    def __init__(self, bodies: Sequence[WorldBody], states: Sequence[BodyState],
+                 static: Optional[StaticWorld] = None, *,
+                 integrator: str = DEFAULT_INTEGRATOR, timestep_ns: int = 1_000_000,
+                 overlap_tolerance_m: float = DEFAULT_OVERLAP_TOLERANCE_M):
+        bodies = tuple(bodies)
+        states = tuple(states)
+        info = integrator_info(integrator)
+        if info.name not in CONTACT_INTEGRATORS:
+            raise ConfigError(
+                f'integrator: {info.name!r} cannot take contact (its stages re-evaluate the '
+                'forces inside the step, so there is no velocity update to put contact '
+                f'impulses after); use one of {sorted(CONTACT_INTEGRATORS)}')
+        if static is None:
+            static = StaticWorld()
+        if not isinstance(static, StaticWorld):
+            raise ModelError(f'static: a {type(static).__name__} is not a StaticWorld')
+        names = set()
+        for body in bodies:
+            if not isinstance(body, WorldBody):
+                raise ModelError(f'bodies: a {type(body).__name__} is not a WorldBody')
+            if body.name in names:
+                raise ModelError(f'bodies.{body.name}: the name is used twice')
+            names.add(body.name)
+        if len(states) != len(bodies):
+            raise ConfigError(f'states: {len(states)} states for {len(bodies)} bodies')
+        check_overlaps([(b.name, b.shape, s.position_w, s.orientation_wb)
+                        for b, s in zip(bodies, states)], static, overlap_tolerance_m)
+        super().__init__([b.model for b in bodies], states, integrator=integrator,
+                         timestep_ns=timestep_ns, threads=1)
+        self._bodies = bodies
+        self._static = static
+        objects = [o for _, o in static.objects()]
+        self._geo = _shape_table([b.shape for b in bodies] + [o.shape for o in objects],
+                                 [b.material for b in bodies] + [o.material for o in objects])
+        self._statics = _static_table(objects)
+        n = len(bodies)
+        self._wrench = np.zeros((n, 6))
+        self._ws = (np.zeros((n, 6)), np.zeros(n), np.zeros((n, 3, 3)), np.zeros((n, 3, 3)),
+                    np.zeros((n, 3)), np.zeros((n, 3, 3)), np.zeros(n, dtype=np.bool_))
+        self._contacts = np.zeros((0, cs.N_CONTACT))
+
+    @property
+    def bodies(self):
+        """Return the :class:`WorldBody` values, in index order."""
+        return self._bodies
+
+    @property
+    def static(self) -> StaticWorld:
+        """Return the static world."""
+        return self._static
+
+    def reset(self, states=None) -> None:
+        """Put every body back to its initial state (or to ``states``); no contacts."""
+        super().reset(states)
+        if hasattr(self, '_wrench'):
+            self._wrench[:] = 0.0
+            self._contacts = np.zeros((0, cs.N_CONTACT))
+
+    def step(self, n: int = 1) -> None:
+        """
+        Advance the world ``n`` fixed steps.
+
+        :raises NonFiniteError: if a step would leave a body non-finite; the whole world then
+            stays at its last finite state.
+        """
+        done, contacts = cs.world_step(self._x, self._params, self._loads, self._t,
+                                       self._info.kernel_id, self._h, self._timestep_ns, n,
+                                       self._geo, self._statics, self._wrench, self._ws)
+        self._step_count += done
+        self._contacts = contacts
+        if done != n:
+            raise NonFiniteError(
+                f'state: the step at t = {int(self._t[0])} ns would be non-finite (forces, '
+                f'velocities or spin too large for h = {self._timestep_ns} ns with '
+                f'{self.integrator}); the world was left at its last finite state')
+
+    @property
+    def contacts(self) -> Contacts:
+        """Return the contact points of the last step (copies)."""
+        c = self._contacts
+        n = self.size
+        b = c[:, cs.C_B].astype(np.int64)
+        normal = c[:, cs.C_NORMAL:cs.C_NORMAL + 3].copy()
+        impulse = c[:, cs.C_LAMBDA, None] * normal + c[:, cs.C_FRICTION:cs.C_FRICTION + 3]
+        return Contacts(c[:, cs.C_A].astype(np.int64), np.where(b >= n, n - 1 - b, b),
+                        c[:, cs.C_POINT:cs.C_POINT + 3].copy(), normal, impulse,
+                        c[:, cs.C_PHASE].astype(np.int64))
+
+    @property
+    def contact_wrench_w(self) -> np.ndarray:
+        """
+        Return (N, 6): each body's net contact force (N) and torque (N·m) over the last step.
+
+        Force and torque about the body's COM, world frame, averaged over the step (the total
+        contact impulse / h): what a force-torque sensor at the COM would read.
+        """
+        return self._wrench.copy()

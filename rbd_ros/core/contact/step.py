@@ -1,0 +1,1258 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The compiled contact step (Guendelman, Bridson, Fedkiw 2003): named stages over packed arrays.
+
+One step, in the paper's order (:func:`world_step`):
+
+1. **Collisions** (:data:`PHASE_COLLISION`): candidate poses from the current velocities,
+   broad phase, narrow phase, and impulses with restitution ε on the current velocities.
+2. **Velocities**: the forces (gravity, wrenches, springs) through the integrator's velocity
+   update: the whole step for symplectic Euler, the first half kick for ``midpoint_cayley``.
+3. **Contacts** (:data:`PHASE_CONTACT`): candidates from the new velocities, impulses with
+   ε = 0, Gauss–Seidel sweeps over the patches, then one **shock propagation** pass: bodies are
+   put in levels of the contact graph from the static world up, and a patch between two
+   levels is solved with the lower body held as if of infinite mass.
+4. **Positions** with the final velocities.  ``midpoint_cayley`` (kick–drift–kick) then does
+   its second half kick and a second contact stage, so the friction of each half kick acts on
+   the velocity the drift uses: a box sliding to a stop decelerates by exactly ``μ g`` over
+   every whole step and stops within O(h²) of the exact distance.
+
+**Detection.** Every stage maps each body's contact points (its surface points; a sphere's
+centre and a capsule's axis with their radius) to the candidate pose of the other shape and
+evaluates φ there.  A point whose candidate φ is below :data:`MARGIN_M` is a contact with
+the linear prediction ``φ_next = φ_cand + h (u_n − u_n0)``; its impulse keeps ``φ_next >= 0``
+(so a falling body lands on the surface, not above it), while a point already inside
+(``φ_now = φ_cand − h u_n0 < 0``) is pushed out by at most :data:`PUSH_FRACTION` of its depth
+per step and no faster than :data:`PUSH_MAX_M_S`.  Against a plane only the points that can
+be lowest are tested: a box's corners, a mesh's vertices, a cylinder's rims.
+
+**Patches.** The points of one body pair are reduced to at most four (the deepest, the
+farthest from it, then the two that span the largest area): the convex hull of a flat patch,
+which is all a rigid contact needs.  Normal impulses are accumulated per point and clamped
+to ``>= 0``.  Friction is decided per patch, not per point (four coplanar points make friction
+statically indeterminate): the tangential impulse at the patch's normal-impulse-weighted
+centre that makes the patch stick is accepted if it lies inside the cone
+``|f_t| <= μ Σλ_n``; otherwise the patch slides with ``f_t = −μ Σλ_n û_t``, opposite to its
+slip (Coulomb's law exactly, no linearised pyramid).  A torsional couple about the patch
+normal sticks likewise up to ``μ Σ λ_k |r_k − c|``.
+
+Everything is serial and in a fixed order (pairs sorted by body index), so results are
+bit-identical run after run.
+"""
+
+import math
+
+import numba as nb
+import numpy as np
+
+from rbd_ros.core import kernels as kk
+from rbd_ros.core.contact import kernels as ck
+from rbd_ros.core.layout import (N_STATE, P_ANG_DAMPING, P_INERTIA, P_INV_INERTIA, P_INV_MASS,
+                                 P_LIN_DAMPING, S_OMEGA, S_VEL)
+
+PHASE_COLLISION = 0
+PHASE_CONTACT = 1
+#: Candidate φ (m) below which a point is a (speculative) contact.
+MARGIN_M = 1e-3
+#: Share of a penetration depth the impulses remove per step, and the speed cap of that.
+PUSH_FRACTION = 0.2
+PUSH_MAX_M_S = 0.1
+#: Gauss–Seidel sweeps over all patches per stage, and the iterations of one patch.
+SWEEPS = 24
+PATCH_ITERATIONS = 12
+#: A sweep that changes no velocity by more than this (m/s) ends the stage early.
+VELOCITY_TOL_M_S = 1e-13
+#: At most this many points per patch.
+PATCH_POINTS = 4
+
+# Contact record fields (rows of the (C, N_CONTACT) float64 contact table).
+C_A = 0          # body index of A
+C_B = 1          # body index of B, or N + s for static object s
+C_POINT = 2      # world contact point (current configuration), 3
+C_NORMAL = 5     # unit normal: the impulse on A is along +n, 3
+C_RA = 8         # lever arm from A's COM, 3
+C_RB = 11        # lever arm from B's COM (0 for static), 3
+C_BIAS = 14      # target: u_n >= bias after the stage (m/s)
+C_KN = 15        # 1 / (nᵀ K n)
+C_LAMBDA = 16    # accumulated normal impulse (N·s)
+C_PHI = 17       # candidate φ (m)
+C_FRICTION = 18  # this point's share of the patch friction impulse (N·s), 3
+C_PHASE = 21     # the stage: 0 collision, 1 first contact stage, 2 second
+N_CONTACT = 22
+
+# Patch record fields (rows of the (Q, N_PATCH) float64 patch table).
+Q_A = 0
+Q_B = 1
+Q_START = 2      # first contact row
+Q_COUNT = 3
+Q_MU = 4
+Q_FT = 5         # accumulated tangential friction impulse, world vector, 3
+Q_MT = 8         # accumulated torsional couple about the patch normal (N·m·s)
+Q_NORMAL = 9     # patch normal (unit, λ-weighted mean), 3
+N_PATCH = 12
+
+_jit = nb.njit(cache=kk.CACHE_DIR is not None, fastmath=False, nogil=True)
+_inl = nb.njit(cache=kk.CACHE_DIR is not None, fastmath=False, nogil=True, inline='always')
+
+
+@_inl
+def _cross(ax, ay, az, bx, by, bz):
+    return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+
+
+@_inl
+def _mat_vec(m, i, x, y, z):
+    """``m[i] @ v`` for a (N, 3, 3) array."""
+    return (m[i, 0, 0] * x + m[i, 0, 1] * y + m[i, 0, 2] * z,
+            m[i, 1, 0] * x + m[i, 1, 1] * y + m[i, 1, 2] * z,
+            m[i, 2, 0] * x + m[i, 2, 1] * y + m[i, 2, 2] * z)
+
+
+@_inl
+def _mat_t_vec(m, i, x, y, z):
+    """``m[i].T @ v`` for a (N, 3, 3) array."""
+    return (m[i, 0, 0] * x + m[i, 1, 0] * y + m[i, 2, 0] * z,
+            m[i, 0, 1] * x + m[i, 1, 1] * y + m[i, 2, 1] * z,
+            m[i, 0, 2] * x + m[i, 1, 2] * y + m[i, 2, 2] * z)
+
+
+@_inl
+def _set_rotation(out, i, qw, qx, qy, qz):
+    """Write ``R(q)`` into ``out[i]`` (q unit)."""
+    out[i, 0, 0] = 1.0 - 2.0 * (qy * qy + qz * qz)
+    out[i, 0, 1] = 2.0 * (qx * qy - qw * qz)
+    out[i, 0, 2] = 2.0 * (qx * qz + qw * qy)
+    out[i, 1, 0] = 2.0 * (qx * qy + qw * qz)
+    out[i, 1, 1] = 1.0 - 2.0 * (qx * qx + qz * qz)
+    out[i, 1, 2] = 2.0 * (qy * qz - qw * qx)
+    out[i, 2, 0] = 2.0 * (qx * qz - qw * qy)
+    out[i, 2, 1] = 2.0 * (qy * qz + qw * qx)
+    out[i, 2, 2] = 1.0 - 2.0 * (qx * qx + qy * qy)
+
+
+# ---------------------------------------------------------------------------------------------
+# Poses: current and candidate, world velocities and inverse inertias.
+
+
+@_jit
+def prepare_bodies(x, prm, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h):
+    """
+    Fill the per-body arrays a stage reads from the state ``x`` (velocities as stored there).
+
+    ``vel`` (N, 6): ``v_w`` and ``ω_w``; ``inv_mass`` (N,); ``inv_inertia_w`` (N, 3, 3)
+    ``R I_b⁻¹ Rᵀ``; ``rot`` (N, 3, 3) current ``R``; ``pos_c`` (N, 3) and ``rot_c`` the
+    candidate pose after ``h`` at these velocities (exact rotation by ``h ω``).
+    """
+    shared = prm.shape[1] == 1
+    for i in range(x.shape[1]):
+        j = 0 if shared else i
+        qw, qx, qy, qz = x[3, i], x[4, i], x[5, i], x[6, i]
+        _set_rotation(rot, i, qw, qx, qy, qz)
+        wbx, wby, wbz = x[S_OMEGA, i], x[S_OMEGA + 1, i], x[S_OMEGA + 2, i]
+        wx, wy, wz = _mat_vec(rot, i, wbx, wby, wbz)
+        vel[i, 0] = x[S_VEL, i]
+        vel[i, 1] = x[S_VEL + 1, i]
+        vel[i, 2] = x[S_VEL + 2, i]
+        vel[i, 3] = wx
+        vel[i, 4] = wy
+        vel[i, 5] = wz
+        inv_mass[i] = prm[P_INV_MASS, j]
+        for r in range(3):
+            for c in range(3):
+                acc = 0.0
+                for m in range(3):
+                    for n in range(3):
+                        acc += rot[i, r, m] * prm[P_INV_INERTIA + 3 * m + n, j] * rot[i, c, n]
+                inv_inertia_w[i, r, c] = acc
+        for k in range(3):
+            pos_c[i, k] = x[k, i] + h * vel[i, k]
+        dw, dx, dy, dz = kk._quat_exp_half(wbx, wby, wbz, h)
+        cw, cx, cy, cz = kk._qmul(qw, qx, qy, qz, dw, dx, dy, dz)
+        cw, cx, cy, cz = kk._normalize_q(cw, cx, cy, cz)
+        _set_rotation(rot_c, i, cw, cx, cy, cz)
+
+
+@_jit
+def store_velocities(x, prm, vel, touched):
+    """Write ``v_w`` and ``ω_b = Rᵀ ω_w`` of the bodies a stage touched back into ``x``."""
+    for i in range(x.shape[1]):
+        if not touched[i]:
+            continue
+        x[S_VEL, i] = vel[i, 0]
+        x[S_VEL + 1, i] = vel[i, 1]
+        x[S_VEL + 2, i] = vel[i, 2]
+        qw, qx, qy, qz = x[3, i], x[4, i], x[5, i], x[6, i]
+        bx, by, bz = kk._rotate_inv(qw, qx, qy, qz, vel[i, 3], vel[i, 4], vel[i, 5])
+        x[S_OMEGA, i] = bx
+        x[S_OMEGA + 1, i] = by
+        x[S_OMEGA + 2, i] = bz
+
+
+# ---------------------------------------------------------------------------------------------
+# Broad phase: sort and sweep along x over the bodies; every body against each static object.
+
+
+@_jit
+def broad_phase(x, pos_c, bound_r, n_bodies, st_kind, st_params, st_lo, st_hi, margin):
+    """
+    Return the candidate pairs ``(P, 2)`` int64, in a fixed order.
+
+    Body-body pairs ``(a, b)`` with ``a < b`` sorted, then body-static ``(a, N + s)``.
+
+    Each body's box holds its bounding ball at the current and the candidate pose, grown by
+    ``margin``; bodies are sorted by the low x of their box and swept, so the cost is
+    O(N log N + pairs).
+    """
+    n = n_bodies
+    lo = np.empty((n, 3))
+    hi = np.empty((n, 3))
+    for i in range(n):
+        r = bound_r[i] + margin
+        for k in range(3):
+            a = x[k, i]
+            b = pos_c[i, k]
+            lo[i, k] = min(a, b) - r
+            hi[i, k] = max(a, b) + r
+    order = np.argsort(lo[:, 0], kind='mergesort')
+    cap = 4 * n + 16
+    pairs = np.empty((cap, 2), dtype=np.int64)
+    count = 0
+    for oi in range(n):
+        a = order[oi]
+        for oj in range(oi + 1, n):
+            b = order[oj]
+            if lo[b, 0] > hi[a, 0]:
+                break
+            if (lo[b, 1] > hi[a, 1] or lo[a, 1] > hi[b, 1]
+                    or lo[b, 2] > hi[a, 2] or lo[a, 2] > hi[b, 2]):
+                continue
+            if count == cap:
+                grown = np.empty((2 * cap, 2), dtype=np.int64)
+                grown[:cap] = pairs
+                pairs = grown
+                cap *= 2
+            pairs[count, 0] = min(a, b)
+            pairs[count, 1] = max(a, b)
+            count += 1
+    body_pairs = pairs[:count]
+    # Fixed processing order whatever the sort did with ties: by (a, b).
+    key = body_pairs[:, 0] * n + body_pairs[:, 1]
+    body_pairs = body_pairs[np.argsort(key, kind='mergesort')]
+    statics = np.empty((n * st_kind.shape[0], 2), dtype=np.int64)
+    ns = 0
+    for a in range(n):
+        for s in range(st_kind.shape[0]):
+            if st_kind[s] == ck.KIND_PLANE:
+                nx, ny, nz, d = st_params[s, 0], st_params[s, 1], st_params[s, 2], st_params[s, 3]
+                near = min(nx * x[0, a] + ny * x[1, a] + nz * x[2, a],
+                           nx * pos_c[a, 0] + ny * pos_c[a, 1] + nz * pos_c[a, 2]) - d
+                if near > bound_r[a] + margin:
+                    continue
+            elif (lo[a, 0] > st_hi[s, 0] or st_lo[s, 0] > hi[a, 0]
+                  or lo[a, 1] > st_hi[s, 1] or st_lo[s, 1] > hi[a, 1]
+                  or lo[a, 2] > st_hi[s, 2] or st_lo[s, 2] > hi[a, 2]):
+                continue
+            statics[ns, 0] = a
+            statics[ns, 1] = n + s
+            ns += 1
+    out = np.empty((body_pairs.shape[0] + ns, 2), dtype=np.int64)
+    out[:body_pairs.shape[0]] = body_pairs
+    out[body_pairs.shape[0]:] = statics[:ns]
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Narrow phase: points of one shape against the φ of the other, at the candidate poses.
+
+
+@_inl
+def _grid_of(grid_data, grid_off, grid_dim, s):
+    o = grid_off[s]
+    nx, ny, nz = grid_dim[s, 0], grid_dim[s, 1], grid_dim[s, 2]
+    return grid_data[o:o + nx * ny * nz].reshape((nx, ny, nz))
+
+
+@_jit
+def _one_way(sx, sy, is_plane_y, pts, pt_off, ppts, ppt_off, pt_radius, kinds, sparams,
+             grid_data, grid_off, grid_dim, rot_x, pos_x, rot_xc, pos_xc, ix,
+             rot_y, pos_y, rot_yc, pos_yc, iy, margin, buf, count, flip):
+    """
+    Append the points of shape ``sx`` that come near shape ``sy`` to ``buf``.
+
+    Points of ``sx`` (pose index ``ix``) within ``margin`` of ``sy`` at the candidate poses
+    become rows
+    ``[φ, point_w(3), n_w(3), point_y(3), flip]``: ``n_w = flip ∇φ_y`` in the world, the
+    point in y's candidate frame.  Return the buffer (it may grow) and the new count.
+    """
+    if is_plane_y:
+        src = ppts
+        a0, a1 = ppt_off[sx], ppt_off[sx + 1]
+    else:
+        src = pts
+        a0, a1 = pt_off[sx], pt_off[sx + 1]
+    radius = pt_radius[sx]
+    grid = _grid_of(grid_data, grid_off, grid_dim, sy)
+    kind = kinds[sy]
+    prm = sparams[sy]
+    for n in range(a0, a1):
+        bx, by, bz = src[n, 0], src[n, 1], src[n, 2]
+        # Candidate world point, then into y's candidate frame.
+        wx, wy, wz = _mat_vec(rot_xc, ix, bx, by, bz)
+        wx, wy, wz = wx + pos_xc[ix, 0], wy + pos_xc[ix, 1], wz + pos_xc[ix, 2]
+        lx, ly, lz = _mat_t_vec(rot_yc, iy, wx - pos_yc[iy, 0], wy - pos_yc[iy, 1],
+                                wz - pos_yc[iy, 2])
+        phi, gx, gy, gz = ck.phi_grad(kind, prm, grid, lx, ly, lz)
+        phi -= radius
+        if not phi < margin:
+            continue
+        gwx, gwy, gwz = _mat_vec(rot_yc, iy, gx, gy, gz)
+        # The contact point on x's surface in the current configuration.
+        cx, cy, cz = _mat_vec(rot_x, ix, bx, by, bz)
+        cx += pos_x[ix, 0] - radius * gwx
+        cy += pos_x[ix, 1] - radius * gwy
+        cz += pos_x[ix, 2] - radius * gwz
+        if count == buf.shape[0]:
+            grown = np.empty((2 * buf.shape[0], buf.shape[1]))
+            grown[:count] = buf[:count]
+            buf = grown
+        buf[count, 0] = phi
+        buf[count, 1] = cx
+        buf[count, 2] = cy
+        buf[count, 3] = cz
+        buf[count, 4] = flip * gwx
+        buf[count, 5] = flip * gwy
+        buf[count, 6] = flip * gwz
+        buf[count, 7] = lx
+        buf[count, 8] = ly
+        buf[count, 9] = lz
+        buf[count, 10] = flip
+        count += 1
+    return buf, count
+
+
+@_jit
+def _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off, grid_dim,
+                        pose_rc):
+    """
+    Give points on an edge or corner of the other shape their patch's normal.
+
+    ∇φ is ambiguous where the shape it is taken of has an edge or a corner: a box placed
+    exactly on another has its bottom edges on the lower box's top edges, where φ's gradient
+    may point sideways.  The patch normal ``n̄`` is the point normal (among the deepest 16)
+    with the largest depth-weighted support (normals within ~25°).  A point whose own normal
+    is more than ~25° from ``n̄`` takes ``n̄`` if ``n̄`` is also a normal of the surface
+    there (in its normal cone): a step of :data:`MARGIN_M` / 4 out of the other shape along
+    ``n̄`` raises φ by the step (to 1 %).  A peg touching the side of a hole fails that test
+    and keeps its own normal.
+    """
+    if count < 2:
+        return
+    best_w = -1.0
+    best = 0
+    top = min(count, 16)
+    order = np.argsort(buf[:count, 0])
+    for ii in range(top):
+        i = order[ii]
+        w = 0.0
+        for k in range(count):
+            if buf[k, 4] * buf[i, 4] + buf[k, 5] * buf[i, 5] + buf[k, 6] * buf[i, 6] > 0.9:
+                w += MARGIN_M - buf[k, 0]
+        if w > best_w:
+            best_w = w
+            best = i
+    sx, sy, sz = buf[best, 4], buf[best, 5], buf[best, 6]
+    step = 0.25 * MARGIN_M
+    for k in range(count):
+        if buf[k, 4] * sx + buf[k, 5] * sy + buf[k, 6] * sz > 0.9:
+            continue
+        # The shape whose φ gave this point: b for flip +1 (n = ∇φ_b), a for flip −1.
+        y = b if buf[k, 10] > 0.0 else a
+        # Out of y along n̄ (+n̄ for y = b, whose outward normal it is; −n̄ for y = a).
+        dx, dy, dz = buf[k, 10] * sx, buf[k, 10] * sy, buf[k, 10] * sz
+        lx, ly, lz = _mat_t_vec(pose_rc, y, dx, dy, dz)
+        grid = _grid_of(grid_data, grid_off, grid_dim, y)
+        phi0 = ck.phi_grad(kinds[y], sparams[y], grid, buf[k, 7], buf[k, 8], buf[k, 9])[0]
+        phi1 = ck.phi_grad(kinds[y], sparams[y], grid, buf[k, 7] + step * lx,
+                           buf[k, 8] + step * ly, buf[k, 9] + step * lz)[0]
+        if abs((phi1 - phi0) - step) <= 0.01 * step:
+            buf[k, 4] = sx
+            buf[k, 5] = sy
+            buf[k, 6] = sz
+
+
+@_jit
+def _reduce(buf, count, keep):
+    """Choose up to PATCH_POINTS rows of ``buf[:count]`` spanning the patch; fill ``keep``."""
+    if count <= PATCH_POINTS:
+        for k in range(count):
+            keep[k] = k
+        return count
+    best = 0
+    for k in range(1, count):
+        if buf[k, 0] < buf[best, 0]:
+            best = k
+    keep[0] = best
+    far = -1.0
+    i1 = -1
+    for k in range(count):
+        d = ((buf[k, 1] - buf[best, 1]) ** 2 + (buf[k, 2] - buf[best, 2]) ** 2
+             + (buf[k, 3] - buf[best, 3]) ** 2)
+        if d > far:
+            far = d
+            i1 = k
+    if far <= 1e-24:
+        return 1
+    # Where depths tie (a face resting on a face), the extreme point farthest from i1 spans
+    # more of the patch than the deepest one: take it unless the deepest is clearly deeper.
+    far0 = -1.0
+    i0 = best
+    for k in range(count):
+        d = ((buf[k, 1] - buf[i1, 1]) ** 2 + (buf[k, 2] - buf[i1, 2]) ** 2
+             + (buf[k, 3] - buf[i1, 3]) ** 2)
+        if d > far0:
+            far0 = d
+            i0 = k
+    if buf[i0, 0] <= buf[best, 0] + 0.1 * MARGIN_M:
+        best = i0
+        keep[0] = best
+        far = far0
+    keep[1] = i1
+    ex = buf[i1, 1] - buf[best, 1]
+    ey = buf[i1, 2] - buf[best, 2]
+    ez = buf[i1, 3] - buf[best, 3]
+    nx, ny, nz = buf[best, 4], buf[best, 5], buf[best, 6]
+    area = 0.0
+    i2 = -1
+    for k in range(count):
+        cx, cy, cz = _cross(ex, ey, ez, buf[k, 1] - buf[best, 1], buf[k, 2] - buf[best, 2],
+                            buf[k, 3] - buf[best, 3])
+        s = abs(cx * nx + cy * ny + cz * nz)
+        if s > area:
+            area = s
+            i2 = k
+    if area <= 1e-12 * far:
+        return 2
+    keep[2] = i2
+    cx, cy, cz = _cross(ex, ey, ez, buf[i2, 1] - buf[best, 1], buf[i2, 2] - buf[best, 2],
+                        buf[i2, 3] - buf[best, 3])
+    side = cx * nx + cy * ny + cz * nz
+    area = 0.0
+    i3 = -1
+    for k in range(count):
+        cx, cy, cz = _cross(ex, ey, ez, buf[k, 1] - buf[best, 1], buf[k, 2] - buf[best, 2],
+                            buf[k, 3] - buf[best, 3])
+        s = -(cx * nx + cy * ny + cz * nz) * (1.0 if side > 0.0 else -1.0)
+        if s > area:
+            area = s
+            i3 = k
+    if i3 < 0 or area <= 1e-12 * far:
+        return 3
+    keep[3] = i3
+    return 4
+
+
+@_jit
+def narrow_phase(pairs, n_bodies, x, vel, rot, pos_c, rot_c, inv_mass, inv_inertia_w,
+                 st_rot, st_pos, kinds, sparams, pts, pt_off, ppts, ppt_off, pt_radius,
+                 grid_data, grid_off, grid_dim, mu, eps, h, phase, stage):
+    """
+    Return ``(contacts (C, N_CONTACT), patches (Q, N_PATCH))`` of the candidate ``pairs``.
+
+    Static objects get their fixed pose for both the current and the candidate one.
+    """
+    n = n_bodies
+    n_static = st_rot.shape[0]
+    # Poses of everything, bodies then statics, current and candidate.
+    pose_r = np.empty((n + n_static, 3, 3))
+    pose_p = np.empty((n + n_static, 3))
+    pose_rc = np.empty((n + n_static, 3, 3))
+    pose_pc = np.empty((n + n_static, 3))
+    pose_r[:n] = rot
+    pose_rc[:n] = rot_c
+    pose_p[:n] = x[0:3, :].T
+    pose_pc[:n] = pos_c
+    pose_r[n:] = st_rot
+    pose_rc[n:] = st_rot
+    pose_p[n:] = st_pos
+    pose_pc[n:] = st_pos
+    contacts = np.zeros((max(16, 4 * pairs.shape[0]), N_CONTACT))
+    patches = np.zeros((max(4, pairs.shape[0]), N_PATCH))
+    buf = np.empty((64, 11))
+    keep = np.empty(PATCH_POINTS, dtype=np.int64)
+    nc = 0
+    nq = 0
+    for q in range(pairs.shape[0]):
+        a = pairs[q, 0]
+        b = pairs[q, 1]
+        count = 0
+        b_plane = kinds[b] == ck.KIND_PLANE
+        buf, count = _one_way(a, b, b_plane, pts, pt_off, ppts, ppt_off, pt_radius, kinds,
+                              sparams, grid_data, grid_off, grid_dim, pose_r, pose_p, pose_rc,
+                              pose_pc, a, pose_r, pose_p, pose_rc, pose_pc, b, MARGIN_M, buf,
+                              count, 1.0)
+        if not b_plane:
+            buf, count = _one_way(b, a, False, pts, pt_off, ppts, ppt_off, pt_radius, kinds,
+                                  sparams, grid_data, grid_off, grid_dim, pose_r, pose_p,
+                                  pose_rc, pose_pc, b, pose_r, pose_p, pose_rc, pose_pc, a,
+                                  MARGIN_M, buf, count, -1.0)
+        if count == 0:
+            continue
+        _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off, grid_dim,
+                            pose_rc)
+        m = _reduce(buf, count, keep)
+        if nq == patches.shape[0]:
+            grown = np.zeros((2 * nq, N_PATCH))
+            grown[:nq] = patches
+            patches = grown
+        while nc + m > contacts.shape[0]:
+            grown = np.zeros((2 * contacts.shape[0], N_CONTACT))
+            grown[:nc] = contacts[:nc]
+            contacts = grown
+        pair_mu = math.sqrt(mu[a] * mu[b])
+        pair_eps = max(eps[a], eps[b]) if phase == PHASE_COLLISION else 0.0
+        static_b = b >= n
+        patches[nq, Q_A] = a
+        patches[nq, Q_B] = b
+        patches[nq, Q_START] = nc
+        patches[nq, Q_COUNT] = m
+        patches[nq, Q_MU] = pair_mu
+        for k in range(m):
+            row = buf[keep[k]]
+            c = contacts[nc]
+            c[C_A] = a
+            c[C_B] = b
+            c[C_PHASE] = stage
+            c[C_PHI] = row[0]
+            px, py, pz = row[1], row[2], row[3]
+            nx, ny, nz = row[4], row[5], row[6]
+            c[C_POINT] = px
+            c[C_POINT + 1] = py
+            c[C_POINT + 2] = pz
+            c[C_NORMAL] = nx
+            c[C_NORMAL + 1] = ny
+            c[C_NORMAL + 2] = nz
+            rax, ray, raz = px - x[0, a], py - x[1, a], pz - x[2, a]
+            c[C_RA] = rax
+            c[C_RA + 1] = ray
+            c[C_RA + 2] = raz
+            # Relative normal velocity now, and nᵀ K n.
+            ux, uy, uz = _cross(vel[a, 3], vel[a, 4], vel[a, 5], rax, ray, raz)
+            ux += vel[a, 0]
+            uy += vel[a, 1]
+            uz += vel[a, 2]
+            cnx, cny, cnz = _cross(rax, ray, raz, nx, ny, nz)
+            ix, iy, iz = _mat_vec(inv_inertia_w, a, cnx, cny, cnz)
+            knn = inv_mass[a] + cnx * ix + cny * iy + cnz * iz
+            if not static_b:
+                rbx, rby, rbz = px - x[0, b], py - x[1, b], pz - x[2, b]
+                c[C_RB] = rbx
+                c[C_RB + 1] = rby
+                c[C_RB + 2] = rbz
+                wx, wy, wz = _cross(vel[b, 3], vel[b, 4], vel[b, 5], rbx, rby, rbz)
+                ux -= vel[b, 0] + wx
+                uy -= vel[b, 1] + wy
+                uz -= vel[b, 2] + wz
+                cnx, cny, cnz = _cross(rbx, rby, rbz, nx, ny, nz)
+                ix, iy, iz = _mat_vec(inv_inertia_w, b, cnx, cny, cnz)
+                knn += inv_mass[b] + cnx * ix + cny * iy + cnz * iz
+            un0 = ux * nx + uy * ny + uz * nz
+            c[C_KN] = 1.0 / knn
+            phi_now = row[0] - h * un0
+            if phi_now >= 0.0:
+                bias = un0 - row[0] / h
+            else:
+                bias = min(-PUSH_FRACTION * phi_now / h, PUSH_MAX_M_S)
+            if pair_eps > 0.0 and un0 < 0.0 and row[0] < 0.0:
+                bias = max(bias, -pair_eps * un0)
+            c[C_BIAS] = bias
+            nc += 1
+        nq += 1
+    return contacts[:nc], patches[:nq]
+
+
+# ---------------------------------------------------------------------------------------------
+# The impulses.
+
+
+@_inl
+def _point_velocity(vel, i, rx, ry, rz):
+    wx, wy, wz = _cross(vel[i, 3], vel[i, 4], vel[i, 5], rx, ry, rz)
+    return vel[i, 0] + wx, vel[i, 1] + wy, vel[i, 2] + wz
+
+
+@_inl
+def _apply(vel, inv_mass, inv_inertia_w, i, scale, rx, ry, rz, jx, jy, jz, mx, my, mz):
+    """Apply impulse ``scale·j`` at lever arm ``r`` plus couple ``scale·m`` to body ``i``."""
+    im = inv_mass[i] * scale
+    vel[i, 0] += im * jx
+    vel[i, 1] += im * jy
+    vel[i, 2] += im * jz
+    tx, ty, tz = _cross(rx, ry, rz, jx, jy, jz)
+    tx, ty, tz = scale * (tx + mx), scale * (ty + my), scale * (tz + mz)
+    dx, dy, dz = _mat_vec(inv_inertia_w, i, tx, ty, tz)
+    vel[i, 3] += dx
+    vel[i, 4] += dy
+    vel[i, 5] += dz
+
+
+@_inl
+def _record(wrench, i, sign, rx, ry, rz, jx, jy, jz, mx, my, mz):
+    wrench[i, 0] += sign * jx
+    wrench[i, 1] += sign * jy
+    wrench[i, 2] += sign * jz
+    tx, ty, tz = _cross(rx, ry, rz, jx, jy, jz)
+    wrench[i, 3] += sign * (tx + mx)
+    wrench[i, 4] += sign * (ty + my)
+    wrench[i, 5] += sign * (tz + mz)
+
+
+@_inl
+def _response(inv_mass, inv_inertia_w, i, rx, ry, rz, dx, dy, dz, ex, ey, ez):
+    """``eᵀ K_i d``: velocity change along ``e`` at ``r`` per unit impulse along ``d`` at ``r``."""
+    cx, cy, cz = _cross(rx, ry, rz, dx, dy, dz)
+    ix, iy, iz = _mat_vec(inv_inertia_w, i, cx, cy, cz)
+    wx, wy, wz = _cross(ix, iy, iz, rx, ry, rz)
+    return inv_mass[i] * (dx * ex + dy * ey + dz * ez) + wx * ex + wy * ey + wz * ez
+
+
+@_inl
+def _cross_response(inv_mass, inv_inertia_w, i, rlx, rly, rlz, dx, dy, dz, rkx, rky, rkz,
+                    ex, ey, ez):
+    """``eᵀ Δv(r_k)`` of body ``i`` per unit impulse along ``d`` at ``r_l``."""
+    cx, cy, cz = _cross(rlx, rly, rlz, dx, dy, dz)
+    ix, iy, iz = _mat_vec(inv_inertia_w, i, cx, cy, cz)
+    kx, ky, kz = _cross(rkx, rky, rkz, ex, ey, ez)
+    return inv_mass[i] * (dx * ex + dy * ey + dz * ez) + ix * kx + iy * ky + iz * kz
+
+
+@_jit
+def _solve_small(mat, rhs, active, m, out):
+    """
+    Least-norm solution of ``mat[A, A] x = rhs[A]`` for the active rows ``A`` (others 0).
+
+    ``mat`` is symmetric positive semi-definite (a contact response).  Its eigenvectors come
+    from cyclic Jacobi rotations; eigenvalues below 1e-9 of the largest count as zero (the
+    pseudo-inverse).  Four coplanar points leave a rigid body's normal impulses
+    indeterminate along one direction; the least-norm solution shares the load
+    symmetrically instead of in an order-dependent way, and a nearly singular direction (a
+    normal tilted by round-off) cannot produce a huge impulse.
+    """
+    idx = np.empty(PATCH_POINTS, dtype=np.int64)
+    p = 0
+    for k in range(m):
+        out[k] = 0.0
+        if active[k]:
+            idx[p] = k
+            p += 1
+    if p == 0:
+        return
+    a = np.empty((p, p))
+    v = np.zeros((p, p))
+    for r in range(p):
+        v[r, r] = 1.0
+        for c in range(p):
+            a[r, c] = mat[idx[r], idx[c]]
+    for _ in range(30):
+        off = 0.0
+        for r in range(p):
+            for c in range(r + 1, p):
+                off += a[r, c] * a[r, c]
+        if off <= 1e-60:
+            break
+        for r in range(p):
+            for c in range(r + 1, p):
+                if a[r, c] == 0.0:
+                    continue
+                theta = 0.5 * math.atan2(2.0 * a[r, c], a[c, c] - a[r, r])
+                cs_, sn = math.cos(theta), math.sin(theta)
+                for k in range(p):
+                    akr, akc = a[k, r], a[k, c]
+                    a[k, r] = cs_ * akr - sn * akc
+                    a[k, c] = sn * akr + cs_ * akc
+                for k in range(p):
+                    ark, ack = a[r, k], a[c, k]
+                    a[r, k] = cs_ * ark - sn * ack
+                    a[c, k] = sn * ark + cs_ * ack
+                for k in range(p):
+                    vkr, vkc = v[k, r], v[k, c]
+                    v[k, r] = cs_ * vkr - sn * vkc
+                    v[k, c] = sn * vkr + cs_ * vkc
+    top = 0.0
+    for r in range(p):
+        top = max(top, a[r, r])
+    if top <= 0.0:
+        return
+    for e in range(p):
+        sigma = a[e, e]
+        if sigma <= 1e-9 * top:
+            continue
+        proj = 0.0
+        for r in range(p):
+            proj += v[r, e] * rhs[idx[r]]
+        coef = proj / sigma
+        for r in range(p):
+            out[idx[r]] += coef * v[r, e]
+
+
+@_jit
+def _normal_block(s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, wa, wb, wrench):
+    """
+    Set the normal impulses of one patch exactly; return the largest Δu (m/s).
+
+    The complementarity problem ``u_n >= bias, λ >= 0, λ (u_n − bias) = 0`` of its (at most
+    four) points is solved by trying every active set (:func:`_solve_small` for each).
+    """
+    mat = np.empty((PATCH_POINTS, PATCH_POINTS))
+    free = np.empty(PATCH_POINTS)
+    for k in range(m):
+        ck_ = contacts[s0 + k]
+        nkx, nky, nkz = ck_[C_NORMAL], ck_[C_NORMAL + 1], ck_[C_NORMAL + 2]
+        for jj in range(m):
+            cl = contacts[s0 + jj]
+            nlx, nly, nlz = cl[C_NORMAL], cl[C_NORMAL + 1], cl[C_NORMAL + 2]
+            v = wa * _cross_response(inv_mass, inv_inertia_w, a, cl[C_RA], cl[C_RA + 1],
+                                     cl[C_RA + 2], nlx, nly, nlz, ck_[C_RA], ck_[C_RA + 1],
+                                     ck_[C_RA + 2], nkx, nky, nkz)
+            if dyn_b:
+                v += wb * _cross_response(inv_mass, inv_inertia_w, b, cl[C_RB], cl[C_RB + 1],
+                                          cl[C_RB + 2], nlx, nly, nlz, ck_[C_RB],
+                                          ck_[C_RB + 1], ck_[C_RB + 2], nkx, nky, nkz)
+            mat[k, jj] = v
+        ux, uy, uz = _point_velocity(vel, a, ck_[C_RA], ck_[C_RA + 1], ck_[C_RA + 2])
+        if dyn_b:
+            bx, by, bz = _point_velocity(vel, b, ck_[C_RB], ck_[C_RB + 1], ck_[C_RB + 2])
+            ux, uy, uz = ux - bx, uy - by, uz - bz
+        free[k] = ux * nkx + uy * nky + uz * nkz
+    # Velocities without this patch's normal impulses: u0 = u − K λ.
+    rhs = np.empty(PATCH_POINTS)
+    for k in range(m):
+        acc = free[k]
+        for jj in range(m):
+            acc -= mat[k, jj] * contacts[s0 + jj, C_LAMBDA]
+        free[k] = acc
+        rhs[k] = contacts[s0 + k, C_BIAS] - acc
+    active = np.zeros(PATCH_POINTS, dtype=np.bool_)
+    lam = np.zeros(PATCH_POINTS)
+    best = np.zeros(PATCH_POINTS)
+    # Every active set in a fixed order; of the feasible ones (λ >= 0 on it, u_n >= bias off
+    # it) the one with the least |λ| wins.  Where K is singular (coplanar points) several
+    # are feasible with the same velocities; the least-norm one spreads the load evenly
+    # instead of putting it on a diagonal pair, which would twist the bodies apart.
+    chosen = -1
+    least = math.inf
+    for mask in range(1, 1 << m):
+        for k in range(m):
+            active[k] = (mask >> k & 1) == 1
+        _solve_small(mat, rhs, active, m, lam)
+        ok = True
+        norm = 0.0
+        for k in range(m):
+            if active[k]:
+                norm += lam[k] * lam[k]
+                if lam[k] < 0.0:
+                    ok = False
+                    break
+            else:
+                u = free[k]
+                for jj in range(m):
+                    u += mat[k, jj] * lam[jj]
+                if u < contacts[s0 + k, C_BIAS] - 1e-9 * (abs(rhs[k]) + 1e-12):
+                    ok = False
+                    break
+        if ok and norm < least * (1.0 - 1e-12):
+            least = norm
+            chosen = mask
+    if chosen < 0:
+        chosen = (1 << m) - 1   # round-off left none feasible: all, clamped below
+    for k in range(m):
+        active[k] = (chosen >> k & 1) == 1
+    _solve_small(mat, rhs, active, m, lam)
+    for k in range(m):
+        best[k] = max(lam[k], 0.0)
+    change = 0.0
+    for k in range(m):
+        c = contacts[s0 + k]
+        d = best[k] - c[C_LAMBDA]
+        if d == 0.0:
+            continue
+        c[C_LAMBDA] = best[k]
+        nx, ny, nz = c[C_NORMAL], c[C_NORMAL + 1], c[C_NORMAL + 2]
+        jx, jy, jz = d * nx, d * ny, d * nz
+        _apply(vel, inv_mass, inv_inertia_w, a, wa, c[C_RA], c[C_RA + 1], c[C_RA + 2],
+               jx, jy, jz, 0.0, 0.0, 0.0)
+        _record(wrench, a, 1.0, c[C_RA], c[C_RA + 1], c[C_RA + 2], jx, jy, jz, 0.0, 0.0, 0.0)
+        if dyn_b:
+            _apply(vel, inv_mass, inv_inertia_w, b, -wb, c[C_RB], c[C_RB + 1], c[C_RB + 2],
+                   jx, jy, jz, 0.0, 0.0, 0.0)
+            _record(wrench, b, -1.0, c[C_RB], c[C_RB + 1], c[C_RB + 2], jx, jy, jz,
+                    0.0, 0.0, 0.0)
+        change = max(change, abs(d) * mat[k, k])
+    return change
+
+
+@_jit
+def solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wa, wb,
+                wrench, friction):
+    """
+    Iterate the normal impulses and the friction of patch ``q``; return the largest Δu (m/s).
+
+    ``wa``, ``wb`` scale the inverse masses of A and B (0 holds a body as if of infinite mass:
+    a static object, or a lower level in shock propagation); the impulses are recorded in
+    ``wrench`` (N, 6) for both bodies all the same.
+    """
+    a = int(patches[q, Q_A])
+    b = int(patches[q, Q_B])
+    dyn_b = b < n_bodies
+    s0 = int(patches[q, Q_START])
+    m = int(patches[q, Q_COUNT])
+    mu = patches[q, Q_MU]
+    biggest = 0.0
+    for _ in range(PATCH_ITERATIONS):
+        change = 0.0
+        # Normal impulses: the patch's small LCP solved exactly (see _normal_block).
+        change = _normal_block(s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b,
+                               wa, wb, wrench)
+        # Friction of the patch at its normal-impulse centre.
+        total = 0.0
+        cx = cy = cz = 0.0
+        nbx = nby = nbz = 0.0
+        for k in range(s0, s0 + m):
+            lam = contacts[k, C_LAMBDA]
+            total += lam
+            cx += lam * contacts[k, C_POINT]
+            cy += lam * contacts[k, C_POINT + 1]
+            cz += lam * contacts[k, C_POINT + 2]
+            nbx += lam * contacts[k, C_NORMAL]
+            nby += lam * contacts[k, C_NORMAL + 1]
+            nbz += lam * contacts[k, C_NORMAL + 2]
+        nn = math.sqrt(nbx * nbx + nby * nby + nbz * nbz)
+        if friction and total > 0.0 and mu > 0.0 and nn > 0.0:
+            cx, cy, cz = cx / total, cy / total, cz / total
+            nbx, nby, nbz = nbx / nn, nby / nn, nbz / nn
+            patches[q, Q_NORMAL] = nbx
+            patches[q, Q_NORMAL + 1] = nby
+            patches[q, Q_NORMAL + 2] = nbz
+            change = max(change, _friction(q, patches, contacts, vel, inv_mass,
+                                           inv_inertia_w, a, b, dyn_b, x, wa, wb, wrench,
+                                           total, cx, cy, cz, nbx, nby, nbz, s0, m, mu))
+        biggest = max(biggest, change)
+        if change <= VELOCITY_TOL_M_S:
+            break
+    return biggest
+
+
+@_inl
+def _tangent_basis(nx, ny, nz):
+    """Two unit vectors completing ``n`` to a right-handed orthonormal basis."""
+    if abs(nx) < 0.57735:
+        tx, ty, tz = 0.0, -nz, ny
+    else:
+        tx, ty, tz = nz, 0.0, -nx
+    s = 1.0 / math.sqrt(tx * tx + ty * ty + tz * tz)
+    tx, ty, tz = tx * s, ty * s, tz * s
+    sx, sy, sz = _cross(nx, ny, nz, tx, ty, tz)
+    return tx, ty, tz, sx, sy, sz
+
+
+@_jit
+def _coulomb(k11, k12, k22, u1, u2, limit):
+    """
+    Return the friction impulse ``f`` (2-D) for the slip ``u0`` without friction.
+
+    Sticking, ``f = −K⁻¹ u0``, if ``|f| <= limit``; otherwise sliding with ``|f| = limit``
+    opposite to the slip *after* the impulse, ``f = −limit (u0 + K f) / |u0 + K f|``
+    (maximal dissipation).  That is ``f = −(K + γ𝟙)⁻¹ u0`` for the one ``γ > 0`` with
+    ``|f| = limit``, found by safeguarded Newton steps on ``1/|f(γ)|`` (monotone in ``γ``).
+    Solving for the post-impulse slip keeps the sliding direction stable where a fixed
+    point on the pre-impulse one oscillates (a small slip against a large impulse).
+    """
+    det = k11 * k22 - k12 * k12
+    f1 = -(k22 * u1 - k12 * u2) / det
+    f2 = -(-k12 * u1 + k11 * u2) / det
+    if f1 * f1 + f2 * f2 <= limit * limit:
+        return f1, f2
+    if limit <= 0.0:
+        return 0.0, 0.0
+    # Eigen-decomposition of the symmetric 2×2 K = Q diag(a, b) Qᵀ by its rotation angle
+    # (well defined for any K, isotropic included).
+    angle = 0.5 * math.atan2(2.0 * k12, k11 - k22)
+    c1, c2 = math.cos(angle), math.sin(angle)
+    a = k11 * c1 * c1 + 2.0 * k12 * c1 * c2 + k22 * c2 * c2
+    b = k11 * c2 * c2 - 2.0 * k12 * c1 * c2 + k22 * c1 * c1
+    # Q = [[c1, -c2], [c2, c1]]: first column the eigenvector of a.
+    p1 = c1 * u1 + c2 * u2
+    p2 = -c2 * u1 + c1 * u2
+    speed = math.sqrt(u1 * u1 + u2 * u2)
+    lo = max(0.0, speed / limit - a)
+    hi = speed / limit
+    g = 0.5 * (lo + hi)
+    b = max(b, 0.0)
+    for _ in range(60):
+        da, db = a + g, b + g
+        if da <= 0.0 or db <= 0.0:
+            g = 0.5 * (g + hi)
+            continue
+        size = math.sqrt((p1 / da) ** 2 + (p2 / db) ** 2)
+        if size > limit:
+            lo = g
+        else:
+            hi = g
+        # Newton on 1/|f(γ)| − 1/limit, kept inside the bracket.
+        new = 0.5 * (lo + hi)
+        dsize = -((p1 * p1) / da ** 3 + (p2 * p2) / db ** 3)
+        if size > 0.0 and dsize < 0.0:
+            trial = g - (1.0 / size - 1.0 / limit) * size ** 3 / dsize
+            if lo < trial < hi:
+                new = trial
+        if abs(new - g) <= 1e-15 * g:
+            g = new
+            break
+        g = new
+    q1 = -p1 / (a + g)
+    q2 = -p2 / (b + g)
+    f1 = c1 * q1 - c2 * q2
+    f2 = c2 * q1 + c1 * q2
+    # Exactly on the cone: rescale the round-off away.
+    size = math.sqrt(f1 * f1 + f2 * f2)
+    if size == 0.0:
+        return 0.0, 0.0
+    return f1 * limit / size, f2 * limit / size
+
+
+@_jit
+def _friction(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, x, wa, wb,
+              wrench, total, cx, cy, cz, nx, ny, nz, s0, m, mu):
+    """One friction update of patch ``q``: stick if the cone allows, else slide; return Δu."""
+    rax, ray, raz = cx - x[0, a], cy - x[1, a], cz - x[2, a]
+    ux, uy, uz = _point_velocity(vel, a, rax, ray, raz)
+    spin = vel[a, 3] * nx + vel[a, 4] * ny + vel[a, 5] * nz
+    rbx = rby = rbz = 0.0
+    if dyn_b:
+        rbx, rby, rbz = cx - x[0, b], cy - x[1, b], cz - x[2, b]
+        bx, by, bz = _point_velocity(vel, b, rbx, rby, rbz)
+        ux, uy, uz = ux - bx, uy - by, uz - bz
+        spin -= vel[b, 3] * nx + vel[b, 4] * ny + vel[b, 5] * nz
+    t1x, t1y, t1z, t2x, t2y, t2z = _tangent_basis(nx, ny, nz)
+    u1 = ux * t1x + uy * t1y + uz * t1z
+    u2 = ux * t2x + uy * t2y + uz * t2z
+    # 2×2 response of the tangential velocity at c to a tangential impulse at c.
+    k11 = wa * _response(inv_mass, inv_inertia_w, a, rax, ray, raz, t1x, t1y, t1z,
+                         t1x, t1y, t1z)
+    k12 = wa * _response(inv_mass, inv_inertia_w, a, rax, ray, raz, t2x, t2y, t2z,
+                         t1x, t1y, t1z)
+    k22 = wa * _response(inv_mass, inv_inertia_w, a, rax, ray, raz, t2x, t2y, t2z,
+                         t2x, t2y, t2z)
+    if dyn_b:
+        k11 += wb * _response(inv_mass, inv_inertia_w, b, rbx, rby, rbz, t1x, t1y, t1z,
+                              t1x, t1y, t1z)
+        k12 += wb * _response(inv_mass, inv_inertia_w, b, rbx, rby, rbz, t2x, t2y, t2z,
+                              t1x, t1y, t1z)
+        k22 += wb * _response(inv_mass, inv_inertia_w, b, rbx, rby, rbz, t2x, t2y, t2z,
+                              t2x, t2y, t2z)
+    det = k11 * k22 - k12 * k12
+    fx, fy, fz = patches[q, Q_FT], patches[q, Q_FT + 1], patches[q, Q_FT + 2]
+    f1 = fx * t1x + fy * t1y + fz * t1z
+    f2 = fx * t2x + fy * t2y + fz * t2z
+    limit = mu * total
+    change = 0.0
+    if det > 0.0:
+        # Slip without this patch's friction, u0 = u − K f; sticking needs f = −K⁻¹ u0.
+        w1 = u1 - (k11 * f1 + k12 * f2)
+        w2 = u2 - (k12 * f1 + k22 * f2)
+        n1, n2 = _coulomb(k11, k12, k22, w1, w2, limit)
+        d1, d2 = n1 - f1, n2 - f2
+        if d1 != 0.0 or d2 != 0.0:
+            jx = d1 * t1x + d2 * t2x
+            jy = d1 * t1y + d2 * t2y
+            jz = d1 * t1z + d2 * t2z
+            patches[q, Q_FT] = fx + jx
+            patches[q, Q_FT + 1] = fy + jy
+            patches[q, Q_FT + 2] = fz + jz
+            _apply(vel, inv_mass, inv_inertia_w, a, wa, rax, ray, raz, jx, jy, jz,
+                   0.0, 0.0, 0.0)
+            _record(wrench, a, 1.0, rax, ray, raz, jx, jy, jz, 0.0, 0.0, 0.0)
+            if dyn_b:
+                _apply(vel, inv_mass, inv_inertia_w, b, -wb, rbx, rby, rbz, jx, jy, jz,
+                       0.0, 0.0, 0.0)
+                _record(wrench, b, -1.0, rbx, rby, rbz, jx, jy, jz, 0.0, 0.0, 0.0)
+            change = max(abs(d1) * k11, abs(d2) * k22)
+    # Torsion: a couple about the patch normal, up to μ Σ λ_k |r_k − c|.
+    arm = 0.0
+    for k in range(s0, s0 + m):
+        dx = contacts[k, C_POINT] - cx
+        dy = contacts[k, C_POINT + 1] - cy
+        dz = contacts[k, C_POINT + 2] - cz
+        dn = dx * nx + dy * ny + dz * nz
+        arm += contacts[k, C_LAMBDA] * math.sqrt(max(dx * dx + dy * dy + dz * dz - dn * dn,
+                                                     0.0))
+    if arm > 0.0:
+        ix, iy, iz = _mat_vec(inv_inertia_w, a, nx, ny, nz)
+        kss = wa * (ix * nx + iy * ny + iz * nz)
+        if dyn_b:
+            ix, iy, iz = _mat_vec(inv_inertia_w, b, nx, ny, nz)
+            kss += wb * (ix * nx + iy * ny + iz * nz)
+        if kss > 0.0:
+            spin = vel[a, 3] * nx + vel[a, 4] * ny + vel[a, 5] * nz
+            if dyn_b:
+                spin -= vel[b, 3] * nx + vel[b, 4] * ny + vel[b, 5] * nz
+            old = patches[q, Q_MT]
+            new = old - spin / kss
+            cap = mu * arm
+            new = min(max(new, -cap), cap)
+            d = new - old
+            if d != 0.0:
+                patches[q, Q_MT] = new
+                mx, my, mz = d * nx, d * ny, d * nz
+                _apply(vel, inv_mass, inv_inertia_w, a, wa, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+                       mx, my, mz)
+                _record(wrench, a, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, mx, my, mz)
+                if dyn_b:
+                    _apply(vel, inv_mass, inv_inertia_w, b, -wb, 0.0, 0.0, 0.0, 0.0, 0.0,
+                           0.0, mx, my, mz)
+                    _record(wrench, b, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, mx, my, mz)
+                change = max(change, abs(d) * kss)
+    return change
+
+
+@_jit
+def _levels(patches, n_bodies):
+    """Contact-graph level of every body: 1 on a static object, k + 1 on level k; else big."""
+    big = n_bodies + 1
+    level = np.full(n_bodies, big, dtype=np.int64)
+    for q in range(patches.shape[0]):
+        if patches[q, Q_B] >= n_bodies:
+            level[int(patches[q, Q_A])] = 1
+    for _ in range(n_bodies):
+        moved = False
+        for q in range(patches.shape[0]):
+            a = int(patches[q, Q_A])
+            b = int(patches[q, Q_B])
+            if b >= n_bodies:
+                continue
+            if level[a] + 1 < level[b]:
+                level[b] = level[a] + 1
+                moved = True
+            elif level[b] + 1 < level[a]:
+                level[a] = level[b] + 1
+                moved = True
+        if not moved:
+            break
+    return level
+
+
+@_jit
+def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, shock):
+    """Gauss–Seidel sweeps over the patches, then (``shock``) one shock-propagation pass."""
+    for _ in range(SWEEPS):
+        change = 0.0
+        for q in range(patches.shape[0]):
+            change = max(change, solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w,
+                                             n_bodies, x, 1.0, 1.0, wrench, True))
+        if change <= VELOCITY_TOL_M_S:
+            break
+    if not shock or patches.shape[0] == 0:
+        return
+    level = _levels(patches, n_bodies)
+    low = np.empty(patches.shape[0], dtype=np.int64)
+    for q in range(patches.shape[0]):
+        a = int(patches[q, Q_A])
+        b = int(patches[q, Q_B])
+        low[q] = level[a] if b >= n_bodies else min(level[a], level[b])
+    for q in np.argsort(low, kind='mergesort'):
+        a = int(patches[q, Q_A])
+        b = int(patches[q, Q_B])
+        wa = 1.0
+        wb = 1.0
+        if b < n_bodies:
+            if level[a] < level[b]:
+                wa = 0.0
+            elif level[b] < level[a]:
+                wb = 0.0
+        solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wa, wb,
+                    wrench, True)
+
+
+@_jit
+def finish_contacts(contacts, patches):
+    """Give each point its share ``λ_k / Σλ`` of its patch's friction impulse."""
+    for q in range(patches.shape[0]):
+        s0 = int(patches[q, Q_START])
+        m = int(patches[q, Q_COUNT])
+        total = 0.0
+        for k in range(s0, s0 + m):
+            total += contacts[k, C_LAMBDA]
+        if total <= 0.0:
+            continue
+        for k in range(s0, s0 + m):
+            share = contacts[k, C_LAMBDA] / total
+            for d in range(3):
+                contacts[k, C_FRICTION + d] = share * patches[q, Q_FT + d]
+
+
+# ---------------------------------------------------------------------------------------------
+# The step.
+
+
+@_jit
+def contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi, h, phase,
+                  stage, shock, wrench, ws):
+    """
+    One detection-and-impulse stage on the velocities stored in ``x``; return the contacts.
+
+    ``geo`` is the shape table tuple (see :func:`world_step`), ``ws`` the per-body work arrays.
+    """
+    (kinds, sparams, pts, pt_off, ppts, ppt_off, pt_radius, bound_r, grid_data, grid_off,
+     grid_dim, mu, eps) = geo
+    vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, touched = ws
+    n = x.shape[1]
+    prepare_bodies(x, prm, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h)
+    pairs = broad_phase(x, pos_c, bound_r, n, st_kind, st_params, st_lo, st_hi, MARGIN_M)
+    contacts, patches = narrow_phase(
+        pairs, n, x, vel, rot, pos_c, rot_c, inv_mass, inv_inertia_w, st_rot, st_pos, kinds,
+        sparams, pts, pt_off, ppts, ppt_off, pt_radius, grid_data, grid_off, grid_dim, mu, eps,
+        h, phase, stage)
+    if patches.shape[0] == 0:
+        return contacts
+    touched[:] = False
+    for q in range(patches.shape[0]):
+        touched[int(patches[q, Q_A])] = True
+        if patches[q, Q_B] < n:
+            touched[int(patches[q, Q_B])] = True
+    solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n, x, wrench, shock)
+    finish_contacts(contacts, patches)
+    store_velocities(x, prm, vel, touched)
+    return contacts
+
+
+@_inl
+def _all_finite(x, i):
+    for k in range(N_STATE):
+        if not math.isfinite(x[k, i]):
+            return False
+    return True
+
+
+@_jit
+def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, ws):
+    """
+    Advance the world ``n_steps`` steps; return ``(steps done, contacts of the last step)``.
+
+    ``statics`` = ``(st_kind, st_params, st_rot, st_pos, st_lo, st_hi)``.  ``wrench`` (N, 6)
+    receives the net contact force and torque about each COM (world) averaged over the last
+    step.  A step that would leave any body non-finite is undone for every body (the world
+    stays at its last finite state) and the loop stops.
+    """
+    st_kind, st_params, st_rot, st_pos, st_lo, st_hi = statics
+    n = x.shape[1]
+    shared = prm.shape[1] == 1
+    saved = np.empty_like(x)
+    contacts = np.zeros((0, N_CONTACT))
+    done = 0
+    for _ in range(n_steps):
+        saved[:] = x
+        wrench[:] = 0.0
+        # Damping's exact flow, half before and half after the step (as the free kernel).
+        for i in range(n):
+            j = 0 if shared else i
+            cv, cw = prm[P_LIN_DAMPING, j], prm[P_ANG_DAMPING, j]
+            if cv != 0.0 or cw != 0.0:
+                dv, dw = math.exp(-0.5 * h * cv), math.exp(-0.5 * h * cw)
+                for k in range(3):
+                    x[S_VEL + k, i] *= dv
+                    x[S_OMEGA + k, i] *= dw
+        # 1. Collisions with restitution on the current velocities.
+        c0 = contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi, h,
+                           PHASE_COLLISION, 0, False, wrench, ws)
+        if method == kk.MIDPOINT_CAYLEY:
+            lmom = np.empty((n, 3))
+            # 2. First half kick.
+            for i in range(n):
+                j = 0 if shared else i
+                vx, vy, vz, lx, ly, lz = kk.midpoint_first_kick(
+                    prm, ld, i, j, h, x[0, i], x[1, i], x[2, i], x[3, i], x[4, i], x[5, i],
+                    x[6, i], x[7, i], x[8, i], x[9, i], x[10, i], x[11, i], x[12, i])
+                x[S_VEL, i], x[S_VEL + 1, i], x[S_VEL + 2, i] = vx, vy, vz
+                wx, wy, wz = kk._matvec(prm, P_INV_INERTIA, j, lx, ly, lz)
+                x[S_OMEGA, i], x[S_OMEGA + 1, i], x[S_OMEGA + 2, i] = wx, wy, wz
+                lmom[i, 0], lmom[i, 1], lmom[i, 2] = lx, ly, lz
+            # 3. Contacts on the kicked velocities.
+            c1 = contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi,
+                               h, PHASE_CONTACT, 1, True, wrench, ws)
+            touched = ws[6]
+            # 4. Drift; then the second half kick and its contact stage.
+            for i in range(n):
+                j = 0 if shared else i
+                if c1.shape[0] > 0 and touched[i]:
+                    lx, ly, lz = kk._matvec(prm, P_INERTIA, j, x[10, i], x[11, i], x[12, i])
+                else:
+                    lx, ly, lz = lmom[i, 0], lmom[i, 1], lmom[i, 2]
+                (px, py, pz, qw, qx, qy, qz, lx, ly, lz, wx, wy, wz,
+                 converged) = kk.midpoint_drift(prm, j, h, x[0, i], x[1, i], x[2, i], x[3, i],
+                                                x[4, i], x[5, i], x[6, i], x[7, i], x[8, i],
+                                                x[9, i], lx, ly, lz)
+                if not converged:
+                    px = math.nan
+                vx, vy, vz, wx, wy, wz = kk.midpoint_second_kick(
+                    prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, x[7, i], x[8, i], x[9, i],
+                    lx, ly, lz, wx, wy, wz)
+                x[0, i], x[1, i], x[2, i] = px, py, pz
+                x[3, i], x[4, i], x[5, i], x[6, i] = qw, qx, qy, qz
+                x[7, i], x[8, i], x[9, i] = vx, vy, vz
+                x[10, i], x[11, i], x[12, i] = wx, wy, wz
+            c2 = contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi,
+                               h, PHASE_CONTACT, 2, True, wrench, ws)
+            contacts = np.concatenate((c0, c1, c2))
+        else:
+            for i in range(n):
+                j = 0 if shared else i
+                vx, vy, vz, wx, wy, wz = kk.se_velocity(
+                    prm, ld, i, j, h, x[0, i], x[1, i], x[2, i], x[3, i], x[4, i], x[5, i],
+                    x[6, i], x[7, i], x[8, i], x[9, i], x[10, i], x[11, i], x[12, i])
+                x[7, i], x[8, i], x[9, i] = vx, vy, vz
+                x[10, i], x[11, i], x[12, i] = wx, wy, wz
+            c1 = contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi,
+                               h, PHASE_CONTACT, 1, True, wrench, ws)
+            for i in range(n):
+                px, py, pz, qw, qx, qy, qz = kk.se_position(
+                    method, h, x[0, i], x[1, i], x[2, i], x[3, i], x[4, i], x[5, i], x[6, i],
+                    x[7, i], x[8, i], x[9, i], x[10, i], x[11, i], x[12, i])
+                x[0, i], x[1, i], x[2, i] = px, py, pz
+                x[3, i], x[4, i], x[5, i], x[6, i] = qw, qx, qy, qz
+            contacts = np.concatenate((c0, c1))
+        for i in range(n):
+            j = 0 if shared else i
+            cv, cw = prm[P_LIN_DAMPING, j], prm[P_ANG_DAMPING, j]
+            if cv != 0.0 or cw != 0.0:
+                dv, dw = math.exp(-0.5 * h * cv), math.exp(-0.5 * h * cw)
+                for k in range(3):
+                    x[S_VEL + k, i] *= dv
+                    x[S_OMEGA + k, i] *= dw
+        ok = True
+        for i in range(n):
+            if not _all_finite(x, i):
+                ok = False
+                break
+        if not ok:
+            x[:] = saved
+            break
+        for i in range(n):
+            t[i] += dt_ns
+        done += 1
+    inv_h = 1.0 / h
+    for i in range(n):
+        for k in range(6):
+            wrench[i, k] *= inv_h
+    return done, contacts
