@@ -1,0 +1,234 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+:mod:`rbd_ros.ros_args` reads parameter overrides from ROS arguments as rcl and rclpy do.
+
+rclpy has no public accessor for them, so the node no longer reads rclpy's private
+``Node._parameter_overrides``; it must still see exactly what rclpy sees: which params-file
+sections apply to it (``/**``, namespaced and nested names, ``/*`` patterns, a remapped node
+name), in which order (a later file, a ``-p`` rule), and rcl's typing of every scalar. The
+node tests go through real node processes and ``ros2 param get``'s service call; the parser
+is also compared with rclpy itself (a node that declares its overrides, public API) and with
+the C library's ``strtol``/``strtod`` that rcl types scalars with.
+"""
+
+import array
+import ctypes
+import ctypes.util
+import math
+from pathlib import Path
+import subprocess
+import sys
+
+from rbd_ros import ros_args
+import rclpy
+from rclpy.context import Context
+from rclpy.node import Node
+
+REPO = Path(__file__).resolve().parents[2]
+
+
+def write(path, text):
+    """Write ``text`` to ``path``; return the path as a string."""
+    Path(path).write_text(text)
+    return str(path)
+
+
+# Argument lists whose overrides rclpy can declare (no [] value: it refuses NOT_SET).
+def _cases(tmp_path):
+    wildcard_and_node = write(tmp_path / 'a.yaml', """
+/**:
+  ros__parameters:
+    mass: 9
+    flag: Yes
+    hexadecimal: 0x10
+    octal: 010
+    not_octal: 08
+    exponent: 1e3
+    hex_double: 0x1p3
+    inf: .inf
+    minus_inf: -.Inf
+    underscores: 1_000
+    quoted: '5'
+    tilde: ~
+    nested:
+      a: 1
+      b:
+        c: x
+    doubles: [1.0, 2.5]
+/rigid_body_node:
+  ros__parameters:
+    mass: 2
+    strings: [a, 'b']
+rigid_body_node:
+  ros__parameters:
+    mass: 3
+    bools: [on, off]
+""")
+    sections = write(tmp_path / 'b.yaml', """
+ns:
+  deep:
+    rigid_body_node:
+      ros__parameters:
+        nested_form: 1
+/ns/*:
+  ros__parameters:
+    ns_star: 1
+/*:
+  ros__parameters:
+    root_star: 1
+/**/deep/rigid_body_node:
+  ros__parameters:
+    deep_anywhere: 1
+/*/*/*:
+  ros__parameters:
+    three: 1
+""")
+    return [
+        ['--ros-args', '--params-file', wildcard_and_node],
+        ['--ros-args', '--params-file', wildcard_and_node, '-p', 'mass:=2.5', '-p', 'mass:=4',
+         '-p', 'rigid_body_node:only_root:=1', '-p', 'text:=hello world'],
+        ['--ros-args', '-r', '__ns:=/ns', '--params-file', sections, '--params-file',
+         wildcard_and_node],
+        ['--ros-args', '-r', '__ns:=/ns/deep', '--params-file', sections, '-p', 'nested_form:=2'],
+        ['--ros-args', '-r', '__node:=other', '--params-file', wildcard_and_node],
+        ['prog', '-p', 'not_ros:=1', '--ros-args', '--log-level', 'warn', '-p', 'a:=[true, no]',
+         '-p', 'a:=[1, 2]', '-p', 'c:=5', '-p', 'c:=[1]', '-p', 'd:=[1]', '-p', 'd:=5', '-p',
+         'x:=1', '-p', 'x:=true', '-p', 'z:=1.5', '-p', 'z:=2', '-p', 'w:="s"', '-p', 'w:=2',
+         '--', 'not_ros:=2', '--ros-args', '-e', '/enclave', '-p', 'late:=0x1F'],
+    ]
+
+
+def _declared(context_args, cli_args=None):
+    """Return what rclpy itself declares from the overrides: its node name, name → value."""
+    context = Context()
+    rclpy.init(args=context_args, context=context)
+    try:
+        node = Node('rigid_body_node', context=context, cli_args=cli_args,
+                    automatically_declare_parameters_from_overrides=True)
+        names = node.list_parameters([], 0).names
+        values = {name: node.get_parameter(name).value for name in names
+                  if name not in ('use_sim_time', 'start_type_description_service')}
+        fqn = node.get_fully_qualified_name()
+        node.destroy_node()
+        return fqn, values
+    finally:
+        rclpy.try_shutdown(context=context)
+
+
+def _typed(values):
+    """Name → (type, value), a list for any array (rclpy may hold an array.array)."""
+    return {name: ('list', [(type(v).__name__, v) for v in value])
+            if isinstance(value, (list, tuple, array.array)) else (type(value).__name__, value)
+            for name, value in values.items()}
+
+
+def test_the_overrides_are_what_rclpy_declares_from_the_same_arguments(tmp_path):
+    # The same values, of the same types (rcl's typing, rcl's one-slot-per-type overriding),
+    # from the same sections, through the global arguments and a node's own cli_args.
+    for args in _cases(tmp_path):
+        fqn, declared = _declared(args)
+        ours = ros_args.node_overrides(fqn, global_args=args)
+        assert declared and _typed(ours) == _typed(declared), (args, fqn)
+    global_args, local_args = _cases(tmp_path)[0], ['--ros-args', '-r', '__ns:=/ns', '-p',
+                                                    'mass:=7', '--params-file',
+                                                    str(tmp_path / 'b.yaml')]
+    fqn, declared = _declared(global_args, local_args)
+    assert fqn == '/ns/rigid_body_node'
+    ours = ros_args.node_overrides(fqn, global_args=global_args, cli_args=local_args)
+    assert _typed(ours) == _typed(declared)
+    assert ros_args.node_overrides(fqn, global_args, local_args, use_global_arguments=False,
+                                   parameter_overrides={'mass': 1.5}) == {
+        'mass': 1.5, 'ns_star': 1}
+
+
+def test_an_empty_list_is_not_set_and_sets_nothing():
+    # What rclpy hands over for '-p inertia:=[]' (its NOT_SET, None); after a typed list, []
+    # leaves the list (rcl fills no slot).
+    assert ros_args.node_overrides('/rigid_body_node', ['--ros-args', '-p', 'inertia:=[]']) \
+        == {'inertia': None}
+    assert ros_args.node_overrides('/rigid_body_node', [
+        '--ros-args', '-p', 'inertia:=[1.0, 2.0]', '-p', 'inertia:=[]']) == {
+        'inertia': [1.0, 2.0]}
+
+
+def _libc():
+    libc = ctypes.CDLL(ctypes.util.find_library('c'), use_errno=True)
+    libc.strtol.restype = ctypes.c_long
+    libc.strtol.argtypes = [ctypes.c_char_p, ctypes.POINTER(ctypes.c_char_p), ctypes.c_int]
+    libc.strtod.restype = ctypes.c_double
+    libc.strtod.argtypes = [ctypes.c_char_p, ctypes.POINTER(ctypes.c_char_p)]
+    return libc
+
+
+def _c_typed(libc, text):
+    """Type an unquoted scalar as rcl's get_value() does, with the C library's numbers."""
+    if text in ('Y', 'y', 'yes', 'Yes', 'YES', 'true', 'True', 'TRUE', 'on', 'On', 'ON'):
+        return True
+    if text in ('N', 'n', 'no', 'No', 'NO', 'false', 'False', 'FALSE', 'off', 'Off', 'OFF'):
+        return False
+    data, end = text.encode(), ctypes.c_char_p()
+    ctypes.set_errno(0)
+    value = libc.strtol(data, ctypes.byref(end), 0)
+    if ctypes.get_errno() == 0 and data and end.value == b'':
+        return value
+    if text in ('.nan', '.NaN', '.NAN'):
+        return math.nan
+    if text.lstrip('+-') in ('.inf', '.Inf', '.INF'):
+        return -math.inf if text.startswith('-') else math.inf
+    ctypes.set_errno(0)
+    value = libc.strtod(data, ctypes.byref(end))
+    if ctypes.get_errno() == 0 and data and end.value == b'':
+        return value
+    return text
+
+
+SCALARS = [
+    '0', '-0', '00', '7', '+5', '-12', '0x10', '-0x1F', '010', '08', '09.5', '0x', '1_000',
+    '9223372036854775807', '9223372036854775808', '-9223372036854775808',
+    '-9223372036854775809', '1.', '.5', '.', '-', '1e3', '1E+3', '1e', '.e3', '1.5.5', '0x.8',
+    '0x1.', '0x1p3', '0X1P-3', '0x1p', '0x1.8p1', 'inf', '-inf', 'INF', 'Infinity', 'nan', 'NaN',
+    '-nan', 'nan(abc)', 'nan()', '.inf', '-.Inf', '+.INF', '.nan', '.NaN', '1e400', '1e-400',
+    '1e-320', '2e-323', '0x1p-1074', '0x1p-1080', '2.2250738585072014e-308', '0e-400',
+    '4.9406564584124654e-324', 'yes', 'Off', 'TRUE', 'tRue', 'y', 'abc', ' 7', '7 ', '12\n',
+    '1,5', '\u0663', '~', 'null',
+]
+
+
+def test_scalars_are_typed_as_rcl_types_them_with_the_c_library():
+    libc = _libc()
+    for text in SCALARS:
+        ours, theirs = ros_args.scalar_value(text), _c_typed(libc, text)
+        same = type(ours) is type(theirs) and (ours == theirs or (
+            isinstance(ours, float) and math.isnan(ours) and math.isnan(theirs)))
+        assert same, (text, ours, theirs)
+    assert ros_args.scalar_value('5', quoted=True) == '5'
+    assert ros_args.scalar_value('yes', quoted=True) == 'yes'
+
+
+def test_the_ros_args_sections_are_read_in_order():
+    rules = list(ros_args.ros_rules([
+        'prog', '-p', 'a:=1', '--params-file', 'x', '--ros-args', '-r', '-p', '--param',
+        'b:=2', '--log-level', 'warn', '--params-file', 'f.yaml', '--', '-p', 'c:=3',
+        '--ros-args', '--ros-args', '-p', 'd:=4', '-p']))
+    assert rules == [('param', 'b:=2'), ('file', 'f.yaml'), ('param', 'd:=4')]
+
+
+def test_the_overrides_module_does_not_import_rclpy():
+    code = ('import sys\nimport rbd_ros.ros_args\n'
+            'print(sorted(m for m in sys.modules if m.split(".")[0] == "rclpy"))\n')
+    proc = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                          cwd=REPO, timeout=120)
+    assert proc.returncode == 0 and proc.stdout.strip() == '[]', (proc.stdout, proc.stderr)
