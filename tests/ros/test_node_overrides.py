@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-:mod:`rbd_ros.ros_args` reads parameter overrides from ROS arguments as rcl and rclpy do.
+The node reads its parameter overrides from its ROS arguments itself (:mod:`rbd_ros.ros_args`).
 
 rclpy has no public accessor for them, so the node no longer reads rclpy's private
 ``Node._parameter_overrides``; it must still see exactly what rclpy sees: which params-file
@@ -33,17 +33,111 @@ import subprocess
 import sys
 
 from rbd_ros import ros_args
+from rcl_interfaces.srv import GetParameters
 import rclpy
 from rclpy.context import Context
 from rclpy.node import Node
+from rclpy.parameter import parameter_value_to_python
+from ros_probe import Probe
 
 REPO = Path(__file__).resolve().parents[2]
+
+
+def get_values(namespace, node_name, names):
+    """``ros2 param get <namespace>/<node_name> <name>`` for each name: name → value."""
+    probe = Probe(namespace, inputs=(), outputs=())
+    try:
+        client = probe.node.create_client(GetParameters, f'{node_name}/get_parameters')
+        probe.wait(client.service_is_ready, 60.0, f'{node_name}/get_parameters')
+        future = client.call_async(GetParameters.Request(names=list(names)))
+        probe.wait(future.done, 20.0, 'the get_parameters response')
+        values = future.result().values
+    finally:
+        probe.close()
+    assert len(values) == len(names), values
+    return {name: parameter_value_to_python(value) for name, value in zip(names, values)}
 
 
 def write(path, text):
     """Write ``text`` to ``path``; return the path as a string."""
     Path(path).write_text(text)
     return str(path)
+
+
+def test_params_file_sections_apply_as_rclpy_applies_them(start_node, tmp_path):
+    # Wildcard /**, a namespaced node name, the nested namespace form, /**/name and /ns/*
+    # patterns apply; /* (root namespace only) does not; a later file and a later -p rule win
+    # over a /** value; a namespaced section that comes after /** wins over it.
+    namespace = f'/rbd_overrides_{id(tmp_path) % 100000}'
+    first = write(tmp_path / 'first.yaml', f"""
+/**:
+  ros__parameters:
+    body_frame: wildcard_body
+    world_frame: first_file_world
+    max_force_n: 100.0
+    max_torque_nm: 300.0
+{namespace}/rigid_body_node:
+  ros__parameters:
+    body_frame: namespaced_body
+/*:
+  ros__parameters:
+    linear_damping: 0.5
+{namespace[1:]}:
+  rigid_body_node:
+    ros__parameters:
+      angular_damping: 0.25
+/**/rigid_body_node:
+  ros__parameters:
+    wrench_timeout_s: 0.75
+{namespace}/*:
+  ros__parameters:
+    not_a_parameter: 1
+""")
+    second = write(tmp_path / 'second.yaml', """
+/**:
+  ros__parameters:
+    world_frame: second_file_world
+""")
+    node = start_node(namespace=namespace, extra_args=[
+        '--params-file', first, '--params-file', second, '-p', 'max_force_n:=200.0'])
+    expected = {'body_frame': 'namespaced_body', 'world_frame': 'second_file_world',
+                'max_force_n': 200.0, 'max_torque_nm': 300.0, 'linear_damping': 0.0,
+                'angular_damping': 0.25, 'wrench_timeout_s': 0.75}
+    assert get_values(namespace, 'rigid_body_node', expected) == expected
+    assert 'ignoring unknown parameter not_a_parameter = 1' in node.stderr, node.stderr
+    assert node.stop() == 0, node.stderr
+
+
+def test_a_node_name_remap_changes_which_section_applies(start_node, tmp_path):
+    namespace = f'/rbd_remap_{id(tmp_path) % 100000}'
+    params = write(tmp_path / 'params.yaml', f"""
+{namespace}/rigid_body_node:
+  ros__parameters:
+    body_frame: not_for_body_b
+    mass_kg: 5.0
+{namespace}/body_b:
+  ros__parameters:
+    body_frame: for_body_b
+    mass_kg: 7.0
+""")
+    node = start_node(namespace=namespace,
+                      extra_args=['-r', '__node:=body_b', '--params-file', params])
+    expected = {'body_frame': 'for_body_b', 'mass_kg': 7.0}
+    assert get_values(namespace, 'body_b', expected) == expected
+    assert node.stop() == 0, node.stderr
+
+
+def test_a_bad_value_in_a_namespaced_section_gives_one_line_and_exit_2(start_node, tmp_path):
+    namespace = '/rbd_bad_section'
+    params = write(tmp_path / 'params.yaml', f"""
+{namespace}/rigid_body_node:
+  ros__parameters:
+    mass_kg: -2.0
+""")
+    node = start_node(namespace=namespace, extra_args=['--params-file', params])
+    assert node.wait(60) == 2, node.stderr
+    lines = [line for line in node.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and 'parameter mass_kg = -2.0 kg' in lines[0], lines
 
 
 # Argument lists whose overrides rclpy can declare (no [] value: it refuses NOT_SET).
@@ -224,6 +318,15 @@ def test_the_ros_args_sections_are_read_in_order():
         'b:=2', '--log-level', 'warn', '--params-file', 'f.yaml', '--', '-p', 'c:=3',
         '--ros-args', '--ros-args', '-p', 'd:=4', '-p']))
     assert rules == [('param', 'b:=2'), ('file', 'f.yaml'), ('param', 'd:=4')]
+
+
+def test_no_private_rclpy_attribute_is_read_for_the_overrides():
+    # Issue 8 item 8: no private API of a dependency.
+    found = [f'{path.relative_to(REPO)}:{number}'
+             for path in sorted((REPO / 'rbd_ros').rglob('*.py'))
+             for number, line in enumerate(path.read_text().splitlines(), 1)
+             if '_parameter_overrides' in line]
+    assert found == [], found
 
 
 def test_the_overrides_module_does_not_import_rclpy():
