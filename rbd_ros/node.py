@@ -172,9 +172,8 @@ class RigidBodyNode(Node):
                 self.get_fully_qualified_name(), global_args, kwargs.get('cli_args'),
                 kwargs.get('use_global_arguments', True),
                 {p.name: p.value for p in kwargs.get('parameter_overrides') or ()})
-        except OSError as exc:  # rcl read the file moments ago: it went away since
-            raise ConfigError(f'--params-file {exc.filename}: cannot read it again '
-                              f'({exc.strerror})') from None
+        except ros_args.RosArgsError as exc:  # rcl read the same moments ago
+            raise ConfigError(str(exc)) from None
 
     def _publisher(self, msg_type, topic, qos):
         # A profile of its own for each publisher: rclpy writes the overrides into it.

@@ -79,6 +79,10 @@ _C_DOUBLE = re.compile(_SPACE + r'(?P<sign>[+-]?)(?:(?P<special>(?i:inf(?:inity)
                        r'|(?P<dec>(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?))')
 
 
+class RosArgsError(ValueError):
+    """A params file or ``-p`` rule that cannot be read (one line, naming it)."""
+
+
 def ros_rules(args):
     """
     Yield the parameter rules of ``args`` in order: ``('param', rule)`` or ``('file', path)``.
@@ -194,15 +198,23 @@ class ParameterStore:
         """Apply a ``-p`` rule ``[node:]name:=yaml value`` (node defaults to ``/**``)."""
         target, _, text = rule.partition(':=')
         node_name, _, name = target.rpartition(':')
-        documents = list(yaml.compose_all(text, Loader=_LOADER))
+        try:
+            documents = list(yaml.compose_all(text, Loader=_LOADER))
+        except yaml.YAMLError as exc:
+            raise RosArgsError(f'-p {rule}: not a YAML value ({_one_line(exc)})') from None
         self._slots(node_name or '/**', name)
         for document in documents:
             self.set_node(node_name or '/**', name, document)
 
     def add_file(self, path):
         """Apply a ROS 2 parameters file."""
-        with open(path, 'rb') as stream:
-            documents = list(yaml.compose_all(stream, Loader=_LOADER))
+        try:
+            with open(path, 'rb') as stream:
+                documents = list(yaml.compose_all(stream, Loader=_LOADER))
+        except OSError as exc:
+            raise RosArgsError(f'--params-file {path}: cannot read it ({exc.strerror})') from None
+        except yaml.YAMLError as exc:
+            raise RosArgsError(f'--params-file {path}: not YAML ({_one_line(exc)})') from None
         for document in documents:
             if isinstance(document, yaml.MappingNode):
                 self._add_sections((), document)
@@ -231,6 +243,10 @@ class ParameterStore:
                 for name, slots in params.items():
                     merged[name] = slot_value(slots)
         return merged
+
+
+def _one_line(exc):
+    return ' '.join(str(exc).split())
 
 
 def _scalar(node):
@@ -274,7 +290,9 @@ def node_overrides(node_fqn, global_args=None, cli_args=None, use_global_argumen
     :param cli_args: the node's own arguments (``Node(cli_args=...)``).
     :param use_global_arguments: as ``Node(use_global_arguments=...)``.
     :param parameter_overrides: name → value given to ``Node(parameter_overrides=...)``.
-    :raises OSError: if a params file that rcl read cannot be read again.
+    :raises RosArgsError: if a params file cannot be read or a value is not YAML (rcl refuses
+        both first, so only if a file changed since, or ``global_args`` are not the arguments
+        that ``rclpy.init`` got).
     """
     merged = {}
     if use_global_arguments:

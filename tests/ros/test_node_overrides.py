@@ -32,7 +32,10 @@ from pathlib import Path
 import subprocess
 import sys
 
+import pytest
 from rbd_ros import ros_args
+from rbd_ros.core import ConfigError
+from rbd_ros.node import RigidBodyNode
 from rcl_interfaces.srv import GetParameters
 import rclpy
 from rclpy.context import Context
@@ -318,6 +321,26 @@ def test_the_ros_args_sections_are_read_in_order():
         'b:=2', '--log-level', 'warn', '--params-file', 'f.yaml', '--', '-p', 'c:=3',
         '--ros-args', '--ros-args', '-p', 'd:=4', '-p']))
     assert rules == [('param', 'b:=2'), ('file', 'f.yaml'), ('param', 'd:=4')]
+
+
+def test_arguments_that_rcl_did_not_read_give_one_line_naming_them(tmp_path):
+    # In process, global_args may differ from what rclpy.init got (which validated its own):
+    # a missing or broken params file, or a -p value that is not YAML, is one ConfigError line.
+    broken = write(tmp_path / 'broken.yaml', '/**:\n  ros__parameters:\n    mass_kg: [1.0\n')
+    context = Context()
+    rclpy.init(args=[], context=context)
+    try:
+        for args, texts in [
+                (['--params-file', str(tmp_path / 'missing.yaml')],
+                 ['--params-file', 'missing.yaml', 'cannot read it']),
+                (['--params-file', broken], ['--params-file', 'broken.yaml', 'not YAML']),
+                (['-p', 'mass_kg:=[1.0'], ['-p mass_kg:=[1.0', 'not a YAML value'])]:
+            with pytest.raises(ConfigError) as raised:
+                RigidBodyNode(['--ros-args', *args], context=context)
+            message = str(raised.value)
+            assert '\n' not in message and all(text in message for text in texts), message
+    finally:
+        rclpy.try_shutdown(context=context)
 
 
 def test_no_private_rclpy_attribute_is_read_for_the_overrides():
