@@ -18,8 +18,9 @@
 Time is sim time. (:mod:`rbd_ros.demo` is the other rclpy code: a client of this node.)
 Everything else lives in rclpy-free modules: :mod:`rbd_ros.config` (parameters),
 :mod:`rbd_ros.session` (stepping, wrench hold and expiry, publish schedule),
-:mod:`rbd_ros.outputs` (a sample's messages as CDR bytes, published and recorded alike) and
-:mod:`rbd_ros.conversions` (the other messages). The wall clock only paces the fixed physics
+:mod:`rbd_ros.outputs` (a sample's messages as CDR bytes, published and recorded alike),
+:mod:`rbd_ros.conversions` (the other messages) and :mod:`rbd_ros.ros_args` (the parameter
+overrides in the ROS arguments). The wall clock only paces the fixed physics
 step: the sim time due is ``sim_anchor + (wall_now - wall_anchor) * real_time_factor`` against
 an absolute wall anchor (re-anchored on pause, reset and a change of the factor), so pacing
 error does not accumulate; at most :data:`MAX_STEPS_PER_TICK` steps run per tick, and a larger
@@ -45,6 +46,7 @@ if __name__ == '__main__' or os.path.basename(sys.argv[0]) == 'rigid_body_node':
 from rbd_ros import config as cfg
 from rbd_ros import conversions as conv
 from rbd_ros import outputs
+from rbd_ros import ros_args
 from rbd_ros.core import ConfigError, jitcache, NonFiniteError, RbdError, RecordingError
 from rbd_ros.inputs import WrenchRejected
 from rbd_ros.session import SimSession
@@ -91,12 +93,18 @@ def _rcl_text(exc):
 class RigidBodyNode(Node):
     """Simulate one rigid body; see the README for parameters, topics and services."""
 
-    def __init__(self, **kwargs):
+    def __init__(self, global_args=None, **kwargs):
+        """
+        Create the node; ``global_args`` are the arguments given to ``rclpy.init`` (None: argv).
+
+        The other keyword arguments are :class:`rclpy.node.Node`'s.
+        """
         super().__init__('rigid_body_node', **kwargs)
         # Validate the overrides ourselves first so that a bad value gives our one-line message
         # (rclpy would reject an out-of-range value with its own), then declare the validated
-        # values. rclpy has no public accessor for the overrides before declaration.
-        overrides = {name: p.value for name, p in self._parameter_overrides.items()}
+        # values. rclpy has no public accessor for the overrides before declaration: they are
+        # read from the same arguments, as rcl and rclpy read them (rbd_ros.ros_args).
+        self._overrides = overrides = self._read_overrides(global_args, kwargs)
         params = {}
         for name, value in overrides.items():
             if name in cfg.PARAMETERS_BY_NAME or name.startswith('wrench_inputs.'):
@@ -136,7 +144,7 @@ class RigidBodyNode(Node):
             qos_overriding_options=QOS_OVERRIDES) for spec in config.wrench_inputs]
         if config.publish_tf and 'tf' not in self._builder.kinds:
             self.get_logger().info('tf2_msgs is not importable: not broadcasting /tf')
-        for name in self._parameter_overrides:
+        for name in overrides:
             if name.startswith('qos_overrides.') and not self.has_parameter(name):
                 self.get_logger().warning(
                     f'ignoring {name}: no endpoint of this node has that topic and policy '
@@ -157,6 +165,16 @@ class RigidBodyNode(Node):
         self._anchor()  # sim time 0 = now: pacing starts when the node is ready
         self._diag_last = (time.monotonic_ns(), 0, 0)
 
+    def _read_overrides(self, global_args, kwargs):
+        """Return name → value of this node's parameter overrides (rclpy's precedence)."""
+        try:
+            return ros_args.node_overrides(
+                self.get_fully_qualified_name(), global_args, kwargs.get('cli_args'),
+                kwargs.get('use_global_arguments', True),
+                {p.name: p.value for p in kwargs.get('parameter_overrides') or ()})
+        except ros_args.RosArgsError as exc:  # rcl read the same moments ago
+            raise ConfigError(str(exc)) from None
+
     def _publisher(self, msg_type, topic, qos):
         # A profile of its own for each publisher: rclpy writes the overrides into it.
         qos = QoSProfile(**qos) if isinstance(qos, dict) else qos
@@ -166,13 +184,13 @@ class RigidBodyNode(Node):
     def _qos_checked(self, topic, kind, create, *args, **kwargs):
         """Create an endpoint; a bad ``qos_overrides.<topic>.<kind>.*`` value is a ConfigError."""
         prefix = f'qos_overrides.{self.resolve_topic_name(topic)}.{kind}.'
-        depth = self._parameter_overrides.get(prefix + 'depth')
-        if depth is not None and isinstance(depth.value, int) and depth.value < 0:
-            raise ConfigError(f'parameter {prefix}depth = {depth.value}: must be >= 0')
+        depth = self._overrides.get(prefix + 'depth')
+        if isinstance(depth, int) and depth < 0:
+            raise ConfigError(f'parameter {prefix}depth = {depth}: must be >= 0')
         try:
             return create(*args, **kwargs)
         except (RuntimeError, ParameterException) as exc:  # rclpy's RCLError among them
-            given = {name[len(prefix):]: p.value for name, p in self._parameter_overrides.items()
+            given = {name[len(prefix):]: value for name, value in self._overrides.items()
                      if name.startswith(prefix)}
             raise ConfigError(f'parameters {prefix}* = {given}: {_rcl_text(exc)}') from None
 
@@ -512,7 +530,7 @@ def main(args=None):
         print(f'rigid_body_node: {error}', file=sys.stderr, flush=True)
         sys.exit(2)
     try:
-        node = RigidBodyNode()
+        node = RigidBodyNode(args)
     except RbdError as exc:
         print(f'rigid_body_node: {exc}', file=sys.stderr, flush=True)
         rclpy.try_shutdown()
