@@ -1,0 +1,137 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Contact benchmark (issue 9): the analytic cases and the step cost, ours | MuJoCo | PyBullet.
+
+``.venv/bin/python tests/benchmarks/bench_contact.py [--quick] [--only CASE]
+[--pybullet-no-damping]`` (not collected by pytest; prints only).
+
+One table per case (scenes, pair rules and what each figure means: ``contact_refs.py``), each
+at h = 1 ms and 10 ms (the step costs at 1 ms), with the exact value where the physics has one
+and a column per engine, all measured in this run. MuJoCo and PyBullet are benchmark-only
+extras (``pip install -r tests/benchmarks/requirements.txt``); a column whose engine is not
+installed says so. ``--quick``: 2 s instead of 10 s for the slope hold and the stacks, shorter
+timing runs, and the cost per body at 100 and 1000 boxes only. Timings are medians of several
+runs; the load average printed with them says how busy the shared machine was.
+"""
+
+import argparse
+import math
+import os
+import sys
+import time
+
+import contact_refs
+
+# Our simulator's column: ``{case_name: fn(h_s, quick) -> dict}`` with the keys of the
+# reference cases, e.g. ``contact_refs.measurements(OursWorld)`` for a world class of ours
+# with the interface of ``contact_refs.MujocoWorld``. Empty until our contact step exists.
+OURS = {}
+
+VALUE_WIDTH = 17
+
+
+def fmt(value):
+    """Format a figure for a cell: 5 significant digits, exponent form when tiny or huge."""
+    if isinstance(value, str):
+        return value
+    if value is None:
+        return '-'
+    if math.isnan(value):
+        return 'nan'
+    if value == 0.0 or 1e-3 <= abs(value) < 1e6:
+        return f'{value:.5g}'
+    return f'{value:.3e}'
+
+
+def columns(no_damping):
+    """``[(title, {case: fn} or a reason string)]``: ours, then each engine."""
+    cols = [('ours', OURS)]
+    engines = list(contact_refs.ENGINES.items())
+    if no_damping:
+        engines.append(('PyBullet, damping 0', ('pybullet', contact_refs.BulletWorldNoDamping)))
+    for name, (module, world_cls) in engines:
+        version = contact_refs.engine_version(module)
+        if version is None:
+            cols.append((name, 'not installed'))
+        else:
+            title = name if ',' in name else f'{name} {version}'
+            cols.append((title, contact_refs.measurements(world_cls)))
+    return cols
+
+
+def measure(registry, case, h_s, quick):
+    """One cell: the figures of ``case``, or a one-line reason instead of them."""
+    if isinstance(registry, str):
+        return registry
+    if case not in registry:
+        return 'not implemented'
+    try:
+        return registry[case](h_s, quick)
+    except Exception as exc:  # one engine failing must not hide the others' figures
+        return f'failed: {type(exc).__name__}: {exc}'.splitlines()[0][:60]
+
+
+def print_case(case, cols, quick):
+    """Measure ``case`` at each of its time steps in every column; print its table."""
+    title = contact_refs.TITLES[case]
+    load = os.getloadavg()
+    print(f'\n{case}: {title} (load average {load[0]:.2f} {load[1]:.2f} {load[2]:.2f})',
+          flush=True)
+    exact = contact_refs.EXACT.get(case, {})
+    head = ['h', 'figure', 'exact'] + [title for title, _ in cols]
+    widths = [6, 24] + [VALUE_WIDTH] * (len(head) - 2)
+    print('  ' + ''.join(h.ljust(w) for h, w in zip(head, widths)).rstrip())
+    for h_s in contact_refs.STEPS_S[case]:
+        t = time.perf_counter()
+        cells = [measure(registry, case, h_s, quick) for _, registry in cols]
+        keys = []
+        for cell in cells + [exact]:
+            if isinstance(cell, dict):
+                keys += [k for k in cell if k not in keys]
+        label = f'{h_s * 1e3:g} ms'
+        if not keys:
+            print('  ' + label.ljust(6) + '-'.ljust(24) + '-'.ljust(VALUE_WIDTH)
+                  + ''.join(c.ljust(VALUE_WIDTH) for c in cells).rstrip())
+        for key in keys:
+            row = [label, key, fmt(exact.get(key))]
+            row += [fmt(c.get(key)) if isinstance(c, dict) else c for c in cells]
+            print('  ' + ''.join(v.ljust(w) for v, w in zip(row, widths)).rstrip())
+            label = ''
+        print(f'  ({time.perf_counter() - t:.1f} s)', flush=True)
+
+
+def main():
+    parser = argparse.ArgumentParser(description='contact benchmark: ours, MuJoCo, PyBullet')
+    parser.add_argument('--quick', action='store_true', help='shorter runs (a smoke run)')
+    parser.add_argument('--only', choices=list(contact_refs.CASES), action='append',
+                        help='run only these cases (repeatable)')
+    parser.add_argument('--pybullet-no-damping', action='store_true',
+                        help='add a PyBullet column with its default damping 0.04 set to 0')
+    args = parser.parse_args()
+    load = os.getloadavg()
+    print(f'contact benchmark, g = {contact_refs.G} m/s^2; load average {load[0]:.2f} '
+          f'{load[1]:.2f} {load[2]:.2f} on {os.cpu_count()} CPUs; one thread per engine'
+          f'{"; --quick" if args.quick else ""}')
+    cols = columns(args.pybullet_no_damping)
+    for name, (module, world_cls) in contact_refs.ENGINES.items():
+        if contact_refs.installed(module):
+            print(f'  {name}: {world_cls.notes}')
+    for case in args.only or contact_refs.CASES:
+        print_case(case, cols, args.quick)
+
+
+if __name__ == '__main__':
+    sys.exit(main())
