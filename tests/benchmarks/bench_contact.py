@@ -33,12 +33,78 @@ import os
 import sys
 import time
 
-import contact_refs
+from bench_env import REPO  # noqa: F401, I100 (first: puts the source tree on sys.path)
+import contact_refs  # noqa: I100
+import numpy as np
+from rbd_ros.core import layout
+from rbd_ros.core.contact import ground_plane, Material, primitive_shape, StaticWorld
+from rbd_ros.core.contact.simulator import WorldBody, WorldSimulator
+from rbd_ros.core.model import BodyModel
+from rbd_ros.core.rotations import quat_to_matrix
+from rbd_ros.core.state import BodyState
+
+
+
+class OursWorld:
+    """Our :class:`WorldSimulator` behind the interface of ``contact_refs.MujocoWorld``."""
+
+    name = 'ours'
+    notes = 'rbd_ros WorldSimulator, midpoint_cayley (kick-drift-kick), one thread'
+
+    def __init__(self, scene):
+        self.scene = scene
+        ground = ground_plane(material=Material(scene.mu, scene.restitution))
+        bodies, states = [], []
+        for k, b in enumerate(scene.bodies):
+            dims = [b.size_m] * 3 if b.shape == 'box' else [b.size_m]
+            shape = primitive_shape(b.shape, dims)
+            model = BodyModel(b.mass_kg, shape.mass_properties(b.mass_kg).inertia_b,
+                              gravity_w=scene.gravity_w)
+            bodies.append(WorldBody(f'b{k}', model, shape,
+                                    Material(scene.mu, scene.restitution)))
+            states.append(BodyState(position_w=b.position_w))
+        self.sim = WorldSimulator(bodies, states, StaticWorld(ground),
+                                  timestep_ns=round(scene.h_s * 1e9))
+
+    def step(self, n):
+        self.sim.step(n)
+
+    def state(self):
+        x, _ = self.sim.arrays
+        quat = x[layout.S_QUAT:layout.S_QUAT + 4].T
+        return (x[layout.S_POS:layout.S_POS + 3].T.copy(),
+                x[layout.S_VEL:layout.S_VEL + 3].T.copy(),
+                contact_refs._rotate(quat, x[layout.S_OMEGA:layout.S_OMEGA + 3].T))
+
+    def set_gravity(self, gravity_w):
+        self.sim.set_gravity_w(gravity_w)
+
+    def set_velocity(self, i, velocity_w, omega_w):
+        states = [self.sim.body_state(k) for k in range(self.sim.size)]
+        old = states[i]
+        omega_b = contact_refs._rotate(old.orientation_wb[None], np.array([omega_w], float),
+                                       True)[0]
+        states[i] = BodyState(old.position_w, old.orientation_wb, velocity_w, omega_b,
+                              old.time_ns)
+        self.sim.reset(states)
+
+    def penetration_m(self):
+        x, _ = self.sim.arrays
+        deepest = 0.0
+        for k, b in enumerate(self.scene.bodies):
+            shape = self.sim.bodies[k].shape
+            rot = quat_to_matrix(x[layout.S_QUAT:layout.S_QUAT + 4, k])
+            low = (shape.points_b @ rot.T)[:, 2].min() + x[layout.S_POS + 2, k]
+            deepest = max(deepest, -low)
+        return deepest
+
+    def close(self):
+        pass
+
 
 # Our simulator's column: ``{case_name: fn(h_s, quick) -> dict}`` with the keys of the
-# reference cases, e.g. ``contact_refs.measurements(OursWorld)`` for a world class of ours
-# with the interface of ``contact_refs.MujocoWorld``. Empty until our contact step exists.
-OURS = {}
+# reference cases.
+OURS = contact_refs.measurements(OursWorld)
 
 VALUE_WIDTH = 17
 

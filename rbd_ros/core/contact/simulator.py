@@ -34,7 +34,8 @@ from rbd_ros.core.contact import step as cs
 from rbd_ros.core.contact.shapes import CollisionShape
 from rbd_ros.core.contact.world import (check_overlaps, DEFAULT_OVERLAP_TOLERANCE_M, Material,
                                         StaticWorld)
-from rbd_ros.core.errors import ConfigError, ModelError, NonFiniteError
+from rbd_ros.core import layout
+from rbd_ros.core.errors import ConfigError, finite_vector, ModelError, NonFiniteError
 from rbd_ros.core.integrators import DEFAULT_INTEGRATOR, integrator_info
 from rbd_ros.core.model import BodyModel
 from rbd_ros.core.rotations import quat_to_matrix
@@ -278,6 +279,11 @@ class WorldSimulator(BatchSimulator):
                 f'state: the step at t = {int(self._t[0])} ns would be non-finite (forces, '
                 f'velocities or spin too large for h = {self._timestep_ns} ns with '
                 f'{self.integrator}); the world was left at its last finite state')
+
+    def set_gravity_w(self, gravity_w) -> None:
+        """Set every body's gravitational acceleration (m/s², world) from the next step on."""
+        gravity = finite_vector(gravity_w, 'gravity_w', 'm/s²', error=ModelError)
+        self._params[layout.P_GRAVITY:layout.P_GRAVITY + 3, :] = gravity[:, None]
 
     @property
     def contacts(self) -> Contacts:

@@ -67,6 +67,8 @@ PHASE_COLLISION = 0
 PHASE_CONTACT = 1
 #: Candidate φ (m) below which a point is a (speculative) contact.
 MARGIN_M = 1e-3
+#: A point within this gap (m) of the other shape counts as touching now.
+TOUCH_M = 1e-5
 #: Share of a penetration depth the impulses remove per step, and the speed cap of that.
 PUSH_FRACTION = 0.2
 PUSH_MAX_M_S = 0.1
@@ -465,6 +467,30 @@ def _reduce(buf, count, keep):
 
 
 @_jit
+def _touching(buf, count, vel, x, a, b, n_bodies, h):
+    """
+    Keep the rows of ``buf`` that touch now (``φ_now <= TOUCH_M``); return their count.
+
+    The contact stage after ``midpoint_cayley``'s second half kick looks ahead over the next
+    step's drift, which the next step's collision stage (with restitution) looks at first: it
+    must not stop an approaching body early, so it keeps only the points in contact now.
+    """
+    kept = 0
+    for k in range(count):
+        px, py, pz = buf[k, 1], buf[k, 2], buf[k, 3]
+        ux, uy, uz = _point_velocity(vel, a, px - x[0, a], py - x[1, a], pz - x[2, a])
+        if b < n_bodies:
+            bx, by, bz = _point_velocity(vel, b, px - x[0, b], py - x[1, b], pz - x[2, b])
+            ux, uy, uz = ux - bx, uy - by, uz - bz
+        un0 = ux * buf[k, 4] + uy * buf[k, 5] + uz * buf[k, 6]
+        if buf[k, 0] - h * un0 <= TOUCH_M:
+            if kept != k:
+                buf[kept, :] = buf[k, :]
+            kept += 1
+    return kept
+
+
+@_jit
 def narrow_phase(pairs, n_bodies, x, vel, rot, pos_c, rot_c, inv_mass, inv_inertia_w,
                  st_rot, st_pos, kinds, sparams, pts, pt_off, ppts, ppt_off, pt_radius,
                  grid_data, grid_off, grid_dim, mu, eps, h, phase, stage):
@@ -508,6 +534,8 @@ def narrow_phase(pairs, n_bodies, x, vel, rot, pos_c, rot_c, inv_mass, inv_inert
                                   sparams, grid_data, grid_off, grid_dim, pose_r, pose_p,
                                   pose_rc, pose_pc, b, pose_r, pose_p, pose_rc, pose_pc, a,
                                   MARGIN_M, buf, count, -1.0)
+        if stage == 2:
+            count = _touching(buf, count, vel, x, a, b, n, h)
         if count == 0:
             continue
         _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off, grid_dim,
