@@ -44,7 +44,6 @@ from rbd_ros.core.rotations import quat_to_matrix
 from rbd_ros.core.state import BodyState
 
 
-
 class OursWorld:
     """Our :class:`WorldSimulator` behind the interface of ``contact_refs.MujocoWorld``."""
 

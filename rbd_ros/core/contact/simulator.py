@@ -29,12 +29,12 @@ from typing import Optional, Sequence
 
 import numpy as np
 
+from rbd_ros.core import layout
 from rbd_ros.core.contact import kernels as ck
 from rbd_ros.core.contact import step as cs
 from rbd_ros.core.contact.shapes import CollisionShape
 from rbd_ros.core.contact.world import (check_overlaps, DEFAULT_OVERLAP_TOLERANCE_M, Material,
                                         StaticWorld)
-from rbd_ros.core import layout
 from rbd_ros.core.errors import ConfigError, finite_vector, ModelError, NonFiniteError
 from rbd_ros.core.integrators import DEFAULT_INTEGRATOR, integrator_info
 from rbd_ros.core.model import BodyModel

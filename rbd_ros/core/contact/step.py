@@ -104,7 +104,10 @@ Q_MU = 4
 Q_FT = 5         # accumulated tangential friction impulse, world vector, 3
 Q_MT = 8         # accumulated torsional couple about the patch normal (N·m·s)
 Q_NORMAL = 9     # patch normal (unit, λ-weighted mean), 3
-N_PATCH = 12
+Q_CACHED = 12    # 1.0 once Q_K and Q_PINV hold this stage's normal response (both bodies free)
+Q_K = 13         # K_nn of the points, row-major PATCH_POINTS², fixed within a stage
+Q_PINV = 29      # its pseudo-inverse, the same layout
+N_PATCH = 45
 
 _jit = nb.njit(cache=kk.CACHE_DIR is not None, fastmath=False, nogil=True)
 _inl = nb.njit(cache=kk.CACHE_DIR is not None, fastmath=False, nogil=True, inline='always')
@@ -667,32 +670,16 @@ def _cross_response(inv_mass, inv_inertia_w, i, rlx, rly, rlz, dx, dy, dz, rkx, 
 
 
 @_jit
-def _solve_small(mat, rhs, active, m, out):
+def _eigh_small(a, p, v):
     """
-    Least-norm solution of ``mat[A, A] x = rhs[A]`` for the active rows ``A`` (others 0).
+    Diagonalise the symmetric ``a[:p, :p]`` in place by cyclic Jacobi rotations.
 
-    ``mat`` is symmetric positive semi-definite (a contact response).  Its eigenvectors come
-    from cyclic Jacobi rotations; eigenvalues below 1e-9 of the largest count as zero (the
-    pseudo-inverse).  Four coplanar points leave a rigid body's normal impulses
-    indeterminate along one direction; the least-norm solution shares the load
-    symmetrically instead of in an order-dependent way, and a nearly singular direction (a
-    normal tilted by round-off) cannot produce a huge impulse.
+    Afterwards ``a``'s diagonal holds the eigenvalues and ``v[:p, :p]``'s columns the
+    eigenvectors (Rutishauser's rotation formulas, no trigonometric functions).
     """
-    idx = np.empty(PATCH_POINTS, dtype=np.int64)
-    p = 0
-    for k in range(m):
-        out[k] = 0.0
-        if active[k]:
-            idx[p] = k
-            p += 1
-    if p == 0:
-        return
-    a = np.empty((p, p))
-    v = np.zeros((p, p))
     for r in range(p):
-        v[r, r] = 1.0
         for c in range(p):
-            a[r, c] = mat[idx[r], idx[c]]
+            v[r, c] = 1.0 if r == c else 0.0
     for _ in range(30):
         off = 0.0
         for r in range(p):
@@ -704,8 +691,12 @@ def _solve_small(mat, rhs, active, m, out):
             for c in range(r + 1, p):
                 if a[r, c] == 0.0:
                     continue
-                theta = 0.5 * math.atan2(2.0 * a[r, c], a[c, c] - a[r, r])
-                cs_, sn = math.cos(theta), math.sin(theta)
+                theta = (a[c, c] - a[r, r]) / (2.0 * a[r, c])
+                t = 1.0 / (abs(theta) + math.sqrt(theta * theta + 1.0))
+                if theta < 0.0:
+                    t = -t
+                cs_ = 1.0 / math.sqrt(t * t + 1.0)
+                sn = t * cs_
                 for k in range(p):
                     akr, akc = a[k, r], a[k, c]
                     a[k, r] = cs_ * akr - sn * akc
@@ -718,6 +709,35 @@ def _solve_small(mat, rhs, active, m, out):
                     vkr, vkc = v[k, r], v[k, c]
                     v[k, r] = cs_ * vkr - sn * vkc
                     v[k, c] = sn * vkr + cs_ * vkc
+
+
+@_jit
+def _pinv_small(mat, active, m, out):
+    """
+    Write the pseudo-inverse of ``mat[A, A]`` (active rows ``A``) into ``out`` (0 elsewhere).
+
+    ``mat`` is symmetric positive semi-definite (a contact response); eigenvalues below 1e-9
+    of the largest count as zero.  Four coplanar points leave a rigid body's normal impulses
+    indeterminate along one direction: the least-norm solution shares the load
+    symmetrically instead of in an order-dependent way, and a nearly singular direction (a
+    normal tilted by round-off) cannot produce a huge impulse.
+    """
+    idx = np.empty(PATCH_POINTS, dtype=np.int64)
+    p = 0
+    for k in range(m):
+        for jj in range(m):
+            out[k, jj] = 0.0
+        if active[k] != 0.0:
+            idx[p] = k
+            p += 1
+    if p == 0:
+        return
+    a = np.empty((PATCH_POINTS, PATCH_POINTS))
+    v = np.empty((PATCH_POINTS, PATCH_POINTS))
+    for r in range(p):
+        for c in range(p):
+            a[r, c] = mat[idx[r], idx[c]]
+    _eigh_small(a, p, v)
     top = 0.0
     for r in range(p):
         top = max(top, a[r, r])
@@ -727,28 +747,50 @@ def _solve_small(mat, rhs, active, m, out):
         sigma = a[e, e]
         if sigma <= 1e-9 * top:
             continue
-        proj = 0.0
         for r in range(p):
-            proj += v[r, e] * rhs[idx[r]]
-        coef = proj / sigma
-        for r in range(p):
-            out[idx[r]] += coef * v[r, e]
+            for c in range(p):
+                out[idx[r], idx[c]] += v[r, e] * v[c, e] / sigma
 
 
 @_jit
-def _normal_block(s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, wa, wb, wrench):
+def _solve_small(mat, rhs, active, m, out):
+    """Least-norm solution of ``mat[A, A] x = rhs[A]`` (:func:`_pinv_small`; others 0)."""
+    pinv = np.empty((PATCH_POINTS, PATCH_POINTS))
+    _pinv_small(mat, active, m, pinv)
+    for r in range(m):
+        acc = 0.0
+        for c in range(m):
+            acc += pinv[r, c] * rhs[c]
+        out[r] = acc
+
+
+@_jit
+def _normal_block(prow, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, wa, wb,
+                  wrench, scr):
     """
     Set the normal impulses of one patch exactly; return the largest Δu (m/s).
 
     The complementarity problem ``u_n >= bias, λ >= 0, λ (u_n − bias) = 0`` of its (at most
-    four) points is solved by trying every active set (:func:`_solve_small` for each).
+    four) points: the least-norm solution with every point active first (its response ``K``
+    and pseudo-inverse are computed once per stage and kept in the patch row ``prow``), then,
+    if that is not feasible, every other active set (:func:`_solve_small` for each).
     """
-    mat = np.empty((PATCH_POINTS, PATCH_POINTS))
-    free = np.empty(PATCH_POINTS)
+    # Scratch rows (no allocation per call): K, then u0, rhs, λ, best λ, active flags.
+    mat = scr[0:PATCH_POINTS]
+    free = scr[PATCH_POINTS]
+    rhs = scr[PATCH_POINTS + 1]
+    lam = scr[PATCH_POINTS + 2]
+    best = scr[PATCH_POINTS + 3]
+    active = scr[PATCH_POINTS + 4]
+    free_pair = wa == 1.0 and (not dyn_b or wb == 1.0)
+    cached = free_pair and prow[Q_CACHED] != 0.0
     for k in range(m):
         ck_ = contacts[s0 + k]
         nkx, nky, nkz = ck_[C_NORMAL], ck_[C_NORMAL + 1], ck_[C_NORMAL + 2]
         for jj in range(m):
+            if cached:
+                mat[k, jj] = prow[Q_K + PATCH_POINTS * k + jj]
+                continue
             cl = contacts[s0 + jj]
             nlx, nly, nlz = cl[C_NORMAL], cl[C_NORMAL + 1], cl[C_NORMAL + 2]
             v = wa * _cross_response(inv_mass, inv_inertia_w, a, cl[C_RA], cl[C_RA + 1],
@@ -765,30 +807,58 @@ def _normal_block(s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, wa
             ux, uy, uz = ux - bx, uy - by, uz - bz
         free[k] = ux * nkx + uy * nky + uz * nkz
     # Velocities without this patch's normal impulses: u0 = u − K λ.
-    rhs = np.empty(PATCH_POINTS)
     for k in range(m):
         acc = free[k]
         for jj in range(m):
             acc -= mat[k, jj] * contacts[s0 + jj, C_LAMBDA]
         free[k] = acc
         rhs[k] = contacts[s0 + k, C_BIAS] - acc
-    active = np.zeros(PATCH_POINTS, dtype=np.bool_)
-    lam = np.zeros(PATCH_POINTS)
-    best = np.zeros(PATCH_POINTS)
+    active[:] = 0.0
+    lam[:] = 0.0
+    best[:] = 0.0
+    if free_pair and not cached:
+        for k in range(m):
+            for jj in range(m):
+                prow[Q_K + PATCH_POINTS * k + jj] = mat[k, jj]
+        for k in range(m):
+            active[k] = 1.0
+        pinv = np.empty((PATCH_POINTS, PATCH_POINTS))
+        _pinv_small(mat, active, m, pinv)
+        for k in range(m):
+            for jj in range(m):
+                prow[Q_PINV + PATCH_POINTS * k + jj] = pinv[k, jj]
+        prow[Q_CACHED] = 1.0
+        cached = True
+    if cached:
+        # The full set from the kept pseudo-inverse; feasible means done.
+        feasible = True
+        for k in range(m):
+            acc = 0.0
+            for jj in range(m):
+                acc += prow[Q_PINV + PATCH_POINTS * k + jj] * rhs[jj]
+            lam[k] = acc
+            if acc < 0.0:
+                feasible = False
+        if feasible:
+            return _apply_normals(lam, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b,
+                                  dyn_b, wa, wb, wrench, mat)
     # Every active set in a fixed order; of the feasible ones (λ >= 0 on it, u_n >= bias off
     # it) the one with the least |λ| wins.  Where K is singular (coplanar points) several
     # are feasible with the same velocities; the least-norm one spreads the load evenly
     # instead of putting it on a diagonal pair, which would twist the bodies apart.
     chosen = -1
     least = math.inf
-    for mask in range(1, 1 << m):
+    # All points first: if that least-norm solution is feasible it is the answer (every
+    # solution has the same velocities, so it is the least-norm one of them all).
+    full = (1 << m) - 1
+    for mask in range(full, 0, -1):
         for k in range(m):
-            active[k] = (mask >> k & 1) == 1
+            active[k] = 1.0 if (mask >> k & 1) == 1 else 0.0
         _solve_small(mat, rhs, active, m, lam)
         ok = True
         norm = 0.0
         for k in range(m):
-            if active[k]:
+            if active[k] != 0.0:
                 norm += lam[k] * lam[k]
                 if lam[k] < 0.0:
                     ok = False
@@ -803,13 +873,23 @@ def _normal_block(s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, wa
         if ok and norm < least * (1.0 - 1e-12):
             least = norm
             chosen = mask
+            if mask == full:
+                break
     if chosen < 0:
         chosen = (1 << m) - 1   # round-off left none feasible: all, clamped below
     for k in range(m):
-        active[k] = (chosen >> k & 1) == 1
+        active[k] = 1.0 if (chosen >> k & 1) == 1 else 0.0
     _solve_small(mat, rhs, active, m, lam)
     for k in range(m):
         best[k] = max(lam[k], 0.0)
+    return _apply_normals(best, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b,
+                          wa, wb, wrench, mat)
+
+
+@_jit
+def _apply_normals(best, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, wa, wb,
+                   wrench, mat):
+    """Apply the change from the points' normal impulses to ``best``; return the largest Δu."""
     change = 0.0
     for k in range(m):
         c = contacts[s0 + k]
@@ -833,7 +913,7 @@ def _normal_block(s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, wa
 
 @_jit
 def solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wa, wb,
-                wrench, friction):
+                wrench, friction, scr):
     """
     Iterate the normal impulses and the friction of patch ``q``; return the largest Δu (m/s).
 
@@ -851,8 +931,8 @@ def solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x,
     for _ in range(PATCH_ITERATIONS):
         change = 0.0
         # Normal impulses: the patch's small LCP solved exactly (see _normal_block).
-        change = _normal_block(s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b,
-                               wa, wb, wrench)
+        change = _normal_block(patches[q], s0, m, contacts, vel, inv_mass, inv_inertia_w, a,
+                               b, dyn_b, wa, wb, wrench, scr)
         # Friction of the patch at its normal-impulse centre.
         total = 0.0
         cx = cy = cz = 0.0
@@ -1084,14 +1164,27 @@ def _levels(patches, n_bodies):
 @_jit
 def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, shock):
     """Gauss–Seidel sweeps over the patches, then (``shock``) one shock-propagation pass."""
-    for _ in range(SWEEPS):
+    scr = np.empty((PATCH_POINTS + 5, PATCH_POINTS))
+    # Patches that share no body are independent: each is solved to convergence by its own
+    # iterations, so one sweep is exact and shock propagation has nothing to order.
+    uses = np.zeros(n_bodies, dtype=np.int64)
+    coupled = False
+    for q in range(patches.shape[0]):
+        a = int(patches[q, Q_A])
+        b = int(patches[q, Q_B])
+        uses[a] += 1
+        coupled = coupled or uses[a] > 1
+        if b < n_bodies:
+            uses[b] += 1
+            coupled = coupled or uses[b] > 1
+    for _ in range(SWEEPS if coupled else 1):
         change = 0.0
         for q in range(patches.shape[0]):
             change = max(change, solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w,
-                                             n_bodies, x, 1.0, 1.0, wrench, True))
+                                             n_bodies, x, 1.0, 1.0, wrench, True, scr))
         if change <= VELOCITY_TOL_M_S:
             break
-    if not shock or patches.shape[0] == 0:
+    if not shock or not coupled:
         return
     level = _levels(patches, n_bodies)
     low = np.empty(patches.shape[0], dtype=np.int64)
@@ -1110,7 +1203,7 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
             elif level[b] < level[a]:
                 wb = 0.0
         solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wa, wb,
-                    wrench, True)
+                    wrench, True, scr)
 
 
 @_jit
