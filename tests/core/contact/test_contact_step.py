@@ -1,0 +1,444 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+
+"""
+The contact step against analytic answers: sliding, holding, rolling, bouncing, tipping.
+
+Every case runs at h = 1 ms and 10 ms with g = 9.81 m/s² and the default integrator
+(``midpoint_cayley``, kick–drift–kick) unless it says otherwise; the reference is the formula,
+computed here.  Each tolerance says where it comes from.  Measured figures are printed
+(``pytest -s``).
+"""
+
+import math
+
+from contact_scenes import (body, downhill, G, ground, kinetic_energy, momentum_w, on_slope,
+                            slope_normal, STEP_IDS, steps, STEPS_NS, tilt_rad, world)
+import numpy as np
+import pytest
+from rbd_ros.core.contact import Material, primitive_shape
+from rbd_ros.core.contact.shapes import plane_shape
+from rbd_ros.core.contact.simulator import WorldBody
+from rbd_ros.core.errors import ConfigError, ModelError
+from rbd_ros.core.loads import AppliedWrench, Spring
+from rbd_ros.core.model import BodyModel
+from rbd_ros.core.simulator import BatchSimulator, Simulator
+from rbd_ros.core.state import BodyState
+
+steps_ns = pytest.mark.parametrize('h_ns', STEPS_NS, ids=STEP_IDS)
+
+
+# ---------------------------------------------------------------------------------------------
+# 1. A box sliding to a stop on the floor.
+
+MU_SLIDE = 0.5
+V0 = 2.0
+
+
+def slide_to_stop(h_ns, integrator):
+    box = body('box', 'box', [0.2, 0.2, 0.2], material=(MU_SLIDE, 0.0))
+    sim = world([box], [BodyState(position_w=(0.0, 0.0, 0.1), linear_velocity_w=(V0, 0, 0))],
+                ground(material=(MU_SLIDE, 0.0)), h_ns, integrator)
+    # Run 0.1 s past the exact stopping time v0 / (μ g) = 0.408 s.
+    sim.step(steps(V0 / (MU_SLIDE * G) + 0.1, h_ns))
+    return sim.body_state(0)
+
+
+@steps_ns
+def test_box_slides_to_a_stop_at_the_exact_distance(h_ns):
+    state = slide_to_stop(h_ns, 'midpoint_cayley')
+    exact = V0 ** 2 / (2.0 * MU_SLIDE * G)
+    error = (state.position_w[0] - exact) / exact
+    print(f'\nslide stop h={h_ns} ns: x = {state.position_w[0]!r} m, exact {exact!r} m, '
+          f'error {error:+.3e}, |v| = {np.linalg.norm(state.linear_velocity_w):.3e} m/s, '
+          f'drift y = {state.position_w[1]:.3e} m')
+    # The issue's bound: 0.05 %.  Kick–drift–kick with friction in each half kick decelerates
+    # by exactly μ g over every whole step, so only the last (partial) step errs: O(h²).
+    assert abs(error) <= 5e-4
+    # Stopped: a sliding box would still move by μ g h >= 5e-3 m/s per step; 1e-9 m/s leaves
+    # room for round-off of the velocity sums (~1e-16 m/s per step).
+    assert np.linalg.norm(state.linear_velocity_w) < 1e-9
+    # Nothing pushes sideways: the y drift is round-off (~1e-18 m measured).
+    assert abs(state.position_w[1]) < 1e-9
+
+
+@steps_ns
+def test_box_slides_to_a_stop_first_order_with_symplectic_euler(h_ns):
+    state = slide_to_stop(h_ns, 'symplectic_euler_quat_exp')
+    exact = V0 ** 2 / (2.0 * MU_SLIDE * G)
+    error = state.position_w[0] - exact
+    print(f'\nslide stop SE h={h_ns} ns: x = {state.position_w[0]!r} m, error {error:+.3e} m '
+          f'(v0 h = {V0 * h_ns * 1e-9:.3e} m)')
+    # Symplectic Euler moves with the velocity after each kick: x = h Σ_k (v0 − k μ g h), which
+    # falls short of v0²/(2μg) by about v0 h / 2.  The bound v0 h (one step of travel at the
+    # start speed) is that O(h) error with a factor 2 of margin.
+    assert abs(error) <= V0 * h_ns * 1e-9
+    assert np.linalg.norm(state.linear_velocity_w) < 1e-9
+
+
+# ---------------------------------------------------------------------------------------------
+# 2. and 3. Boxes on slopes.
+
+@steps_ns
+def test_box_holds_on_a_20_degree_slope(h_ns):
+    theta = math.radians(20.0)
+    box = body('box', 'box', [0.2, 0.2, 0.2], material=(0.5, 0.0))
+    start = on_slope(theta, 0.1)
+    sim = world([box], [start], ground(theta, (0.5, 0.0)), h_ns)
+    # tan 20° = 0.364 < μ = 0.5: the box must stick.  10 s at 10 ms (1000 steps); at 1 ms
+    # 2 s (2000 steps): a creep at a steady rate would move 1/5 as far, so the bound there is
+    # 1 µm × 2 s / 10 s = 0.2 µm.
+    seconds = 10.0 if h_ns >= 10_000_000 else 2.0
+    sim.step(steps(seconds, h_ns))
+    end = sim.body_state(0)
+    moved = np.linalg.norm(end.position_w - start.position_w)
+    print(f'\nhold 20° h={h_ns} ns: moved {moved:.3e} m in {seconds} s, '
+          f'|v| = {np.linalg.norm(end.linear_velocity_w):.3e} m/s')
+    assert moved <= 1e-6 * seconds / 10.0
+
+
+@steps_ns
+def test_box_slides_down_a_30_degree_slope_at_the_exact_acceleration(h_ns):
+    theta, mu = math.radians(30.0), 0.3
+    box = body('box', 'box', [0.2, 0.2, 0.2], material=(mu, 0.0))
+    start = on_slope(theta, 0.1)
+    sim = world([box], [start], ground(theta, (mu, 0.0)), h_ns)
+    sim.step(steps(1.0, h_ns))
+    along = float((sim.body_state(0).position_w - start.position_w) @ downhill(theta))
+    exact = 0.5 * G * (math.sin(theta) - mu * math.cos(theta))
+    error = (along - exact) / exact
+    print(f'\nslide 30° h={h_ns} ns: s(1 s) = {along!r} m, exact {exact!r} m, '
+          f'error {error:+.3e}')
+    # The issue's bound: 0.05 %.  A constant acceleration is integrated exactly by
+    # kick–drift–kick; what is left is round-off and the contact's push-out of the start.
+    assert abs(error) <= 5e-4
+
+
+# ---------------------------------------------------------------------------------------------
+# 4. A sphere rolling down a slope.
+
+@steps_ns
+def test_sphere_rolls_down_a_30_degree_slope(h_ns):
+    theta, radius = math.radians(30.0), 0.1
+    ball = body('ball', 'sphere', [radius], material=(0.5, 0.0))
+    start = on_slope(theta, radius)
+    sim = world([ball], [start], ground(theta, (0.5, 0.0)), h_ns)
+    seconds = 1.0
+    slips = []
+    for _ in range(steps(seconds, h_ns)):
+        sim.step()
+        state = sim.body_state(0)
+        # The contact point, from the published state: v + ω_w × (−r n).
+        slip = state.linear_velocity_w + np.cross(state.angular_velocity_w(),
+                                                  -radius * slope_normal(theta))
+        slips.append(np.linalg.norm(slip))
+    along = float((sim.body_state(0).position_w - start.position_w) @ downhill(theta))
+    accel = 2.0 * along / seconds ** 2
+    exact = 5.0 / 7.0 * G * math.sin(theta)
+    error = (accel - exact) / exact
+    speed = float(sim.body_state(0).linear_velocity_w @ downhill(theta))
+    print(f'\nroll 30° h={h_ns} ns: a = {accel!r} m/s², exact {exact!r}, error {error:+.3e}, '
+          f'max contact point speed {max(slips):.3e} m/s (COM speed {speed:.3f} m/s)')
+    # The issue's bound: 0.5 %.  μ = 0.5 >= (2/7) tan 30° = 0.165, so the ball rolls.
+    assert abs(error) <= 5e-3
+    # Rolling without slipping: the contact point rests.  1e-3 of the COM speed reached
+    # (3.5 m/s) would be a slip that loses 0.1 % of the speed; a sliding ball slips at
+    # O(1) m/s.
+    assert max(slips) <= 1e-3 * speed
+
+
+# ---------------------------------------------------------------------------------------------
+# 5. A bouncing sphere.
+
+EPS_BOUNCE = 0.8
+
+
+def apex_heights(h_ns, count=3, integrator='midpoint_cayley'):
+    """Drop a ball from 1 m; return the first ``count`` apex heights of its bottom, m."""
+    radius = 0.1
+    ball = body('ball', 'sphere', [radius], material=(0.5, EPS_BOUNCE))
+    sim = world([ball], [BodyState(position_w=(0.0, 0.0, 1.0 + radius))],
+                ground(material=(0.5, 0.0)), h_ns, integrator)
+    apexes = []
+    previous = None
+    for _ in range(steps(3.0, h_ns)):
+        sim.step()
+        state = sim.body_state(0)
+        vz, z = state.linear_velocity_w[2], state.position_w[2] - radius
+        if previous is not None and previous[0] > 0.0 >= vz:
+            # The step before the top: in free flight (the last contact was many steps ago),
+            # so the apex of its parabola is exact (kick–drift–kick is exact for constant
+            # gravity) and does not depend on where in the step the top falls.
+            apexes.append(previous[1] + previous[0] ** 2 / (2.0 * G))
+            if len(apexes) == count:
+                break
+        previous = (vz, z)
+    return apexes
+
+
+def early_bounce_bounds(h_ns, count=3):
+    """
+    Return the relative apex errors that speculative contact can cause, one per bounce.
+
+    A contact is caught up to one step ahead, so a ball may reflect up to ``δ = v h`` above
+    the floor (v its arrival speed).  Reflecting at δ with the speed left there,
+    ``v'² = v² − 2 g δ``, gives the apex ``δ + ε² v'² / (2 g) = ε² H + (1 − ε²) δ``: the
+    apex rises by at most ``(1 − ε²) v h``, and the shifts add up over the bounces.
+    """
+    h = h_ns * 1e-9
+    bounds, apex, error_m = [], 1.0, 0.0
+    for k in range(1, count + 1):
+        error_m = EPS_BOUNCE ** 2 * error_m + (1.0 - EPS_BOUNCE ** 2) * math.sqrt(
+            2.0 * G * apex) * h
+        apex = EPS_BOUNCE ** (2 * k)
+        bounds.append(error_m / apex)
+    return bounds
+
+
+@steps_ns
+def test_sphere_bounces_to_eps_squared_heights(h_ns):
+    heights = apex_heights(h_ns)
+    exact = [EPS_BOUNCE ** (2 * k) for k in (1, 2, 3)]
+    errors = [(a - e) / e for a, e in zip(heights, exact)]
+    # The issue's 1 %, or the early-bounce bound where that is larger: at 1 ms it is
+    # 0.25 %, 0.56 %, 0.95 % (so 1 % holds); at 10 ms 2.5 %, 5.6 %, 9.5 %.
+    bounds = [max(0.01, b) for b in early_bounce_bounds(h_ns)]
+    print(f'\nbounce h={h_ns} ns: apexes {heights} m, exact {exact}, errors '
+          f'{[f"{e:+.3e}" for e in errors]}, bounds {[f"{b:.3e}" for b in bounds]}')
+    assert len(heights) == 3
+    for error, bound in zip(errors, bounds):
+        assert abs(error) <= bound
+
+
+# ---------------------------------------------------------------------------------------------
+# 6. Slide or tip.
+
+TIP_WIDTH, TIP_HEIGHT, TIP_MU, TIP_MASS = 0.2, 0.5, 0.3, 1.0
+TIP_FORCE = 1.1 * TIP_MU * TIP_MASS * G
+
+
+def tipping_height_m():
+    """
+    Height above the floor of a horizontal push F > μ m g above which the box tips.
+
+    While it slides, friction μ m g acts backwards at the floor; tipping starts when the moments
+    about the COM of the push, ``F (z − H/2)``, and of friction, ``μ m g H/2``, exceed that of
+    the normal force ``m g`` moved to the front edge, ``m g w/2``:
+    ``z = H/2 + (w/2 − μ H/2) m g / F``.  (Without sliding, ``z = (w/2) m g / F``; the heights
+    used are clearly on the same side of both.)
+    """
+    weight = TIP_MASS * G
+    return (0.5 * TIP_HEIGHT
+            + (0.5 * TIP_WIDTH - 0.5 * TIP_MU * TIP_HEIGHT) * weight / TIP_FORCE)
+
+
+@pytest.mark.parametrize('h_ns', STEPS_NS, ids=STEP_IDS)
+@pytest.mark.parametrize('share', [0.5, 0.96], ids=['low_slides', 'high_tips'])
+def test_box_pushed_low_slides_and_pushed_high_tips(h_ns, share):
+    box = body('box', 'box', [TIP_WIDTH, TIP_WIDTH, TIP_HEIGHT],
+               material=(TIP_MU, 0.0))
+    sim = world([box], [BodyState(position_w=(0.0, 0.0, 0.5 * TIP_HEIGHT))],
+                ground(material=(TIP_MU, 0.0)), h_ns)
+    static_tip = 0.5 * TIP_WIDTH * TIP_MASS * G / TIP_FORCE
+    z = share * TIP_HEIGHT
+    assert (z < min(static_tip, tipping_height_m())) == (share < 0.9)
+    assert (z > max(static_tip, tipping_height_m())) == (share > 0.9)
+    # Pushed at the middle of the back face, z above the floor.
+    sim.set_body_loads(0, [AppliedWrench(force=(TIP_FORCE, 0.0, 0.0), frame='world',
+                                         point_b=(-0.5 * TIP_WIDTH, 0.0,
+                                                  z - 0.5 * TIP_HEIGHT))])
+    tilts = []
+    for _ in range(steps(1.0, h_ns)):
+        sim.step()
+        tilts.append(tilt_rad(sim.body_state(0)))
+    state = sim.body_state(0)
+    print(f'\nslide-or-tip h={h_ns} ns z={z:.3f} m (tip at {tipping_height_m():.4f} m, static '
+          f'{static_tip:.4f} m): max tilt {max(tilts):.3e} rad, x = {state.position_w[0]:.5f} m')
+    if share < 0.9:
+        # Slides flat: a = (F − μ m g) / m = 0.1 μ g; 1 % covers the start-up push-out while
+        # a tipping or stuck box is off by 100 %.
+        exact = 0.5 * (TIP_FORCE / TIP_MASS - TIP_MU * G)
+        assert abs(state.position_w[0] - exact) <= 0.01 * exact
+        # Flat: the moments balance with the normal force inside the base; round-off only.
+        assert max(tilts) < 1e-6
+    else:
+        assert max(tilts) > 0.1
+
+
+# ---------------------------------------------------------------------------------------------
+# 7. The contact wrench.
+
+@pytest.mark.parametrize('h_ns', STEPS_NS, ids=STEP_IDS)
+@pytest.mark.parametrize('degrees', [0.0, 20.0], ids=['floor', 'slope20'])
+def test_contact_wrench_of_a_resting_box_balances_gravity(h_ns, degrees):
+    theta = math.radians(degrees)
+    box = body('box', 'box', [0.2, 0.2, 0.2], material=(0.5, 0.0))
+    sim = world([box], [on_slope(theta, 0.1)], ground(theta, (0.5, 0.0)), h_ns)
+    sim.step(steps(0.5, h_ns))
+    wrench = sim.contact_wrench_w[0]
+    expected = -box.model.mass_kg * box.model.gravity_w
+    error = np.linalg.norm(wrench[:3] - expected) / np.linalg.norm(expected)
+    print(f'\nwrench {degrees}° h={h_ns} ns: force {wrench[:3]} N (error {error:.3e} '
+          f'relative), torque {wrench[3:]} N·m')
+    # At rest the contact impulse cancels gravity's over each step: round-off of the impulse
+    # sums (~1e-15 relative) against 1e-9.
+    assert error <= 1e-9
+    # Torque about the COM: the force passes through it; round-off of r × f with |r| ~ 0.17 m
+    # and |f| ~ 10 N is ~1e-15 N·m; 1e-9 × m g × (w/2) = 1e-9 N·m.
+    assert np.linalg.norm(wrench[3:]) <= 1e-9 * box.model.mass_kg * G * 0.1
+
+
+# ---------------------------------------------------------------------------------------------
+# 8. Conservation between free bodies: ε = 1, μ = 0, no gravity.
+
+ELASTIC = (0.0, 1.0)
+NO_GRAVITY = (0.0, 0.0, 0.0)
+
+
+def ball(name, radius=0.1):
+    return body(name, 'sphere', [radius], material=ELASTIC, gravity_w=NO_GRAVITY)
+
+
+@pytest.mark.parametrize('h_ns', STEPS_NS, ids=STEP_IDS)
+@pytest.mark.parametrize('offset_m', [0.0, 0.1], ids=['head_on', 'off_centre'])
+def test_elastic_collision_keeps_momentum_and_never_gains_energy(h_ns, offset_m):
+    states = [BodyState(position_w=(0.0, 0.0, 0.0), linear_velocity_w=(1.0, 0.0, 0.0)),
+              BodyState(position_w=(0.3, offset_m, 0.0))]
+    sim = world([ball('a'), ball('b')], states, None, h_ns)
+    p0 = momentum_w(sim)
+    e0 = kinetic_energy(sim)
+    worst_p, worst_e = 0.0, 0.0
+    for _ in range(steps(0.5, h_ns)):
+        sim.step()
+        worst_p = max(worst_p, float(np.abs(momentum_w(sim) - p0).max()))
+        worst_e = max(worst_e, kinetic_energy(sim) / e0 - 1.0)
+    ulps = worst_p / np.spacing(np.linalg.norm(p0))
+    va, vb = sim.body_state(0).linear_velocity_w, sim.body_state(1).linear_velocity_w
+    print(f'\nelastic offset={offset_m} h={h_ns} ns: momentum off by {ulps:.1f} ulp of |p|, '
+          f'energy change {worst_e:+.3e} relative, v_a {va}, v_b {vb}')
+    # Each impulse is added to one body and taken from the other: each velocity sum rounds
+    # once per impulse (<= 0.5 ulp each), and a collision takes at most a few impulses
+    # (sweeps end when nothing changes by 1e-13 m/s): 16 ulp of |p| is that with margin,
+    # while a missing or one-sided impulse is off by O(|p|).
+    assert ulps <= 16
+    # Energy never grows (round-off of ½ m v² sums: 1e-12 relative).
+    assert worst_e <= 1e-12
+    if offset_m == 0.0:
+        # Equal masses head-on exchange their velocities (the issue's 1 %).
+        assert np.linalg.norm(va) <= 0.01
+        assert abs(vb[0] - 1.0) <= 0.01
+
+
+def test_newtons_cradle_hands_the_momentum_on():
+    radius, count = 0.1, 5
+    states = [BodyState(position_w=(2.0 * radius * k, 0.0, 0.0),
+                        linear_velocity_w=(1.0 if k == 0 else 0.0, 0.0, 0.0))
+              for k in range(count)]
+    sim = world([ball(f'b{k}', radius) for k in range(count)], states, None, 1_000_000)
+    sim.step(steps(0.5, 1_000_000))
+    share = sim.body_state(count - 1).linear_velocity_w[0] / 1.0
+    print(f'\ncradle: the last ball carries {100.0 * share:.1f} % of the momentum; velocities '
+          f'{[round(float(sim.body_state(k).linear_velocity_w[0]), 4) for k in range(count)]}')
+    # The ideal cradle hands on 100 %; simultaneous impulses in one Gauss–Seidel solve spread
+    # it over the row.  The brief's floor: more than half.
+    assert share > 0.5
+
+
+# ---------------------------------------------------------------------------------------------
+# 9. Determinism.
+
+def busy_world(h_ns):
+    """Boxes sliding and a ball rolling on a slope: many contacts every step."""
+    theta = math.radians(25.0)
+    bodies = [body('box', 'box', [0.2, 0.2, 0.2], material=(0.2, 0.0)),
+              body('ball', 'sphere', [0.1], material=(0.5, 0.5)),
+              body('top', 'box', [0.1, 0.1, 0.1], material=(0.6, 0.0))]
+    states = [on_slope(theta, 0.1), on_slope(theta, 0.1, along_m=-0.5),
+              on_slope(theta, 0.25, along_m=0.02, angular_velocity_b=(1.0, 2.0, 0.5))]
+    return world(bodies, states, ground(theta, (0.4, 0.2)), h_ns)
+
+
+@pytest.mark.parametrize('h_ns', STEPS_NS, ids=STEP_IDS)
+def test_the_same_world_twice_is_bit_identical(h_ns):
+    runs = []
+    for _ in range(2):
+        sim = busy_world(h_ns)
+        sim.step(steps(0.5, h_ns))
+        x, t = sim.arrays
+        c = sim.contacts
+        runs.append((x.copy(), t.copy(), sim.contact_wrench_w, c.point_w, c.impulse_w))
+    assert len(runs[0][3]) > 0  # it did touch
+    for first, second in zip(*runs):
+        assert np.array_equal(first, second)
+
+
+@pytest.mark.parametrize('integrator', ['midpoint_cayley', 'symplectic_euler_axis_angle'])
+@pytest.mark.parametrize('h_ns', STEPS_NS, ids=STEP_IDS)
+def test_bodies_that_never_touch_step_as_the_free_simulators(h_ns, integrator):
+    shapes = [primitive_shape('box', [0.3, 0.2, 0.1]), primitive_shape('capsule', [0.1, 0.4])]
+    models = [BodyModel(2.0, shapes[0].mass_properties(2.0).inertia_b, gravity_w=(0, 0, -G),
+                        linear_damping_per_s=0.3, angular_damping_per_s=0.2),
+              BodyModel(0.5, shapes[1].mass_properties(0.5).inertia_b)]
+    states = [BodyState(position_w=(0.0, 0.0, 5.0), linear_velocity_w=(1.0, 0.0, 2.0),
+                        angular_velocity_b=(3.0, -1.0, 7.0)),
+              BodyState(position_w=(10.0, 0.0, 0.0), angular_velocity_b=(0.5, 4.0, 0.1))]
+    loads = [([AppliedWrench(force=(0.5, 0.0, 1.0), torque=(0.0, 0.1, 0.0), frame='body',
+                             point_b=(0.1, 0.05, 0.0))], []),
+             ([], [Spring((0.0, 0.0, 0.2), (10.0, 0.0, 0.5), 20.0, 0.5, 0.1)])]
+    world_sim = world([WorldBody(f'b{i}', m, s, Material()) for i, (m, s)
+                       in enumerate(zip(models, shapes))], states, None, h_ns, integrator)
+    batch = BatchSimulator(models, states, integrator=integrator, timestep_ns=h_ns, threads=1)
+    singles = [Simulator(m, s, integrator=integrator, timestep_ns=h_ns)
+               for m, s in zip(models, states)]
+    for i, (wrenches, springs) in enumerate(loads):
+        world_sim.set_body_loads(i, wrenches, springs)
+        batch.set_body_loads(i, wrenches, springs)
+        singles[i].set_loads(wrenches, springs)
+    n = steps(0.5, h_ns)
+    world_sim.step(n)
+    batch.step(n)
+    for single in singles:
+        single.step(n)
+    assert len(world_sim.contacts) == 0  # they never touched
+    for i in range(2):
+        assert world_sim.body_state(i) == batch.body_state(i)  # bit for bit
+        assert world_sim.body_state(i) == singles[i].state
+
+
+# ---------------------------------------------------------------------------------------------
+# 10. Bad input at build time.
+
+def test_bad_worlds_are_refused_with_the_field_named():
+
+    box = body('box', 'box', [0.2, 0.2, 0.2])
+    rest = BodyState(position_w=(0.0, 0.0, 0.1))
+    with pytest.raises(ConfigError, match=r"^integrator: 'rk4' cannot take contact"):
+        world([box], [rest], ground(), 1_000_000, 'rk4')
+    with pytest.raises(ModelError, match=r'^bodies\.box: the name is used twice'):
+        world([box, box], [rest, BodyState(position_w=(1.0, 0.0, 0.1))], ground(), 1_000_000)
+    with pytest.raises(ModelError, match=r'^bodies\.box\.position_w: \[0\.0, 0\.0, 0\.095\] m '
+                                         r'puts the body 0\.005 m deep inside ground'):
+        world([box], [BodyState(position_w=(0.0, 0.0, 0.095))], ground(), 1_000_000)
+    other = body('other', 'box', [0.2, 0.2, 0.2])
+    with pytest.raises(ModelError, match=r'^bodies\.box\.position_w: .* 0\.005 m deep inside '
+                                         r'bodies\.other'):
+        world([box, other], [rest, BodyState(position_w=(0.195, 0.0, 0.1))], ground(),
+              1_000_000)
+    with pytest.raises(ModelError, match=r'^bodies\.floor\.shape: a plane is static'):
+        WorldBody('floor', box.model, plane_shape((0.0, 0.0, 1.0), 0.0))
+    with pytest.raises(ModelError, match=r'^friction: -0\.1 \(dimensionless\) must be'):
+        Material(-0.1, 0.0)
+    with pytest.raises(ModelError, match=r'^restitution: 1\.5 \(dimensionless\) must be'):
+        Material(0.5, 1.5)
