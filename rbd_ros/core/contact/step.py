@@ -60,8 +60,8 @@ import numpy as np
 
 from rbd_ros.core import kernels as kk
 from rbd_ros.core.contact import kernels as ck
-from rbd_ros.core.layout import (N_STATE, P_ANG_DAMPING, P_INERTIA, P_INV_INERTIA, P_INV_MASS,
-                                 P_LIN_DAMPING, S_OMEGA, S_VEL)
+from rbd_ros.core.layout import (N_STATE, P_ANG_DAMPING, P_GRAVITY, P_INERTIA, P_INV_INERTIA,
+                                 P_INV_MASS, P_LIN_DAMPING, S_OMEGA, S_VEL)
 
 PHASE_COLLISION = 0
 PHASE_CONTACT = 1
@@ -74,7 +74,7 @@ PUSH_FRACTION = 0.2
 PUSH_MAX_M_S = 0.1
 #: Gauss–Seidel sweeps over all patches per stage, and the iterations of one patch.
 SWEEPS = 24
-PATCH_ITERATIONS = 12
+PATCH_ITERATIONS = 64
 #: A sweep that changes no velocity by more than this (m/s) ends the stage early.
 VELOCITY_TOL_M_S = 1e-13
 #: At most this many points per patch.
@@ -470,13 +470,15 @@ def _reduce(buf, count, keep):
 
 
 @_jit
-def _touching(buf, count, vel, x, a, b, n_bodies, h):
+def _touching(buf, count, vel, x, a, b, n_bodies, h, v_rest):
     """
-    Keep the rows of ``buf`` that touch now (``φ_now <= TOUCH_M``); return their count.
+    Keep the rows of ``buf`` in resting contact now; return their count.
 
     The contact stage after ``midpoint_cayley``'s second half kick looks ahead over the next
     step's drift, which the next step's collision stage (with restitution) looks at first: it
-    must not stop an approaching body early, so it keeps only the points in contact now.
+    must not stop an approaching body early, so it keeps only the points in contact now
+    (``φ_now <= TOUCH_M``) that approach no faster than the half kick of gravity can make
+    them (``u_n >= −v_rest``); faster ones are impacts, left to the collision stage.
     """
     kept = 0
     for k in range(count):
@@ -486,7 +488,7 @@ def _touching(buf, count, vel, x, a, b, n_bodies, h):
             bx, by, bz = _point_velocity(vel, b, px - x[0, b], py - x[1, b], pz - x[2, b])
             ux, uy, uz = ux - bx, uy - by, uz - bz
         un0 = ux * buf[k, 4] + uy * buf[k, 5] + uz * buf[k, 6]
-        if buf[k, 0] - h * un0 <= TOUCH_M:
+        if buf[k, 0] - h * un0 <= TOUCH_M and un0 >= -v_rest:
             if kept != k:
                 buf[kept, :] = buf[k, :]
             kept += 1
@@ -494,7 +496,7 @@ def _touching(buf, count, vel, x, a, b, n_bodies, h):
 
 
 @_jit
-def narrow_phase(pairs, n_bodies, x, vel, rot, pos_c, rot_c, inv_mass, inv_inertia_w,
+def narrow_phase(pairs, n_bodies, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_inertia_w,
                  st_rot, st_pos, kinds, sparams, pts, pt_off, ppts, ppt_off, pt_radius,
                  grid_data, grid_off, grid_dim, mu, eps, h, phase, stage):
     """
@@ -538,7 +540,14 @@ def narrow_phase(pairs, n_bodies, x, vel, rot, pos_c, rot_c, inv_mass, inv_inert
                                   pose_rc, pose_pc, b, pose_r, pose_p, pose_rc, pose_pc, a,
                                   MARGIN_M, buf, count, -1.0)
         if stage == 2:
-            count = _touching(buf, count, vel, x, a, b, n, h)
+            ja = 0 if prm.shape[1] == 1 else a
+            v_rest = 1e-9 + h * math.sqrt(prm[P_GRAVITY, ja] ** 2 + prm[P_GRAVITY + 1, ja] ** 2
+                                          + prm[P_GRAVITY + 2, ja] ** 2)
+            if b < n:
+                jb = 0 if prm.shape[1] == 1 else b
+                v_rest += h * math.sqrt(prm[P_GRAVITY, jb] ** 2 + prm[P_GRAVITY + 1, jb] ** 2
+                                        + prm[P_GRAVITY + 2, jb] ** 2)
+            count = _touching(buf, count, vel, x, a, b, n, h, v_rest)
         if count == 0:
             continue
         _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off, grid_dim,
@@ -1242,7 +1251,7 @@ def contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi,
     prepare_bodies(x, prm, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h)
     pairs = broad_phase(x, pos_c, bound_r, n, st_kind, st_params, st_lo, st_hi, MARGIN_M)
     contacts, patches = narrow_phase(
-        pairs, n, x, vel, rot, pos_c, rot_c, inv_mass, inv_inertia_w, st_rot, st_pos, kinds,
+        pairs, n, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_inertia_w, st_rot, st_pos, kinds,
         sparams, pts, pt_off, ppts, ppt_off, pt_radius, grid_data, grid_off, grid_dim, mu, eps,
         h, phase, stage)
     if patches.shape[0] == 0:
