@@ -1276,6 +1276,20 @@ def _all_finite(x, i):
 
 
 @_jit
+def _half_damping(x, prm, h):
+    """Apply half a step of every body's exact damping flow to its velocities."""
+    shared = prm.shape[1] == 1
+    for i in range(x.shape[1]):
+        j = 0 if shared else i
+        cv, cw = prm[P_LIN_DAMPING, j], prm[P_ANG_DAMPING, j]
+        if cv != 0.0 or cw != 0.0:
+            dv, dw = math.exp(-0.5 * h * cv), math.exp(-0.5 * h * cw)
+            for k in range(3):
+                x[S_VEL + k, i] *= dv
+                x[S_OMEGA + k, i] *= dw
+
+
+@_jit
 def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, ws):
     """
     Advance the world ``n_steps`` steps; return ``(steps done, contacts of the last step)``.
@@ -1295,14 +1309,7 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, w
         saved[:] = x
         wrench[:] = 0.0
         # Damping's exact flow, half before and half after the step (as the free kernel).
-        for i in range(n):
-            j = 0 if shared else i
-            cv, cw = prm[P_LIN_DAMPING, j], prm[P_ANG_DAMPING, j]
-            if cv != 0.0 or cw != 0.0:
-                dv, dw = math.exp(-0.5 * h * cv), math.exp(-0.5 * h * cw)
-                for k in range(3):
-                    x[S_VEL + k, i] *= dv
-                    x[S_OMEGA + k, i] *= dw
+        _half_damping(x, prm, h)
         # 1. Collisions with restitution on the current velocities.
         c0 = contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi, h,
                            PHASE_COLLISION, 0, False, wrench, ws)
@@ -1362,14 +1369,7 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, w
                 x[0, i], x[1, i], x[2, i] = px, py, pz
                 x[3, i], x[4, i], x[5, i], x[6, i] = qw, qx, qy, qz
             contacts = np.concatenate((c0, c1))
-        for i in range(n):
-            j = 0 if shared else i
-            cv, cw = prm[P_LIN_DAMPING, j], prm[P_ANG_DAMPING, j]
-            if cv != 0.0 or cw != 0.0:
-                dv, dw = math.exp(-0.5 * h * cv), math.exp(-0.5 * h * cw)
-                for k in range(3):
-                    x[S_VEL + k, i] *= dv
-                    x[S_OMEGA + k, i] *= dw
+        _half_damping(x, prm, h)
         ok = True
         for i in range(n):
             if not _all_finite(x, i):
