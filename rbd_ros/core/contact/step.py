@@ -88,12 +88,11 @@ C_NORMAL = 5     # unit normal: the impulse on A is along +n, 3
 C_RA = 8         # lever arm from A's COM, 3
 C_RB = 11        # lever arm from B's COM (0 for static), 3
 C_BIAS = 14      # target: u_n >= bias after the stage (m/s)
-C_KN = 15        # 1 / (nᵀ K n)
-C_LAMBDA = 16    # accumulated normal impulse (N·s)
-C_PHI = 17       # candidate φ (m)
-C_FRICTION = 18  # this point's share of the patch friction impulse (N·s), 3
-C_PHASE = 21     # the stage: 0 collision, 1 first contact stage, 2 second
-N_CONTACT = 22
+C_LAMBDA = 15    # accumulated normal impulse (N·s)
+C_PHI = 16       # candidate φ (m)
+C_FRICTION = 17  # this point's share of the patch friction impulse (N·s), 3
+C_PHASE = 20     # the stage: 0 collision, 1 first contact stage, 2 second
+N_CONTACT = 21
 
 # Patch record fields (rows of the (Q, N_PATCH) float64 patch table).
 Q_A = 0
@@ -588,14 +587,11 @@ def narrow_phase(pairs, n_bodies, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_
             c[C_RA] = rax
             c[C_RA + 1] = ray
             c[C_RA + 2] = raz
-            # Relative normal velocity now, and nᵀ K n.
+            # Relative normal velocity now.
             ux, uy, uz = _cross(vel[a, 3], vel[a, 4], vel[a, 5], rax, ray, raz)
             ux += vel[a, 0]
             uy += vel[a, 1]
             uz += vel[a, 2]
-            cnx, cny, cnz = _cross(rax, ray, raz, nx, ny, nz)
-            ix, iy, iz = _mat_vec(inv_inertia_w, a, cnx, cny, cnz)
-            knn = inv_mass[a] + cnx * ix + cny * iy + cnz * iz
             if not static_b:
                 rbx, rby, rbz = px - x[0, b], py - x[1, b], pz - x[2, b]
                 c[C_RB] = rbx
@@ -605,11 +601,7 @@ def narrow_phase(pairs, n_bodies, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_
                 ux -= vel[b, 0] + wx
                 uy -= vel[b, 1] + wy
                 uz -= vel[b, 2] + wz
-                cnx, cny, cnz = _cross(rbx, rby, rbz, nx, ny, nz)
-                ix, iy, iz = _mat_vec(inv_inertia_w, b, cnx, cny, cnz)
-                knn += inv_mass[b] + cnx * ix + cny * iy + cnz * iz
             un0 = ux * nx + uy * ny + uz * nz
-            c[C_KN] = 1.0 / knn
             phi_now = row[0] - h * un0
             if phi_now >= 0.0:
                 bias = un0 - row[0] / h
