@@ -61,7 +61,7 @@ import numpy as np
 from rbd_ros.core import kernels as kk
 from rbd_ros.core.contact import kernels as ck
 from rbd_ros.core.layout import (N_STATE, P_ANG_DAMPING, P_GRAVITY, P_INERTIA, P_INV_INERTIA,
-                                 P_INV_MASS, P_LIN_DAMPING, S_OMEGA, S_VEL)
+                                 P_INV_MASS, P_LIN_DAMPING, S_OMEGA, S_POS, S_QUAT, S_VEL)
 
 PHASE_COLLISION = 0
 PHASE_CONTACT = 1
@@ -112,9 +112,7 @@ _jit = nb.njit(cache=kk.CACHE_DIR is not None, fastmath=False, nogil=True)
 _inl = nb.njit(cache=kk.CACHE_DIR is not None, fastmath=False, nogil=True, inline='always')
 
 
-@_inl
-def _cross(ax, ay, az, bx, by, bz):
-    return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+_cross = kk._cross  # the free-body kernel's, not a second copy
 
 
 @_inl
@@ -163,7 +161,7 @@ def prepare_bodies(x, prm, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h):
     shared = prm.shape[1] == 1
     for i in range(x.shape[1]):
         j = 0 if shared else i
-        qw, qx, qy, qz = x[3, i], x[4, i], x[5, i], x[6, i]
+        qw, qx, qy, qz = x[S_QUAT, i], x[S_QUAT + 1, i], x[S_QUAT + 2, i], x[S_QUAT + 3, i]
         _set_rotation(rot, i, qw, qx, qy, qz)
         wbx, wby, wbz = x[S_OMEGA, i], x[S_OMEGA + 1, i], x[S_OMEGA + 2, i]
         wx, wy, wz = _mat_vec(rot, i, wbx, wby, wbz)
@@ -182,7 +180,7 @@ def prepare_bodies(x, prm, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h):
                         acc += rot[i, r, m] * prm[P_INV_INERTIA + 3 * m + n, j] * rot[i, c, n]
                 inv_inertia_w[i, r, c] = acc
         for k in range(3):
-            pos_c[i, k] = x[k, i] + h * vel[i, k]
+            pos_c[i, k] = x[S_POS + k, i] + h * vel[i, k]
         dw, dx, dy, dz = kk._quat_exp_half(wbx, wby, wbz, h)
         cw, cx, cy, cz = kk._qmul(qw, qx, qy, qz, dw, dx, dy, dz)
         cw, cx, cy, cz = kk._normalize_q(cw, cx, cy, cz)
@@ -198,7 +196,7 @@ def store_velocities(x, prm, vel, touched):
         x[S_VEL, i] = vel[i, 0]
         x[S_VEL + 1, i] = vel[i, 1]
         x[S_VEL + 2, i] = vel[i, 2]
-        qw, qx, qy, qz = x[3, i], x[4, i], x[5, i], x[6, i]
+        qw, qx, qy, qz = x[S_QUAT, i], x[S_QUAT + 1, i], x[S_QUAT + 2, i], x[S_QUAT + 3, i]
         bx, by, bz = kk._rotate_inv(qw, qx, qy, qz, vel[i, 3], vel[i, 4], vel[i, 5])
         x[S_OMEGA, i] = bx
         x[S_OMEGA + 1, i] = by
@@ -226,7 +224,7 @@ def broad_phase(x, pos_c, bound_r, n_bodies, st_kind, st_params, st_lo, st_hi, m
     for i in range(n):
         r = bound_r[i] + margin
         for k in range(3):
-            a = x[k, i]
+            a = x[S_POS + k, i]
             b = pos_c[i, k]
             lo[i, k] = min(a, b) - r
             hi[i, k] = max(a, b) + r
@@ -261,7 +259,7 @@ def broad_phase(x, pos_c, bound_r, n_bodies, st_kind, st_params, st_lo, st_hi, m
         for s in range(st_kind.shape[0]):
             if st_kind[s] == ck.KIND_PLANE:
                 nx, ny, nz, d = st_params[s, 0], st_params[s, 1], st_params[s, 2], st_params[s, 3]
-                near = min(nx * x[0, a] + ny * x[1, a] + nz * x[2, a],
+                near = min(nx * x[S_POS, a] + ny * x[S_POS + 1, a] + nz * x[S_POS + 2, a],
                            nx * pos_c[a, 0] + ny * pos_c[a, 1] + nz * pos_c[a, 2]) - d
                 if near > bound_r[a] + margin:
                     continue
@@ -482,9 +480,11 @@ def _touching(buf, count, vel, x, a, b, n_bodies, h, v_rest):
     kept = 0
     for k in range(count):
         px, py, pz = buf[k, 1], buf[k, 2], buf[k, 3]
-        ux, uy, uz = _point_velocity(vel, a, px - x[0, a], py - x[1, a], pz - x[2, a])
+        ux, uy, uz = _point_velocity(vel, a, px - x[S_POS, a], py - x[S_POS + 1, a],
+                                     pz - x[S_POS + 2, a])
         if b < n_bodies:
-            bx, by, bz = _point_velocity(vel, b, px - x[0, b], py - x[1, b], pz - x[2, b])
+            bx, by, bz = _point_velocity(vel, b, px - x[S_POS, b], py - x[S_POS + 1, b],
+                                         pz - x[S_POS + 2, b])
             ux, uy, uz = ux - bx, uy - by, uz - bz
         un0 = ux * buf[k, 4] + uy * buf[k, 5] + uz * buf[k, 6]
         if buf[k, 0] - h * un0 <= TOUCH_M and un0 >= -v_rest:
@@ -512,7 +512,7 @@ def narrow_phase(pairs, n_bodies, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_
     pose_pc = np.empty((n + n_static, 3))
     pose_r[:n] = rot
     pose_rc[:n] = rot_c
-    pose_p[:n] = x[0:3, :].T
+    pose_p[:n] = x[S_POS:S_POS + 3, :].T
     pose_pc[:n] = pos_c
     pose_r[n:] = st_rot
     pose_rc[n:] = st_rot
@@ -583,7 +583,7 @@ def narrow_phase(pairs, n_bodies, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_
             c[C_NORMAL] = nx
             c[C_NORMAL + 1] = ny
             c[C_NORMAL + 2] = nz
-            rax, ray, raz = px - x[0, a], py - x[1, a], pz - x[2, a]
+            rax, ray, raz = px - x[S_POS, a], py - x[S_POS + 1, a], pz - x[S_POS + 2, a]
             c[C_RA] = rax
             c[C_RA + 1] = ray
             c[C_RA + 2] = raz
@@ -593,7 +593,7 @@ def narrow_phase(pairs, n_bodies, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_
             uy += vel[a, 1]
             uz += vel[a, 2]
             if not static_b:
-                rbx, rby, rbz = px - x[0, b], py - x[1, b], pz - x[2, b]
+                rbx, rby, rbz = px - x[S_POS, b], py - x[S_POS + 1, b], pz - x[S_POS + 2, b]
                 c[C_RB] = rbx
                 c[C_RB + 1] = rby
                 c[C_RB + 2] = rbz
@@ -1045,15 +1045,13 @@ def _coulomb(k11, k12, k22, u1, u2, limit):
 def _friction(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, x, wa, wb,
               wrench, total, cx, cy, cz, nx, ny, nz, s0, m, mu):
     """One friction update of patch ``q``: stick if the cone allows, else slide; return Δu."""
-    rax, ray, raz = cx - x[0, a], cy - x[1, a], cz - x[2, a]
+    rax, ray, raz = cx - x[S_POS, a], cy - x[S_POS + 1, a], cz - x[S_POS + 2, a]
     ux, uy, uz = _point_velocity(vel, a, rax, ray, raz)
-    spin = vel[a, 3] * nx + vel[a, 4] * ny + vel[a, 5] * nz
     rbx = rby = rbz = 0.0
     if dyn_b:
-        rbx, rby, rbz = cx - x[0, b], cy - x[1, b], cz - x[2, b]
+        rbx, rby, rbz = cx - x[S_POS, b], cy - x[S_POS + 1, b], cz - x[S_POS + 2, b]
         bx, by, bz = _point_velocity(vel, b, rbx, rby, rbz)
         ux, uy, uz = ux - bx, uy - by, uz - bz
-        spin -= vel[b, 3] * nx + vel[b, 4] * ny + vel[b, 5] * nz
     t1x, t1y, t1z, t2x, t2y, t2z = _tangent_basis(nx, ny, nz)
     u1 = ux * t1x + uy * t1y + uz * t1z
     u2 = ux * t2x + uy * t2y + uz * t2z
@@ -1310,9 +1308,9 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, w
             # 2. First half kick.
             for i in range(n):
                 j = 0 if shared else i
+                px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = kk._read_state(x, i)
                 vx, vy, vz, lx, ly, lz = kk.midpoint_first_kick(
-                    prm, ld, i, j, h, x[0, i], x[1, i], x[2, i], x[3, i], x[4, i], x[5, i],
-                    x[6, i], x[7, i], x[8, i], x[9, i], x[10, i], x[11, i], x[12, i])
+                    prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz)
                 x[S_VEL, i], x[S_VEL + 1, i], x[S_VEL + 2, i] = vx, vy, vz
                 wx, wy, wz = kk._matvec(prm, P_INV_INERTIA, j, lx, ly, lz)
                 x[S_OMEGA, i], x[S_OMEGA + 1, i], x[S_OMEGA + 2, i] = wx, wy, wz
@@ -1324,42 +1322,37 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, w
             # 4. Drift; then the second half kick and its contact stage.
             for i in range(n):
                 j = 0 if shared else i
+                px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = kk._read_state(x, i)
                 if c1.shape[0] > 0 and touched[i]:
-                    lx, ly, lz = kk._matvec(prm, P_INERTIA, j, x[10, i], x[11, i], x[12, i])
+                    lx, ly, lz = kk._matvec(prm, P_INERTIA, j, wx, wy, wz)
                 else:
                     lx, ly, lz = lmom[i, 0], lmom[i, 1], lmom[i, 2]
                 (px, py, pz, qw, qx, qy, qz, lx, ly, lz, wx, wy, wz,
-                 converged) = kk.midpoint_drift(prm, j, h, x[0, i], x[1, i], x[2, i], x[3, i],
-                                                x[4, i], x[5, i], x[6, i], x[7, i], x[8, i],
-                                                x[9, i], lx, ly, lz)
+                 converged) = kk.midpoint_drift(prm, j, h, px, py, pz, qw, qx, qy, qz,
+                                                vx, vy, vz, lx, ly, lz)
                 if not converged:
                     px = math.nan
                 vx, vy, vz, wx, wy, wz = kk.midpoint_second_kick(
-                    prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, x[7, i], x[8, i], x[9, i],
+                    prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz,
                     lx, ly, lz, wx, wy, wz)
-                x[0, i], x[1, i], x[2, i] = px, py, pz
-                x[3, i], x[4, i], x[5, i], x[6, i] = qw, qx, qy, qz
-                x[7, i], x[8, i], x[9, i] = vx, vy, vz
-                x[10, i], x[11, i], x[12, i] = wx, wy, wz
+                kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
             c2 = contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi,
                                h, PHASE_CONTACT, 2, True, wrench, ws)
             contacts = np.concatenate((c0, c1, c2))
         else:
             for i in range(n):
                 j = 0 if shared else i
+                px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = kk._read_state(x, i)
                 vx, vy, vz, wx, wy, wz = kk.se_velocity(
-                    prm, ld, i, j, h, x[0, i], x[1, i], x[2, i], x[3, i], x[4, i], x[5, i],
-                    x[6, i], x[7, i], x[8, i], x[9, i], x[10, i], x[11, i], x[12, i])
-                x[7, i], x[8, i], x[9, i] = vx, vy, vz
-                x[10, i], x[11, i], x[12, i] = wx, wy, wz
+                    prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz)
+                kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
             c1 = contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi,
                                h, PHASE_CONTACT, 1, True, wrench, ws)
             for i in range(n):
+                px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = kk._read_state(x, i)
                 px, py, pz, qw, qx, qy, qz = kk.se_position(
-                    method, h, x[0, i], x[1, i], x[2, i], x[3, i], x[4, i], x[5, i], x[6, i],
-                    x[7, i], x[8, i], x[9, i], x[10, i], x[11, i], x[12, i])
-                x[0, i], x[1, i], x[2, i] = px, py, pz
-                x[3, i], x[4, i], x[5, i], x[6, i] = qw, qx, qy, qz
+                    method, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz)
+                kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
             contacts = np.concatenate((c0, c1))
         _half_damping(x, prm, h)
         ok = True
