@@ -28,6 +28,7 @@ setup(
         ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/msg_config', sorted(glob('msg_config/*.yaml'))),
+        ('share/' + package_name + '/msg_config/meshes', sorted(glob('msg_config/meshes/*'))),
     ],
     install_requires=['setuptools'],
     zip_safe=True,

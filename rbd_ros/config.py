@@ -40,11 +40,16 @@ array parameters.
 
 from dataclasses import dataclass
 import math
+import os
 
 import numpy as np
 
 from rbd_ros.core import (BodyModel, BodyState, ConfigError, DEFAULT_INTEGRATOR, INTEGRATORS,
                           ModelError, NonFiniteError, Simulator)
+from rbd_ros.core.contact.shapes import load_mesh, primitive_shape, PRIMITIVES
+from rbd_ros.core.contact.simulator import CONTACT_INTEGRATORS, WorldBody, WorldSimulator
+from rbd_ros.core.contact.world import (check_overlaps, ground_plane, obstacle, StaticWorld,
+                                        validate_material)
 from rbd_ros.core.inertia import from_shape, inertia_from_components, SHAPES
 
 # ROS parameter types, by the names rcl_interfaces/ParameterType uses (lower case).
@@ -169,6 +174,29 @@ PARAMETERS = (
     ParamSpec('wrench_inputs', STRING_ARRAY, (), '',
               'Names of extra wrench inputs, each with wrench_inputs.<name>.topic, .frame and '
               '.point_b.', rule='distinct names of letters, digits and _'),
+    ParamSpec('friction', DOUBLE, 0.5, '',
+              'Coulomb friction coefficient μ of the body (a pair: sqrt(μ_a μ_b)).',
+              (0.0, _BIG), rule='>= 0'),
+    ParamSpec('restitution', DOUBLE, 0.0, '',
+              'Coefficient of restitution ε of the body (a pair: the larger).', (0.0, 1.0)),
+    ParamSpec('mesh_path', STRING, '', '',
+              'Collision and mass shape from a closed STL/OBJ mesh in m (relative to the params '
+              "file, or package://); '' = shape.", rule='not with inertia; shape empty or mesh'),
+    ParamSpec('mesh_scale', DOUBLE_ARRAY, (1.0, 1.0, 1.0), '',
+              'Scale factors x, y, z applied to the mesh_path coordinates.',
+              rule='3 finite values > 0'),
+    ParamSpec('ground.enabled', BOOL, False, '',
+              'A static ground plane z = ground.height_m (world frame) the body rests on.'),
+    ParamSpec('ground.height_m', DOUBLE, 0.0, 'm', 'Height of the ground plane, world z.',
+              (-_BIG, _BIG)),
+    ParamSpec('ground.friction', DOUBLE, 0.5, '', 'Coulomb friction coefficient μ of the ground.',
+              (0.0, _BIG), rule='>= 0'),
+    ParamSpec('ground.restitution', DOUBLE, 0.0, '', 'Coefficient of restitution ε of the ground.',
+              (0.0, 1.0)),
+    ParamSpec('obstacles', STRING_ARRAY, (), '',
+              'Names of static obstacles, each with obstacles.<name>.shape, .dimensions_m, '
+              '.mesh_path, .mesh_scale, .position, .orientation, .friction and .restitution.',
+              rule='distinct names of letters, digits and _'),
     ParamSpec('publish_clock', BOOL, False, '', 'Publish /clock (sim time).'),
     ParamSpec('publish_tf', BOOL, True, '',
               'Broadcast world -> body on /tf (only when tf2_msgs is importable).'),
@@ -186,7 +214,8 @@ PARAMETERS_BY_NAME = {spec.name: spec for spec in PARAMETERS}
 # Parameters of the body model: their errors are ModelError, the others' ConfigError.
 _MODEL_PARAMETERS = frozenset((
     'mass_kg', 'inertia', 'shape', 'dimensions_m', 'gravity', 'linear_damping',
-    'angular_damping'))
+    'angular_damping', 'friction', 'restitution', 'mesh_path', 'mesh_scale', 'ground.friction',
+    'ground.restitution'))
 
 
 def input_parameter_specs(name):
@@ -207,6 +236,42 @@ def input_parameter_specs(name):
         ParamSpec(prefix + 'point_b', DOUBLE_ARRAY, (0.0, 0.0, 0.0), 'm',
                   f'Application point of input {name!r}, body frame, relative to the COM.',
                   rule='3 finite values'),
+    )
+
+
+def obstacle_parameter_specs(name):
+    """
+    Return the :class:`ParamSpec` of the static obstacle ``name`` (``obstacles.<name>.*``).
+
+    Its shape (a primitive with ``dimensions_m``, or ``mesh`` with ``mesh_path`` and
+    ``mesh_scale``), its pose in the world frame (``position``, ``orientation`` [x, y, z, w])
+    and its material.
+    """
+    prefix = f'obstacles.{name}.'
+    return (
+        ParamSpec(prefix + 'shape', STRING, 'box', '',
+                  f"Shape of obstacle {name!r}: a primitive ('box', 'sphere', 'cylinder', "
+                  "'capsule', 'ellipsoid') or 'mesh'.", rule='one of the names'),
+        ParamSpec(prefix + 'dimensions_m', DOUBLE_ARRAY, (), 'm',
+                  f'Sizes of obstacle {name!r} (as dimensions_m of the body).',
+                  rule='as the shape needs'),
+        ParamSpec(prefix + 'mesh_path', STRING, '', '',
+                  f"Mesh file of obstacle {name!r} when its shape is 'mesh'.",
+                  rule='a closed STL/OBJ mesh'),
+        ParamSpec(prefix + 'mesh_scale', DOUBLE_ARRAY, (1.0, 1.0, 1.0), '',
+                  f'Scale factors x, y, z of the mesh of obstacle {name!r}.',
+                  rule='3 finite values > 0'),
+        ParamSpec(prefix + 'position', DOUBLE_ARRAY, (0.0, 0.0, 0.0), 'm',
+                  f'Position of obstacle {name!r} (its shape frame), world frame.',
+                  rule='3 finite values'),
+        ParamSpec(prefix + 'orientation', DOUBLE_ARRAY, (0.0, 0.0, 0.0, 1.0), '',
+                  f'Orientation of obstacle {name!r}, quaternion [x, y, z, w].',
+                  rule='4 finite values, norm within 1e-3 of 1'),
+        ParamSpec(prefix + 'friction', DOUBLE, 0.5, '',
+                  f'Coulomb friction coefficient μ of obstacle {name!r}.', (0.0, _BIG),
+                  rule='>= 0'),
+        ParamSpec(prefix + 'restitution', DOUBLE, 0.0, '',
+                  f'Coefficient of restitution ε of obstacle {name!r}.', (0.0, 1.0)),
     )
 
 
@@ -365,6 +430,14 @@ class NodeConfig:
     record_overwrite: bool
     record_on_error: str
     parameters: dict
+    collision_shape: object = None
+    material: object = None
+    static_world: object = None
+
+    @property
+    def contact(self):
+        """Return True when the body can touch something: a ground or an obstacle."""
+        return self.static_world is not None
 
     @classmethod
     def from_parameters(cls, params=None):
@@ -379,16 +452,28 @@ class NodeConfig:
         params = dict(params or {})
         values = _table_values(params)
         input_names = _input_values(values, params)
+        obstacle_names = _obstacle_values(values, params)
         if params:
             unknown = sorted(params)[0]
             raise ConfigError(
                 f'parameter {unknown} = {_fmt(params[unknown])}: unknown parameter name '
-                f'(known: see README; wrench input parameters need their name in wrench_inputs)')
+                '(known: see README; wrench input and obstacle parameters need their name in '
+                'wrench_inputs or obstacles)')
+        time_settings = _time_settings(values)
+        collision = _collision_shape(values)
+        model = _model(values, collision)
+        initial_state = _initial_state(values)
+        static_world = _static_world(values, obstacle_names)
+        _check_contact(values, collision, static_world, initial_state,
+                       time_settings['integrator'])
         return cls(
-            model=_model(values), initial_state=_initial_state(values),
-            **_time_settings(values), **_frame_settings(values),
-            **_limits_and_recording(values), wrench_inputs=_wrench_inputs(values, input_names),
-            parameters=values)
+            model=model, initial_state=initial_state, **time_settings,
+            **_frame_settings(values), **_limits_and_recording(values),
+            wrench_inputs=_wrench_inputs(values, input_names), parameters=values,
+            collision_shape=collision,
+            material=_reraise(PARAMETERS_BY_NAME['friction'], values['friction'],
+                              validate_material, values['friction'], values['restitution']),
+            static_world=static_world)
 
     def to_parameters(self):
         """Return the parameters as a plain dict (lists for arrays), valid for from_parameters."""
@@ -400,6 +485,8 @@ class NodeConfig:
         specs = list(PARAMETERS)
         for input_name in self.parameters['wrench_inputs']:
             specs.extend(input_parameter_specs(input_name))
+        for obstacle_name in self.parameters['obstacles']:
+            specs.extend(obstacle_parameter_specs(obstacle_name))
         return tuple(specs)
 
 
@@ -432,7 +519,98 @@ def _input_values(values, params):
     return names
 
 
-def _model(values):
+def _obstacle_values(values, params):
+    """Check ``obstacles``; take each obstacle's parameters out of ``params`` into ``values``."""
+    spec = PARAMETERS_BY_NAME['obstacles']
+    names = values['obstacles']
+    for name in names:
+        if not name or not (name.replace('_', 'a').isalnum() and name.isascii()) \
+                or name[0].isdigit():
+            _fail(spec, list(names), f'obstacle name {name!r} must be letters, digits and _ '
+                  '(not starting with a digit)')
+        if name == 'ground':
+            _fail(spec, list(names), "'ground' is the ground plane (ground.*)")
+    if len(set(names)) != len(names):
+        _fail(spec, list(names), 'names must be distinct')
+    for name in names:
+        for obstacle_spec in obstacle_parameter_specs(name):
+            value = _coerce(obstacle_spec, params.pop(obstacle_spec.name, obstacle_spec.default))
+            if obstacle_spec.kind == DOUBLE:
+                _check_range(obstacle_spec, value)
+            values[obstacle_spec.name] = value
+    return names
+
+
+def resolve_mesh_path(path, field):
+    """
+    Return ``path`` as a file path: ``package://<pkg>/rest`` against ``<pkg>``'s share.
+
+    The share directory comes from the ament index (an installed or sourced workspace); for
+    ``rbd_ros`` itself run from a source tree (no ament index entry), the source tree's root,
+    which holds the same ``msg_config/`` files.  Relative paths stay relative (to the working
+    directory; a params file's relative paths were made absolute when it was read).
+    """
+    prefix = 'package://'
+    if not path.startswith(prefix):
+        return path
+    package, _, rest = path[len(prefix):].partition('/')
+    try:
+        from ament_index_python.packages import get_package_share_directory
+        return os.path.join(get_package_share_directory(package), rest)
+    except (ImportError, LookupError, ValueError):
+        if package == 'rbd_ros':
+            return os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+                                rest)
+    raise ModelError(f'parameter {field} = {path!r}: package {package!r} is not found in the '
+                     'ament index (source its workspace)')
+
+
+def _mesh(spec_path, spec_scale, path, scale):
+    """Load the mesh of a ``*mesh_path`` parameter, errors naming the parameter."""
+    file_path = resolve_mesh_path(path, spec_path.name)
+    field = spec_path.name[:-len('mesh_path')]
+    try:
+        return load_mesh(file_path, scale, field=field)
+    except ModelError as exc:
+        message = str(exc)
+        blamed = spec_scale if message.startswith(field + 'mesh_scale') else spec_path
+        value = scale if blamed is spec_scale else path
+        _fail(blamed, value, message.split(': ', 1)[-1] if ': ' in message else message)
+
+
+def _collision_shape(values):
+    """Return the body's collision shape: the mesh, the (default) primitive, or None."""
+    p = PARAMETERS_BY_NAME
+    shape, path = values['shape'], values['mesh_path']
+    if path:
+        if values['inertia']:
+            raise ModelError(
+                f'parameter inertia = {_fmt(values["inertia"])} kg·m² and parameter mesh_path = '
+                f'{path!r}: give either inertia or mesh_path, not both')
+        if shape not in ('', 'mesh'):
+            _fail(p['shape'], shape, "must be '' or 'mesh' with mesh_path")
+        if values['dimensions_m']:
+            _fail(p['dimensions_m'], values['dimensions_m'], 'is not used with mesh_path')
+        return _mesh(p['mesh_path'], p['mesh_scale'], path, values['mesh_scale'])
+    if shape == 'mesh':
+        _fail(p['mesh_path'], path, "must be a mesh file when shape is 'mesh'")
+    if values['mesh_scale'] != p['mesh_scale'].default:
+        _fail(p['mesh_scale'], values['mesh_scale'], 'needs mesh_path')
+    if values['inertia']:
+        return None
+    if not shape:
+        shape, dims = DEFAULT_SHAPE, DEFAULT_DIMENSIONS_M
+    else:
+        dims = values['dimensions_m']
+    if shape not in SHAPES:
+        return None  # _model names the shape
+    try:
+        return primitive_shape(shape, dims)
+    except ModelError:
+        return None  # _model names the dimensions, as it did before shapes could collide
+
+
+def _model(values, collision=None):
     """Build the :class:`BodyModel`: mass, inertia (given, or of a shape), gravity, damping."""
     p = PARAMETERS_BY_NAME
     mass_kg = values['mass_kg']
@@ -447,7 +625,9 @@ def _model(values):
             'give either inertia or shape (with dimensions_m), not both')
     if dims and not shape:
         _fail(p['dimensions_m'], dims, 'needs shape (or remove it and give inertia)')
-    if inertia:
+    if values['mesh_path']:
+        inertia_b = collision.mass_properties(mass_kg).inertia_b
+    elif inertia:
         if len(inertia) != 6:
             _fail(p['inertia'], inertia, 'must have 6 values [ixx, iyy, izz, ixy, ixz, iyz]')
         inertia_b = _reraise(p['inertia'], inertia, inertia_from_components, *inertia)
@@ -462,6 +642,69 @@ def _model(values):
     return _reraise(p['inertia'] if inertia else p['dimensions_m'], inertia or dims, BodyModel,
                     mass_kg, inertia_b, gravity, values['linear_damping'],
                     values['angular_damping'])
+
+
+def _static_world(values, obstacle_names):
+    """Return the :class:`StaticWorld` of ``ground.*`` and ``obstacles``, or None if empty."""
+    p = PARAMETERS_BY_NAME
+    ground = None
+    if values['ground.enabled']:
+        material = _reraise(p['ground.friction'], values['ground.friction'], validate_material,
+                            values['ground.friction'], values['ground.restitution'], 'ground.')
+        ground = ground_plane((0.0, 0.0, 1.0), values['ground.height_m'], material)
+    obstacles = []
+    for name in obstacle_names:
+        specs = {spec.name.rsplit('.', 1)[1]: spec for spec in obstacle_parameter_specs(name)}
+        get = {key: values[spec.name] for key, spec in specs.items()}
+        q_xyzw = get['orientation']
+        if len(q_xyzw) != 4:
+            _fail(specs['orientation'], q_xyzw, 'must have 4 values [x, y, z, w]')
+        norm = math.sqrt(sum(v * v for v in q_xyzw))
+        if abs(norm - 1.0) > 1e-3:
+            _fail(specs['orientation'], q_xyzw,
+                  f'norm {norm:.6g} must be within 1e-3 of 1 ([x, y, z, w] order)')
+        _vector3(specs['position'], get['position'])
+        if get['shape'] == 'mesh':
+            if not get['mesh_path']:
+                _fail(specs['mesh_path'], '', "must be a mesh file when shape is 'mesh'")
+            resolved = resolve_mesh_path(get['mesh_path'], specs['mesh_path'].name)
+        elif get['shape'] not in PRIMITIVES:
+            _fail(specs['shape'], get['shape'],
+                  'must be one of ' + ', '.join(PRIMITIVES) + ' or mesh', ModelError)
+        else:
+            resolved = None
+        try:
+            obstacles.append(obstacle(
+                name, get['shape'], get['dimensions_m'], resolved, get['mesh_scale'],
+                get['position'], xyzw_to_wxyz(q_xyzw), get['friction'], get['restitution']))
+        except ModelError as exc:
+            raise ModelError(f'parameter {exc}') from None
+    if ground is None and not obstacles:
+        return None
+    return StaticWorld(ground, tuple(obstacles))
+
+
+def _check_contact(values, collision, static_world, initial_state, integrator):
+    """Refuse contact without a shape, with an integrator that cannot take it, or overlapping."""
+    if static_world is None:
+        return
+    p = PARAMETERS_BY_NAME
+    if collision is None:
+        raise ModelError(
+            f'parameter inertia = {_fmt(values["inertia"])} kg·m²: a body given only by its '
+            'inertia has no collision shape; with ground.enabled or obstacles give shape and '
+            'dimensions_m, or mesh_path')
+    if integrator not in CONTACT_INTEGRATORS:
+        _fail(p['integrator'], integrator,
+              'cannot take contact (ground.enabled or obstacles): use one of '
+              + ', '.join(CONTACT_INTEGRATORS))
+    try:
+        check_overlaps([('body', collision, initial_state.position_w,
+                         initial_state.orientation_wb)], static_world)
+    except ModelError as exc:
+        reason = str(exc).split(' m puts the body ', 1)[-1]
+        _fail(p['initial_position'], values['initial_position'], 'puts the body ' + reason,
+              ModelError)
 
 
 def xyzw_to_wxyz(q_xyzw):
@@ -578,9 +821,23 @@ _FIRST_STEP_SUSPECTS = ('initial_angular_velocity', 'initial_linear_velocity',
                         'linear_damping', 'angular_damping', 'timestep_s')
 
 
+def make_simulator(config):
+    """
+    Return the simulator of ``config``.
+
+    A :class:`Simulator`, or with contact (a ground or obstacles) a :class:`WorldSimulator` of
+    this one body (index 0) and the static world.
+    """
+    if config.contact:
+        body = WorldBody('body', config.model, config.collision_shape, config.material)
+        return WorldSimulator([body], [config.initial_state], config.static_world,
+                              integrator=config.integrator, timestep_ns=config.timestep_ns)
+    return Simulator(config.model, config.initial_state, integrator=config.integrator,
+                     timestep_ns=config.timestep_ns)
+
+
 def _step_once(config):
-    Simulator(config.model, config.initial_state, integrator=config.integrator,
-              timestep_ns=config.timestep_ns).step(1)
+    make_simulator(config).step(1)
 
 
 def check_first_step(config):

@@ -73,6 +73,8 @@ _TYPES = {cfg.BOOL: ParameterType.PARAMETER_BOOL, cfg.INTEGER: ParameterType.PAR
 _ARRAY_TYPES = {cfg.DOUBLE_ARRAY: Parameter.Type.DOUBLE_ARRAY,
                 cfg.STRING_ARRAY: Parameter.Type.STRING_ARRAY}
 _IGNORED = ('use_sim_time', 'start_type_description_service')
+# Parameters whose names depend on a list: wrench_inputs.<name>.*, obstacles.<name>.*.
+_DYNAMIC_PREFIXES = ('wrench_inputs.', 'obstacles.')
 # pose, twist and odom: reliable, transient local, keep last 1: a subscriber that arrives while the
 # node is paused (ros2 topic echo pose --once) gets the latest sample. The other topics: depth 10,
 # reliable, volatile (rclpy's default). Every endpoint takes qos_overrides.<topic>.<kind>.<policy>.
@@ -81,7 +83,7 @@ STATE_QOS = {'depth': 1, 'reliability': ReliabilityPolicy.RELIABLE,
 QOS_OVERRIDES = QoSOverridingOptions(policy_kinds=(
     QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH, QoSPolicyKind.RELIABILITY,
     QoSPolicyKind.DURABILITY))
-OUTPUT_TOPICS = ('pose', 'twist', 'odom', '/clock', '/diagnostics', '/tf')
+OUTPUT_TOPICS = ('pose', 'twist', 'odom', 'contact_wrench', '/clock', '/diagnostics', '/tf')
 
 
 def _rcl_text(exc):
@@ -107,7 +109,7 @@ class RigidBodyNode(Node):
         self._overrides = overrides = self._read_overrides(global_args, kwargs)
         params = {}
         for name, value in overrides.items():
-            if name in cfg.PARAMETERS_BY_NAME or name.startswith('wrench_inputs.'):
+            if name in cfg.PARAMETERS_BY_NAME or name.startswith(_DYNAMIC_PREFIXES):
                 params[name] = value
             elif name not in _IGNORED and not name.startswith('qos_overrides.'):
                 self.get_logger().warning(f'ignoring unknown parameter {name} = {value!r}')
@@ -132,6 +134,9 @@ class RigidBodyNode(Node):
                       'twist': self._publisher(types['twist'], 'twist', STATE_QOS),
                       'odom': self._publisher(types['odom'], 'odom', STATE_QOS),
                       'diagnostics': self._publisher(conv.DiagnosticArray, '/diagnostics', 10)}
+        if 'contact_wrench' in self._builder.kinds:
+            self._pubs['contact_wrench'] = self._publisher(types['contact_wrench'],
+                                                           'contact_wrench', STATE_QOS)
         if 'clock' in self._builder.kinds:
             self._pubs['clock'] = self._publisher(types['clock'], '/clock', 10)
         if 'tf' in self._builder.kinds:
@@ -361,7 +366,8 @@ class RigidBodyNode(Node):
     def _publish_sample(self):
         """Publish the current sample; record the same CDR bytes."""
         builder, t = self._builder, self.session.time_ns
-        samples = builder.serialize(t, builder.column_values(self._state_column))
+        samples = builder.serialize(t, builder.column_values(self._state_column),
+                                    self.session.contact_wrench_w)
         for (_, publish, topic), (_, data) in zip(self._sample_pubs, samples):
             publish(data)
             if self._recorder is not None:
@@ -403,7 +409,7 @@ class RigidBodyNode(Node):
         That compiles the physics kernels (or loads them from numba's cache): logged when it
         compiles, so the check comes after the look into the cache.
         """
-        on_disk = jitcache.kernels_on_disk()
+        on_disk = jitcache.kernels_on_disk(self.config.contact)
         if not on_disk:
             where = (f'first start, can take a minute; cached in {jitcache.CACHE_DIR}'
                      if jitcache.CACHE_DIR else f'can take a minute; {jitcache.PROBLEM}')

@@ -16,7 +16,8 @@
 One output sample: state → values → CDR bytes (and messages), for the node, replay and tests.
 
 :class:`SampleBuilder` is the only place that turns a :class:`rbd_ros.core.BodyState` into the
-node's output messages (``pose``, ``twist``, ``odom``, ``/clock``, ``/tf``). The node publishes
+node's output messages (``pose``, ``twist``, ``odom``, ``contact_wrench`` with contact,
+``/clock``, ``/tf``). The node publishes
 the CDR bytes of :meth:`SampleBuilder.serialize` and records the SAME bytes; replay recomputes
 the samples with :meth:`SampleBuilder.messages`, built from the same values, so "replay
 rebuilds exactly what the node published" holds by construction (a test checks that rclpy
@@ -52,7 +53,7 @@ import functools
 import math
 import struct
 
-from geometry_msgs.msg import PoseStamped, TransformStamped, TwistStamped
+from geometry_msgs.msg import PoseStamped, TransformStamped, TwistStamped, WrenchStamped
 from nav_msgs.msg import Odometry
 import numpy as np
 from rbd_ros import conversions as conv
@@ -66,12 +67,13 @@ except ImportError:  # pragma: no cover - depends on the install
     TFMessage = None
 
 #: Output kinds in publishing order, with their message types.
-KINDS = ('pose', 'twist', 'odom', 'clock', 'tf')
+KINDS = ('pose', 'twist', 'odom', 'contact_wrench', 'clock', 'tf')
 TYPE_NAMES = {'pose': 'geometry_msgs/msg/PoseStamped',
               'twist': 'geometry_msgs/msg/TwistStamped', 'odom': 'nav_msgs/msg/Odometry',
+              'contact_wrench': 'geometry_msgs/msg/WrenchStamped',
               'clock': 'rosgraph_msgs/msg/Clock', 'tf': 'tf2_msgs/msg/TFMessage'}
-MESSAGE_TYPES = {'pose': PoseStamped, 'twist': TwistStamped, 'odom': Odometry, 'clock': Clock,
-                 'tf': TFMessage}
+MESSAGE_TYPES = {'pose': PoseStamped, 'twist': TwistStamped, 'odom': Odometry,
+                 'contact_wrench': WrenchStamped, 'clock': Clock, 'tf': TFMessage}
 
 _ENCAPSULATION = b'\x00\x01\x00\x00'  # CDR little endian, no options
 _COVARIANCE_BYTES = 36 * 8  # float64[36] of zeros
@@ -118,7 +120,7 @@ class SampleBuilder:
     Built once per configuration.
 
     :param config: a :class:`rbd_ros.config.NodeConfig` (frames, ``twist_frame``,
-        ``publish_clock``, ``publish_tf``).
+        ``publish_clock``, ``publish_tf``, ``contact``).
     :param tf: False leaves ``/tf`` out whatever ``publish_tf`` says (tf2_msgs missing, or a
         caller that does not output it).
     """
@@ -128,7 +130,9 @@ class SampleBuilder:
         self.twist_frame = config.twist_frame
         if self.twist_frame not in ('world', 'body'):
             raise ValueError(f"twist_frame: {self.twist_frame!r} must be 'world' or 'body'")
-        self.kinds = ('pose', 'twist', 'odom') + (('clock',) if config.publish_clock else ()) \
+        self.kinds = ('pose', 'twist', 'odom') \
+            + (('contact_wrench',) if config.contact else ()) \
+            + (('clock',) if config.publish_clock else ()) \
             + (('tf',) if tf and config.publish_tf and TFMessage is not None else ())
         world, body = _cdr_string(self.world_frame), _cdr_string(self.body_frame)
         twist_frame = world if self.twist_frame == 'world' else body
@@ -137,6 +141,7 @@ class SampleBuilder:
         self._twist = _layout(*header, twist_frame, *'d' * 6)
         self._odom = _layout(*header, world, body, *'d' * 7, _COVARIANCE_BYTES, *'d' * 6,
                              _COVARIANCE_BYTES)
+        self._wrench = _layout(*header, world, *'d' * 6)
         self._clock = _layout(*header)
         self._tf = _layout('I', *header, world, body, *'d' * 7)
         self._consts = (world, body, twist_frame)
@@ -166,8 +171,13 @@ class SampleBuilder:
             return self.values(BodyState(x[0:3], q, x[7:10], x[10:13]))
         return _values(x[0:3], q, x[7:10], x[10:13], self.twist_frame == 'world')
 
-    def serialize(self, time_ns, values):
-        """Return ``[(kind, CDR bytes)]`` of one sample, in :data:`KINDS` order."""
+    def serialize(self, time_ns, values, contact_wrench=None):
+        """
+        Return ``[(kind, CDR bytes)]`` of one sample, in :data:`KINDS` order.
+
+        :param contact_wrench: ``(force_w, torque_w)`` (N, N·m about the COM, world frame) for
+            the ``contact_wrench`` kind (:attr:`rbd_ros.session.SimSession.contact_wrench_w`).
+        """
         (px, py, pz), (qw, qx, qy, qz), twist, twist_b = values
         sec, nanosec = divmod(time_ns, NS_PER_S)
         world, body, twist_frame = self._consts
@@ -180,6 +190,10 @@ class SampleBuilder:
             ('odom', self._odom.pack(enc, sec, nanosec, len(world), world, len(body), body,
                                      px, py, pz, qx, qy, qz, qw, *twist_b))]
         kinds = self.kinds
+        if 'contact_wrench' in kinds:
+            force, torque = contact_wrench
+            out.append(('contact_wrench', self._wrench.pack(
+                enc, sec, nanosec, len(world), world, *force, *torque)))
         if 'clock' in kinds:
             out.append(('clock', self._clock.pack(enc, sec, nanosec)))
         if 'tf' in kinds:
@@ -187,14 +201,16 @@ class SampleBuilder:
                                             len(body), body, px, py, pz, qx, qy, qz, qw)))
         return out
 
-    def messages(self, state):
+    def messages(self, state, contact_wrench=None):
         """Return ``{kind: message}`` of one sample of ``state`` (new objects each call)."""
-        return {kind: self.message(kind, state) for kind in self.kinds}
+        return {kind: self.message(kind, state, contact_wrench) for kind in self.kinds}
 
-    def message(self, kind, state):
+    def message(self, kind, state, contact_wrench=None):
         """Return a new message of ``kind`` (any of :data:`KINDS`) for ``state``."""
         (px, py, pz), (qw, qx, qy, qz), twist, twist_b = self.values(state)
         stamp = state.time_ns
+        if kind == 'contact_wrench':
+            return conv.wrench_to_msg(self.world_frame, *contact_wrench, stamp_ns=stamp)
         if kind == 'clock':
             return Clock(clock=conv.time_to_msg(stamp))
         if kind == 'pose':
@@ -225,19 +241,20 @@ class SampleBuilder:
         return msg
 
 
-@functools.lru_cache(maxsize=16)
-def _cached_builder(world_frame, body_frame, twist_frame, publish_clock, publish_tf):
-    return SampleBuilder(_Frames(world_frame, body_frame, twist_frame, publish_clock, publish_tf))
-
-
 def sample_builder(config):
     """Return a (shared) :class:`SampleBuilder` for ``config``; replay calls this per sample."""
     return _cached_builder(config.world_frame, config.body_frame, config.twist_frame,
-                           config.publish_clock, config.publish_tf)
+                           config.publish_clock, config.publish_tf, config.contact)
+
+
+@functools.lru_cache(maxsize=16)
+def _cached_builder(world_frame, body_frame, twist_frame, publish_clock, publish_tf, contact):
+    return SampleBuilder(_Frames(world_frame, body_frame, twist_frame, publish_clock, publish_tf,
+                                 contact))
 
 
 _Frames = collections.namedtuple(
-    '_Frames', 'world_frame body_frame twist_frame publish_clock publish_tf')
+    '_Frames', 'world_frame body_frame twist_frame publish_clock publish_tf contact')
 
 
 def _header(header, time_ns, frame_id):

@@ -87,7 +87,9 @@ def _plotted_topics(bag: Bag) -> Tuple[List[str], List[str]]:
     if not state_topics:
         raise RbdError(f'{bag.mcap_path}: no odom, pose or twist topic to plot '
                        f'(topics: {sorted(bag.topics)})')
-    return state_topics, by_type.get(_WRENCH, [])
+    # contact_wrench is an output (the node's contact force), not an applied wrench.
+    inputs = [t for t in by_type.get(_WRENCH, []) if t.rsplit('/', 1)[-1] != 'contact_wrench']
+    return state_topics, inputs
 
 
 def _read_samples(bag: Bag, state_topics: List[str], wrench_topics: List[str],

@@ -101,6 +101,8 @@ class TopicResult:
     max_orientation_error_rad: Optional[float] = None
     max_linear_velocity_error_m_s: Optional[float] = None
     max_angular_velocity_error_rad_s: Optional[float] = None
+    max_force_error_n: Optional[float] = None
+    max_torque_error_nm: Optional[float] = None
     first_mismatch: Optional[str] = None
 
     def take_error(self, name: str, value: float) -> None:
@@ -261,24 +263,30 @@ def _fields(kind, msg):
     if kind == 'twist':
         return stamp, (msg.header.frame_id,), {
             'linear': vec(msg.twist.linear), 'angular': vec(msg.twist.angular)}
+    if kind == 'contact_wrench':
+        return stamp, (msg.header.frame_id,), {
+            'force': vec(msg.wrench.force), 'torque': vec(msg.wrench.torque)}
     return stamp, (msg.header.frame_id, msg.child_frame_id), {
         'position': vec(msg.pose.pose.position), 'orientation': quat(msg.pose.pose.orientation),
         'linear': vec(msg.twist.twist.linear), 'angular': vec(msg.twist.twist.angular)}
 
 
-def expected_message(kind, state, config):
+def expected_message(kind, state, config, contact_wrench=None):
     """Recompute the output message of ``kind`` for ``state``: the node's own builder."""
-    return outputs.sample_builder(config).message(kind, state)
+    return outputs.sample_builder(config).message(kind, state, contact_wrench)
 
 
 #: The compared fields of each output kind (see :func:`_fields`).
 _KIND_FIELDS = {'pose': ('position', 'orientation'), 'twist': ('linear', 'angular'),
-                'odom': ('position', 'orientation', 'linear', 'angular'), 'clock': ()}
+                'odom': ('position', 'orientation', 'linear', 'angular'),
+                'contact_wrench': ('force', 'torque'), 'clock': ()}
 _ERROR_FIELDS = {
     'position': 'max_position_error_m',
     'orientation': 'max_orientation_error_rad',
     'linear': 'max_linear_velocity_error_m_s',
     'angular': 'max_angular_velocity_error_rad_s',
+    'force': 'max_force_error_n',
+    'torque': 'max_torque_error_nm',
 }
 
 
@@ -398,6 +406,9 @@ class Replayer:
         for topic, info in bag.topics.items():
             if info.type_name in OUTPUT_KINDS:
                 self.kinds[topic] = OUTPUT_KINDS[info.type_name]
+            elif (info.type_name == WRENCH_TYPE and self.config.contact
+                  and topic.rsplit('/', 1)[-1] == 'contact_wrench'):
+                self.kinds[topic] = 'contact_wrench'  # an output: the node refuses it as input
             elif info.type_name == WRENCH_TYPE:
                 self.inputs[topic] = _input_for_topic(self.config, topic)
         self.result = ReplayResult(
@@ -563,7 +574,8 @@ class Replayer:
         if self._expected_time_ns != t:
             builder = self._builder
             self._expected = dict(builder.serialize(
-                t, builder.column_values(self.session.state_column)))
+                t, builder.column_values(self.session.state_column),
+                self.session.contact_wrench_w))
             self._expected_time_ns = t
         kind = self.kinds[raw.topic]
         if self._expected.get(kind) != raw.data:
@@ -577,7 +589,8 @@ class Replayer:
     def compare_sample(self, raw: RawMessage, msg) -> bool:
         """Compare the recorded output sample ``msg`` with the one recomputed now."""
         kind, t = self.kinds[raw.topic], raw.log_time_ns
-        expected = expected_message(kind, self.session.state, self.config)
+        expected = expected_message(kind, self.session.state, self.config,
+                                    self.session.contact_wrench_w)
         if self.session.time_ns != t:
             # Replayed with another step: compare the values at the first step end at or after
             # t (the stamp is not what is being studied).

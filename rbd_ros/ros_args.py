@@ -44,10 +44,16 @@ earlier one of the same name and section only if it has the same type (rcl keeps
 type, and rclpy reads the first filled slot in the order bool, integer, double, string,
 bool/integer/double/string array), and an empty list ``[]`` fills no slot (alone, the value is
 NOT_SET: ``None``).
+
+One addition of ours: a relative ``mesh_path`` (any name ending so) read from a params file is
+made relative to that file's directory (as URDF and SDF resolve their meshes), so a world file
+and its meshes move together; ``package://`` and absolute paths, and ``-p`` values (relative
+to the working directory), are kept as given.
 """
 
 from fractions import Fraction
 import math
+import os
 import re
 import sys
 
@@ -180,6 +186,14 @@ class ParameterStore:
 
     def __init__(self):
         self.sections = {}
+        self._base_dir = None  # directory of the params file being read, else None
+
+    def _resolve(self, name, value):
+        """Make a params file's relative ``*mesh_path`` value relative to that file."""
+        if (self._base_dir is not None and name.endswith('mesh_path') and isinstance(value, str)
+                and value and not value.startswith('package://') and not os.path.isabs(value)):
+            return os.path.join(self._base_dir, value)
+        return value
 
     def _slots(self, node_name, name):
         return self.sections.setdefault(node_name, {}).setdefault(name, {})
@@ -188,7 +202,7 @@ class ParameterStore:
         """Store a composed YAML ``node`` (scalar or sequence of scalars, or None: nothing)."""
         slots = self._slots(node_name, name)
         if isinstance(node, yaml.ScalarNode):
-            value = _scalar(node)
+            value = self._resolve(name, _scalar(node))
             slots[type(value)] = value
         elif isinstance(node, yaml.SequenceNode) and node.value:
             values = [_scalar(item) for item in node.value]
@@ -215,9 +229,13 @@ class ParameterStore:
             raise RosArgsError(f'--params-file {path}: cannot read it ({exc.strerror})') from None
         except yaml.YAMLError as exc:
             raise RosArgsError(f'--params-file {path}: not YAML ({_one_line(exc)})') from None
-        for document in documents:
-            if isinstance(document, yaml.MappingNode):
-                self._add_sections((), document)
+        self._base_dir = os.path.dirname(os.path.abspath(path))
+        try:
+            for document in documents:
+                if isinstance(document, yaml.MappingNode):
+                    self._add_sections((), document)
+        finally:
+            self._base_dir = None
 
     def _add_sections(self, names, mapping):
         for key, value in mapping.value:

@@ -53,7 +53,8 @@ from dataclasses import dataclass, field
 import hashlib
 import struct
 
-from rbd_ros.core import NonFiniteError, Simulator
+from rbd_ros.config import make_simulator
+from rbd_ros.core import NonFiniteError
 from rbd_ros.inputs import WrenchInputs
 
 
@@ -116,9 +117,8 @@ class SimSession:
 
     def __init__(self, config):
         self.config = config
-        self.simulator = Simulator(config.model, config.initial_state,
-                                   integrator=config.integrator,
-                                   timestep_ns=config.timestep_ns)
+        # With a ground or obstacles, a world of this one body (index 0), stepped with contact.
+        self.simulator = make_simulator(config)
         self.inputs = WrenchInputs(
             config.wrench_inputs, world_frame=config.world_frame,
             body_frame=config.body_frame, timeout_ns=config.wrench_timeout_ns,
@@ -136,7 +136,20 @@ class SimSession:
     @property
     def state(self):
         """Return the current :class:`rbd_ros.core.BodyState`."""
-        return self.simulator.state
+        return self.simulator.body_state(0)
+
+    @property
+    def contact_wrench_w(self):
+        """
+        Return the net contact ``(force_w, torque_w)`` on the body over the last step.
+
+        Force in N and torque in N·m about the COM, world frame (the contact impulses of the
+        step divided by its length); None when the configuration has no contact.
+        """
+        if not self.config.contact:
+            return None
+        row = self.simulator.contact_wrench_w[0].tolist()
+        return row[:3], row[3:]
 
     @property
     def state_column(self):
@@ -201,9 +214,15 @@ class SimSession:
         """Back to the initial state at time 0; pending and held wrenches are dropped."""
         self.simulator.reset()
         self.inputs.clear()
-        self.simulator.set_loads(self.inputs.loads())
+        self._set_loads()
         self.resets += 1
         self.error = None
+
+    def _set_loads(self):
+        if self.config.contact:
+            self.simulator.set_body_loads(0, self.inputs.loads())
+        else:
+            self.simulator.set_loads(self.inputs.loads())
 
     def _steps_to_next_sample(self, time_ns):
         period = self.config.publish_period_ns
@@ -224,7 +243,7 @@ class SimSession:
             expired = self.inputs.expire(t)
             applied = self.inputs.apply_pending(t)
             if applied or expired:
-                self.simulator.set_loads(self.inputs.loads())
+                self._set_loads()
                 events.extend(applied)
             chunk = min(max_steps - done, self._steps_to_next_sample(t))
             expiry = self.inputs.next_expiry_ns()

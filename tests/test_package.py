@@ -64,6 +64,17 @@ def test_colcon_build_installs_a_runnable_rigid_body_node(tmp_path):
     run = subprocess.run(
         [str(executable), '--ros-args', '--params-file', str(installed_config),
          '-p', 'duration_s:=0.05', '-p', 'real_time_factor:=0.0'],
-        cwd=tmp_path, env=run_env, capture_output=True, text=True, timeout=120)
+        cwd=tmp_path, env=run_env, capture_output=True, text=True, timeout=300)
     assert run.returncode == 0, run.stdout + run.stderr
     assert 'duration_s reached at t = 50000000 ns' in run.stderr
+    # A world with a mesh: installed with its mesh, which its relative mesh_path finds; and a
+    # package:// URI found through the ament index (AMENT_PREFIX_PATH, as setup.bash sets it).
+    mesh_world = prefix / 'share' / 'rbd_ros' / 'msg_config' / 'l_block_bin.yaml'
+    assert (prefix / 'share' / 'rbd_ros' / 'msg_config' / 'meshes' / 'l_block.stl').is_file()
+    for extra in ([], ['-p', 'mesh_path:=package://rbd_ros/msg_config/meshes/l_block.stl']):
+        run = subprocess.run(
+            [str(executable), '--ros-args', '--params-file', str(mesh_world),
+             '-p', 'duration_s:=0.05', '-p', 'real_time_factor:=0.0', *extra],
+            cwd=tmp_path, env=dict(run_env, AMENT_PREFIX_PATH=str(prefix)),
+            capture_output=True, text=True, timeout=300)
+        assert run.returncode == 0, run.stdout + run.stderr

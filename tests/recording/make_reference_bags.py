@@ -50,7 +50,7 @@ BAGS = REPO / 'bags'
 #: name -> (config file, overrides, wrench script [(offset s, topic, frame_id, force, torque)])
 REFERENCE_BAGS = {
     'box_pushed': (
-        'msg_config/default.yaml',
+        'msg_config/free_body.yaml',
         {'duration_s': 5.0, 'real_time_factor': 1.0, 'publish_clock': True,
          'start_paused': True},
         [

@@ -32,10 +32,11 @@ STATE = BodyState(position_w=(1.0, -2.0, 3.0), orientation_wb=Q_WB,
 R_WB = rotations.quat_to_matrix(Q_WB)
 
 
-def builder(twist_frame='world', world='world', body='base_link', clock=True, tf=True):
+def builder(twist_frame='world', world='world', body='base_link', clock=True, tf=True,
+            contact=True):
     return outputs.SampleBuilder(types.SimpleNamespace(
         world_frame=world, body_frame=body, twist_frame=twist_frame, publish_clock=clock,
-        publish_tf=tf))
+        publish_tf=tf, contact=contact))
 
 
 def xyz(v):
@@ -142,16 +143,18 @@ def test_cdr_bytes_are_rclpy_serialisations_of_the_messages(twist_frame):
     # (repr shows every float exactly, -0.0 included) and by length; ours pads with zeros.
     for n, state in enumerate(random_states(3, 64)):
         b = builder(twist_frame, world='w' * (n % 9), body='body'[:n % 5] + 'x' * (n % 3))
-        samples = b.serialize(state.time_ns, b.values(state))
+        wrench = (state.linear_velocity_w.tolist(), state.angular_velocity_b.tolist())
+        samples = b.serialize(state.time_ns, b.values(state), wrench)
         assert [kind for kind, _ in samples] == list(b.kinds) == list(outputs.KINDS)
         for kind, data in samples:
-            msg = b.message(kind, state)
+            msg = b.message(kind, state, wrench)
             assert len(data) == len(serialize_message(msg))
             assert repr(deserialize_message(data, outputs.MESSAGE_TYPES[kind])) == repr(msg)
 
 
 def test_kinds_follow_the_configuration():
-    assert builder(clock=False, tf=False).kinds == ('pose', 'twist', 'odom')
+    assert builder(clock=False, tf=False, contact=False).kinds == ('pose', 'twist', 'odom')
+    assert builder(clock=False, tf=False).kinds == ('pose', 'twist', 'odom', 'contact_wrench')
     config = NodeConfig.from_parameters({'publish_clock': True})
     assert outputs.SampleBuilder(config, tf=False).kinds == ('pose', 'twist', 'odom', 'clock')
     assert outputs.sample_builder(config) is outputs.sample_builder(

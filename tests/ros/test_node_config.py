@@ -24,6 +24,7 @@ import sys
 import numpy as np
 import pytest
 from rbd_ros import config as cfg
+from rbd_ros import ros_args
 from rbd_ros.config import NodeConfig
 from rbd_ros.core import ConfigError, ModelError
 from rbd_ros.core import inertia as inertia_mod
@@ -197,7 +198,9 @@ def test_msg_config_files_are_valid_configs():
     files = sorted((REPO / 'msg_config').glob('*.yaml'))
     assert len(files) >= 4
     for path in files:
-        params = yaml.safe_load(path.read_text())['/**']['ros__parameters']
+        # Read as the node reads it: a relative mesh_path is relative to the file.
+        params = ros_args.store_from_args(['--ros-args', '--params-file', str(path)]).values_for(
+            '/rigid_body_node')
         NodeConfig.from_parameters(params)
 
 
@@ -212,7 +215,8 @@ def test_config_and_session_do_not_import_rclpy():
 
 def test_readme_documents_every_parameter_and_starts_with_the_two_commands():
     readme = (REPO / 'README.md').read_text()
-    for spec in cfg.PARAMETERS + cfg.input_parameter_specs('<name>'):
+    for spec in (cfg.PARAMETERS + cfg.input_parameter_specs('<name>')
+                 + cfg.obstacle_parameter_specs('<name>')):
         assert f'| `{spec.name}` |' in readme, spec.name
     lines = readme.splitlines()
     assert lines[0] == '```bash' and lines[3] == '```'
@@ -245,7 +249,9 @@ def test_the_readme_parameter_table_is_the_parameter_table():
         dataclass_replace(spec, name=spec.name.replace('.x.', '.<name>.'),
                           default=spec.default.replace('_x', '_<name>')
                           if spec.kind == cfg.STRING else spec.default)
-        for spec in cfg.input_parameter_specs('x')]
+        for spec in cfg.input_parameter_specs('x')] + [
+        dataclass_replace(spec, name=spec.name.replace('.x.', '.<name>.'))
+        for spec in cfg.obstacle_parameter_specs('x')]
     assert sorted(rows) == sorted(spec.name for spec in specs)
     for spec in specs:
         kind, default, unit = rows[spec.name]

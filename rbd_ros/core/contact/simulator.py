@@ -251,6 +251,11 @@ class WorldSimulator(BatchSimulator):
         return self._bodies
 
     @property
+    def time_ns(self) -> int:
+        """Return the world's sim time, int ns (every body's)."""
+        return int(self._t[0]) if self.size else 0
+
+    @property
     def static(self) -> StaticWorld:
         """Return the static world."""
         return self._static
