@@ -38,7 +38,7 @@ YAML cannot type an empty list. :meth:`NodeConfig.from_parameters` reads ``None`
 array parameters.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace as dataclass_replace
 import math
 import os
 
@@ -197,6 +197,10 @@ PARAMETERS = (
               'Names of static obstacles, each with obstacles.<name>.shape, .dimensions_m, '
               '.mesh_path, .mesh_scale, .position, .orientation, .friction and .restitution.',
               rule='distinct names of letters, digits and _'),
+    ParamSpec('bodies', STRING_ARRAY, (), '',
+              'Names of the bodies of a world, each with bodies.<name>.* (the per-body '
+              'parameters above); [] = one body from the parameters above.',
+              rule='distinct names of letters, digits and _; not with per-body parameters'),
     ParamSpec('publish_clock', BOOL, False, '', 'Publish /clock (sim time).'),
     ParamSpec('publish_tf', BOOL, True, '',
               'Broadcast world -> body on /tf (only when tf2_msgs is importable).'),
@@ -237,6 +241,58 @@ def input_parameter_specs(name):
                   f'Application point of input {name!r}, body frame, relative to the COM.',
                   rule='3 finite values'),
     )
+
+
+#: The per-body parameters: in a world each body has them as ``bodies.<name>.<parameter>``.
+BODY_PARAMETERS = (
+    'mass_kg', 'inertia', 'shape', 'dimensions_m', 'mesh_path', 'mesh_scale', 'friction',
+    'restitution', 'initial_position', 'initial_orientation', 'initial_linear_velocity',
+    'initial_angular_velocity', 'linear_damping', 'angular_damping', 'body_frame',
+    'wrench_inputs')
+
+
+def body_parameter_specs(name):
+    """
+    Return the :class:`ParamSpec` of body ``name`` of a world (``bodies.<name>.*``).
+
+    The per-body parameters of the table (:data:`BODY_PARAMETERS`), with the same types,
+    defaults, units and rules, except ``body_frame``, whose default is the body's name.
+    """
+    prefix = f'bodies.{name}.'
+    specs = []
+    for base in BODY_PARAMETERS:
+        spec = PARAMETERS_BY_NAME[base]
+        default = name if base == 'body_frame' else spec.default
+        specs.append(ParamSpec(prefix + base, spec.kind, default, spec.unit,
+                               f'Body {name!r}: {spec.description[0].lower()}'
+                               f'{spec.description[1:]}', spec.bounds, spec.read_only,
+                               spec.rule))
+    return tuple(specs)
+
+
+@dataclass(frozen=True)
+class BodyConfig:
+    """
+    One body of a world: name, model, start, collision shape, material, frame and inputs.
+
+    :ivar name: its name in ``bodies`` (its topics are ``<name>/pose``, ...).
+    :ivar model: its :class:`BodyModel`.
+    :ivar initial_state: its :class:`BodyState` at time 0.
+    :ivar collision_shape: its :class:`rbd_ros.core.contact.CollisionShape`.
+    :ivar material: its :class:`rbd_ros.core.contact.Material`.
+    :ivar body_frame: its frame id (default its name).
+    :ivar wrench_inputs: its :class:`WrenchInputSpec` tuple; names and topics are
+        ``<name>/wrench``, ``<name>/wrench_<input>`` (relative), so they are unique in the
+        world and the node's namespace still applies.
+    """
+
+    name: str
+    model: BodyModel
+    initial_state: BodyState
+    collision_shape: object
+    material: object
+    body_frame: str
+    wrench_inputs: tuple
 
 
 def obstacle_parameter_specs(name):
@@ -433,11 +489,17 @@ class NodeConfig:
     collision_shape: object = None
     material: object = None
     static_world: object = None
+    bodies: tuple = ()
 
     @property
     def contact(self):
-        """Return True when the body can touch something: a ground or an obstacle."""
-        return self.static_world is not None
+        """Return True when a body can touch something: a world, a ground or an obstacle."""
+        return self.static_world is not None or bool(self.bodies)
+
+    @property
+    def world(self):
+        """Return True for a world of named bodies (``bodies`` not empty)."""
+        return bool(self.bodies)
 
     @classmethod
     def from_parameters(cls, params=None):
@@ -453,17 +515,27 @@ class NodeConfig:
         values = _table_values(params)
         input_names = _input_values(values, params)
         obstacle_names = _obstacle_values(values, params)
+        body_inputs = _body_values(values, params)
         if params:
             unknown = sorted(params)[0]
             raise ConfigError(
                 f'parameter {unknown} = {_fmt(params[unknown])}: unknown parameter name '
-                '(known: see README; wrench input and obstacle parameters need their name in '
-                'wrench_inputs or obstacles)')
+                '(known: see README; wrench input, obstacle and body parameters need their '
+                'name in wrench_inputs, obstacles or bodies)')
         time_settings = _time_settings(values)
+        static_world = _static_world(values, obstacle_names)
+        if body_inputs:
+            bodies = _world_bodies(values, body_inputs, static_world,
+                                   time_settings['integrator'])
+            return cls(
+                model=bodies[0].model, initial_state=bodies[0].initial_state, **time_settings,
+                **_frame_settings(values, bodies), **_limits_and_recording(values),
+                wrench_inputs=tuple(spec for body in bodies for spec in body.wrench_inputs),
+                parameters=values, collision_shape=bodies[0].collision_shape,
+                material=bodies[0].material, static_world=static_world, bodies=bodies)
         collision = _collision_shape(values)
         model = _model(values, collision)
         initial_state = _initial_state(values)
-        static_world = _static_world(values, obstacle_names)
         _check_contact(values, collision, static_world, initial_state,
                        time_settings['integrator'])
         return cls(
@@ -487,6 +559,10 @@ class NodeConfig:
             specs.extend(input_parameter_specs(input_name))
         for obstacle_name in self.parameters['obstacles']:
             specs.extend(obstacle_parameter_specs(obstacle_name))
+        for body_name in self.parameters['bodies']:
+            specs.extend(body_parameter_specs(body_name))
+            for input_name in self.parameters[f'bodies.{body_name}.wrench_inputs']:
+                specs.extend(_body_input_specs(body_name, input_name))
         return tuple(specs)
 
 
@@ -539,6 +615,108 @@ def _obstacle_values(values, params):
                 _check_range(obstacle_spec, value)
             values[obstacle_spec.name] = value
     return names
+
+
+def _body_input_specs(body, name):
+    """Return the specs of the extra wrench input ``name`` of world body ``body``."""
+    return tuple(dataclass_replace(spec, name=f'bodies.{body}.{spec.name}')
+                 for spec in input_parameter_specs(name))
+
+
+def _check_names(spec, names, what):
+    for name in names:
+        if not name or not (name.replace('_', 'a').isalnum() and name.isascii()) \
+                or name[0].isdigit():
+            _fail(spec, list(names), f'{what} name {name!r} must be letters, digits and _ '
+                  '(not starting with a digit)')
+    if len(set(names)) != len(names):
+        _fail(spec, list(names), 'names must be distinct')
+
+
+def _body_values(values, params):
+    """
+    Check ``bodies``; take each body's parameters out of ``params`` into ``values``.
+
+    Returns ``{body: its extra input names}`` (empty without ``bodies``).
+    """
+    names = values['bodies']
+    _check_names(PARAMETERS_BY_NAME['bodies'], names, 'body')
+    out = {}
+    for name in names:
+        for spec in body_parameter_specs(name):
+            value = _coerce(spec, params.pop(spec.name, spec.default))
+            if spec.kind in (DOUBLE, INTEGER):
+                _check_range(spec, value)
+            values[spec.name] = value
+        inputs_spec = PARAMETERS_BY_NAME['wrench_inputs']
+        inputs = values[f'bodies.{name}.wrench_inputs']
+        try:
+            _check_names(inputs_spec, inputs, 'input')
+            if MAIN_INPUT in inputs:
+                _fail(inputs_spec, list(inputs), f'{MAIN_INPUT!r} is the main input')
+        except ConfigError as exc:
+            raise ConfigError(str(exc).replace('parameter wrench_inputs',
+                                               f'parameter bodies.{name}.wrench_inputs'))
+        for input_name in inputs:
+            for spec in _body_input_specs(name, input_name):
+                values[spec.name] = _coerce(spec, params.pop(spec.name, spec.default))
+        out[name] = inputs
+    return out
+
+
+def _renamed(body, exc):
+    """Return ``exc`` (ModelError/ConfigError) with per-body parameter names prefixed."""
+    message = str(exc)
+    for base in sorted(BODY_PARAMETERS, key=len, reverse=True):
+        message = message.replace(f'parameter {base}', f'parameter bodies.{body}.{base}')
+    return type(exc)(message)
+
+
+def _world_bodies(values, body_inputs, static_world, integrator):
+    """Build every body of a world; refuse top-level per-body values and overlaps."""
+    for base in BODY_PARAMETERS:
+        spec = PARAMETERS_BY_NAME[base]
+        if values[base] != spec.default:
+            _fail(spec, values[base], f'with bodies, each body has its own: set '
+                  f'bodies.<name>.{base} instead')
+    if integrator not in CONTACT_INTEGRATORS:
+        _fail(PARAMETERS_BY_NAME['integrator'], integrator,
+              'cannot take contact (a world of bodies): use one of '
+              + ', '.join(CONTACT_INTEGRATORS))
+    bodies = []
+    for name, inputs in body_inputs.items():
+        sub = dict(values)
+        for base in BODY_PARAMETERS:
+            sub[base] = values[f'bodies.{name}.{base}']
+        for input_name in inputs:
+            for spec in input_parameter_specs(input_name):
+                sub[spec.name] = values[f'bodies.{name}.{spec.name}']
+        try:
+            collision = _collision_shape(sub)
+            model = _model(sub, collision)
+            state = _initial_state(sub)
+            if collision is None:
+                raise ModelError(
+                    f'parameter inertia = {_fmt(sub["inertia"])} kg·m²: a body given only by '
+                    'its inertia has no collision shape; give shape and dimensions_m, or '
+                    'mesh_path')
+            material = validate_material(sub['friction'], sub['restitution'])
+            specs = _wrench_inputs(sub, inputs)
+        except (ModelError, ConfigError) as exc:
+            raise _renamed(name, exc) from None
+        specs = tuple(WrenchInputSpec(f'{name}/{spec.name}', f'{name}/{spec.topic}',
+                                      spec.frame, spec.point_b) for spec in specs)
+        bodies.append(BodyConfig(name, model, state, collision, material,
+                                 sub['body_frame'], specs))
+    try:
+        check_overlaps([(b.name, b.collision_shape, b.initial_state.position_w,
+                         b.initial_state.orientation_wb) for b in bodies], static_world)
+    except ModelError as exc:
+        # 'bodies.<name>.position_w: [..] m puts ...' → name the parameter.
+        message = str(exc)
+        head, _, rest = message.partition('.position_w: ')
+        raise ModelError(f'parameter {head}.initial_position = {rest}') from None
+    return tuple(bodies)
 
 
 def resolve_mesh_path(path, field):
@@ -754,9 +932,19 @@ def _time_settings(values):
             'wrench_timeout_ns': _to_ns(p['wrench_timeout_s'], values['wrench_timeout_s'])}
 
 
-def _frame_settings(values):
+def _frame_settings(values, bodies=()):
     """Check the frame ids and keywords; the optional outputs (``/clock``, ``/tf``)."""
     p = PARAMETERS_BY_NAME
+    seen = {values['world_frame']: 'world_frame'}
+    for body in bodies:
+        spec = PARAMETERS_BY_NAME['body_frame']
+        where = f'bodies.{body.name}.body_frame'
+        if not body.body_frame:
+            _fail(dataclass_replace(spec, name=where), body.body_frame, 'must not be empty')
+        if body.body_frame in seen:
+            _fail(dataclass_replace(spec, name=where), body.body_frame,
+                  f'is already the frame of {seen[body.body_frame]}')
+        seen[body.body_frame] = where
     for name in ('world_frame', 'body_frame'):
         if not values[name]:
             _fail(p[name], values[name], 'must not be empty')
@@ -828,6 +1016,11 @@ def make_simulator(config):
     A :class:`Simulator`, or with contact (a ground or obstacles) a :class:`WorldSimulator` of
     this one body (index 0) and the static world.
     """
+    if config.world:
+        return WorldSimulator(
+            [WorldBody(b.name, b.model, b.collision_shape, b.material) for b in config.bodies],
+            [b.initial_state for b in config.bodies], config.static_world,
+            integrator=config.integrator, timestep_ns=config.timestep_ns)
     if config.contact:
         body = WorldBody('body', config.model, config.collision_shape, config.material)
         return WorldSimulator([body], [config.initial_state], config.static_world,

@@ -239,3 +239,87 @@ class WrenchInputs:
         self._pending.clear()
         self._held.clear()
         self._loads = ()
+
+
+class WorldInputs:
+    """
+    The wrench inputs of a world: one :class:`WrenchInputs` per body, routed by input name.
+
+    Input names are ``<body>/wrench`` and ``<body>/<input>``
+    (:attr:`rbd_ros.config.BodyConfig.wrench_inputs`); the interface is that of
+    :class:`WrenchInputs`, with :meth:`body_loads` for each body's held wrenches.
+
+    :param bodies: the :class:`rbd_ros.config.BodyConfig` sequence, in world order.
+    :param world_frame: the world frame id. The other keywords are :class:`WrenchInputs`'s.
+    """
+
+    def __init__(self, bodies, *, world_frame, timeout_ns, max_force_n, max_torque_nm):
+        self._bodies = [WrenchInputs(body.wrench_inputs, world_frame=world_frame,
+                                     body_frame=body.body_frame, timeout_ns=timeout_ns,
+                                     max_force_n=max_force_n, max_torque_nm=max_torque_nm)
+                        for body in bodies]
+        self._route = {spec.name: i for i, body in enumerate(bodies)
+                       for spec in body.wrench_inputs}
+        self.unknown = 0  # wrenches on a name that is no body's input
+
+    @property
+    def received_total(self):
+        """Return the number of wrenches received on all inputs (accepted or not)."""
+        return sum(b.received_total for b in self._bodies) + self.unknown
+
+    @property
+    def rejected_total(self):
+        """Return the number of wrenches rejected, all reasons."""
+        return sum(b.rejected_total for b in self._bodies) + self.unknown
+
+    @property
+    def rejected(self):
+        """Return the rejections by reason, summed over the bodies."""
+        out = dict.fromkeys(REJECT_REASONS, 0)
+        for body in self._bodies:
+            for reason, count in body.rejected.items():
+                out[reason] += count
+        out['unknown_input'] += self.unknown
+        return out
+
+    @property
+    def has_pending(self):
+        """Return True when a wrench waits for the start of the next step."""
+        return any(b.has_pending for b in self._bodies)
+
+    def submit(self, input_name, frame_id, force, torque, tag=None):
+        """Route to the body owning ``input_name`` (see :meth:`WrenchInputs.submit`)."""
+        index = self._route.get(input_name)
+        if index is None:
+            self.unknown += 1
+            raise WrenchRejected('unknown_input', f'input {input_name!r}: not a wrench input '
+                                 f'(inputs: {", ".join(self._route)})')
+        return self._bodies[index].submit(input_name, frame_id, force, torque, tag)
+
+    def apply_pending(self, time_ns):
+        """Expire and apply on every body; return the events in body order, then input order."""
+        events = []
+        for body in self._bodies:
+            events.extend(body.apply_pending(time_ns))
+        return events
+
+    def expire(self, time_ns):
+        """Drop expired held wrenches on every body; True if any did."""
+        changed = False
+        for body in self._bodies:
+            changed = body.expire(time_ns) or changed
+        return changed
+
+    def next_expiry_ns(self):
+        """Sim time at which the next held wrench of any body expires, or None."""
+        times = [t for t in (b.next_expiry_ns() for b in self._bodies) if t is not None]
+        return min(times) if times else None
+
+    def body_loads(self, index):
+        """Return the held wrenches of body ``index`` (a tuple of :class:`AppliedWrench`)."""
+        return self._bodies[index].loads()
+
+    def clear(self):
+        """Drop pending and held wrenches of every body (counters are kept)."""
+        for body in self._bodies:
+            body.clear()

@@ -73,8 +73,8 @@ _TYPES = {cfg.BOOL: ParameterType.PARAMETER_BOOL, cfg.INTEGER: ParameterType.PAR
 _ARRAY_TYPES = {cfg.DOUBLE_ARRAY: Parameter.Type.DOUBLE_ARRAY,
                 cfg.STRING_ARRAY: Parameter.Type.STRING_ARRAY}
 _IGNORED = ('use_sim_time', 'start_type_description_service')
-# Parameters whose names depend on a list: wrench_inputs.<name>.*, obstacles.<name>.*.
-_DYNAMIC_PREFIXES = ('wrench_inputs.', 'obstacles.')
+# Parameters whose names depend on a list: wrench_inputs.<name>.*, obstacles.<name>.*, ...
+_DYNAMIC_PREFIXES = ('wrench_inputs.', 'obstacles.', 'bodies.')
 # pose, twist and odom: reliable, transient local, keep last 1: a subscriber that arrives while the
 # node is paused (ros2 topic echo pose --once) gets the latest sample. The other topics: depth 10,
 # reliable, volatile (rclpy's default). Every endpoint takes qos_overrides.<topic>.<kind>.<policy>.
@@ -127,20 +127,19 @@ class RigidBodyNode(Node):
         self._lag_max_ns = 0  # largest wall-minus-sim lag seen at a tick, since the last diag
 
         self._recorder = None
-        self._builder = outputs.SampleBuilder(config)
-        self._state_column = self.session.state_column
-        types = outputs.MESSAGE_TYPES
-        self._pubs = {'pose': self._publisher(types['pose'], 'pose', STATE_QOS),
-                      'twist': self._publisher(types['twist'], 'twist', STATE_QOS),
-                      'odom': self._publisher(types['odom'], 'odom', STATE_QOS),
-                      'diagnostics': self._publisher(conv.DiagnosticArray, '/diagnostics', 10)}
-        if 'contact_wrench' in self._builder.kinds:
-            self._pubs['contact_wrench'] = self._publisher(types['contact_wrench'],
-                                                           'contact_wrench', STATE_QOS)
-        if 'clock' in self._builder.kinds:
-            self._pubs['clock'] = self._publisher(types['clock'], '/clock', 10)
-        if 'tf' in self._builder.kinds:
-            self._pubs['tf'] = self._publisher(types['tf'], '/tf', 100)
+        if config.world:
+            self._builder = outputs.WorldSampleBuilder(config)
+            self._columns = self.session.columns
+        else:
+            self._builder = outputs.SampleBuilder(config)
+            self._state_column = self.session.state_column
+        # One publisher per output kind: pose, twist, odom (per body in a world: <body>/pose,
+        # ...), contact_wrench with contact, poses in a world, /clock and /tf when on.
+        depth = {'clock': 10, 'tf': 100}
+        self._pubs = {kind: self._publisher(outputs.type_of(kind), outputs.topic_of(kind),
+                                            depth.get(kind, STATE_QOS))
+                      for kind in self._builder.kinds}
+        self._pubs['diagnostics'] = self._publisher(conv.DiagnosticArray, '/diagnostics', 10)
         self._sample_pubs = [(kind, self._pubs[kind].publish, self._pubs[kind].topic_name)
                              for kind in self._builder.kinds]
         self._input_subs = [self._qos_checked(
@@ -201,11 +200,14 @@ class RigidBodyNode(Node):
 
     def _check_input_topics(self):
         """Refuse an invalid input topic or one that resolves to an output or another input."""
-        outputs = {self.resolve_topic_name(topic) for topic in OUTPUT_TOPICS}
+        kinds = self._world_output_kinds() if self.config.world else OUTPUT_TOPICS
+        outputs = {self.resolve_topic_name(topic) for topic in kinds}
         seen = {}
         for spec in self.config.wrench_inputs:
-            what = f'topic {spec.topic!r} of the main wrench input' if spec.name == \
-                cfg.MAIN_INPUT else f'parameter wrench_inputs.{spec.name}.topic = {spec.topic!r}'
+            body, _, name = spec.name.rpartition('/')
+            field = f'bodies.{body}.wrench_inputs.{name}' if body else f'wrench_inputs.{name}'
+            what = f'topic {spec.topic!r} of the main wrench input' if name == \
+                cfg.MAIN_INPUT else f'parameter {field}.topic = {spec.topic!r}'
             try:
                 resolved = self.resolve_topic_name(spec.topic)
             except (RuntimeError, NameValidationException) as exc:  # rclpy raises RCLError
@@ -216,6 +218,10 @@ class RigidBodyNode(Node):
                 raise ConfigError(f'{what}: resolves to {resolved}, the topic of wrench input '
                                   f'{seen[resolved]!r} (it would count every wrench twice)')
             seen[resolved] = spec.name
+
+    def _world_output_kinds(self):
+        return [outputs.topic_of(kind) for kind in outputs.WorldSampleBuilder(
+            self.config, tf=False).kinds] + ['/clock', '/diagnostics', '/tf']
 
     def _declare(self, spec, value):
         descriptor = ParameterDescriptor(
@@ -270,6 +276,11 @@ class RigidBodyNode(Node):
                     'history': qos.history.name.lower(), 'depth': qos.depth,
                     'reliability': qos.reliability.name.lower(),
                     'durability': qos.durability.name.lower()})
+            for name, value in sorted(self.config.parameters.items()):
+                if name.endswith('mesh_path') and value:  # the meshes, so replay needs no files
+                    with open(cfg.resolve_mesh_path(value, name), 'rb') as mesh:
+                        recorder.add_file(value, mesh.read(), 'model/stl' if value.lower()
+                                          .endswith('.stl') else 'application/octet-stream')
             recorder.flush()  # a full disk fails here, at start (exit 2), not mid-run
         except RecordingError:
             recorder.close()
@@ -366,8 +377,12 @@ class RigidBodyNode(Node):
     def _publish_sample(self):
         """Publish the current sample; record the same CDR bytes."""
         builder, t = self._builder, self.session.time_ns
-        samples = builder.serialize(t, builder.column_values(self._state_column),
-                                    self.session.contact_wrench_w)
+        if self.config.world:
+            samples = builder.serialize(t, self._columns,
+                                        self.session.simulator.contact_wrench_w)
+        else:
+            samples = builder.serialize(t, builder.column_values(self._state_column),
+                                        self.session.contact_wrench_w)
         for (_, publish, topic), (_, data) in zip(self._sample_pubs, samples):
             publish(data)
             if self._recorder is not None:
@@ -377,7 +392,7 @@ class RigidBodyNode(Node):
         s, now = self.session, time.monotonic_ns()
         wall0, sim0, steps0 = self._diag_last
         self._diag_last = (now, s.time_ns, s.steps_total)
-        state, model = s.state, s.config.model
+        energy, momentum = self._energy_and_momentum()
         values = {
             'sim_time_s': s.time_ns * 1e-9,
             'real_time_factor': (s.time_ns - sim0) / max(1, now - wall0),
@@ -385,9 +400,8 @@ class RigidBodyNode(Node):
             'paused': s.paused, 'wrenches_received': s.inputs.received_total,
             'wrenches_rejected': s.inputs.rejected_total,
             **{f'wrenches_rejected_{k}': v for k, v in s.inputs.rejected.items()},
-            'kinetic_energy_j': float(state.kinetic_energy(model)),
-            'angular_momentum_norm_nms': float(
-                sum(x * x for x in state.angular_momentum_w(model)) ** 0.5),
+            'kinetic_energy_j': energy,
+            'angular_momentum_norm_nms': float(sum(x * x for x in momentum) ** 0.5),
             'wall_time_dropped_s': self._dropped_ns * 1e-9, 'resets': s.resets,
             'pacing_lag_max_ms': self._lag_max_ns * 1e-6}
         self._lag_max_ns = 0
@@ -401,6 +415,20 @@ class RigidBodyNode(Node):
         self._publish('diagnostics', conv.diagnostics_to_msg(
             s.time_ns, f'{self.get_fully_qualified_name()}: rigid body', self.config.body_frame,
             level, message, values), s.time_ns)
+
+    def _energy_and_momentum(self):
+        """Return the kinetic energy (J) and angular momentum (N·m·s, world) of all bodies."""
+        s = self.session
+        if not self.config.world:
+            state, model = s.state, s.config.model
+            return float(state.kinetic_energy(model)), state.angular_momentum_w(model)
+        energy, momentum = 0.0, [0.0, 0.0, 0.0]
+        for i, body in enumerate(self.config.bodies):
+            state = s.simulator.body_state(i)
+            energy += float(state.kinetic_energy(body.model))
+            momentum = [a + float(b)
+                        for a, b in zip(momentum, state.angular_momentum_w(body.model))]
+        return energy, momentum
 
     def _warm_up(self):
         """

@@ -53,7 +53,8 @@ import functools
 import math
 import struct
 
-from geometry_msgs.msg import PoseStamped, TransformStamped, TwistStamped, WrenchStamped
+from geometry_msgs.msg import (PoseArray, PoseStamped, TransformStamped, TwistStamped,
+                               WrenchStamped)
 from nav_msgs.msg import Odometry
 import numpy as np
 from rbd_ros import conversions as conv
@@ -241,10 +242,108 @@ class SampleBuilder:
         return msg
 
 
-def sample_builder(config):
-    """Return a (shared) :class:`SampleBuilder` for ``config``; replay calls this per sample."""
+def sample_builder(config, tf=True):
+    """Return a (shared) :class:`SampleBuilder` for ``config`` (a world's: not shared)."""
+    if config.world:
+        return WorldSampleBuilder(config, tf)
+    if not tf:
+        return SampleBuilder(config, tf=False)
     return _cached_builder(config.world_frame, config.body_frame, config.twist_frame,
                            config.publish_clock, config.publish_tf, config.contact)
+
+
+#: Per-body output kinds of a world, in publishing order (topics ``<body>/<kind>``).
+BODY_KINDS = ('pose', 'twist', 'odom', 'contact_wrench')
+
+
+def topic_of(kind):
+    """Return the topic of an output kind: ``/clock`` and ``/tf`` absolute, the rest relative."""
+    return '/' + kind if kind in ('clock', 'tf') else kind
+
+
+def type_of(kind):
+    """Return the message class of an output kind (``<body>/pose`` is a ``pose``)."""
+    if kind == 'poses':
+        return PoseArray
+    return MESSAGE_TYPES[kind.rsplit('/', 1)[-1]]
+
+
+class WorldSampleBuilder:
+    """
+    The output messages of one sample of a world, as CDR bytes.
+
+    Per body ``<name>/pose``, ``<name>/twist``, ``<name>/odom`` and ``<name>/contact_wrench``
+    (each body's :class:`SampleBuilder`, its frame its ``body_frame``); then ``poses``
+    (``geometry_msgs/PoseArray``: every body's pose in ``bodies`` order, world frame), ``clock``
+    and one ``tf`` message holding world → body for every body.
+
+    :param config: a world :class:`rbd_ros.config.NodeConfig`.
+    :param tf: False leaves ``/tf`` out (tf2_msgs missing).
+    """
+
+    def __init__(self, config, tf=True):
+        self.world_frame = config.world_frame
+        self.names = tuple(body.name for body in config.bodies)
+        self.bodies = tuple(SampleBuilder(_Frames(
+            config.world_frame, body.body_frame, config.twist_frame, False, False, True))
+            for body in config.bodies)
+        self.kinds = tuple(f'{name}/{kind}' for name in self.names for kind in BODY_KINDS) \
+            + ('poses',) + (('clock',) if config.publish_clock else ()) \
+            + (('tf',) if tf and config.publish_tf and TFMessage is not None else ())
+        world = _cdr_string(self.world_frame)
+        header = ('i', 'I')
+        n = len(self.names)
+        self._poses = _layout(*header, world, 'I', *'d' * (7 * n))
+        self._clock = _layout(*header)
+        fields = ['I']
+        for body in config.bodies:
+            fields += [*header, world, _cdr_string(body.body_frame), *'d' * 7]
+        self._tf = _layout(*fields)
+        self._world = world
+        self._frames = [_cdr_string(body.body_frame) for body in config.bodies]
+
+    def body_index(self, kind):
+        """Return the index of the body of a per-body kind (``<name>/pose``), or None."""
+        name = kind.rsplit('/', 1)[0] if '/' in kind else None
+        return self.names.index(name) if name in self.names else None
+
+    def serialize(self, time_ns, columns, wrenches):
+        """
+        Return ``[(kind, CDR bytes)]`` of one sample, in :attr:`kinds` order.
+
+        :param columns: (13, N) packed states (:attr:`rbd_ros.session.SimSession.columns`).
+        :param wrenches: (N, 6) contact force and torque per body (N, N·m; world, about COMs).
+        """
+        out = []
+        poses = []
+        tf = []
+        sec, nanosec = divmod(time_ns, NS_PER_S)
+        world = self._world
+        rows = wrenches.tolist()
+        for i, (name, builder) in enumerate(zip(self.names, self.bodies)):
+            values = builder.column_values(columns[:, i])
+            row = rows[i]
+            for kind, data in builder.serialize(time_ns, values, (row[:3], row[3:])):
+                out.append((f'{name}/{kind}', data))
+            (px, py, pz), (qw, qx, qy, qz) = values[0], values[1]
+            poses += (px, py, pz, qx, qy, qz, qw)
+            frame = self._frames[i]
+            tf += (sec, nanosec, len(world), world, len(frame), frame, px, py, pz, qx, qy, qz,
+                   qw)
+        out.append(('poses', self._poses.pack(_ENCAPSULATION, sec, nanosec, len(world), world,
+                                              len(self.names), *poses)))
+        if 'clock' in self.kinds:
+            out.append(('clock', self._clock.pack(_ENCAPSULATION, sec, nanosec)))
+        if 'tf' in self.kinds:
+            out.append(('tf', self._tf.pack(_ENCAPSULATION, len(self.names), *tf)))
+        return out
+
+    def message(self, kind, state, contact_wrench=None):
+        """Return a new message of the per-body ``kind`` (``<name>/pose``, ...) for ``state``."""
+        index = self.body_index(kind)
+        if index is None:
+            raise ValueError(f'kind: {kind!r} is not a per-body kind of this world')
+        return self.bodies[index].message(kind.rsplit('/', 1)[1], state, contact_wrench)
 
 
 @functools.lru_cache(maxsize=16)

@@ -61,7 +61,8 @@ from typing import (Any, Callable, Dict, Iterable, Iterator, List, Mapping, Opti
 from mcap.data_stream import RecordBuilder
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
-from mcap.records import Channel, Footer, Header, Message, Metadata, Schema, Statistics
+from mcap.records import (Attachment, Channel, Footer, Header, Message, Metadata, Schema,
+                          Statistics)
 from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 from rbd_ros import __version__
@@ -344,6 +345,20 @@ class BagWriter:
     def failed(self) -> Optional[RecordingError]:
         """Return the :class:`RecordingError` that stopped the recording, or None."""
         return self._failed
+
+    def add_file(self, name: str, data: bytes, media_type: str = 'application/octet-stream'):
+        """
+        Store a file the run depends on (a mesh) as an MCAP attachment named ``name``.
+
+        Replay uses it instead of whatever is at that path later (see
+        :meth:`Bag.attachments`), so a recording of a mesh world replays anywhere.
+        """
+        self._check_open()
+        try:
+            self._mcap.add_attachment(0, 0, name, media_type, bytes(data))
+            self._stream.flush()
+        except OSError as exc:
+            self._fail(exc)
 
     def add_topic(self, topic: str, type_name: str,
                   qos: Optional[Mapping[str, Any]] = None) -> None:
@@ -662,6 +677,14 @@ class Bag:
                 if wanted is None or channel.topic in wanted:
                     yield RawMessage(channel.topic, record.log_time, record.publish_time,
                                      record.data)
+
+    def attachments(self) -> Dict[str, bytes]:
+        """Return the attached files (name → bytes), e.g. the meshes of the run."""
+        out = {}
+        for record in self._records():
+            if isinstance(record, Attachment):
+                out[record.name] = bytes(record.data)
+        return out
 
     def decoded_messages(
             self, topics: Optional[Iterable[str]] = None) -> Iterator[Tuple[RawMessage, Any]]:

@@ -46,9 +46,11 @@ truncated before any data, corrupt, foreign: one line on stderr, never a traceba
 
 import argparse
 import dataclasses
+import hashlib
 import json
 import math
 import os
+from pathlib import Path
 import sys
 from typing import Collection, Dict, Iterable, List, Optional, Tuple, Union
 
@@ -184,7 +186,47 @@ def config_from_bag(bag: Bag, integrator: Optional[str] = None,
         params['timestep_s'] = float(timestep_s)
     params['record_path'] = ''
     params['start_paused'] = False
+    _use_attached_meshes(bag, params)
     return NodeConfig.from_parameters(params)
+
+
+def _use_attached_meshes(bag, params):
+    """
+    Point every ``*mesh_path`` at the copy of the mesh the node attached to the recording.
+
+    The copies go to ``~/.cache/rbd_ros/bag_meshes/<sha256>`` (content-addressed, so shared
+    and never stale); a bag without the attachment keeps the path as recorded.
+    """
+    names = [k for k, v in params.items() if k.endswith('mesh_path') and v]
+    if not names:
+        return
+    attached = bag.attachments()
+    folder = Path(os.environ.get('XDG_CACHE_HOME') or Path.home() / '.cache') / 'rbd_ros' \
+        / 'bag_meshes'
+    for name in names:
+        data = attached.get(params[name])
+        if data is None:
+            continue
+        suffix = Path(params[name]).suffix
+        target = folder / (hashlib.sha256(data).hexdigest() + suffix)
+        if not target.is_file():
+            folder.mkdir(parents=True, exist_ok=True)
+            partial = target.with_suffix(target.suffix + f'.{os.getpid()}')
+            partial.write_bytes(data)
+            os.replace(partial, target)
+        params[name] = str(target)
+
+
+def _world_kinds(builder):
+    """Return ``{relative topic: kind}`` of a world's compared per-body outputs."""
+    return {outputs.topic_of(kind): kind for kind in builder.kinds
+            if builder.body_index(kind) is not None}
+
+
+def _world_kind(kinds, topic):
+    """Return the per-body kind whose relative topic the recorded ``topic`` ends with."""
+    parts = topic.rsplit('/', 2)
+    return kinds.get('/'.join(parts[-2:])) if len(parts) == 3 else None
 
 
 def _input_for_topic(config, topic):
@@ -403,8 +445,14 @@ class Replayer:
         self.session.paused = False
         self.kinds = {}  # output topic -> kind ('pose', 'twist', 'odom', 'clock')
         self.inputs = {}  # wrench topic -> input name
+        self._builder = outputs.sample_builder(self.config)
+        world_kinds = _world_kinds(self._builder) if self.config.world else {}
         for topic, info in bag.topics.items():
-            if info.type_name in OUTPUT_KINDS:
+            if self.config.world and _world_kind(world_kinds, topic):
+                self.kinds[topic] = _world_kind(world_kinds, topic)  # '<body>/pose', ...
+            elif self.config.world and info.type_name in OUTPUT_KINDS:
+                continue  # /clock: the per-body samples are what is compared
+            elif info.type_name in OUTPUT_KINDS:
                 self.kinds[topic] = OUTPUT_KINDS[info.type_name]
             elif (info.type_name == WRENCH_TYPE and self.config.contact
                   and topic.rsplit('/', 1)[-1] == 'contact_wrench'):
@@ -422,7 +470,6 @@ class Replayer:
         self._pending = []  # (time_ns, input_name) of submitted wrenches not yet taking effect
         self._applied = []  # AppliedEvent reported by the session, not yet checked
         self._decoders = {}
-        self._builder = outputs.sample_builder(self.config)
         self._expected_time_ns = None  # sim time of the sample bytes in _expected
         self._expected = {}  # kind -> CDR bytes the node would have recorded at that time
 
@@ -573,24 +620,35 @@ class Replayer:
             return False
         if self._expected_time_ns != t:
             builder = self._builder
-            self._expected = dict(builder.serialize(
-                t, builder.column_values(self.session.state_column),
-                self.session.contact_wrench_w))
+            if self.config.world:
+                self._expected = dict(builder.serialize(
+                    t, self.session.columns, self.session.simulator.contact_wrench_w))
+            else:
+                self._expected = dict(builder.serialize(
+                    t, builder.column_values(self.session.state_column),
+                    self.session.contact_wrench_w))
             self._expected_time_ns = t
         kind = self.kinds[raw.topic]
         if self._expected.get(kind) != raw.data:
             return False
         result = self.result.topics[raw.topic]
         result.samples += 1
-        for name in _KIND_FIELDS[kind]:
+        for name in _KIND_FIELDS[kind.rsplit('/', 1)[-1]]:
             result.take_error(_ERROR_FIELDS[name], 0.0)
         return True
 
     def compare_sample(self, raw: RawMessage, msg) -> bool:
         """Compare the recorded output sample ``msg`` with the one recomputed now."""
         kind, t = self.kinds[raw.topic], raw.log_time_ns
-        expected = expected_message(kind, self.session.state, self.config,
-                                    self.session.contact_wrench_w)
+        if self.config.world:
+            index = self._builder.body_index(kind)
+            row = self.session.simulator.contact_wrench_w[index].tolist()
+            expected = self._builder.message(kind, self.session.simulator.body_state(index),
+                                             (row[:3], row[3:]))
+            kind = kind.rsplit('/', 1)[1]
+        else:
+            expected = expected_message(kind, self.session.state, self.config,
+                                        self.session.contact_wrench_w)
         if self.session.time_ns != t:
             # Replayed with another step: compare the values at the first step end at or after
             # t (the stamp is not what is being studied).

@@ -55,7 +55,7 @@ import struct
 
 from rbd_ros.config import make_simulator
 from rbd_ros.core import NonFiniteError
-from rbd_ros.inputs import WrenchInputs
+from rbd_ros.inputs import WorldInputs, WrenchInputs
 
 
 @dataclass(frozen=True)
@@ -119,10 +119,16 @@ class SimSession:
         self.config = config
         # With a ground or obstacles, a world of this one body (index 0), stepped with contact.
         self.simulator = make_simulator(config)
-        self.inputs = WrenchInputs(
-            config.wrench_inputs, world_frame=config.world_frame,
-            body_frame=config.body_frame, timeout_ns=config.wrench_timeout_ns,
-            max_force_n=config.max_force_n, max_torque_nm=config.max_torque_nm)
+        if config.world:
+            self.inputs = WorldInputs(
+                config.bodies, world_frame=config.world_frame,
+                timeout_ns=config.wrench_timeout_ns, max_force_n=config.max_force_n,
+                max_torque_nm=config.max_torque_nm)
+        else:
+            self.inputs = WrenchInputs(
+                config.wrench_inputs, world_frame=config.world_frame,
+                body_frame=config.body_frame, timeout_ns=config.wrench_timeout_ns,
+                max_force_n=config.max_force_n, max_torque_nm=config.max_torque_nm)
         self.paused = config.start_paused
         self.steps_total = 0  # physics steps taken since start, over resets
         self.resets = 0
@@ -150,6 +156,11 @@ class SimSession:
             return None
         row = self.simulator.contact_wrench_w[0].tolist()
         return row[:3], row[3:]
+
+    @property
+    def columns(self):
+        """Return a read-only view of every body's packed state, (13, N) (see state_column)."""
+        return self.simulator.arrays[0]
 
     @property
     def state_column(self):
@@ -219,7 +230,10 @@ class SimSession:
         self.error = None
 
     def _set_loads(self):
-        if self.config.contact:
+        if self.config.world:
+            for i in range(len(self.config.bodies)):
+                self.simulator.set_body_loads(i, self.inputs.body_loads(i))
+        elif self.config.contact:
             self.simulator.set_body_loads(0, self.inputs.loads())
         else:
             self.simulator.set_loads(self.inputs.loads())
