@@ -197,6 +197,16 @@ PARAMETERS = (
               'Names of static obstacles, each with obstacles.<name>.shape, .dimensions_m, '
               '.mesh_path, .mesh_scale, .position, .orientation, .friction and .restitution.',
               rule='distinct names of letters, digits and _'),
+    ParamSpec('drag_point_b', DOUBLE_ARRAY, (0.0, 0.0, 0.0), 'm',
+              'Where a drag (topic drag) holds the body, body frame, relative to the COM.',
+              rule='3 finite values'),
+    ParamSpec('drag_stiffness_n_per_m', DOUBLE, 50.0, 'N/m',
+              'Stiffness k of the zero-length drag spring (drag, /clicked_point).',
+              (0.0, _BIG)),
+    ParamSpec('drag_damping_n_s_per_m', DOUBLE, 5.0, 'N·s/m',
+              'Damping c of the drag spring: f = -k d - c v at the held point.', (0.0, _BIG)),
+    ParamSpec('drag_click_radius_m', DOUBLE, 0.05, 'm',
+              'A /clicked_point this near a body surface grabs it there.', (0.0, _BIG)),
     ParamSpec('bodies', STRING_ARRAY, (), '',
               'Names of the bodies of a world, each with bodies.<name>.* (the per-body '
               'parameters above); [] = one body from the parameters above.',
@@ -248,7 +258,7 @@ BODY_PARAMETERS = (
     'mass_kg', 'inertia', 'shape', 'dimensions_m', 'mesh_path', 'mesh_scale', 'friction',
     'restitution', 'initial_position', 'initial_orientation', 'initial_linear_velocity',
     'initial_angular_velocity', 'linear_damping', 'angular_damping', 'body_frame',
-    'wrench_inputs')
+    'drag_point_b', 'wrench_inputs')
 
 
 def body_parameter_specs(name):
@@ -293,6 +303,7 @@ class BodyConfig:
     material: object
     body_frame: str
     wrench_inputs: tuple
+    drag_point_b: tuple = (0.0, 0.0, 0.0)
 
 
 def obstacle_parameter_specs(name):
@@ -706,8 +717,11 @@ def _world_bodies(values, body_inputs, static_world, integrator):
             raise _renamed(name, exc) from None
         specs = tuple(WrenchInputSpec(f'{name}/{spec.name}', f'{name}/{spec.topic}',
                                       spec.frame, spec.point_b) for spec in specs)
+        point_spec = dataclass_replace(PARAMETERS_BY_NAME['drag_point_b'],
+                                       name=f'bodies.{name}.drag_point_b')
         bodies.append(BodyConfig(name, model, state, collision, material,
-                                 sub['body_frame'], specs))
+                                 sub['body_frame'], specs,
+                                 _vector3(point_spec, sub['drag_point_b'])))
     try:
         check_overlaps([(b.name, b.collision_shape, b.initial_state.position_w,
                          b.initial_state.orientation_wb) for b in bodies], static_world)
@@ -966,6 +980,7 @@ def _limits_and_recording(values):
     for name in ('max_force_n', 'max_torque_nm'):
         if not values[name] > 0.0:
             _fail(p[name], values[name], 'must be > 0')
+    _vector3(p['drag_point_b'], values['drag_point_b'])
     return {name: values[name] for name in (
         'max_force_n', 'max_torque_nm', 'record_path', 'record_overwrite', 'record_on_error')}
 

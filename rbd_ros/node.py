@@ -43,11 +43,13 @@ if __name__ == '__main__' or os.path.basename(sys.argv[0]) == 'rigid_body_node':
     for _signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(_signum, lambda *_: os._exit(0))
 
+from geometry_msgs.msg import PointStamped
 from rbd_ros import config as cfg
 from rbd_ros import conversions as conv
 from rbd_ros import outputs
 from rbd_ros import ros_args
 from rbd_ros.core import ConfigError, jitcache, NonFiniteError, RbdError, RecordingError
+from rbd_ros.drag import CLICKED_POINT
 from rbd_ros.inputs import WrenchRejected
 from rbd_ros.session import SimSession
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
@@ -154,8 +156,18 @@ class RigidBodyNode(Node):
                     f'ignoring {name}: no endpoint of this node has that topic and policy '
                     '(qos_overrides.<absolute topic>.publisher|subscription.history|depth|'
                     'reliability|durability)')
+        # Drags: drag (<body>/drag in a world) and /clicked_point (RViz, Foxglove).
+        drag_topics = {name: name for name in self.session.drags.input_names}
+        drag_topics[CLICKED_POINT] = '/clicked_point'
+        point_subs = [self._qos_checked(
+            topic, 'subscription', self.create_subscription, PointStamped, topic,
+            lambda msg, name=name: self._on_point(name, msg), 10,
+            qos_overriding_options=QOS_OVERRIDES) for name, topic in drag_topics.items()]
         self._input_topics = {spec.name: sub.topic_name
                               for spec, sub in zip(config.wrench_inputs, self._input_subs)}
+        self._input_topics.update({name: sub.topic_name
+                                   for name, sub in zip(drag_topics, point_subs)})
+        self._input_subs += point_subs
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)
         self.create_service(Trigger, '~/step', self._on_step)
@@ -399,6 +411,7 @@ class RigidBodyNode(Node):
             'real_time_factor_target': self._rtf, 'steps_taken': s.steps_total,
             'paused': s.paused, 'wrenches_received': s.inputs.received_total,
             'wrenches_rejected': s.inputs.rejected_total,
+            'drags_received': s.drags.received, 'drags_rejected': s.drags.rejected_total,
             **{f'wrenches_rejected_{k}': v for k, v in s.inputs.rejected.items()},
             'kinetic_energy_j': energy,
             'angular_momentum_norm_nms': float(sum(x * x for x in momentum) ** 0.5),
@@ -408,7 +421,8 @@ class RigidBodyNode(Node):
         non_finite = [key for key, value in values.items()
                       if isinstance(value, float) and not math.isfinite(value)]
         level = 'error' if s.error else (
-            'warn' if s.inputs.rejected_total or non_finite else 'ok')
+            'warn' if s.inputs.rejected_total or s.drags.rejected_total or non_finite
+            else 'ok')
         message = s.error or ('paused' if s.paused else 'running')
         if non_finite:
             message += '; not finite: ' + ', '.join(non_finite)
@@ -452,10 +466,19 @@ class RigidBodyNode(Node):
     _warn_after_ns = 0  # no rejection warning before this monotonic time
     _unwarned = 0  # rejections since the last warning
 
+    def _on_point(self, name, msg):
+        point = (msg.point.x, msg.point.y, msg.point.z)
+        self._on_input(name, msg, lambda: self.session.submit_point(
+            name, msg.header.frame_id, point, tag=msg), 'drag point')
+
     def _on_wrench(self, name, msg):
         frame_id, force, torque = conv.wrench_from_msg(msg)
+        self._on_input(name, msg, lambda: self.session.submit(
+            name, frame_id, force, torque, tag=msg), 'wrench')
+
+    def _on_input(self, name, msg, submit, what):
         try:
-            self.session.submit(name, frame_id, force, torque, tag=msg)
+            submit()
         except WrenchRejected as exc:
             # Counted by the session; warned at most once a second, throttled here with one
             # clock read: rclpy's own throttle inspects the caller's frame and reads its source
@@ -469,7 +492,7 @@ class RigidBodyNode(Node):
             more = f' ({self._unwarned} more since the last warning, see /diagnostics)' \
                 if self._unwarned else ''
             self._unwarned = 0
-            self.get_logger().warning(f'wrench rejected ({exc.reason}): {exc}{more}')
+            self.get_logger().warning(f'{what} rejected ({exc.reason}): {exc}{more}')
             return
         if self._rtf > 0:  # run a step that became due since the last tick now: less latency
             self.tick()

@@ -67,6 +67,7 @@ from rbd_ros.recording import Bag, open_bag, RawMessage
 from rbd_ros.session import AppliedDigest, SimSession
 
 WRENCH_TYPE = 'geometry_msgs/msg/WrenchStamped'
+POINT_TYPE = 'geometry_msgs/msg/PointStamped'
 #: Output topic kinds by message type.
 OUTPUT_KINDS = {
     'geometry_msgs/msg/PoseStamped': 'pose',
@@ -227,6 +228,17 @@ def _world_kind(kinds, topic):
     """Return the per-body kind whose relative topic the recorded ``topic`` ends with."""
     parts = topic.rsplit('/', 2)
     return kinds.get('/'.join(parts[-2:])) if len(parts) == 3 else None
+
+
+def _drag_for_topic(session, topic):
+    """Map a recorded drag topic (``drag``, ``<body>/drag``, ``/clicked_point``) to its input."""
+    if topic == '/clicked_point':
+        return 'clicked_point'
+    for name in sorted(session.drags.input_names, key=len, reverse=True):
+        if topic.endswith('/' + name):
+            return name
+    raise ReplayError(f'recorded drag topic {topic!r} matches no drag input of the recorded '
+                      f'configuration (inputs: {list(session.drags.input_names)})')
 
 
 def _input_for_topic(config, topic):
@@ -459,6 +471,8 @@ class Replayer:
                 self.kinds[topic] = 'contact_wrench'  # an output: the node refuses it as input
             elif info.type_name == WRENCH_TYPE:
                 self.inputs[topic] = _input_for_topic(self.config, topic)
+            elif info.type_name == POINT_TYPE:
+                self.inputs[topic] = _drag_for_topic(self.session, topic)
         self.result = ReplayResult(
             bag=str(bag.path), finalised=bag.finalised, notes=[],
             integrator=self.config.integrator, timestep_ns=self.config.timestep_ns,
@@ -594,13 +608,17 @@ class Replayer:
     def replay_wrench(self, raw: RawMessage, msg) -> None:
         """Submit the recorded wrench ``msg`` now, to take effect at the step starting now."""
         t = raw.log_time_ns
-        frame_id, force, torque = conversions.wrench_from_msg(msg)
         self.result.wrenches += 1
         if self.session.time_ns != t and not self.study:
             self._wrench_mismatch(f'the wrench recorded at {t} ns is not on the '
                                   f'{self.config.timestep_ns} ns step grid')
         try:
-            self.session.submit(self.inputs[raw.topic], frame_id, force, torque)
+            if hasattr(msg, 'point'):  # a drag point (PointStamped)
+                self.session.submit_point(self.inputs[raw.topic], msg.header.frame_id,
+                                          (msg.point.x, msg.point.y, msg.point.z))
+            else:
+                frame_id, force, torque = conversions.wrench_from_msg(msg)
+                self.session.submit(self.inputs[raw.topic], frame_id, force, torque)
         except WrenchRejected as exc:
             self._wrench_mismatch(f'the wrench recorded at {t} ns is rejected on replay: {exc}')
         else:

@@ -55,6 +55,7 @@ import struct
 
 from rbd_ros.config import make_simulator
 from rbd_ros.core import NonFiniteError
+from rbd_ros.drag import DragInputs
 from rbd_ros.inputs import WorldInputs, WrenchInputs
 
 
@@ -104,6 +105,19 @@ class AppliedDigest:
         return self._sha.hexdigest()
 
 
+def _drag_inputs(config):
+    """Build the :class:`DragInputs` of ``config`` (``drag``, or ``<body>/drag`` per body)."""
+    if config.world:
+        bodies = [(f'{b.name}/drag', b.drag_point_b, b.collision_shape) for b in config.bodies]
+    else:
+        bodies = [('drag', config.parameters['drag_point_b'], config.collision_shape)]
+    p = config.parameters
+    return DragInputs(bodies, world_frame=config.world_frame,
+                      stiffness_n_per_m=p['drag_stiffness_n_per_m'],
+                      damping_n_s_per_m=p['drag_damping_n_s_per_m'],
+                      click_radius_m=p['drag_click_radius_m'])
+
+
 def _ceil_div(a, b):
     return -(-a // b)
 
@@ -129,6 +143,7 @@ class SimSession:
                 config.wrench_inputs, world_frame=config.world_frame,
                 body_frame=config.body_frame, timeout_ns=config.wrench_timeout_ns,
                 max_force_n=config.max_force_n, max_torque_nm=config.max_torque_nm)
+        self.drags = _drag_inputs(config)
         self.paused = config.start_paused
         self.steps_total = 0  # physics steps taken since start, over resets
         self.resets = 0
@@ -202,6 +217,16 @@ class SimSession:
         """
         return self.inputs.submit(input_name, frame_id, force, torque, tag)
 
+    def submit_point(self, input_name, frame_id, point, tag=None):
+        """
+        Queue a received drag point for the start of the next step (see DragInputs.submit).
+
+        :param input_name: ``'drag'`` (``'<body>/drag'`` in a world) or ``'clicked_point'``.
+        :param point: 3 numbers, m, world frame (all NaN releases a drag).
+        :raises rbd_ros.inputs.WrenchRejected: counted; nothing queued.
+        """
+        return self.drags.submit(input_name, frame_id, point, tag)
+
     def advance(self, max_steps, until_ns=None):
         """
         Take up to ``max_steps`` steps; stop early when a sample is due or at the duration.
@@ -225,6 +250,7 @@ class SimSession:
         """Back to the initial state at time 0; pending and held wrenches are dropped."""
         self.simulator.reset()
         self.inputs.clear()
+        self.drags.clear()
         self._set_loads()
         self.resets += 1
         self.error = None
@@ -232,11 +258,16 @@ class SimSession:
     def _set_loads(self):
         if self.config.world:
             for i in range(len(self.config.bodies)):
-                self.simulator.set_body_loads(i, self.inputs.body_loads(i))
+                self.simulator.set_body_loads(i, self.inputs.body_loads(i),
+                                              self.drags.springs(i))
         elif self.config.contact:
-            self.simulator.set_body_loads(0, self.inputs.loads())
+            self.simulator.set_body_loads(0, self.inputs.loads(), self.drags.springs(0))
         else:
-            self.simulator.set_loads(self.inputs.loads())
+            self.simulator.set_loads(self.inputs.loads(), self.drags.springs(0))
+
+    def _pose_of(self, index):
+        x = self.simulator.arrays[0]
+        return x[0:3, index], x[3:7, index]
 
     def _steps_to_next_sample(self, time_ns):
         period = self.config.publish_period_ns
@@ -256,9 +287,11 @@ class SimSession:
                 break
             expired = self.inputs.expire(t)
             applied = self.inputs.apply_pending(t)
-            if applied or expired:
+            dragged, _ = self.drags.apply_pending(t, self._pose_of)
+            if applied or expired or dragged:
                 self._set_loads()
                 events.extend(applied)
+                events.extend(dragged)
             chunk = min(max_steps - done, self._steps_to_next_sample(t))
             expiry = self.inputs.next_expiry_ns()
             if expiry is not None:

@@ -23,7 +23,7 @@ force ``−m g`` (the ground holds its weight), no torque.
 import math
 
 from conftest import REPO, wait_until, write_params
-from geometry_msgs.msg import PoseStamped, WrenchStamped
+from geometry_msgs.msg import PointStamped, PoseStamped, WrenchStamped
 import numpy as np
 import pytest
 from rbd_ros import conversions
@@ -243,3 +243,54 @@ def test_the_msg_config_l_block_comes_to_rest_inside_the_bin(start_node, probe_f
     speed = np.linalg.norm(conversions.vector_from_msg(twist.linear))
     spin = np.linalg.norm(conversions.vector_from_msg(twist.angular))
     assert speed < 1e-9 and spin < 1e-9  # at rest (round-off)
+
+
+def _point(x, y, z, frame='world'):
+    msg = PointStamped()
+    msg.header.frame_id = frame
+    msg.point.x, msg.point.y, msg.point.z = x, y, z
+    return msg
+
+
+def test_drag_and_clicks_move_the_box_and_the_bag_replays(tmp_path, start_node, probe_for):
+    # The default box on the floor (1 kg, 0.2 x 0.1 x 0.05 m), drag spring k = 50 N/m,
+    # c = 5 N·s/m (ζ = c / (2 sqrt(k m)) = 0.35: settled to e^(-ζ ω t) < 1e-4 within 3.5 s).
+    node = start_node({'start_paused': True, 'real_time_factor': 4.0,
+                       'record_path': str(tmp_path / 'drag')},
+                      params_file=REPO / 'msg_config' / 'default.yaml', namespace=True)
+    probe = probe_for(node)
+    drag = probe.node.create_publisher(PointStamped, 'drag', 10)
+    click = probe.node.create_publisher(PointStamped, '/clicked_point', 10)
+    probe.wait_connected(300.0)
+    probe.wait(lambda: drag.get_subscription_count() and click.get_subscription_count(), 60.0,
+               'the drag subscriptions')
+    k, g = 50.0, 9.81
+    probe.pause(False)
+    probe.wait(lambda: probe.samples['pose'], 60.0, 'the first pose')
+
+    def send_then_wait(publisher, msg, seconds):
+        """Publish ``msg``; return the pose ``seconds`` of sim time later (latest sample)."""
+        start = max(probe.samples['pose'])
+        publisher.publish(msg)
+        end = probe.wait(lambda: max(probe.samples['pose']) >= start + seconds * 1e9 and
+                         max(probe.samples['pose']), 60.0, f'{seconds} s of sim time')
+        return np.array(conversions.vector_from_msg(probe.samples['pose'][end].pose.position))
+
+    # Drag the COM (drag_point_b = [0, 0, 0]) to (0.5, 0, 0.3): it hangs m g / k below.
+    p = send_then_wait(drag, _point(0.5, 0.0, 0.3), 4.0)
+    np.testing.assert_allclose(p, [0.5, 0.0, 0.3 - g / k], atol=1e-3)  # settled (see above)
+    # Release (NaN): it falls back to the floor.
+    p = send_then_wait(drag, _point(math.nan, math.nan, math.nan), 2.0)
+    assert p[2] == pytest.approx(0.025, abs=1e-6)
+    # Click on the top face centre: grabbed there; the next click lifts that point to 0.5 m.
+    send_then_wait(click, _point(p[0], p[1], 0.05), 0.05)
+    q = send_then_wait(click, _point(p[0], p[1], 0.5), 4.0)
+    # Held 0.025 m above its COM: the COM hangs at 0.5 − 0.025 − m g / k, straight below.
+    np.testing.assert_allclose(q, [p[0], p[1], 0.5 - 0.025 - g / k], atol=1e-3)
+    r = send_then_wait(click, _point(5.0, 5.0, 0.0), 2.0)  # far from the box: released
+    assert r[2] == pytest.approx(0.025, abs=1e-6)
+    assert node.stop() == 0, node.stderr
+    bag = open_bag(str(tmp_path / 'drag'))
+    counts = {t: info.message_count for t, info in bag.topics.items()}
+    assert counts['/clicked_point'] == 3 and counts[f'{node.namespace}/drag'] == 2
+    assert replay_main([str(tmp_path / 'drag'), '--no-progress']) == 0

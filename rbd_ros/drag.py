@@ -1,0 +1,191 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Dragging bodies with the mouse: the lecture's zero-length damped spring to an anchor (no rclpy).
+
+Two inputs, both ``geometry_msgs/PointStamped`` in the world frame (``header.frame_id`` the
+world frame id or empty; anything else is rejected and counted, reason ``'frame'``):
+
+- ``drag`` (``<body>/drag`` in a world) moves the anchor of the body's drag spring to the
+  point; a body not yet held is grabbed at its ``drag_point_b`` (body frame, from the COM). A
+  point with NaN coordinates releases it; other non-finite values are rejected
+  (``'non_finite'``).
+- ``/clicked_point``, what the Publish Point tools of RViz and Foxglove send. Clicks alternate:
+  a click on or near a body (its surface within ``drag_click_radius_m``) grabs it exactly
+  there (the spring starts at zero length); the next click, anywhere, moves the anchor there;
+  after that, a click near a body grabs that body there (releasing the one held) and a click
+  far from every body releases. A first click far from every body does nothing.
+
+The spring is :class:`rbd_ros.core.Spring` with rest length 0: ``f = −k d − c ẋ`` at the
+attachment point (``k = drag_stiffness_n_per_m``, ``c = drag_damping_n_s_per_m``). Like
+wrenches, drags are events: queued when received, applied at the start of the next physics step
+(where a click is resolved against the state at that time), and reported as
+:class:`rbd_ros.inputs.AppliedEvent` (the point in ``force``, ``torque`` zero) so the node
+records them and replay re-drives them bit for bit.
+"""
+
+import math
+
+import numpy as np
+from rbd_ros.core import Spring
+from rbd_ros.core.rotations import quat_to_matrix
+from rbd_ros.inputs import AppliedEvent, WrenchRejected
+
+#: The input name of ``/clicked_point``.
+CLICKED_POINT = 'clicked_point'
+#: Rejection reasons of drag inputs.
+DRAG_REJECT_REASONS = ('unknown_input', 'frame', 'non_finite')
+
+
+class DragInputs:
+    """
+    The drag handles of one node: at most one spring per body.
+
+    :param bodies: ``(input name, point_b, shape)`` per body in world order: the body's drag
+        input (``'drag'`` or ``'<body>/drag'``), its default attachment point (m, body frame,
+        from the COM) and its collision shape (or None: the COM stands in for the surface).
+    :param world_frame: the world frame id.
+    :param stiffness_n_per_m: ``k`` >= 0, N/m.
+    :param damping_n_s_per_m: ``c`` >= 0, N·s/m.
+    :param click_radius_m: how near a body's surface a click must be to grab it, m.
+    """
+
+    def __init__(self, bodies, *, world_frame, stiffness_n_per_m, damping_n_s_per_m,
+                 click_radius_m):
+        self._inputs = {name: i for i, (name, _, _) in enumerate(bodies)}
+        self._points = [tuple(float(v) for v in point_b) for _, point_b, _ in bodies]
+        self._shapes = [shape for _, _, shape in bodies]
+        self._world_frame = world_frame
+        self._k = float(stiffness_n_per_m)
+        self._c = float(damping_n_s_per_m)
+        self._radius = float(click_radius_m)
+        self.received = 0
+        self.rejected = dict.fromkeys(DRAG_REJECT_REASONS, 0)
+        self._pending = []  # (input_name, frame_id, point, tag), in arrival order
+        self._held = {}  # body index -> Spring
+        self._click = ('idle', None)  # ('grabbed', i) after a grab, ('moved', i) after a move
+
+    @property
+    def rejected_total(self):
+        """Return the number of drag points rejected, all reasons."""
+        return sum(self.rejected.values())
+
+    @property
+    def input_names(self):
+        """Return every input name: the bodies' drag inputs, then ``clicked_point``."""
+        return tuple(self._inputs) + (CLICKED_POINT,)
+
+    def held(self):
+        """Return ``{body index: Spring}`` of the drags acting now."""
+        return dict(self._held)
+
+    def submit(self, input_name, frame_id, point, tag=None):
+        """
+        Count, check and queue a received point; it takes effect at the next step start.
+
+        :raises WrenchRejected: counted under its reason; nothing is queued.
+        """
+        self.received += 1
+        try:
+            if input_name not in self._inputs and input_name != CLICKED_POINT:
+                raise WrenchRejected('unknown_input', f'input {input_name!r}: not a drag input '
+                                     f'(inputs: {", ".join(self.input_names)})')
+            if frame_id not in ('', self._world_frame):
+                raise WrenchRejected(
+                    'frame', f'{input_name}: header.frame_id {frame_id!r} is neither the world '
+                    f'frame {self._world_frame!r} nor empty (points are world coordinates, m)')
+            point = tuple(float(v) for v in point)
+            release = all(math.isnan(v) for v in point) and input_name != CLICKED_POINT
+            if not release and not all(math.isfinite(v) for v in point):
+                raise WrenchRejected(
+                    'non_finite', f'{input_name}: point {list(point)} m is not three finite '
+                    'numbers (all NaN releases a drag)')
+        except WrenchRejected as exc:
+            self.rejected[exc.reason] += 1
+            raise
+        self._pending.append((input_name, frame_id, point, tag))
+
+    def apply_pending(self, time_ns, states):
+        """
+        At the start of the step beginning at ``time_ns``, apply the queued points in order.
+
+        :param states: a callable ``i -> (position_w, orientation_wb)`` of body ``i`` now.
+        :returns: ``(events, changed body indices)``.
+        """
+        events, changed = [], set()
+        for input_name, frame_id, point, tag in self._pending:
+            if input_name == CLICKED_POINT:
+                changed |= self._on_click(np.array(point), states)
+            else:
+                index = self._inputs[input_name]
+                changed.add(index)
+                if math.isnan(point[0]):
+                    self._held.pop(index, None)
+                else:
+                    spring = self._held.get(index)
+                    point_b = self._points[index] if spring is None else spring.point_b
+                    self._held[index] = self._spring(point_b, point)
+            events.append(AppliedEvent(time_ns, input_name, frame_id, point, (0.0, 0.0, 0.0),
+                                       None, tag))
+        self._pending.clear()
+        return events, changed
+
+    def springs(self, index):
+        """Return the springs acting on body ``index`` (a tuple of 0 or 1)."""
+        spring = self._held.get(index)
+        return () if spring is None else (spring,)
+
+    def clear(self):
+        """Drop queued points and every drag (counters are kept)."""
+        self._pending.clear()
+        self._held.clear()
+        self._click = ('idle', None)
+
+    def _spring(self, point_b, anchor_w):
+        return Spring(point_b, anchor_w, self._k, self._c)
+
+    def _nearest(self, point_w, states):
+        """Return ``(body index, point in its body frame)`` of the body nearest the click."""
+        best, best_phi, best_b = None, math.inf, None
+        for i in range(len(self._points)):
+            position, orientation = states(i)
+            point_b = quat_to_matrix(np.asarray(orientation)).T @ (point_w
+                                                                   - np.asarray(position))
+            shape = self._shapes[i]
+            phi = float(np.linalg.norm(point_b)) if shape is None else float(
+                shape.signed_distance(point_b)[0])
+            if phi <= self._radius and phi < best_phi:
+                best, best_phi, best_b = i, phi, point_b
+        return best, best_b
+
+    def _on_click(self, point_w, states):
+        state, held = self._click
+        if held is not None and held not in self._held:  # released on its drag topic
+            state, held = 'idle', None
+        changed = set()
+        if state == 'grabbed':  # the click after a grab moves the anchor, wherever it is
+            self._held[held] = self._spring(self._held[held].point_b, point_w)
+            self._click = ('moved', held)
+            return {held}
+        index, point_b = self._nearest(point_w, states)
+        if state == 'moved':
+            self._held.pop(held, None)
+            changed.add(held)
+            self._click = ('idle', None)
+        if index is not None:
+            self._held[index] = self._spring(point_b, point_w)
+            self._click = ('grabbed', index)
+            changed.add(index)
+        return changed
