@@ -61,6 +61,19 @@ REFERENCE_BAGS = {
             (4.0, 'wrench', 'world', (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
         ],
     ),
+    'floor_world_push': (
+        'msg_config/floor_world.yaml',
+        {'duration_s': 3.0, 'real_time_factor': 1.0, 'start_paused': True},
+        [
+            (0.5, 'pushed/wrench', 'world', (10.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+            (1.0, 'pushed/wrench', 'world', (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+        ],
+    ),
+    'l_block_bin': (
+        'msg_config/l_block_bin.yaml',
+        {'duration_s': 3.0, 'real_time_factor': 0.0},
+        [],
+    ),
     't_handle_flip': (
         'msg_config/t_handle.yaml',
         {'duration_s': 6.0, 'real_time_factor': 0.0},

@@ -106,6 +106,25 @@ def test_the_reference_set_covers_the_issue():
     assert thrusters.topics['/wrench_right'].message_count > 0
 
 
+def test_the_world_bags_cover_issue_10():
+    """A world with a box pushed to a stop; a nonconvex mesh in a bin, its mesh attached."""
+    world = open_bag(str(REPO / 'bags' / 'floor_world_push'))
+    assert world.config['bodies'] == ['pushed', 'slider', 'ball']
+    assert world.topics['/pushed/wrench'].message_count == 2
+    for body in world.config['bodies']:
+        assert world.topics[f'/{body}/pose'].message_count == 301
+        assert world.topics[f'/{body}/contact_wrench'].message_count == 301
+    assert world.topics['/poses'].type_name == 'geometry_msgs/msg/PoseArray'
+    speeds = [msg.twist.linear.x for _, msg in world.decoded_messages(['/pushed/twist'])]
+    assert max(speeds) > 2.0 and abs(speeds[-1]) < 1e-12  # pushed, then stopped by friction
+    mesh = open_bag(str(REPO / 'bags' / 'l_block_bin'))
+    assert mesh.config['mesh_path'].endswith('l_block.stl')
+    attached = mesh.attachments()
+    assert attached[mesh.config['mesh_path']] == (
+        REPO / 'msg_config' / 'meshes' / 'l_block.stl').read_bytes()
+    assert mesh.config['obstacles'] == ['wall_n', 'wall_s', 'wall_e', 'wall_w']
+
+
 @pytest.mark.parametrize('bag', BAGS, ids=[b.name for b in BAGS])
 def test_every_message_decodes_with_the_stored_schemas(bag):
     """The ``mcap`` reader with ``mcap-ros2-support`` decodes every message, without rclpy."""
