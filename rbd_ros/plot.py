@@ -325,10 +325,95 @@ def draw(bag: Union[str, os.PathLike, Bag],
     return fig, _panel_summaries(axes, notes)
 
 
+def load_world(bag: Bag) -> Dict[str, Any]:
+    """
+    Return a world recording's per-body series, from the recorded samples only.
+
+    ``{'names', 't_s' (N,), 'position_w' {name: (N, 3)}, 'kinetic_j' {name: (N,)},
+    'in_contact' (N,) number of bodies with a non-zero contact wrench}``; the kinetic energy
+    ``m v²/2 + ω_bᵀ I_b ω_b / 2`` from each body's odometry (twist in its body frame) and its
+    stored mass model.
+    """
+    from rbd_ros.replay import config_from_bag  # the stored config, its meshes attached
+    config = config_from_bag(bag)
+    names = [body.name for body in config.bodies]
+    topics = {}
+    for topic in bag.topics:
+        head, _, kind = topic.rpartition('/')
+        body = head.rpartition('/')[2]
+        if body in names and kind in ('odom', 'contact_wrench'):
+            topics[topic] = (body, kind)
+    odom = {name: {} for name in names}
+    contact = {name: {} for name in names}
+    for raw, msg in bag.decoded_messages(list(topics)):
+        body, kind = topics[raw.topic]
+        if kind == 'odom':
+            odom[body][raw.log_time_ns] = (_vec(msg.pose.pose.position),
+                                           _vec(msg.twist.twist.linear),
+                                           _vec(msg.twist.twist.angular))
+        else:
+            contact[body][raw.log_time_ns] = np.linalg.norm(
+                _vec(msg.wrench.force) + _vec(msg.wrench.torque))
+    times = sorted(set.intersection(*(set(v) for v in odom.values()))) if names else []
+    out = {'names': names, 't_s': np.array(times) / NS_PER_S, 'position_w': {},
+           'kinetic_j': {}, 'in_contact': np.zeros(len(times))}
+    for body in config.bodies:
+        rows = [odom[body.name][t] for t in times]
+        out['position_w'][body.name] = np.array([r[0] for r in rows]).reshape(-1, 3)
+        v = np.array([r[1] for r in rows]).reshape(-1, 3)
+        w = np.array([r[2] for r in rows]).reshape(-1, 3)
+        inertia = body.model.inertia_b
+        out['kinetic_j'][body.name] = 0.5 * body.model.mass_kg * (v * v).sum(axis=1) \
+            + 0.5 * np.einsum('ni,ij,nj->n', w, inertia, w)
+        out['in_contact'] += np.array([contact[body.name].get(t, 0.0) > 0.0 for t in times])
+    return out
+
+
+def draw_world(bag: Bag, title: Optional[str] = None):
+    """Draw a world recording: top view, heights, kinetic energy, bodies in contact."""
+    import matplotlib
+    matplotlib.use('Agg')
+    from matplotlib import pyplot as plt
+
+    data = load_world(bag)
+    fig, axes = plt.subplots(2, 2, figsize=(13, 9))
+    top, height, energy, contact = axes.ravel()
+    t = data['t_s']
+    for name in data['names']:
+        p = data['position_w'][name]
+        top.plot(p[:, 0], p[:, 1], label=name)
+        if len(p):
+            top.plot(p[-1:, 0], p[-1:, 1], 'o', color=top.get_lines()[-1].get_color())
+        height.plot(t, p[:, 2], label=name)
+        energy.plot(t, data['kinetic_j'][name], label=name)
+    energy.plot(t, sum(data['kinetic_j'].values()), 'k--', label='total')
+    contact.step(t, data['in_contact'], where='post', label='bodies touching')
+    top.set_title('top view: COM paths (m), dot = last sample', fontsize=10)
+    top.set_aspect('equal', adjustable='datalim')
+    height.set_title('COM height z (m)', fontsize=10)
+    energy.set_title('kinetic energy (J)', fontsize=10)
+    contact.set_title('bodies with a non-zero contact wrench', fontsize=10)
+    for ax in (height, energy, contact):
+        ax.set_xlabel('sim time (s)')
+    for ax in axes.ravel():
+        ax.grid(True, alpha=0.3)
+        if len(data['names']) <= 12:
+            ax.legend(fontsize=8)
+    status = '' if bag.finalised else '  [not finalised]'
+    fig.suptitle(title or f'{os.path.basename(os.path.normpath(bag.path))}{status}')
+    fig.tight_layout()
+    return fig, data
+
+
 def render(bag: Union[str, os.PathLike, Bag], out_path: str,
            title: Optional[str] = None) -> str:
     """Render the recording ``bag`` (opened or a path) to the PNG ``out_path``; return it."""
-    fig, _ = draw(bag, title)
+    if not isinstance(bag, Bag):
+        bag = open_bag(bag)
+    if bag.config and bag.config.get('bodies'):
+        fig, _ = draw_world(bag, title)
+    else:
+        fig, _ = draw(bag, title)
     from matplotlib import pyplot as plt   # after draw() selected the Agg backend
     try:
         fig.savefig(out_path, dpi=SAVE_DPI)

@@ -29,12 +29,14 @@ from mcap_ros2.decoder import DecoderFactory
 import numpy as np
 import pytest
 from rbd_ros.config import NodeConfig
-from rbd_ros.plot import draw, load_series, main, SAVE_DPI
+from rbd_ros.plot import draw, load_series, load_world, main, render, SAVE_DPI
 from rbd_ros.recording import open_bag
 import yaml
 
 REPO = Path(__file__).resolve().parents[2]
-BAGS = sorted(p for p in (REPO / 'bags').iterdir() if (p / 'metadata.yaml').is_file())
+# Single-body bags: the 8-panel figure (a world bag gets the world figure, tested below).
+BAGS = sorted(p for p in (REPO / 'bags').iterdir() if (p / 'metadata.yaml').is_file()
+              and not open_bag(str(p)).config.get('bodies'))
 # Decoded doubles go through the same IEEE operations (or a differently ordered equivalent), so
 # the drawn values equal the recorded ones exactly where nothing is computed, and to a few ulp
 # where a rotation or a norm is: 1e-12 relative (|values| ≲ 10) is far below any real mistake.
@@ -110,8 +112,9 @@ def _expected(bag_dir):
     ]
     if np.any(model.gravity_w != 0.0):
         panels[6]['kinetic + potential'] = (t, kinetic - model.mass_kg * p @ model.gravity_w)
-    wrenches = {topic: rows for topic, rows in messages.items()
-                if rows and hasattr(rows[0][1], 'wrench')}
+    wrenches = {topic: rows for topic, rows in messages.items()  # applied: not contact_wrench
+                if rows and hasattr(rows[0][1], 'wrench')
+                and not topic.endswith('/contact_wrench')}
     return panels, wrenches, float(config.get('wrench_timeout_s', 0.0)), t[-1]
 
 
@@ -209,3 +212,17 @@ def test_plot_bad_input_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and 'not an MCAP file' in err
     assert not (tmp_path / 'x.png').exists()
+
+
+def test_a_world_plot_shows_every_body_from_the_recorded_samples(tmp_path):
+    bag = open_bag(str(Path(__file__).resolve().parents[2] / 'bags' / 'floor_world_push'))
+    data = load_world(bag)
+    assert data['names'] == ['pushed', 'slider', 'ball']
+    assert len(data['t_s']) == 301
+    # The ball launched at 1 m/s without spin ends rolling: v = 5/7 v0, ω = v / r, so its
+    # kinetic energy is (1/2 m + 1/5 m) v² = 0.7 · (5/7)² J (round-off of the recorded twist).
+    assert data['kinetic_j']['ball'][-1] == pytest.approx(0.7 * (5.0 / 7.0) ** 2, rel=1e-9)
+    assert data['position_w']['slider'][-1, 0] == pytest.approx(0.40775, abs=1e-4)
+    assert data['in_contact'][-1] == 3  # all three rest on the floor
+    out = render(bag, str(tmp_path / 'world.png'))
+    assert Path(out).stat().st_size > 10_000
