@@ -369,7 +369,7 @@ def load_world(bag: Bag) -> Dict[str, Any]:
     return out
 
 
-def draw_world(bag: Bag, title: Optional[str] = None):
+def draw_world(bag: Bag, title: Optional[str] = None) -> Tuple[Any, Dict[str, Any]]:
     """Draw a world recording: top view, heights, kinetic energy, bodies in contact."""
     import matplotlib
     matplotlib.use('Agg')

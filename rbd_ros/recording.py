@@ -346,7 +346,8 @@ class BagWriter:
         """Return the :class:`RecordingError` that stopped the recording, or None."""
         return self._failed
 
-    def add_file(self, name: str, data: bytes, media_type: str = 'application/octet-stream'):
+    def add_file(self, name: str, data: bytes,
+                 media_type: str = 'application/octet-stream') -> None:
         """
         Store a file the run depends on (a mesh) as an MCAP attachment named ``name``.
 

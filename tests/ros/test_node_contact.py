@@ -31,7 +31,9 @@ from rbd_ros.core import rotations
 from rbd_ros.recording import open_bag
 from rbd_ros.replay import main as replay_main
 from ros_probe import Probe
+from std_srvs.srv import SetBool
 import trimesh
+import yaml
 
 G = 9.81
 SLIDE = {
@@ -70,7 +72,7 @@ def test_a_box_slides_to_a_stop_where_the_formula_says(tmp_path, start_node, pro
     probe.wait_connected(300.0)  # a first start may compile the contact step
     probe.wait(lambda: probe.node.count_publishers('contact_wrench') >= 1, 60.0,
                'the contact_wrench publisher')
-    probe.pause(False)
+    assert probe.call('pause', SetBool.Request(data=False), timeout_s=120.0).success
     probe.wait(lambda: poses.get(1_000_000_000), 120.0, 'the pose at t = 1 s')
     assert node.stop() == 0, node.stderr
     # The pose at 1 s (the box stops at v0 / (μ g) = 0.41 s): the node's own published value.
@@ -100,7 +102,7 @@ def test_a_resting_box_feels_minus_m_g_and_no_torque(start_node, probe_for):
     probe.wait_connected(300.0)  # a first start may compile the contact step
     probe.wait(lambda: probe.node.count_publishers('contact_wrench') >= 1, 60.0,
                'the contact_wrench publisher')
-    probe.pause(False)
+    assert probe.call('pause', SetBool.Request(data=False), timeout_s=120.0).success
     probe.wait(lambda: wrenches.get(500_000_000), 120.0, 'the contact wrench at t = 0.5 s')
     assert node.stop() == 0, node.stderr
     msg = wrenches[500_000_000]
@@ -135,7 +137,7 @@ def test_a_relative_mesh_path_resolves_against_the_params_file(tmp_path, start_n
     node = start_node(params_file=params, namespace=True)  # its cwd is tmp_path
     probe = probe_for(node)
     probe.wait_connected(300.0)  # a first start may compile the contact step
-    probe.pause(False)
+    assert probe.call('pause', SetBool.Request(data=False), timeout_s=120.0).success
     pose = probe.wait(lambda: probe.samples['pose'].get(300_000_000), 120.0, 'pose at 0.3 s')
     assert node.stop() == 0, node.stderr
     # The mesh cube rests on the ground: its COM stays at half its side. STL stores float32,
@@ -201,7 +203,7 @@ def _run_config(start_node, probe_for, name, until_ns):
                       params_file=REPO / 'msg_config' / f'{name}.yaml', namespace=True)
     probe = probe_for(node)
     probe.wait_connected(300.0)  # a first start may compile the contact step
-    probe.pause(False)
+    assert probe.call('pause', SetBool.Request(data=False), timeout_s=120.0).success
     probe.wait(lambda: probe.samples['pose'].get(until_ns), 120.0, f'the pose at {until_ns} ns')
     probe.wait(lambda: probe.samples['twist'].get(until_ns), 120.0, f'the twist at {until_ns} ns')
     assert node.stop() == 0, node.stderr
@@ -212,7 +214,8 @@ def test_the_msg_config_slope_cube_slides_at_g_sin_minus_mu_cos(start_node, prob
     samples = _run_config(start_node, probe_for, 'slope', 1_000_000_000)
     theta, mu = math.radians(30.0), 0.3  # the ramp and the pair's friction in slope.yaml
     downhill = np.array([math.cos(theta), 0.0, -math.sin(theta)])
-    start = np.array(conversions.vector_from_msg(samples['pose'][0].pose.position))
+    config = yaml.safe_load((REPO / 'msg_config' / 'slope.yaml').read_text())
+    start = np.array(config['/**']['ros__parameters']['initial_position'])
     end = np.array(conversions.vector_from_msg(samples['pose'][1_000_000_000].pose.position))
     travelled = (end - start) @ downhill
     # x(1 s) = g (sin θ − μ cos θ) / 2 = 1.1781 m; the issue's bound 0.05 % (a constant
@@ -265,13 +268,18 @@ def test_drag_and_clicks_move_the_box_and_the_bag_replays(tmp_path, start_node, 
     probe.wait(lambda: drag.get_subscription_count() and click.get_subscription_count(), 60.0,
                'the drag subscriptions')
     k, g = 50.0, 9.81
-    probe.pause(False)
+    assert probe.call('pause', SetBool.Request(data=False), timeout_s=120.0).success
     probe.wait(lambda: probe.samples['pose'], 60.0, 'the first pose')
 
+    sent = [0]
+
     def send_then_wait(publisher, msg, seconds):
-        """Publish ``msg``; return the pose ``seconds`` of sim time later (latest sample)."""
-        start = max(probe.samples['pose'])
+        """Publish ``msg``; once the node has it, return the pose ``seconds`` of sim time later."""
         publisher.publish(msg)
+        sent[0] += 1
+        # The node counts what it received (/diagnostics, ~1 Hz): wait for it under any load.
+        probe.diagnostic_values(lambda v: int(v['drags_received']) >= sent[0], 60.0)
+        start = max(probe.samples['pose'])
         end = probe.wait(lambda: max(probe.samples['pose']) >= start + seconds * 1e9 and
                          max(probe.samples['pose']), 60.0, f'{seconds} s of sim time')
         return np.array(conversions.vector_from_msg(probe.samples['pose'][end].pose.position))
