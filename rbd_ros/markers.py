@@ -23,7 +23,8 @@ Namespaces and ids (stable, so a marker is replaced in place sample after sample
 
 * ``ground`` id 0: the ground plane, a thin CUBE (see :func:`shape_marker`).
 * ``obstacles`` id ``i``: obstacle ``i`` of ``StaticWorld.obstacles`` (``text`` = its name).
-* ``bodies`` id ``i``: body ``i`` (``text`` = its name), colour :func:`body_color`.
+* ``bodies`` id ``i``: body ``i`` (``text`` = its name), colour
+  :func:`rbd_ros.tessellation.body_color` (shared with :mod:`rbd_ros.animate`).
 * ``contacts`` id 0: the contact points (SPHERE_LIST); id 1: the normals (LINE_LIST).
 
 The ``text`` field is ignored by viewers for these types; it lets a bag reader tell the
@@ -37,7 +38,6 @@ Quaternions are ``(w, x, y, z)`` here as everywhere inside rbd_ros; the messages
 w`` fields are written by :func:`rbd_ros.conversions.quaternion_to_msg`.
 """
 
-import colorsys
 import math
 
 from geometry_msgs.msg import Point
@@ -45,8 +45,8 @@ import numpy as np
 from rbd_ros import conversions as conv
 from rbd_ros.core.errors import finite_vector, InputError
 from rbd_ros.core.rotations import quat_multiply, quat_normalize, quat_to_matrix
-from rbd_ros.tessellation import (DEFAULT_PLANE_SIZE_M, DEFAULT_RINGS, DEFAULT_SEGMENTS,
-                                  plane_frame, shape_triangles)
+from rbd_ros.tessellation import (body_color, DEFAULT_PLANE_SIZE_M, DEFAULT_RINGS,
+                                  DEFAULT_SEGMENTS, plane_frame, shape_triangles)
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -84,17 +84,6 @@ _INT32 = 2 ** 31
 # Triangle points per shape, built once: (shape, tessellation options) -> (shape, points).
 _POINTS_CACHE = {}
 _POINTS_CACHE_SIZE = 1024
-
-
-def body_color(index):
-    """
-    Return body ``index``'s colour ``(r, g, b, a)``: hue ``index × 0.618034`` turns.
-
-    Golden-ratio steps of hue keep neighbouring indices far apart on the colour wheel and the
-    colour of a body fixed whatever the number of bodies (saturation 0.65, value 0.9, opaque).
-    """
-    hue = (int(index) * 0.6180339887498949) % 1.0
-    return colorsys.hsv_to_rgb(hue, 0.65, 0.9) + (1.0,)
 
 
 def _color(color_rgba):

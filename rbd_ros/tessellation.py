@@ -34,6 +34,7 @@ along body z):
   nearest the body origin (a plane is infinite; this is the part drawn).
 """
 
+import colorsys
 import math
 
 import numpy as np
@@ -41,8 +42,8 @@ import numpy as np
 from rbd_ros.core.errors import ModelError
 from rbd_ros.core.rotations import quat_to_matrix
 
-__all__ = ['DEFAULT_PLANE_SIZE_M', 'DEFAULT_RINGS', 'DEFAULT_SEGMENTS', 'plane_frame',
-           'shape_triangles']
+__all__ = ['DEFAULT_PLANE_SIZE_M', 'DEFAULT_RINGS', 'DEFAULT_SEGMENTS', 'body_color',
+           'plane_frame', 'shape_triangles']
 
 #: Points per ring of a round shape (a multiple of 4, so the extremes along x and y are hit).
 DEFAULT_SEGMENTS = 24
@@ -50,6 +51,18 @@ DEFAULT_SEGMENTS = 24
 DEFAULT_RINGS = 12
 #: Side of the square drawn for an infinite plane, m.
 DEFAULT_PLANE_SIZE_M = 20.0
+
+
+def body_color(index):
+    """
+    Return body ``index``'s drawing colour ``(r, g, b, a)``: hue ``index × 0.618034`` turns.
+
+    Golden-ratio steps of hue keep neighbouring indices far apart on the colour wheel and the
+    colour of a body fixed whatever the number of bodies (saturation 0.65, value 0.9, opaque).
+    Markers and animations use it, so a body has one colour everywhere.
+    """
+    hue = (int(index) * 0.6180339887498949) % 1.0
+    return colorsys.hsv_to_rgb(hue, 0.65, 0.9) + (1.0,)
 
 
 def _revolve(rho, z, segments):

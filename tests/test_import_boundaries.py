@@ -51,7 +51,7 @@ def imported(modules, packages):
     ('rbd_ros.core.contact',),
     ('rbd_ros.config', 'rbd_ros.inputs', 'rbd_ros.session'),
     ('rbd_ros.schemas', 'rbd_ros.recording'),
-    ('rbd_ros.tessellation',),
+    ('rbd_ros.tessellation', 'rbd_ros.animate'),
 ])
 def test_no_rclpy_and_no_messages_below_the_message_modules(modules):
     found = imported(modules, RCLPY + MESSAGE_PACKAGES)
