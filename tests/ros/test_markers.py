@@ -236,12 +236,36 @@ def test_body_markers_one_per_body_distinct_colours_stable_ids():
                                  'world', STAMP_NS + 1)
     assert [m.color for m in again.markers] == [m.color for m in array.markers[:3]]
     round_trip(array)
-    with pytest.raises(InputError, match='positions_w: 11 entries for 12 bodies'):
+    with pytest.raises(InputError, match=r'positions_w: shape \(11, 3\) for 12 bodies'):
         markers.body_markers(names, shapes, positions[:11], quats, 'world', 0)
-    with pytest.raises(InputError, match='bodies.b3: quat_wxyz'):
+    with pytest.raises(InputError, match='bodies.b3: position_w .* quat_wxyz'):
         bad = quats.copy()
         bad[3] = 0.0
         markers.body_markers(names, shapes, positions, bad, 'world', 0)
+
+
+def test_reused_body_markers_equal_fresh_ones():
+    names = ['box', 'ring']
+    ring = trimesh.creation.annulus(r_min=0.2, r_max=0.5, height=0.3, sections=12)
+    shapes = [primitive_shape('box', [0.2, 0.3, 0.4]),
+              mesh_shape(ring.vertices, ring.faces, cache_dir=False)]
+    cached = markers.BodyMarkers(names, shapes, 'world')
+    for k in range(3):
+        positions = np.array([[0.1 * k, 0.0, 0.2], [1.0, -0.5 * k, 0.3]])
+        # Not normalised on purpose: both paths normalise.
+        quats = np.array([quat_from_axis_angle([1.0, 2.0, 3.0], 0.4 * k) * 2.0,
+                          quat_from_axis_angle([0.0, 1.0, 0.0], -0.3 * k)])
+        fresh = markers.body_markers(names, shapes, positions, quats, 'world', STAMP_NS + k)
+        reused = cached.array(positions, quats, STAMP_NS + k)
+        for a, b in zip(reused.markers, fresh.markers):
+            assert a.header == b.header and a.points == b.points and a.color == b.color
+            assert np.array_equal(xyz(a.pose.position), xyz(b.pose.position))
+            # Both divide by numpy's norm of the same 4 numbers: equal, or 1 ulp apart.
+            assert np.allclose(wxyz(a.pose.orientation), wxyz(b.pose.orientation), rtol=0.0,
+                               atol=2.3e-16)
+        round_trip(reused)
+    with pytest.raises(InputError, match='bodies.floor.shape: a plane is static'):
+        markers.BodyMarkers(['floor'], [ground_plane().shape], 'world')
 
 
 @pytest.fixture(scope='module')
