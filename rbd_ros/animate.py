@@ -24,13 +24,18 @@ messages here: the caller reads poses from wherever (a bag, a simulator) into ar
 """
 
 import math
+import os
 from pathlib import Path
+from typing import Optional, Sequence, Tuple, TYPE_CHECKING, Union
 
 import numpy as np
 from rbd_ros.config import NS_PER_S
 from rbd_ros.core.errors import ConfigError, InputError
 from rbd_ros.core.rotations import quat_to_matrix
 from rbd_ros.tessellation import body_color, plane_frame, shape_triangles
+
+if TYPE_CHECKING:  # pragma: no cover - annotations only
+    from rbd_ros.core.contact import CollisionShape, StaticWorld
 
 __all__ = ['write_animation']
 
@@ -92,9 +97,13 @@ def _limits(points_w):
     return centre - half, centre + half
 
 
-def write_animation(path, times_ns, positions_w, quats_wxyz, shapes, static_world=None, *,
-                    fps=None, size_px=(640, 480), dpi=80, elevation_deg=25.0,
-                    azimuth_deg=-60.0):
+def write_animation(path: Union[str, os.PathLike], times_ns: Sequence[int],
+                    positions_w: np.ndarray, quats_wxyz: np.ndarray,
+                    shapes: Sequence['CollisionShape'],
+                    static_world: Optional['StaticWorld'] = None, *,
+                    fps: Optional[float] = None, size_px: Tuple[int, int] = (640, 480),
+                    dpi: int = 80, elevation_deg: float = 25.0,
+                    azimuth_deg: float = -60.0) -> int:
     """
     Write an animation of a world to ``path``: a GIF, or an MP4 when ffmpeg is installed.
 

@@ -39,6 +39,7 @@ w`` fields are written by :func:`rbd_ros.conversions.quaternion_to_msg`.
 """
 
 import math
+from typing import List, Optional, Sequence, TYPE_CHECKING
 
 from geometry_msgs.msg import Point
 import numpy as np
@@ -49,6 +50,10 @@ from rbd_ros.tessellation import (body_color, DEFAULT_PLANE_SIZE_M, DEFAULT_RING
                                   DEFAULT_SEGMENTS, plane_frame, shape_triangles)
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
+
+if TYPE_CHECKING:  # pragma: no cover - annotations only
+    from rbd_ros.core.contact import CollisionShape, StaticWorld
+    from rbd_ros.core.contact.simulator import Contacts
 
 __all__ = [
     'BODIES_NS', 'BodyMarkers', 'CONTACT_NORMALS_ID', 'CONTACT_POINTS_ID', 'CONTACTS_NS',
@@ -127,9 +132,11 @@ def _header(marker, frame_id, stamp_ns):
     marker.header.stamp = conv.time_to_msg(stamp_ns)
 
 
-def shape_marker(shape, ns, marker_id, frame_id, position_w, quat_wxyz, color_rgba, stamp_ns,
-                 plane_size_m=DEFAULT_PLANE_SIZE_M, segments=DEFAULT_SEGMENTS,
-                 rings=DEFAULT_RINGS):
+def shape_marker(shape: 'CollisionShape', ns: str, marker_id: int, frame_id: str,
+                 position_w: Sequence[float], quat_wxyz: Sequence[float],
+                 color_rgba: Sequence[float], stamp_ns: int,
+                 plane_size_m: float = DEFAULT_PLANE_SIZE_M, segments: int = DEFAULT_SEGMENTS,
+                 rings: int = DEFAULT_RINGS) -> Marker:
     """
     Return the ``visualization_msgs/Marker`` of a collision shape at a pose.
 
@@ -195,7 +202,8 @@ def shape_marker(shape, ns, marker_id, frame_id, position_w, quat_wxyz, color_rg
     return marker
 
 
-def static_markers(static_world, frame_id, stamp_ns, plane_size_m=DEFAULT_PLANE_SIZE_M):
+def static_markers(static_world: Optional['StaticWorld'], frame_id: str, stamp_ns: int,
+                   plane_size_m: float = DEFAULT_PLANE_SIZE_M) -> MarkerArray:
     """
     Return the ``MarkerArray`` of a :class:`StaticWorld`: ns ``ground`` id 0, ``obstacles``.
 
@@ -236,7 +244,8 @@ class BodyMarkers:
         ``bodies.<name>.shape`` for a plane.
     """
 
-    def __init__(self, names, shapes, frame_id):
+    def __init__(self, names: Sequence[str], shapes: Sequence['CollisionShape'],
+                 frame_id: str):
         self._names = [str(name) for name in names]
         shapes = list(shapes)
         if len(shapes) != len(self._names):
@@ -252,11 +261,12 @@ class BodyMarkers:
             self._array.markers.append(marker)
 
     @property
-    def names(self):
+    def names(self) -> List[str]:
         """Return the body names, in index order."""
         return list(self._names)
 
-    def array(self, positions_w, quats_wxyz, stamp_ns):
+    def array(self, positions_w: np.ndarray, quats_wxyz: np.ndarray,
+              stamp_ns: int) -> MarkerArray:
         """
         Return the ``MarkerArray`` at these poses: ns ``bodies``, id = body index.
 
@@ -293,7 +303,9 @@ class BodyMarkers:
         return self._array
 
 
-def body_markers(names, shapes, positions_w, quats_wxyz, frame_id, stamp_ns):
+def body_markers(names: Sequence[str], shapes: Sequence['CollisionShape'],
+                 positions_w: np.ndarray, quats_wxyz: np.ndarray, frame_id: str,
+                 stamp_ns: int) -> MarkerArray:
     """
     Return the ``MarkerArray`` of the bodies at their poses: ns ``bodies``, id = body index.
 
@@ -309,8 +321,9 @@ def body_markers(names, shapes, positions_w, quats_wxyz, frame_id, stamp_ns):
     return BodyMarkers(names, shapes, frame_id).array(positions_w, quats_wxyz, stamp_ns)
 
 
-def contact_markers(contacts, frame_id, stamp_ns,
-                    arrow_scale_m_per_n_s=DEFAULT_ARROW_SCALE_M_PER_N_S):
+def contact_markers(contacts: 'Contacts', frame_id: str, stamp_ns: int,
+                    arrow_scale_m_per_n_s: float = DEFAULT_ARROW_SCALE_M_PER_N_S
+                    ) -> MarkerArray:
     """
     Return the ``MarkerArray`` of one step's contacts, ns ``contacts``.
 

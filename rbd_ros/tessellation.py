@@ -36,11 +36,15 @@ along body z):
 
 import colorsys
 import math
+from typing import Sequence, Tuple, TYPE_CHECKING
 
 import numpy as np
 
 from rbd_ros.core.errors import ModelError
 from rbd_ros.core.rotations import quat_to_matrix
+
+if TYPE_CHECKING:  # pragma: no cover - annotations only
+    from rbd_ros.core.contact import CollisionShape
 
 __all__ = ['DEFAULT_PLANE_SIZE_M', 'DEFAULT_RINGS', 'DEFAULT_SEGMENTS', 'body_color',
            'plane_frame', 'shape_triangles']
@@ -53,7 +57,7 @@ DEFAULT_RINGS = 12
 DEFAULT_PLANE_SIZE_M = 20.0
 
 
-def body_color(index):
+def body_color(index: int) -> Tuple[float, float, float, float]:
     """
     Return body ``index``'s drawing colour ``(r, g, b, a)``: hue ``index × 0.618034`` turns.
 
@@ -101,7 +105,7 @@ def _box(half):
     return corners[np.array(faces)]
 
 
-def plane_frame(normal, offset_m):
+def plane_frame(normal: Sequence[float], offset_m: float) -> Tuple[np.ndarray, np.ndarray]:
     """
     Return ``(centre_b, q_bp)``: the plane's point nearest the origin and its frame.
 
@@ -129,8 +133,9 @@ def _plane(shape, size_m):
     return corners[np.array([(0, 1, 2), (0, 2, 3)])]
 
 
-def shape_triangles(shape, segments=DEFAULT_SEGMENTS, rings=DEFAULT_RINGS,
-                    plane_size_m=DEFAULT_PLANE_SIZE_M):
+def shape_triangles(shape: 'CollisionShape', segments: int = DEFAULT_SEGMENTS,
+                    rings: int = DEFAULT_RINGS,
+                    plane_size_m: float = DEFAULT_PLANE_SIZE_M) -> np.ndarray:
     """
     Return the ``(n, 3, 3)`` triangles of a :class:`CollisionShape`'s surface, body frame, m.
 
