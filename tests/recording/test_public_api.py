@@ -12,7 +12,7 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The tools' public API (bag layer, markers, animation) is typed; ``None`` defaults are Optional."""
+"""The tools' public API (bag layer, markers, animation) is typed; None defaults are Optional."""
 
 import dataclasses
 import inspect
