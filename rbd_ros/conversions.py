@@ -23,7 +23,7 @@ module has the time stamps, the wrench input and the diagnostics.
 
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import WrenchStamped
+from geometry_msgs.msg import Quaternion, WrenchStamped
 from rbd_ros.config import NS_PER_S
 
 
@@ -41,6 +41,17 @@ def time_from_msg(msg):
 def quaternion_from_msg(msg):
     """``geometry_msgs/Quaternion`` → ``(w, x, y, z)`` tuple, by field name."""
     return (msg.w, msg.x, msg.y, msg.z)
+
+
+def quaternion_to_msg(q_wxyz, msg=None):
+    """``(w, x, y, z)`` → ``geometry_msgs/Quaternion`` (into ``msg`` if given), by field name."""
+    if msg is None:
+        msg = Quaternion()
+    msg.w = float(q_wxyz[0])
+    msg.x = float(q_wxyz[1])
+    msg.y = float(q_wxyz[2])
+    msg.z = float(q_wxyz[3])
+    return msg
 
 
 def vector_from_msg(msg):

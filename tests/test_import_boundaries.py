@@ -29,7 +29,7 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 RCLPY = ('rclpy',)
 MESSAGE_PACKAGES = ('geometry_msgs', 'nav_msgs', 'diagnostic_msgs', 'rosgraph_msgs',
-                    'tf2_msgs', 'builtin_interfaces', 'std_msgs')
+                    'tf2_msgs', 'builtin_interfaces', 'std_msgs', 'visualization_msgs')
 
 
 def imported(modules, packages):
@@ -51,6 +51,7 @@ def imported(modules, packages):
     ('rbd_ros.core.contact',),
     ('rbd_ros.config', 'rbd_ros.inputs', 'rbd_ros.session'),
     ('rbd_ros.schemas', 'rbd_ros.recording'),
+    ('rbd_ros.tessellation', 'rbd_ros.animate'),
 ])
 def test_no_rclpy_and_no_messages_below_the_message_modules(modules):
     found = imported(modules, RCLPY + MESSAGE_PACKAGES)
@@ -61,6 +62,7 @@ def test_no_rclpy_and_no_messages_below_the_message_modules(modules):
     ('rbd_ros.conversions', 'rbd_ros.outputs'),
     ('rbd_ros.core', 'rbd_ros.recording', 'rbd_ros.replay'),
     ('rbd_ros.plot',),
+    ('rbd_ros.markers',),
 ])
 def test_no_rclpy_in_the_message_modules_and_tools(modules):
     found = imported(modules, RCLPY)

@@ -12,16 +12,16 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The bag layer's public API is typed, and a ``None`` default is annotated ``Optional``."""
+"""The tools' public API (bag layer, markers, animation) is typed; None defaults are Optional."""
 
 import dataclasses
 import inspect
 import typing
 
 import pytest
-from rbd_ros import cli, plot, recording, replay, schemas
+from rbd_ros import animate, cli, markers, plot, recording, replay, schemas, tessellation
 
-MODULES = (cli, plot, recording, replay, schemas)
+MODULES = (cli, plot, recording, replay, schemas, markers, tessellation, animate)
 # replay.expected_message is being rewritten on another branch (how replay rebuilds messages).
 NOT_YET = {'expected_message'}
 

@@ -1,0 +1,394 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+World → ``visualization_msgs/MarkerArray``: shapes of bodies and obstacles, and contacts.
+
+No rclpy here: the node, replay and plot call these builders and publish, record or draw the
+messages.  Every marker is in ``frame_id`` (the world frame), in metres, ``frame_locked``
+false, ``lifetime`` 0 (kept until replaced or deleted), ``action`` ADD unless said.
+
+Namespaces and ids (stable, so a marker is replaced in place sample after sample):
+
+* ``ground`` id 0: the ground plane, a thin CUBE (see :func:`shape_marker`).
+* ``obstacles`` id ``i``: obstacle ``i`` of ``StaticWorld.obstacles`` (``text`` = its name).
+* ``bodies`` id ``i``: body ``i`` (``text`` = its name), colour
+  :func:`rbd_ros.tessellation.body_color` (shared with :mod:`rbd_ros.animate`).
+* ``contacts`` id 0: the contact points (SPHERE_LIST); id 1: the normals (LINE_LIST).
+
+The ``text`` field is ignored by viewers for these types; it lets a bag reader tell the
+markers apart by name.  Static markers (:func:`static_markers`) are meant to be published
+once on a transient-local topic; :func:`body_markers` and :func:`contact_markers` every
+sample.  Every marker of :func:`static_markers` and :func:`body_markers` has an ADD action,
+so the static and moving markers may share one topic: nothing here ever deletes outside the
+``contacts`` namespace.
+
+Quaternions are ``(w, x, y, z)`` here as everywhere inside rbd_ros; the messages' ``x, y, z,
+w`` fields are written by :func:`rbd_ros.conversions.quaternion_to_msg`.
+"""
+
+import math
+from typing import List, Optional, Sequence, TYPE_CHECKING
+
+from geometry_msgs.msg import Point
+import numpy as np
+from rbd_ros import conversions as conv
+from rbd_ros.core.errors import finite_vector, InputError
+from rbd_ros.core.rotations import quat_multiply, quat_normalize, quat_to_matrix
+from rbd_ros.tessellation import (body_color, DEFAULT_PLANE_SIZE_M, DEFAULT_RINGS,
+                                  DEFAULT_SEGMENTS, plane_frame, shape_triangles)
+from std_msgs.msg import ColorRGBA
+from visualization_msgs.msg import Marker, MarkerArray
+
+if TYPE_CHECKING:  # pragma: no cover - annotations only
+    from rbd_ros.core.contact import CollisionShape, StaticWorld
+    from rbd_ros.core.contact.simulator import Contacts
+
+__all__ = [
+    'BODIES_NS', 'BodyMarkers', 'CONTACT_NORMALS_ID', 'CONTACT_POINTS_ID', 'CONTACTS_NS',
+    'DEFAULT_ARROW_SCALE_M_PER_N_S', 'GROUND_NS', 'GROUND_THICKNESS_M', 'OBSTACLES_NS',
+    'body_color', 'body_markers', 'contact_markers', 'shape_marker', 'static_markers',
+]
+
+GROUND_NS = 'ground'
+OBSTACLES_NS = 'obstacles'
+BODIES_NS = 'bodies'
+CONTACTS_NS = 'contacts'
+#: Ids in ``contacts``: the points and the normals.
+CONTACT_POINTS_ID = 0
+CONTACT_NORMALS_ID = 1
+#: Thickness of the slab drawn for a plane, m; its top face is the plane.
+GROUND_THICKNESS_M = 0.01
+#: Normal line length per N·s of normal impulse, m/(N·s).  A box of mass m resting on its
+#: 4 corners gets m g h / 8 per corner in each of the 2 contact stages of a step (measured:
+#: 2.4525 mN·s for 2 kg at h = 1 ms), so a 1 kg box at 1 ms draws 1.2 cm lines.
+DEFAULT_ARROW_SCALE_M_PER_N_S = 10.0
+#: Diameter of a contact point's sphere and width of a normal line, m.
+CONTACT_POINT_DIAMETER_M = 0.02
+CONTACT_LINE_WIDTH_M = 0.005
+GROUND_COLOR = (0.55, 0.55, 0.55, 1.0)
+OBSTACLE_COLOR = (0.45, 0.35, 0.25, 1.0)
+CONTACT_POINT_COLOR = (1.0, 0.1, 0.1, 1.0)
+CONTACT_NORMAL_COLOR = (1.0, 0.85, 0.0, 1.0)
+
+_MARKER_TYPES = {'box': Marker.CUBE, 'sphere': Marker.SPHERE,
+                 'spherical_shell': Marker.SPHERE, 'ellipsoid': Marker.SPHERE,
+                 'cylinder': Marker.CYLINDER, 'plane': Marker.CUBE,
+                 'capsule': Marker.TRIANGLE_LIST, 'mesh': Marker.TRIANGLE_LIST}
+_INT32 = 2 ** 31
+# Triangle points per shape, built once: (shape, tessellation options) -> (shape, points).
+# The Point objects are shared by every marker of that shape: never mutate a marker's points.
+_POINTS_CACHE = {}
+_POINTS_CACHE_SIZE = 1024
+
+
+def _color(color_rgba):
+    rgba = finite_vector(color_rgba, 'color_rgba', '(r, g, b, a in [0, 1])', size=4,
+                         frozen=False)
+    if np.any(rgba < 0.0) or np.any(rgba > 1.0):
+        raise InputError(f'color_rgba: {rgba.tolist()} must be 4 values in [0, 1] (r, g, b, a)')
+    # float32 fields: rounded here, so the message holds what it serialises to.
+    r, g, b, a = (float(c) for c in rgba.astype(np.float32))
+    return ColorRGBA(r=r, g=g, b=b, a=a)
+
+
+def _marker_id(marker_id):
+    if (isinstance(marker_id, bool) or not isinstance(marker_id, (int, np.integer))
+            or not -_INT32 <= int(marker_id) < _INT32):
+        raise InputError(f'marker_id: {marker_id!r} must be an int32 integer')
+    return int(marker_id)
+
+
+def _points(array):
+    """(n, 3) array → list of ``geometry_msgs/Point``."""
+    return [Point(x=x, y=y, z=z) for x, y, z in np.asarray(array, dtype=np.float64).tolist()]
+
+
+def _triangle_points(shape, segments, rings):
+    key = (id(shape), segments, rings)
+    hit = _POINTS_CACHE.get(key)
+    if hit is not None and hit[0] is shape:
+        return list(hit[1])
+    points = tuple(_points(shape_triangles(shape, segments, rings).reshape(-1, 3)))
+    if len(_POINTS_CACHE) >= _POINTS_CACHE_SIZE:
+        _POINTS_CACHE.clear()
+    _POINTS_CACHE[key] = (shape, points)  # holding the shape keeps its id from being reused
+    return list(points)
+
+
+def _header(marker, frame_id, stamp_ns):
+    marker.header.frame_id = str(frame_id)
+    marker.header.stamp = conv.time_to_msg(stamp_ns)
+
+
+def shape_marker(shape: 'CollisionShape', ns: str, marker_id: int, frame_id: str,
+                 position_w: Sequence[float], quat_wxyz: Sequence[float],
+                 color_rgba: Sequence[float], stamp_ns: int,
+                 plane_size_m: float = DEFAULT_PLANE_SIZE_M, segments: int = DEFAULT_SEGMENTS,
+                 rings: int = DEFAULT_RINGS) -> Marker:
+    """
+    Return the ``visualization_msgs/Marker`` of a collision shape at a pose.
+
+    The shape's body frame is at ``position_w`` (m) turned by ``quat_wxyz`` (``q_wb``, w
+    first; normalised here): ``x_w = R(q_wb) x_b + position_w``.  Per ``shape.shape``:
+
+    * ``box``: CUBE, scale = the full edge lengths.
+    * ``sphere``: SPHERE, scale = the diameter on every axis; ``ellipsoid``: SPHERE, scale =
+      twice the semi-axes.
+    * ``cylinder``: CYLINDER, scale = (2 r, 2 r, length).  RViz and Foxglove cylinders run
+      along their z axis, as ours do (``from_shape``: cylinders and capsules along body z),
+      so the pose is the body's.
+    * ``capsule``: TRIANGLE_LIST of its tessellation (:func:`rbd_ros.tessellation.
+      shape_triangles`: ``segments`` per ring, ``rings`` over both caps), scale 1.
+    * ``mesh``: TRIANGLE_LIST of its faces, in the body frame (the vertices are already moved
+      by ``mesh_offset_m`` so the COM is the body origin), scale 1.
+    * ``plane``: a CUBE slab ``plane_size_m`` × ``plane_size_m`` × :data:`GROUND_THICKNESS_M`
+      whose top face lies on the plane, centred under the plane point nearest the origin.
+
+    :param ns: the marker namespace; ``marker_id`` an int32 id.
+    :param color_rgba: 4 numbers in [0, 1].
+    :param stamp_ns: the header stamp, integer ns.
+    :raises InputError: naming ``position_w``, ``quat_wxyz``, ``color_rgba`` or
+        ``marker_id`` with the value and unit.
+    """
+    position = finite_vector(position_w, 'position_w', 'm', frozen=False)
+    quat = quat_normalize(finite_vector(quat_wxyz, 'quat_wxyz', '(w, x, y, z)', size=4),
+                          'quat_wxyz')
+    marker = Marker()
+    _header(marker, frame_id, stamp_ns)
+    marker.ns = str(ns)
+    marker.id = _marker_id(marker_id)
+    marker.action = Marker.ADD
+    marker.color = _color(color_rgba)
+    marker.frame_locked = False
+    kind = shape.shape
+    if kind not in _MARKER_TYPES:
+        raise InputError(f'shape: {kind!r} has no marker type')
+    marker.type = _MARKER_TYPES[kind]
+    dims = np.asarray(shape.dimensions_m, dtype=np.float64)
+    scale = (1.0, 1.0, 1.0)
+    if kind == 'box':
+        scale = tuple(dims)
+    elif kind in ('sphere', 'spherical_shell'):
+        scale = (2.0 * dims[0],) * 3
+    elif kind == 'ellipsoid':
+        scale = tuple(2.0 * dims)
+    elif kind == 'cylinder':
+        scale = (2.0 * dims[0], 2.0 * dims[0], dims[1])
+    elif kind == 'plane':
+        scale = (float(plane_size_m), float(plane_size_m), GROUND_THICKNESS_M)
+        centre_b, q_bp = plane_frame(shape.params[:3], shape.params[3])
+        # The slab's centre is half its thickness below the plane, along the normal.
+        centre_b = centre_b - 0.5 * GROUND_THICKNESS_M * shape.params[:3]
+        position = position + quat_to_matrix(quat) @ centre_b
+        quat = quat_multiply(quat, q_bp)
+    else:
+        marker.points = _triangle_points(shape, segments, rings)
+    marker.scale.x, marker.scale.y, marker.scale.z = (float(s) for s in scale)
+    marker.pose.position.x, marker.pose.position.y, marker.pose.position.z = (
+        float(p) for p in position)
+    conv.quaternion_to_msg(quat, marker.pose.orientation)
+    return marker
+
+
+def static_markers(static_world: Optional['StaticWorld'], frame_id: str, stamp_ns: int,
+                   plane_size_m: float = DEFAULT_PLANE_SIZE_M) -> MarkerArray:
+    """
+    Return the ``MarkerArray`` of a :class:`StaticWorld`: ns ``ground`` id 0, ``obstacles``.
+
+    Obstacle ``i`` of ``static_world.obstacles`` gets id ``i`` and ``text`` its name.  Meant to
+    be published once on a transient-local topic (late subscribers get it) and recorded once.
+    An empty world (or None) gives an empty array.
+    """
+    out = MarkerArray()
+    if static_world is None:
+        return out
+    ground = static_world.ground
+    if ground is not None:
+        marker = shape_marker(ground.shape, GROUND_NS, 0, frame_id, ground.position_w,
+                              ground.orientation_wb, GROUND_COLOR, stamp_ns, plane_size_m)
+        marker.text = ground.name
+        out.markers.append(marker)
+    for index, item in enumerate(static_world.obstacles):
+        marker = shape_marker(item.shape, OBSTACLES_NS, index, frame_id, item.position_w,
+                              item.orientation_wb, OBSTACLE_COLOR, stamp_ns)
+        marker.text = item.name
+        out.markers.append(marker)
+    return out
+
+
+class BodyMarkers:
+    """
+    The bodies' markers, built once and re-posed every sample (the publishing fast path).
+
+    Everything but the header stamp and the pose is fixed per body (type, scale, colour,
+    triangles), so :meth:`array` only writes those: about 1 µs a body where building a marker
+    takes about 100 µs.  The returned array and its markers are reused by the next call:
+    publish or serialise it first.
+
+    :param names: the body names (``text`` of each marker), in index order.
+    :param shapes: their :class:`CollisionShape` values.
+    :param frame_id: the world frame.
+    :raises InputError: naming ``shapes`` when its length differs from ``names``, or
+        ``bodies.<name>.shape`` for a plane.
+    """
+
+    def __init__(self, names: Sequence[str], shapes: Sequence['CollisionShape'],
+                 frame_id: str):
+        self._names = [str(name) for name in names]
+        shapes = list(shapes)
+        if len(shapes) != len(self._names):
+            raise InputError(f'shapes: {len(shapes)} entries for {len(self._names)} bodies')
+        self._array = MarkerArray()
+        for index, name in enumerate(self._names):
+            if shapes[index].shape == 'plane':  # its marker pose is not the body pose
+                raise InputError(
+                    f'bodies.{name}.shape: a plane is static; a body needs a solid shape')
+            marker = shape_marker(shapes[index], BODIES_NS, index, frame_id, (0.0, 0.0, 0.0),
+                                  (1.0, 0.0, 0.0, 0.0), body_color(index), 0)
+            marker.text = name
+            self._array.markers.append(marker)
+
+    @property
+    def names(self) -> List[str]:
+        """Return the body names, in index order."""
+        return list(self._names)
+
+    def array(self, positions_w: np.ndarray, quats_wxyz: np.ndarray,
+              stamp_ns: int) -> MarkerArray:
+        """
+        Return the ``MarkerArray`` at these poses: ns ``bodies``, id = body index.
+
+        :param positions_w: (N, 3) COM positions, m.
+        :param quats_wxyz: (N, 4) ``q_wb`` (w, x, y, z); normalised here.
+        :raises InputError: naming ``positions_w`` or ``quats_wxyz`` when the count differs
+            from the bodies', or ``bodies.<name>.position_w`` / ``quat_wxyz`` when not finite
+            (or a zero quaternion).
+        """
+        count = len(self._names)
+        positions = np.asarray(positions_w, dtype=np.float64)
+        quats = np.asarray(quats_wxyz, dtype=np.float64)
+        for field, array, width in (('positions_w', positions, 3), ('quats_wxyz', quats, 4)):
+            if array.shape != (count, width):
+                raise InputError(
+                    f'{field}: shape {array.shape} for {count} bodies (expected ({count}, '
+                    f'{width}))')
+        norm = np.linalg.norm(quats, axis=1)
+        bad = ~(np.isfinite(positions).all(axis=1) & np.isfinite(quats).all(axis=1)
+                & (norm > 0.0))
+        if bad.any():
+            index = int(np.flatnonzero(bad)[0])
+            raise InputError(
+                f'bodies.{self._names[index]}: position_w {positions[index].tolist()} m, '
+                f'quat_wxyz {quats[index].tolist()}: must be finite, the quaternion non-zero')
+        quats = quats / norm[:, None]
+        stamp = conv.time_to_msg(stamp_ns)
+        for marker, position, quat in zip(self._array.markers, positions.tolist(),
+                                          quats.tolist()):
+            marker.header.stamp = stamp
+            point = marker.pose.position
+            point.x, point.y, point.z = position
+            conv.quaternion_to_msg(quat, marker.pose.orientation)
+        return self._array
+
+
+def body_markers(names: Sequence[str], shapes: Sequence['CollisionShape'],
+                 positions_w: np.ndarray, quats_wxyz: np.ndarray, frame_id: str,
+                 stamp_ns: int) -> MarkerArray:
+    """
+    Return the ``MarkerArray`` of the bodies at their poses: ns ``bodies``, id = body index.
+
+    A new array each call; a node publishing every sample should keep a
+    :class:`BodyMarkers` and call its :meth:`BodyMarkers.array` (same markers, faster).
+
+    :param names: the body names (``text`` of each marker), in index order.
+    :param shapes: their :class:`CollisionShape` values.
+    :param positions_w: (N, 3) COM positions, m.
+    :param quats_wxyz: (N, 4) ``q_wb`` (w, x, y, z).
+    :raises InputError: as :class:`BodyMarkers` and :meth:`BodyMarkers.array`.
+    """
+    return BodyMarkers(names, shapes, frame_id).array(positions_w, quats_wxyz, stamp_ns)
+
+
+def contact_markers(contacts: 'Contacts', frame_id: str, stamp_ns: int,
+                    arrow_scale_m_per_n_s: float = DEFAULT_ARROW_SCALE_M_PER_N_S
+                    ) -> MarkerArray:
+    """
+    Return the ``MarkerArray`` of one step's contacts, ns ``contacts``.
+
+    The array starts with a DELETEALL marker in ns ``contacts``, which removes the previous
+    sample's contact markers and nothing else; then, when there are contacts, a SPHERE_LIST
+    (id 0) of the points and a LINE_LIST (id 1) of the normals: from each point ``p`` to ``p
+    + arrow_scale_m_per_n_s (J·n) n``, with ``J`` the impulse on body A (N·s) and ``n`` the
+    unit normal (one row per contact and stage of the step, as :class:`Contacts`).
+
+    Why a namespaced DELETEALL: both viewers delete only that namespace when ``ns`` is not
+    empty (rviz2 ``MarkerCommon::processMessage`` since ros2/rviz#685, in Humble and Jazzy;
+    Foxglove ``TopicMarkers._deleteAllMarkers(ns)``), and everything on the topic when it is
+    empty, so the body and static markers beside them survive; the markers of one array are
+    applied in order, so the new contacts appear after the deletion.  Why no empty lists: an
+    empty POINTS/SPHERE_LIST/LINE_LIST is an error in Foxglove, so a step without contacts
+    sends the DELETEALL alone.  Why one LINE_LIST and not an ARROW per contact: a resting
+    world has many contact rows per body (measured: a box resting on the ground gives 12 a
+    step at h = 1 ms, its 4 corners in each of the 3 stages), so 1000 boxes would be 12 000
+    ARROW markers and scene objects a sample; one LINE_LIST costs 48 bytes a row, and the
+    sphere at a line's foot shows which end is the contact point.
+
+    :param contacts: a :class:`rbd_ros.core.contact.simulator.Contacts`.
+    :param arrow_scale_m_per_n_s: line length per N·s of normal impulse, m/(N·s), finite >= 0.
+        To draw forces instead, pass ``k / h`` for ``k`` m per N at the step ``h`` in s.
+    :raises InputError: naming ``arrow_scale_m_per_n_s`` and its value.
+    """
+    scale = float(arrow_scale_m_per_n_s)
+    if not (math.isfinite(scale) and scale >= 0.0):
+        raise InputError(
+            f'arrow_scale_m_per_n_s: {arrow_scale_m_per_n_s!r} m/(N·s) must be finite and >= 0')
+    clear = Marker()
+    _header(clear, frame_id, stamp_ns)
+    clear.ns = CONTACTS_NS
+    clear.id = 0
+    clear.action = Marker.DELETEALL
+    out = MarkerArray(markers=[clear])
+    count = len(contacts)
+    if count == 0:
+        return out
+    point_w = np.asarray(contacts.point_w, dtype=np.float64).reshape(count, 3)
+    normal_w = np.asarray(contacts.normal_w, dtype=np.float64).reshape(count, 3)
+    impulse_w = np.asarray(contacts.impulse_w, dtype=np.float64).reshape(count, 3)
+    normal_impulse = np.einsum('ij,ij->i', impulse_w, normal_w)
+    ends = point_w + (scale * normal_impulse)[:, None] * normal_w
+
+    points = Marker()
+    _header(points, frame_id, stamp_ns)
+    points.ns = CONTACTS_NS
+    points.id = CONTACT_POINTS_ID
+    points.type = Marker.SPHERE_LIST
+    points.action = Marker.ADD
+    points.pose.orientation.w = 1.0
+    points.scale.x = points.scale.y = points.scale.z = CONTACT_POINT_DIAMETER_M
+    points.color = _color(CONTACT_POINT_COLOR)
+    points.points = _points(point_w)
+
+    lines = Marker()
+    _header(lines, frame_id, stamp_ns)
+    lines.ns = CONTACTS_NS
+    lines.id = CONTACT_NORMALS_ID
+    lines.type = Marker.LINE_LIST
+    lines.action = Marker.ADD
+    lines.pose.orientation.w = 1.0
+    lines.scale.x = CONTACT_LINE_WIDTH_M  # LINE_LIST: only x is used, the line width
+    lines.color = _color(CONTACT_NORMAL_COLOR)
+    lines.points = _points(np.stack([point_w, ends], axis=1).reshape(-1, 3))
+    out.markers.extend([points, lines])
+    return out
