@@ -211,6 +211,9 @@ PARAMETERS = (
               'Names of the bodies of a world, each with bodies.<name>.* (the per-body '
               'parameters above); [] = one body from the parameters above.',
               rule='distinct names of letters, digits and _; not with per-body parameters'),
+    ParamSpec('publish_markers', BOOL, True, '',
+              'With contact: publish markers (bodies, contacts) and static_markers (ground, '
+              'obstacles) for RViz and Foxglove.'),
     ParamSpec('publish_clock', BOOL, False, '', 'Publish /clock (sim time).'),
     ParamSpec('publish_tf', BOOL, True, '',
               'Broadcast world -> body on /tf (only when tf2_msgs is importable).'),
@@ -493,6 +496,7 @@ class NodeConfig:
     wrench_inputs: tuple
     publish_clock: bool
     publish_tf: bool
+    publish_markers: bool
     record_path: str
     record_overwrite: bool
     record_on_error: str
@@ -969,7 +973,7 @@ def _frame_settings(values, bodies=()):
             _fail(p[name], values[name], "must be 'world' or 'body'")
     return {name: values[name] for name in (
         'world_frame', 'body_frame', 'twist_frame', 'default_wrench_frame', 'publish_clock',
-        'publish_tf')}
+        'publish_tf', 'publish_markers')}
 
 
 def _limits_and_recording(values):

@@ -266,12 +266,14 @@ class BodyMarkers:
         return list(self._names)
 
     def array(self, positions_w: np.ndarray, quats_wxyz: np.ndarray,
-              stamp_ns: int) -> MarkerArray:
+              stamp_ns: int, normalise: bool = True) -> MarkerArray:
         """
         Return the ``MarkerArray`` at these poses: ns ``bodies``, id = body index.
 
         :param positions_w: (N, 3) COM positions, m.
-        :param quats_wxyz: (N, 4) ``q_wb`` (w, x, y, z); normalised here.
+        :param quats_wxyz: (N, 4) ``q_wb`` (w, x, y, z); normalised here unless ``normalise``
+            is False (the node passes its pose samples' quaternions, so the markers carry
+            exactly the published poses).
         :raises InputError: naming ``positions_w`` or ``quats_wxyz`` when the count differs
             from the bodies', or ``bodies.<name>.position_w`` / ``quat_wxyz`` when not finite
             (or a zero quaternion).
@@ -292,7 +294,8 @@ class BodyMarkers:
             raise InputError(
                 f'bodies.{self._names[index]}: position_w {positions[index].tolist()} m, '
                 f'quat_wxyz {quats[index].tolist()}: must be finite, the quaternion non-zero')
-        quats = quats / norm[:, None]
+        if normalise:
+            quats = quats / norm[:, None]
         stamp = conv.time_to_msg(stamp_ns)
         for marker, position, quat in zip(self._array.markers, positions.tolist(),
                                           quats.tolist()):

@@ -46,6 +46,7 @@ if __name__ == '__main__' or os.path.basename(sys.argv[0]) == 'rigid_body_node':
 from geometry_msgs.msg import PointStamped
 from rbd_ros import config as cfg
 from rbd_ros import conversions as conv
+from rbd_ros import markers
 from rbd_ros import outputs
 from rbd_ros import ros_args
 from rbd_ros.core import ConfigError, jitcache, NonFiniteError, RbdError, RecordingError
@@ -65,6 +66,7 @@ from rclpy.qos_overriding_options import QoSOverridingOptions
 from rclpy.serialization import serialize_message
 from rclpy.signals import SignalHandlerOptions
 from std_srvs.srv import SetBool, Trigger
+from visualization_msgs.msg import MarkerArray
 
 MAX_STEPS_PER_TICK = 1000  # the catch-up cap
 AS_FAST_BUDGET_NS = 10_000_000  # wall time per tick at real_time_factor 0 (then serve callbacks)
@@ -85,7 +87,18 @@ STATE_QOS = {'depth': 1, 'reliability': ReliabilityPolicy.RELIABLE,
 QOS_OVERRIDES = QoSOverridingOptions(policy_kinds=(
     QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH, QoSPolicyKind.RELIABILITY,
     QoSPolicyKind.DURABILITY))
-OUTPUT_TOPICS = ('pose', 'twist', 'odom', 'contact_wrench', '/clock', '/diagnostics', '/tf')
+OUTPUT_TOPICS = ('pose', 'twist', 'odom', 'contact_wrench', 'markers', 'static_markers', '/clock',
+                 '/diagnostics', '/tf')
+
+
+def _world_markers(config):
+    """Return the :class:`markers.BodyMarkers` of the body (bodies) of ``config``."""
+    if config.world:
+        return markers.BodyMarkers([b.name for b in config.bodies],
+                                   [b.collision_shape for b in config.bodies],
+                                   config.world_frame)
+    return markers.BodyMarkers([config.body_frame], [config.collision_shape],
+                               config.world_frame)
 
 
 def _rcl_text(exc):
@@ -142,6 +155,15 @@ class RigidBodyNode(Node):
                                             depth.get(kind, STATE_QOS))
                       for kind in self._builder.kinds}
         self._pubs['diagnostics'] = self._publisher(conv.DiagnosticArray, '/diagnostics', 10)
+        self._markers = None
+        if config.contact and config.publish_markers:
+            # Shapes for RViz and Foxglove: bodies and the last step's contacts at every sample
+            # on markers; the static world once on static_markers (transient local, so a late
+            # subscriber gets it).
+            self._markers = _world_markers(config)
+            self._pubs['markers'] = self._publisher(MarkerArray, 'markers', 10)
+            self._pubs['static_markers'] = self._publisher(MarkerArray, 'static_markers',
+                                                           STATE_QOS)
         self._sample_pubs = [(kind, self._pubs[kind].publish, self._pubs[kind].topic_name)
                              for kind in self._builder.kinds]
         self._input_subs = [self._qos_checked(
@@ -177,6 +199,9 @@ class RigidBodyNode(Node):
         # the diagnostics timer runs on a steady clock, whatever use_sim_time says.
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(1.0, self._publish_diagnostics, clock=steady)
+        if self._markers is not None:
+            self._publish('static_markers', markers.static_markers(
+                config.static_world, config.world_frame, 0), 0)
         self._publish_sample()
         self._anchor()  # sim time 0 = now: pacing starts when the node is ready
         self._diag_last = (time.monotonic_ns(), 0, 0)
@@ -233,7 +258,8 @@ class RigidBodyNode(Node):
 
     def _world_output_kinds(self):
         return [outputs.topic_of(kind) for kind in outputs.WorldSampleBuilder(
-            self.config, tf=False).kinds] + ['/clock', '/diagnostics', '/tf']
+            self.config, tf=False).kinds] + ['markers', 'static_markers', '/clock',
+                                             '/diagnostics', '/tf']
 
     def _declare(self, spec, value):
         descriptor = ParameterDescriptor(
@@ -399,6 +425,28 @@ class RigidBodyNode(Node):
             publish(data)
             if self._recorder is not None:
                 self._record(topic, data, t)
+        if self._markers is not None:
+            self._publish('markers', self._marker_array(t), t)
+
+    def _marker_array(self, t):
+        """Every body at its pose, then the contacts of the last stage of the last step."""
+        # The poses exactly as the pose topics carry them (the sample builders' values).
+        x = self.session.columns
+        if self.config.world:
+            values = [b.column_values(x[:, i]) for i, b in enumerate(self._builder.bodies)]
+        else:
+            values = [self._builder.column_values(self._state_column)]
+        bodies = self._markers.array([v[0] for v in values], [v[1] for v in values], t,
+                                     normalise=False)
+        contacts = self.session.simulator.contacts
+        if len(contacts):
+            last = contacts.stage == contacts.stage.max()
+            contacts = type(contacts)(*(getattr(contacts, f)[last]
+                                        for f in contacts.__dataclass_fields__))
+        # Lines of 1 cm per N: the last stage's impulse over the step.
+        shown = markers.contact_markers(contacts, self.config.world_frame, t,
+                                        0.01 / (self.config.timestep_ns * 1e-9))
+        return MarkerArray(markers=list(bodies.markers) + list(shown.markers))
 
     def _publish_diagnostics(self):
         s, now = self.session, time.monotonic_ns()

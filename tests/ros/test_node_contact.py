@@ -30,9 +30,11 @@ from rbd_ros import conversions
 from rbd_ros.core import rotations
 from rbd_ros.recording import open_bag
 from rbd_ros.replay import main as replay_main
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from ros_probe import Probe
 from std_srvs.srv import SetBool
 import trimesh
+from visualization_msgs.msg import Marker, MarkerArray
 import yaml
 
 G = 9.81
@@ -302,3 +304,33 @@ def test_drag_and_clicks_move_the_box_and_the_bag_replays(tmp_path, start_node, 
     counts = {t: info.message_count for t, info in bag.topics.items()}
     assert counts['/clicked_point'] == 3 and counts[f'{node.namespace}/drag'] == 2
     assert replay_main([str(tmp_path / 'drag'), '--no-progress']) == 0
+
+
+def test_a_late_subscriber_gets_the_static_markers(start_node, probe_for):
+    node = start_node({'start_paused': True},
+                      params_file=REPO / 'msg_config' / 'l_block_bin.yaml', namespace=True)
+    probe = probe_for(node)
+    probe.wait_connected(300.0)
+    probe.wait(lambda: probe.node.count_publishers('static_markers') >= 1, 60.0,
+               'the static_markers publisher')
+    # Subscribed after the node published them once: transient local delivers them anyway.
+    got = []
+    qos = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL,
+                     reliability=ReliabilityPolicy.RELIABLE)
+    probe.node.create_subscription(MarkerArray, 'static_markers', got.append, qos)
+    probe.wait(lambda: got, 60.0, 'the static markers')
+    config = yaml.safe_load((REPO / 'msg_config' / 'l_block_bin.yaml').read_text())
+    params = config['/**']['ros__parameters']
+    by_ns = {}
+    for marker in got[0].markers:
+        by_ns.setdefault(marker.ns, []).append(marker)
+    assert [m.id for m in by_ns['ground']] == [0]
+    walls = by_ns['obstacles']
+    assert [m.id for m in walls] == [0, 1, 2, 3]
+    for marker, name in zip(walls, params['obstacles']):
+        assert marker.type == Marker.CUBE and marker.header.frame_id == 'world'
+        assert (marker.scale.x, marker.scale.y, marker.scale.z) == tuple(
+            params[f'obstacles.{name}.dimensions_m'])
+        p = marker.pose.position
+        assert (p.x, p.y, p.z) == tuple(params[f'obstacles.{name}.position'])
+    assert node.stop() == 0, node.stderr

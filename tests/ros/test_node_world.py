@@ -35,6 +35,7 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.serialization import deserialize_message
 from std_srvs.srv import SetBool
 from tf2_msgs.msg import TFMessage
+from visualization_msgs.msg import MarkerArray
 
 G, MU = 9.81, 0.5
 BODIES = ('pushed', 'slider', 'ball')
@@ -163,3 +164,23 @@ def test_bad_world_files_give_one_line_and_exit_2(start_node, params, text):
     assert node.wait(120) == 2, node.stderr
     assert text in node.stderr, node.stderr
     assert len(node.stderr.strip().splitlines()) == 1, node.stderr
+
+
+def test_markers_show_every_body_at_its_recorded_pose(world_run):
+    ns, bag = world_run
+    arrays = _messages(bag, f'{ns}/markers', MarkerArray)
+    assert len(arrays) == 301
+    poses = {b: _messages(bag, f'{ns}/{b}/pose', PoseStamped) for b in BODIES}
+    for t in (0, 1_500_000_000, END_NS):
+        bodies = [m for m in arrays[t].markers if m.ns == 'bodies']
+        assert [m.id for m in bodies] == [0, 1, 2] and [m.text for m in bodies] == list(BODIES)
+        for marker, body in zip(bodies, BODIES):
+            assert marker.pose == poses[body][t].pose  # the same sample, bit for bit
+        contacts = [m for m in arrays[t].markers if m.ns == 'contacts']
+        assert contacts[0].action == contacts[0].DELETEALL
+    # At rest on the floor, each box touches it at its 4 corners, the ball at 1 point.
+    points = [m for m in arrays[END_NS].markers
+              if m.ns == 'contacts' and m.type == m.SPHERE_LIST][0].points
+    assert len(points) == 9 and all(abs(p.z) < 1e-9 for p in points)
+    static = _messages(bag, f'{ns}/static_markers', MarkerArray)
+    assert list(static) == [0] and [m.ns for m in static[0].markers] == ['ground']
