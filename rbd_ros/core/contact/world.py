@@ -315,9 +315,16 @@ def check_overlaps(bodies, world=None, tolerance_m=DEFAULT_OVERLAP_TOLERANCE_M):
         position, quat = _pose(position_w, orientation_wb, f'bodies.{name}.')
         posed.append((name, shape, position, quat))
     statics = [] if world is None else world.objects()
+    statics = [(label, o.shape, o.position_w, o.orientation_wb) for label, o in statics]
+    centres = np.array([p for _, _, p, _ in posed]).reshape(-1, 3)
+    radii = np.array([s.bounding_radius_m for _, s, _, _ in posed])
     for i, (name, shape, position, quat) in enumerate(posed):
-        others = [(label, o.shape, o.position_w, o.orientation_wb) for label, o in statics]
-        others += [(f'bodies.{n}', s, p, q) for n, s, p, q in posed[i + 1:]]
+        # Bounding balls cull far bodies first, all at once (a 10 000-body world has 5e7
+        # pairs): only bodies whose balls meet (with a relative slack of 1e-12 for the
+        # round-off of the two norms) go on to penetration_depth, which checks them exactly.
+        gap = np.linalg.norm(centres[i + 1:] - centres[i], axis=1)
+        near = i + 1 + np.flatnonzero(gap <= (radii[i] + radii[i + 1:]) * (1.0 + 1e-12))
+        others = statics + [(f'bodies.{posed[j][0]}',) + posed[j][1:] for j in near]
         for label, other, other_position, other_quat in others:
             depth, point = penetration_depth(shape, position, quat, other, other_position,
                                              other_quat)

@@ -179,3 +179,17 @@ def test_check_overlaps_allows_for_the_mesh_grid_error(tmp_path):
                                          r'bodies\.ball'):
         check_overlaps([('hull', hull, [0.0, 0.0, 0.0], IDENTITY),
                         ('ball', ball, [0.0, 0.0, 0.1], IDENTITY)])
+
+
+def test_check_overlaps_finds_the_one_overlap_among_many_bodies_in_any_order():
+    # 400 boxes on a 0.3 m grid, none touching; the last one is moved 5 cm into the first.
+    # The bounding-ball culling (all pairs at once) must keep that pair however far apart
+    # their indices are, and name the first body of the pair, with the depth in m.
+    box = primitive_shape('box', [0.2, 0.2, 0.2])
+    bodies = [(f'b{k}', box, [0.3 * (k % 20), 0.3 * (k // 20), 0.1], IDENTITY)
+              for k in range(400)]
+    check_overlaps(bodies, StaticWorld(ground_plane()))
+    bodies[-1] = ('b399', box, [0.15, 0.0, 0.1], IDENTITY)
+    with pytest.raises(ModelError, match=r'^bodies\.b0\.position_w: \[0\.0, 0\.0, 0\.1\] m puts '
+                                         r'the body 0\.05 m deep inside bodies\.b399'):
+        check_overlaps(bodies, StaticWorld(ground_plane()))
