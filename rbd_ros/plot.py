@@ -405,6 +405,51 @@ def draw_world(bag: Bag, title: Optional[str] = None) -> Tuple[Any, Dict[str, An
     return fig, data
 
 
+#: Frames per second of an animation from a bag (every k-th recorded sample, real time).
+ANIMATION_FPS = 20
+
+
+def animate_bag(bag: Union[str, os.PathLike, Bag], out_path: str) -> int:
+    """
+    Write an animation (GIF; MP4 with ffmpeg) of a recording with contact; return its frames.
+
+    Every body at its recorded poses (``<body>/pose`` of a world, or ``pose``), drawn with its
+    collision shape from the stored configuration (meshes from the bag's attachments), with
+    the ground and obstacles; one frame per recorded sample, subsampled to about
+    :data:`ANIMATION_FPS` frames per sim second, played in real time.
+    """
+    from rbd_ros.animate import write_animation
+    from rbd_ros.replay import config_from_bag
+    if not isinstance(bag, Bag):
+        bag = open_bag(bag)
+    config = config_from_bag(bag)
+    if config.world:
+        names = [b.name for b in config.bodies]
+        shapes = [b.collision_shape for b in config.bodies]
+        topics = {t: names.index(t.rsplit('/', 2)[-2]) for t in bag.topics
+                  if t.endswith('/pose') and t.count('/') >= 2
+                  and t.rsplit('/', 2)[-2] in names}
+    else:
+        if config.collision_shape is None:
+            raise RbdError(f'{bag.mcap_path}: the body has no collision shape to draw (given '
+                           'by inertia only)')
+        shapes = [config.collision_shape]
+        topics = {t: 0 for t, info in bag.topics.items()
+                  if info.type_name == _POSE and t.rsplit('/', 1)[-1] == 'pose'}
+    poses = {}
+    for raw, msg in bag.decoded_messages(list(topics)):
+        row = poses.setdefault(raw.log_time_ns, [None] * len(shapes))
+        row[topics[raw.topic]] = (_vec(msg.pose.position), _quat(msg.pose.orientation))
+    times = [t for t in sorted(poses) if all(v is not None for v in poses[t])]
+    if not times:
+        raise RbdError(f'{bag.mcap_path}: no recorded poses to animate')
+    step = max(1, round(NS_PER_S / ANIMATION_FPS / max(config.publish_period_ns, 1)))
+    times = times[::step]
+    positions = np.array([[p for p, _ in poses[t]] for t in times])
+    quats = np.array([[q for _, q in poses[t]] for t in times])
+    return write_animation(out_path, times, positions, quats, shapes, config.static_world)
+
+
 def render(bag: Union[str, os.PathLike, Bag], out_path: str,
            title: Optional[str] = None) -> str:
     """Render the recording ``bag`` (opened or a path) to the PNG ``out_path``; return it."""
@@ -430,17 +475,24 @@ def main(argv: Optional[List[str]] = None) -> int:
     parser.add_argument('-o', '--output', default=None,
                         help='output PNG (default: <bag name>.png in the current directory)')
     parser.add_argument('--title', default=None, help='figure title')
+    parser.add_argument('--animate', default=None, metavar='OUT.gif',
+                        help='also write an animation of the run (.gif, or .mp4 with ffmpeg)')
     args = parser.parse_args(argv)
     out = args.output or os.path.basename(os.path.normpath(args.bag)).split('.')[0] + '.png'
 
     def run():
         bag = open_bag_with_notes('plot', args.bag)
         render(bag, out, args.title)
+        if args.animate:
+            return animate_bag(bag, args.animate)
+        return None
 
-    status, _ = run_on_bag('plot', args.bag, 'plotted', run)
+    status, frames = run_on_bag('plot', args.bag, 'plotted', run)
     if status:
         return status
     print(f'plot: wrote {out}')
+    if args.animate:
+        print(f'plot: wrote {args.animate} ({frames} frames)')
     return 0
 
 

@@ -226,3 +226,17 @@ def test_a_world_plot_shows_every_body_from_the_recorded_samples(tmp_path):
     assert data['in_contact'][-1] == 3  # all three rest on the floor
     out = render(bag, str(tmp_path / 'world.png'))
     assert Path(out).stat().st_size > 10_000
+
+
+def test_plot_animates_a_world_bag_from_its_recorded_poses(tmp_path, capsys):
+    from PIL import Image
+    bag = Path(__file__).resolve().parents[2] / 'bags' / 'floor_world_push'
+    gif = tmp_path / 'world.gif'
+    assert main([str(bag), '-o', str(tmp_path / 'world.png'), '--animate', str(gif)]) == 0
+    # 301 samples at 100 Hz, every 5th for 20 frames per sim second: 61 frames.
+    assert capsys.readouterr().out.strip().endswith(f'{gif} (61 frames)')
+    with Image.open(gif) as image:
+        assert image.n_frames == 61 and image.size == (640, 480)
+        first = np.asarray(image.convert('RGB')).copy()
+        image.seek(20)  # t = 1 s: the pushed box has moved
+        assert not np.array_equal(first, np.asarray(image.convert('RGB')))
