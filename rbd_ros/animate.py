@@ -67,18 +67,8 @@ def _arrays(times_ns, positions_w, quats_wxyz, shapes):
     times = np.asarray(times_ns, dtype=np.int64).reshape(-1)
     frames = times.shape[0]
     count = len(shapes)
-    try:
-        positions = np.asarray(positions_w, dtype=np.float64).reshape(frames, count, 3)
-    except ValueError:
-        raise InputError(
-            f'positions_w: shape {np.shape(positions_w)} is not ({frames} samples, {count} '
-            'bodies, 3) m') from None
-    try:
-        quats = np.asarray(quats_wxyz, dtype=np.float64).reshape(frames, count, 4)
-    except ValueError:
-        raise InputError(
-            f'quats_wxyz: shape {np.shape(quats_wxyz)} is not ({frames} samples, {count} '
-            'bodies, 4) (w, x, y, z)') from None
+    positions = _per_body(positions_w, 'positions_w', frames, count, 3, 'm')
+    quats = _per_body(quats_wxyz, 'quats_wxyz', frames, count, 4, '(w, x, y, z)')
     if frames == 0:
         raise InputError('times_ns: no samples to animate')
     if frames > 1 and np.any(np.diff(times) <= 0):
@@ -95,6 +85,15 @@ def _limits(points_w):
     centre = 0.5 * (low + high)
     half = max(0.55 * float((high - low).max()), 1e-3)
     return centre - half, centre + half
+
+
+def _per_body(values, name, frames, count, width, unit):
+    """Return ``values`` as a (frames, count, width) float array, or raise naming ``name``."""
+    try:
+        return np.asarray(values, dtype=np.float64).reshape(frames, count, width)
+    except ValueError:
+        raise InputError(f'{name}: shape {np.shape(values)} is not ({frames} samples, {count} '
+                         f'bodies, {width}) {unit}') from None
 
 
 def write_animation(path: Union[str, os.PathLike], times_ns: Sequence[int],

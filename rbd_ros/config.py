@@ -852,13 +852,7 @@ def _static_world(values, obstacle_names):
     for name in obstacle_names:
         specs = {spec.name.rsplit('.', 1)[1]: spec for spec in obstacle_parameter_specs(name)}
         get = {key: values[spec.name] for key, spec in specs.items()}
-        q_xyzw = get['orientation']
-        if len(q_xyzw) != 4:
-            _fail(specs['orientation'], q_xyzw, 'must have 4 values [x, y, z, w]')
-        norm = math.sqrt(sum(v * v for v in q_xyzw))
-        if abs(norm - 1.0) > 1e-3:
-            _fail(specs['orientation'], q_xyzw,
-                  f'norm {norm:.6g} must be within 1e-3 of 1 ([x, y, z, w] order)')
+        q_wxyz = _unit_quaternion(specs['orientation'], get['orientation'])
         _vector3(specs['position'], get['position'])
         if get['shape'] == 'mesh':
             if not get['mesh_path']:
@@ -872,7 +866,7 @@ def _static_world(values, obstacle_names):
         try:
             obstacles.append(obstacle(
                 name, get['shape'], get['dimensions_m'], resolved, get['mesh_scale'],
-                get['position'], xyzw_to_wxyz(q_xyzw), get['friction'], get['restitution']))
+                get['position'], q_wxyz, get['friction'], get['restitution']))
         except ModelError as exc:
             raise ModelError(f'parameter {exc}') from None
     if ground is None and not obstacles:
@@ -903,6 +897,16 @@ def _check_contact(values, collision, static_world, initial_state, integrator):
               ModelError)
 
 
+def _unit_quaternion(spec, q_xyzw):
+    """Return ``q_xyzw`` ([x, y, z, w], norm within 1e-3 of 1) as a unit (w, x, y, z) array."""
+    if len(q_xyzw) != 4:
+        _fail(spec, q_xyzw, 'must have 4 values [x, y, z, w]')
+    norm = math.sqrt(sum(v * v for v in q_xyzw))
+    if abs(norm - 1.0) > 1e-3:
+        _fail(spec, q_xyzw, f'norm {norm:.6g} must be within 1e-3 of 1 ([x, y, z, w] order)')
+    return np.asarray(xyzw_to_wxyz(q_xyzw)) / norm
+
+
 def xyzw_to_wxyz(q_xyzw):
     """Reorder a plain ``[x, y, z, w]`` sequence (geometry_msgs order) to ``(w, x, y, z)``."""
     x, y, z, w = q_xyzw
@@ -913,14 +917,7 @@ def _initial_state(values):
     """Build the :class:`BodyState` at time 0 (``initial_orientation`` is [x, y, z, w])."""
     p = PARAMETERS_BY_NAME
     position = _vector3(p['initial_position'], values['initial_position'])
-    q_xyzw = values['initial_orientation']
-    if len(q_xyzw) != 4:
-        _fail(p['initial_orientation'], q_xyzw, 'must have 4 values [x, y, z, w]')
-    norm = math.sqrt(sum(v * v for v in q_xyzw))
-    if abs(norm - 1.0) > 1e-3:
-        _fail(p['initial_orientation'], q_xyzw,
-              f'norm {norm:.6g} must be within 1e-3 of 1 ([x, y, z, w] order)')
-    q_wxyz = np.asarray(xyzw_to_wxyz(q_xyzw)) / norm
+    q_wxyz = _unit_quaternion(p['initial_orientation'], values['initial_orientation'])
     velocity = _vector3(p['initial_linear_velocity'], values['initial_linear_velocity'])
     omega_b = _vector3(p['initial_angular_velocity'], values['initial_angular_velocity'])
     return BodyState(position_w=np.array(position), orientation_wb=q_wxyz,

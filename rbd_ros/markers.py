@@ -324,6 +324,20 @@ def body_markers(names: Sequence[str], shapes: Sequence['CollisionShape'],
     return BodyMarkers(names, shapes, frame_id).array(positions_w, quats_wxyz, stamp_ns)
 
 
+def _contact_list(frame_id, stamp_ns, marker_id, marker_type, color_rgba, points):
+    """Return one list marker of ns ``contacts`` (identity pose; the caller sets its scale)."""
+    marker = Marker()
+    _header(marker, frame_id, stamp_ns)
+    marker.ns = CONTACTS_NS
+    marker.id = marker_id
+    marker.type = marker_type
+    marker.action = Marker.ADD
+    marker.pose.orientation.w = 1.0
+    marker.color = _color(color_rgba)
+    marker.points = points
+    return marker
+
+
 def contact_markers(contacts: 'Contacts', frame_id: str, stamp_ns: int,
                     arrow_scale_m_per_n_s: float = DEFAULT_ARROW_SCALE_M_PER_N_S
                     ) -> MarkerArray:
@@ -372,26 +386,13 @@ def contact_markers(contacts: 'Contacts', frame_id: str, stamp_ns: int,
     normal_impulse = np.einsum('ij,ij->i', impulse_w, normal_w)
     ends = point_w + (scale * normal_impulse)[:, None] * normal_w
 
-    points = Marker()
-    _header(points, frame_id, stamp_ns)
-    points.ns = CONTACTS_NS
-    points.id = CONTACT_POINTS_ID
-    points.type = Marker.SPHERE_LIST
-    points.action = Marker.ADD
-    points.pose.orientation.w = 1.0
+    points = _contact_list(frame_id, stamp_ns, CONTACT_POINTS_ID, Marker.SPHERE_LIST,
+                           CONTACT_POINT_COLOR, _points(point_w))
     points.scale.x = points.scale.y = points.scale.z = CONTACT_POINT_DIAMETER_M
-    points.color = _color(CONTACT_POINT_COLOR)
-    points.points = _points(point_w)
-
-    lines = Marker()
-    _header(lines, frame_id, stamp_ns)
-    lines.ns = CONTACTS_NS
-    lines.id = CONTACT_NORMALS_ID
-    lines.type = Marker.LINE_LIST
-    lines.action = Marker.ADD
-    lines.pose.orientation.w = 1.0
-    lines.scale.x = CONTACT_LINE_WIDTH_M  # LINE_LIST: only x is used, the line width
-    lines.color = _color(CONTACT_NORMAL_COLOR)
-    lines.points = _points(np.stack([point_w, ends], axis=1).reshape(-1, 3))
+    # LINE_LIST: only scale.x is used, the line width.
+    lines = _contact_list(frame_id, stamp_ns, CONTACT_NORMALS_ID, Marker.LINE_LIST,
+                          CONTACT_NORMAL_COLOR,
+                          _points(np.stack([point_w, ends], axis=1).reshape(-1, 3)))
+    lines.scale.x = CONTACT_LINE_WIDTH_M
     out.markers.extend([points, lines])
     return out

@@ -52,6 +52,14 @@ def _subscribe(probe, msg_type, topic, store):
         lambda msg: store.__setitem__(conversions.time_from_msg(msg.header.stamp), msg), 1000)
 
 
+def _connect_and_run(probe):
+    """Wait for the paused node's endpoints (contact_wrench too), then un-pause it."""
+    probe.wait_connected(300.0)  # a first start may compile the contact step
+    probe.wait(lambda: probe.node.count_publishers('contact_wrench') >= 1, 60.0,
+               'the contact_wrench publisher')
+    assert probe.call('pause', SetBool.Request(data=False), timeout_s=120.0).success
+
+
 @pytest.fixture
 def probe_for():
     made = []
@@ -71,10 +79,7 @@ def test_a_box_slides_to_a_stop_where_the_formula_says(tmp_path, start_node, pro
     poses, wrenches = {}, {}
     _subscribe(probe, PoseStamped, 'pose', poses)
     _subscribe(probe, WrenchStamped, 'contact_wrench', wrenches)
-    probe.wait_connected(300.0)  # a first start may compile the contact step
-    probe.wait(lambda: probe.node.count_publishers('contact_wrench') >= 1, 60.0,
-               'the contact_wrench publisher')
-    assert probe.call('pause', SetBool.Request(data=False), timeout_s=120.0).success
+    _connect_and_run(probe)
     probe.wait(lambda: poses.get(1_000_000_000), 120.0, 'the pose at t = 1 s')
     assert node.stop() == 0, node.stderr
     # The pose at 1 s (the box stops at v0 / (μ g) = 0.41 s): the node's own published value.
@@ -101,10 +106,7 @@ def test_a_resting_box_feels_minus_m_g_and_no_torque(start_node, probe_for):
     probe = probe_for(node)
     wrenches = {}
     _subscribe(probe, WrenchStamped, 'contact_wrench', wrenches)
-    probe.wait_connected(300.0)  # a first start may compile the contact step
-    probe.wait(lambda: probe.node.count_publishers('contact_wrench') >= 1, 60.0,
-               'the contact_wrench publisher')
-    assert probe.call('pause', SetBool.Request(data=False), timeout_s=120.0).success
+    _connect_and_run(probe)
     probe.wait(lambda: wrenches.get(500_000_000), 120.0, 'the contact wrench at t = 0.5 s')
     assert node.stop() == 0, node.stderr
     msg = wrenches[500_000_000]
