@@ -106,7 +106,8 @@ def main(argv=None):
             core_us.append(core_step_us(params, 200 if count <= 1000 else 20))
         os.unlink(f.name)
         factor, node, core = (statistics.median(v) for v in (factors, node_us, core_us))
-        print(f'{count:6d}  {factor:8.3f} ({"PASS" if factor >= 1 or count > 100 else "SHORT"})'
+        verdict = 'report' if count != 100 else ('PASS' if factor >= 1 else 'SHORT')
+        print(f'{count:6d}  {factor:8.3f} ({verdict})'
               f'{"":22s}{node:10.0f}  {core:12.0f}  {core / count:12.2f}', flush=True)
     print(f'load average {os.getloadavg()}')
     return 0
