@@ -242,9 +242,7 @@ class WorldSimulator(BatchSimulator):
         n = len(bodies)
         self._wrench = np.zeros((n, 6))
         self._ws = (np.zeros((n, 6)), np.zeros(n), np.zeros((n, 3, 3)), np.zeros((n, 3, 3)),
-                    np.zeros((n, 3)), np.zeros((n, 3, 3)), np.zeros(n, dtype=np.bool_),
-                    np.zeros((2, cs.WARM_PER_BODY * n + 64, cs.N_WARM)),
-                    np.zeros(2, dtype=np.int64))
+                    np.zeros((n, 3)), np.zeros((n, 3, 3)), np.zeros(n, dtype=np.bool_))
         self._contacts = np.zeros((0, cs.N_CONTACT))
 
     @property
@@ -262,7 +260,6 @@ class WorldSimulator(BatchSimulator):
         super().reset(states)
         if hasattr(self, '_wrench'):
             self._wrench[:] = 0.0
-            self._ws[8][:] = 0
             self._contacts = np.zeros((0, cs.N_CONTACT))
 
     def step(self, n: int = 1) -> None:

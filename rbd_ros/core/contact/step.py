@@ -49,13 +49,6 @@ centre that makes the patch stick is accepted if it lies inside the cone
 slip (Coulomb's law exactly, no linearised pyramid).  A torsional couple about the patch
 normal sticks likewise up to ``μ Σ λ_k |r_k − c|``.
 
-**Stacks.** Where patches share a body (a stack, a pyramid, a row of touching boxes) the
-patch friction above is not used: its accumulated impulse would be re-applied at a centre
-that moves as the λ change, and Gauss–Seidel over coupled patches amplifies the couple that
-leaves.  Each point then keeps its own friction impulse in its own cone ``|f_k| <= μ λ_k``
-(:func:`_friction_points`), and every point starts from the impulses of its match in the
-last step's same stage (:func:`_warm_start`), so a resting stack starts from its solution.
-
 Everything is serial and in a fixed order (pairs sorted by body index), so results are
 bit-identical run after run.
 """
@@ -84,10 +77,6 @@ SWEEPS = 24
 PATCH_ITERATIONS = 64
 #: A sweep that changes no velocity by more than this (m/s) ends the stage early.
 VELOCITY_TOL_M_S = 1e-13
-#: The same where patches share a body: Gauss–Seidel over coupled patches converges only
-#: linearly, and shock propagation then settles what is left; a velocity error of 1e-10 m/s
-#: held for 10 s would move a body 1 nm, well under the stacks' 1 µm.
-COUPLED_TOL_M_S = 1e-10
 #: At most this many points per patch.
 PATCH_POINTS = 4
 
@@ -118,19 +107,6 @@ Q_CACHED = 12    # 1.0 once Q_K and Q_PINV hold this stage's normal response (bo
 Q_K = 13         # K_nn of the points, row-major PATCH_POINTS², fixed within a stage
 Q_PINV = 29      # its pseudo-inverse, the same layout
 N_PATCH = 45
-
-# Warm-start record fields (rows of the (2, W, N_WARM) table a world keeps between steps: the
-# points of the last step's first and second contact stage where patches shared a body).
-W_A = 0          # body index of A
-W_B = 1          # body index of B, or N + s for static object s
-W_POINT = 2      # the point's lever arm from A's COM in A's body frame (m), 3
-W_LAMBDA = 5     # its normal impulse (N·s)
-W_FRICTION = 6   # its friction impulse in A's body frame (N·s), 3
-N_WARM = 9
-#: Kept points per body in the warm-start table (more are not kept: they start from zero).
-WARM_PER_BODY = 8
-#: A point matches last step's if its place on A moved less than this (m).
-WARM_MATCH_M = 1e-4
 
 _jit = nb.njit(cache=kk.CACHE_DIR is not None, fastmath=False, nogil=True)
 _inl = nb.njit(cache=kk.CACHE_DIR is not None, fastmath=False, nogil=True, inline='always')
@@ -1242,114 +1218,6 @@ def _friction_points(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b, d
     return change
 
 
-@_inl
-def _pair_before(a1, b1, a2, b2, n_bodies):
-    """Whether pair ``(a1, b1)`` comes before ``(a2, b2)`` in the broad phase's order."""
-    s1 = b1 >= n_bodies
-    s2 = b2 >= n_bodies
-    if s1 != s2:
-        return s2
-    if a1 != a2:
-        return a1 < a2
-    return b1 < b2
-
-
-@_jit
-def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, warm,
-                warm_count, slot):
-    """
-    Start every point from the impulses of its match in the last step's same stage.
-
-    A match is a kept point of the same body pair whose place in A's body frame is within
-    :data:`WARM_MATCH_M` of this one's (the nearest).  Its normal impulse and its friction
-    (turned with A, projected on this point's tangent plane and cut to its cone) are
-    recorded in the point's accumulators and applied, so a resting stack starts at last
-    step's solution and Gauss–Seidel only has to correct the change.
-    """
-    old = warm[slot]
-    n_old = warm_count[slot]
-    j = 0
-    for q in range(patches.shape[0]):
-        a = int(patches[q, Q_A])
-        b = int(patches[q, Q_B])
-        while j < n_old and _pair_before(int(old[j, W_A]), int(old[j, W_B]), a, b, n_bodies):
-            j += 1
-        e = j
-        while e < n_old and int(old[e, W_A]) == a and int(old[e, W_B]) == b:
-            e += 1
-        if e == j:
-            continue
-        dyn_b = b < n_bodies
-        mu = patches[q, Q_MU]
-        qw, qx, qy, qz = x[S_QUAT, a], x[S_QUAT + 1, a], x[S_QUAT + 2, a], x[S_QUAT + 3, a]
-        s0 = int(patches[q, Q_START])
-        for k in range(s0, s0 + int(patches[q, Q_COUNT])):
-            c = contacts[k]
-            lx, ly, lz = kk._rotate_inv(qw, qx, qy, qz, c[C_RA], c[C_RA + 1], c[C_RA + 2])
-            best = -1
-            near = WARM_MATCH_M * WARM_MATCH_M
-            for r in range(j, e):
-                d = ((old[r, W_POINT] - lx) ** 2 + (old[r, W_POINT + 1] - ly) ** 2
-                     + (old[r, W_POINT + 2] - lz) ** 2)
-                if d < near:
-                    near = d
-                    best = r
-            if best < 0:
-                continue
-            lam = old[best, W_LAMBDA]
-            fx, fy, fz = kk._rotate(qw, qx, qy, qz, old[best, W_FRICTION],
-                                    old[best, W_FRICTION + 1], old[best, W_FRICTION + 2])
-            nx, ny, nz = c[C_NORMAL], c[C_NORMAL + 1], c[C_NORMAL + 2]
-            fn = fx * nx + fy * ny + fz * nz
-            fx, fy, fz = fx - fn * nx, fy - fn * ny, fz - fn * nz
-            size = math.sqrt(fx * fx + fy * fy + fz * fz)
-            if size > mu * lam:
-                cut = mu * lam / size
-                fx, fy, fz = cut * fx, cut * fy, cut * fz
-            c[C_LAMBDA] = lam
-            c[C_FRICTION] = fx
-            c[C_FRICTION + 1] = fy
-            c[C_FRICTION + 2] = fz
-            patches[q, Q_FT] += fx
-            patches[q, Q_FT + 1] += fy
-            patches[q, Q_FT + 2] += fz
-            jx, jy, jz = lam * nx + fx, lam * ny + fy, lam * nz + fz
-            _apply(vel, inv_mass, inv_inertia_w, a, 1.0, c[C_RA], c[C_RA + 1], c[C_RA + 2],
-                   jx, jy, jz, 0.0, 0.0, 0.0)
-            _record(wrench, a, 1.0, c[C_RA], c[C_RA + 1], c[C_RA + 2], jx, jy, jz,
-                    0.0, 0.0, 0.0)
-            if dyn_b:
-                _apply(vel, inv_mass, inv_inertia_w, b, -1.0, c[C_RB], c[C_RB + 1],
-                       c[C_RB + 2], jx, jy, jz, 0.0, 0.0, 0.0)
-                _record(wrench, b, -1.0, c[C_RB], c[C_RB + 1], c[C_RB + 2], jx, jy, jz,
-                        0.0, 0.0, 0.0)
-
-
-@_jit
-def _warm_store(patches, contacts, x, warm, warm_count, slot):
-    """Keep this stage's points and impulses (A's body frame) for the next step's start."""
-    cap = warm.shape[1]
-    r = 0
-    for q in range(patches.shape[0]):
-        a = int(patches[q, Q_A])
-        qw, qx, qy, qz = x[S_QUAT, a], x[S_QUAT + 1, a], x[S_QUAT + 2, a], x[S_QUAT + 3, a]
-        s0 = int(patches[q, Q_START])
-        for k in range(s0, s0 + int(patches[q, Q_COUNT])):
-            if r == cap:
-                break
-            c = contacts[k]
-            row = warm[slot, r]
-            row[W_A] = a
-            row[W_B] = patches[q, Q_B]
-            row[W_POINT], row[W_POINT + 1], row[W_POINT + 2] = kk._rotate_inv(
-                qw, qx, qy, qz, c[C_RA], c[C_RA + 1], c[C_RA + 2])
-            row[W_LAMBDA] = c[C_LAMBDA]
-            row[W_FRICTION], row[W_FRICTION + 1], row[W_FRICTION + 2] = kk._rotate_inv(
-                qw, qx, qy, qz, c[C_FRICTION], c[C_FRICTION + 1], c[C_FRICTION + 2])
-            r += 1
-    warm_count[slot] = r
-
-
 @_jit
 def _levels(patches, n_bodies):
     """Contact-graph level of every body: 1 on a static object, k + 1 on level k; else big."""
@@ -1377,15 +1245,11 @@ def _levels(patches, n_bodies):
 
 
 @_jit
-def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, shock,
-                warm, warm_count, slot):
+def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, shock):
     """
     Gauss–Seidel sweeps over the patches, then (``shock``) one shock-propagation pass.
 
     Return whether patches share a body (then friction is per point, else per patch).
-    Where they do and ``slot >= 0`` (a contact stage: 0 first, 1 second), the points start
-    from the last step's impulses in ``warm[slot]`` (:func:`_warm_start`) and leave theirs
-    there for the next step.
     """
     scr = np.empty((PATCH_POINTS + 5, PATCH_POINTS))
     # Patches that share no body are independent: each is solved to convergence by its own
@@ -1400,25 +1264,15 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
         if b < n_bodies:
             uses[b] += 1
             coupled = coupled or uses[b] > 1
-    if slot >= 0:
-        if coupled:
-            _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench,
-                        warm, warm_count, slot)
-        else:
-            warm_count[slot] = 0
     for _ in range(SWEEPS if coupled else 1):
         change = 0.0
         for q in range(patches.shape[0]):
             change = max(change, solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w,
                                              n_bodies, x, 1.0, 1.0, wrench, True, scr,
                                              coupled))
-        if change <= (COUPLED_TOL_M_S if coupled else VELOCITY_TOL_M_S):
+        if change <= VELOCITY_TOL_M_S:
             break
-    if not coupled:
-        return coupled
-    if not shock:
-        if slot >= 0:
-            _warm_store(patches, contacts, x, warm, warm_count, slot)
+    if not shock or not coupled:
         return coupled
     level = _levels(patches, n_bodies)
     low = np.empty(patches.shape[0], dtype=np.int64)
@@ -1438,8 +1292,6 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
                 wb = 0.0
         solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wa, wb,
                     wrench, True, scr, True)
-    if slot >= 0:
-        _warm_store(patches, contacts, x, warm, warm_count, slot)
     return coupled
 
 
@@ -1474,7 +1326,7 @@ def contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi,
     """
     (kinds, sparams, pts, pt_off, ppts, ppt_off, pt_radius, bound_r, grid_data, grid_off,
      grid_dim, mu, eps) = geo
-    vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, touched, warm, warm_count = ws
+    vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, touched = ws
     n = x.shape[1]
     prepare_bodies(x, prm, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h)
     pairs = broad_phase(x, pos_c, bound_r, n, st_kind, st_params, st_lo, st_hi, MARGIN_M)
@@ -1489,9 +1341,7 @@ def contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi,
         touched[int(patches[q, Q_A])] = True
         if patches[q, Q_B] < n:
             touched[int(patches[q, Q_B])] = True
-    slot = stage - 1 if phase == PHASE_CONTACT else -1
-    if not solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n, x, wrench, shock,
-                       warm, warm_count, slot):
+    if not solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n, x, wrench, shock):
         finish_contacts(contacts, patches)
     store_velocities(x, prm, vel, touched)
     return contacts
@@ -1527,9 +1377,7 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, w
     ``statics`` = ``(st_kind, st_params, st_rot, st_pos, st_lo, st_hi)``.  ``wrench`` (N, 6)
     receives the net contact force and torque about each COM (world) averaged over the last
     step.  A step that would leave any body non-finite is undone for every body (the world
-    stays at its last finite state) and the loop stops.  ``ws`` holds the per-body work
-    arrays, then the warm-start table ``(2, W, N_WARM)`` and its two counts, which carry the
-    contact impulses from one step (and one call) to the next.
+    stays at its last finite state) and the loop stops.
     """
     st_kind, st_params, st_rot, st_pos, st_lo, st_hi = statics
     n = x.shape[1]
