@@ -142,8 +142,9 @@ def test_a_pyramid_of_5_layers_stands(h_ns):
 
 
 def test_a_stack_is_bit_identical_however_its_steps_are_called():
-    # The warm start carries each point's impulses from one call to the next: 100 steps in
-    # one call and in 100 calls must give the same bits, and a second world the same again.
+    # Nothing of a step may depend on how the steps are called (the coupled solve keeps no
+    # state between calls): 100 steps in one call and in 100 calls give the same bits, and a
+    # second world the same again.
     h_ns = STEPS_NS[1]
     one = stack_world(pyramid(3), h_ns)
     one.step(100)
@@ -154,7 +155,7 @@ def test_a_stack_is_bit_identical_however_its_steps_are_called():
     again.step(100)
     np.testing.assert_array_equal(one.arrays[0], many.arrays[0])
     np.testing.assert_array_equal(one.arrays[0], again.arrays[0])
-    # reset() forgets the impulses: the run after it repeats the first one exactly.
+    # After reset() the run repeats the first one exactly.
     again.reset()
     again.step(100)
     np.testing.assert_array_equal(one.arrays[0], again.arrays[0])
