@@ -111,8 +111,8 @@ def stand(centres, h_ns, seconds=2.0):
     tilt = max(tilt_rad(sim, i) for i in range(len(centres)))
     return {'top_drift_m': float(np.linalg.norm(end[-1] - start[-1])),
             'max_drift_m': float(np.abs(end - start).max()), 'ke_max_j': ke_max,
-            'penetration_early_m': penetration_early, 'penetration_end_m': deepest_penetration_m(sim),
-            'tilt_rad': tilt}
+            'penetration_early_m': penetration_early,
+            'penetration_end_m': deepest_penetration_m(sim), 'tilt_rad': tilt}
 
 
 def check_standing(name, figures):
