@@ -19,6 +19,10 @@ The scenes are the benchmark's (``tests/benchmarks/contact_refs.py``): boxes of 
 0.2 m, μ = 0.5, placed exactly touching; a pyramid box is centred over the 2 cm gap between
 the two below it.  The issue asks for 10 s (the benchmark prints those figures); 2 s here at
 h = 1 ms and 10 ms keeps the test pass short.  Measured figures are printed (``pytest -s``).
+
+Shortfall these 2 s do not show: the column at h = 1 ms drifts faster than linearly (1e-8 m
+at 2 s, 2.3e-6 m at 8 s) and its step goes non-finite at t = 8.385 s (the world raises
+NonFiniteError and stays at its last finite state); the pyramid stands 10 s at both steps.
 """
 
 from contact_scenes import body, ground, STEP_IDS, steps, STEPS_NS, world
