@@ -354,11 +354,15 @@ def _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off, g
     ∇φ is ambiguous where the shape it is taken of has an edge or a corner: a box placed
     exactly on another has its bottom edges on the lower box's top edges, where φ's gradient
     may point sideways.  The patch normal ``n̄`` is the point normal (among the deepest 16)
-    with the largest depth-weighted support (normals within ~25°).  A point whose own normal
-    is more than ~25° from ``n̄`` takes ``n̄`` if ``n̄`` is also a normal of the surface
-    there (in its normal cone): a step of :data:`MARGIN_M` / 4 out of the other shape along
-    ``n̄`` raises φ by the step (to 1 %).  A peg touching the side of a hole fails that test
-    and keeps its own normal.
+    with the largest depth-weighted support (normals within ~25°).  Any other point takes
+    ``n̄`` if ``n̄`` is also a normal of the surface there (in its normal cone): a step of
+    :data:`MARGIN_M` / 4 out of the other shape along ``n̄`` raises φ by the step (to 1 %).
+    A peg touching the side of a hole fails that test and keeps its own normal.  Small tilts
+    matter as much as large ones: two boxes of one width stacked have their side faces
+    flush, and a point on both edges gets a gradient tilted by anything up to 45° from the
+    round-off of its position; a tilt below atan μ makes the patch a self-locking wedge whose
+    normal and friction impulses can grow without bound.  On a smooth surface a point's own
+    normal passes the test only within ~8° of ``n̄`` (cos 8° ≈ 0.99).
     """
     if count < 2:
         return
@@ -378,7 +382,7 @@ def _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off, g
     sx, sy, sz = buf[best, 4], buf[best, 5], buf[best, 6]
     step = 0.25 * MARGIN_M
     for k in range(count):
-        if buf[k, 4] * sx + buf[k, 5] * sy + buf[k, 6] * sz > 0.9:
+        if buf[k, 4] == sx and buf[k, 5] == sy and buf[k, 6] == sz:
             continue
         # The shape whose φ gave this point: b for flip +1 (n = ∇φ_b), a for flip −1.
         y = b if buf[k, 10] > 0.0 else a
@@ -914,13 +918,15 @@ def _apply_normals(best, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dy
 
 @_jit
 def solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wa, wb,
-                wrench, friction, scr):
+                wrench, friction, scr, per_point):
     """
     Iterate the normal impulses and the friction of patch ``q``; return the largest Δu (m/s).
 
     ``wa``, ``wb`` scale the inverse masses of A and B (0 holds a body as if of infinite mass:
     a static object, or a lower level in shock propagation); the impulses are recorded in
-    ``wrench`` (N, 6) for both bodies all the same.
+    ``wrench`` (N, 6) for both bodies all the same.  ``per_point``: friction by
+    :func:`_friction_points` (patches that share a body) instead of the patch's own
+    :func:`_friction`.
     """
     a = int(patches[q, Q_A])
     b = int(patches[q, Q_B])
@@ -934,6 +940,15 @@ def solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x,
         # Normal impulses: the patch's small LCP solved exactly (see _normal_block).
         change = _normal_block(patches[q], s0, m, contacts, vel, inv_mass, inv_inertia_w, a,
                                b, dyn_b, wa, wb, wrench, scr)
+        if per_point:
+            if friction and mu > 0.0:
+                change = max(change, _friction_points(q, patches, contacts, vel, inv_mass,
+                                                      inv_inertia_w, a, b, dyn_b, wa, wb,
+                                                      wrench, s0, m, mu))
+            biggest = max(biggest, change)
+            if change <= VELOCITY_TOL_M_S:
+                break
+            continue
         # Friction of the patch at its normal-impulse centre.
         total = 0.0
         cx = cy = cz = 0.0
@@ -1135,6 +1150,75 @@ def _friction(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, x
 
 
 @_jit
+def _friction_points(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, wa, wb,
+                     wrench, s0, m, mu):
+    """
+    One friction update of every point of patch ``q`` in its own cone; return the largest Δu.
+
+    Each point keeps its own tangential impulse ``f_k`` (``C_FRICTION``), always applied at
+    that point and in its own tangent plane, so ``u0 = u − K_k f_k`` undoes exactly what was
+    applied before: sticking ``f_k = −K_k⁻¹ u0`` if ``|f_k| <= μ λ_k``, else sliding on the
+    cone (:func:`_coulomb`).  Used where patches share a body: the patch friction at a moving
+    normal-impulse centre leaves a couple each iteration that Gauss–Seidel over coupled
+    patches amplifies.  Four points sticking also hold the twist, so no torsion term.
+    """
+    change = 0.0
+    for k in range(s0, s0 + m):
+        c = contacts[k]
+        nx, ny, nz = c[C_NORMAL], c[C_NORMAL + 1], c[C_NORMAL + 2]
+        rax, ray, raz = c[C_RA], c[C_RA + 1], c[C_RA + 2]
+        rbx, rby, rbz = c[C_RB], c[C_RB + 1], c[C_RB + 2]
+        ux, uy, uz = _point_velocity(vel, a, rax, ray, raz)
+        if dyn_b:
+            bx, by, bz = _point_velocity(vel, b, rbx, rby, rbz)
+            ux, uy, uz = ux - bx, uy - by, uz - bz
+        t1x, t1y, t1z, t2x, t2y, t2z = _tangent_basis(nx, ny, nz)
+        k11 = wa * _response(inv_mass, inv_inertia_w, a, rax, ray, raz, t1x, t1y, t1z,
+                             t1x, t1y, t1z)
+        k12 = wa * _response(inv_mass, inv_inertia_w, a, rax, ray, raz, t2x, t2y, t2z,
+                             t1x, t1y, t1z)
+        k22 = wa * _response(inv_mass, inv_inertia_w, a, rax, ray, raz, t2x, t2y, t2z,
+                             t2x, t2y, t2z)
+        if dyn_b:
+            k11 += wb * _response(inv_mass, inv_inertia_w, b, rbx, rby, rbz, t1x, t1y, t1z,
+                                  t1x, t1y, t1z)
+            k12 += wb * _response(inv_mass, inv_inertia_w, b, rbx, rby, rbz, t2x, t2y, t2z,
+                                  t1x, t1y, t1z)
+            k22 += wb * _response(inv_mass, inv_inertia_w, b, rbx, rby, rbz, t2x, t2y, t2z,
+                                  t2x, t2y, t2z)
+        if not k11 * k22 - k12 * k12 > 0.0:
+            continue
+        fx, fy, fz = c[C_FRICTION], c[C_FRICTION + 1], c[C_FRICTION + 2]
+        f1 = fx * t1x + fy * t1y + fz * t1z
+        f2 = fx * t2x + fy * t2y + fz * t2z
+        u1 = ux * t1x + uy * t1y + uz * t1z
+        u2 = ux * t2x + uy * t2y + uz * t2z
+        w1 = u1 - (k11 * f1 + k12 * f2)
+        w2 = u2 - (k12 * f1 + k22 * f2)
+        n1, n2 = _coulomb(k11, k12, k22, w1, w2, mu * max(c[C_LAMBDA], 0.0))
+        d1, d2 = n1 - f1, n2 - f2
+        if d1 == 0.0 and d2 == 0.0:
+            continue
+        jx = d1 * t1x + d2 * t2x
+        jy = d1 * t1y + d2 * t2y
+        jz = d1 * t1z + d2 * t2z
+        c[C_FRICTION] = fx + jx
+        c[C_FRICTION + 1] = fy + jy
+        c[C_FRICTION + 2] = fz + jz
+        patches[q, Q_FT] += jx
+        patches[q, Q_FT + 1] += jy
+        patches[q, Q_FT + 2] += jz
+        _apply(vel, inv_mass, inv_inertia_w, a, wa, rax, ray, raz, jx, jy, jz, 0.0, 0.0, 0.0)
+        _record(wrench, a, 1.0, rax, ray, raz, jx, jy, jz, 0.0, 0.0, 0.0)
+        if dyn_b:
+            _apply(vel, inv_mass, inv_inertia_w, b, -wb, rbx, rby, rbz, jx, jy, jz,
+                   0.0, 0.0, 0.0)
+            _record(wrench, b, -1.0, rbx, rby, rbz, jx, jy, jz, 0.0, 0.0, 0.0)
+        change = max(change, abs(d1) * k11, abs(d2) * k22)
+    return change
+
+
+@_jit
 def _levels(patches, n_bodies):
     """Contact-graph level of every body: 1 on a static object, k + 1 on level k; else big."""
     big = n_bodies + 1
@@ -1162,7 +1246,11 @@ def _levels(patches, n_bodies):
 
 @_jit
 def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, shock):
-    """Gauss–Seidel sweeps over the patches, then (``shock``) one shock-propagation pass."""
+    """
+    Gauss–Seidel sweeps over the patches, then (``shock``) one shock-propagation pass.
+
+    Return whether patches share a body (then friction is per point, else per patch).
+    """
     scr = np.empty((PATCH_POINTS + 5, PATCH_POINTS))
     # Patches that share no body are independent: each is solved to convergence by its own
     # iterations, so one sweep is exact and shock propagation has nothing to order.
@@ -1180,11 +1268,12 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
         change = 0.0
         for q in range(patches.shape[0]):
             change = max(change, solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w,
-                                             n_bodies, x, 1.0, 1.0, wrench, True, scr))
+                                             n_bodies, x, 1.0, 1.0, wrench, True, scr,
+                                             coupled))
         if change <= VELOCITY_TOL_M_S:
             break
     if not shock or not coupled:
-        return
+        return coupled
     level = _levels(patches, n_bodies)
     low = np.empty(patches.shape[0], dtype=np.int64)
     for q in range(patches.shape[0]):
@@ -1202,7 +1291,8 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
             elif level[b] < level[a]:
                 wb = 0.0
         solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wa, wb,
-                    wrench, True, scr)
+                    wrench, True, scr, True)
+    return coupled
 
 
 @_jit
@@ -1251,8 +1341,8 @@ def contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi,
         touched[int(patches[q, Q_A])] = True
         if patches[q, Q_B] < n:
             touched[int(patches[q, Q_B])] = True
-    solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n, x, wrench, shock)
-    finish_contacts(contacts, patches)
+    if not solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n, x, wrench, shock):
+        finish_contacts(contacts, patches)
     store_velocities(x, prm, vel, touched)
     return contacts
 
