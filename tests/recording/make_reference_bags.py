@@ -74,6 +74,14 @@ REFERENCE_BAGS = {
         {'duration_s': 3.0, 'real_time_factor': 0.0},
         [],
     ),
+    'stack_knocked': (
+        'msg_config/stack.yaml',
+        {'duration_s': 3.0, 'real_time_factor': 1.0, 'start_paused': True},
+        [
+            (0.2, 'striker/wrench', 'world', (40.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+            (0.6, 'striker/wrench', 'world', (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+        ],
+    ),
     't_handle_flip': (
         'msg_config/t_handle.yaml',
         {'duration_s': 6.0, 'real_time_factor': 0.0},

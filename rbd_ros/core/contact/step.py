@@ -79,6 +79,8 @@ PATCH_ITERATIONS = 64
 VELOCITY_TOL_M_S = 1e-13
 #: At most this many points per patch.
 PATCH_POINTS = 4
+#: How much depth counts against reach when _reduce picks a patch's extreme points (m/m).
+REDUCE_DEPTH_WEIGHT = 10.0
 
 # Contact record fields (rows of the (C, N_CONTACT) float64 contact table).
 C_A = 0          # body index of A
@@ -411,26 +413,34 @@ def _reduce(buf, count, keep):
         if buf[k, 0] < buf[best, 0]:
             best = k
     keep[0] = best
-    far = -1.0
+    # Extreme points are scored by distance less REDUCE_DEPTH_WEIGHT × φ: of two points at
+    # nearly the same place the deeper one wins (a box on an equal box: the lower box's top
+    # corner, pushed a hair outside the upper box's footprint, has φ = that offset sideways,
+    # while the upper box's own corner beside it has the true depth 0).
+    far = -math.inf
     i1 = -1
     for k in range(count):
-        d = ((buf[k, 1] - buf[best, 1]) ** 2 + (buf[k, 2] - buf[best, 2]) ** 2
-             + (buf[k, 3] - buf[best, 3]) ** 2)
+        d = math.sqrt((buf[k, 1] - buf[best, 1]) ** 2 + (buf[k, 2] - buf[best, 2]) ** 2
+                      + (buf[k, 3] - buf[best, 3]) ** 2) - REDUCE_DEPTH_WEIGHT * buf[k, 0]
         if d > far:
             far = d
             i1 = k
+    far = ((buf[i1, 1] - buf[best, 1]) ** 2 + (buf[i1, 2] - buf[best, 2]) ** 2
+           + (buf[i1, 3] - buf[best, 3]) ** 2)
     if far <= 1e-24:
         return 1
     # Where depths tie (a face resting on a face), the extreme point farthest from i1 spans
     # more of the patch than the deepest one: take it unless the deepest is clearly deeper.
-    far0 = -1.0
+    far0 = -math.inf
     i0 = best
     for k in range(count):
-        d = ((buf[k, 1] - buf[i1, 1]) ** 2 + (buf[k, 2] - buf[i1, 2]) ** 2
-             + (buf[k, 3] - buf[i1, 3]) ** 2)
+        d = math.sqrt((buf[k, 1] - buf[i1, 1]) ** 2 + (buf[k, 2] - buf[i1, 2]) ** 2
+                      + (buf[k, 3] - buf[i1, 3]) ** 2) - REDUCE_DEPTH_WEIGHT * buf[k, 0]
         if d > far0:
             far0 = d
             i0 = k
+    far0 = ((buf[i0, 1] - buf[i1, 1]) ** 2 + (buf[i0, 2] - buf[i1, 2]) ** 2
+            + (buf[i0, 3] - buf[i1, 3]) ** 2)
     if buf[i0, 0] <= buf[best, 0] + 0.1 * MARGIN_M:
         best = i0
         keep[0] = best
@@ -440,16 +450,21 @@ def _reduce(buf, count, keep):
     ey = buf[i1, 2] - buf[best, 2]
     ez = buf[i1, 3] - buf[best, 3]
     nx, ny, nz = buf[best, 4], buf[best, 5], buf[best, 6]
+    span = math.sqrt(far)
     area = 0.0
     i2 = -1
     for k in range(count):
         cx, cy, cz = _cross(ex, ey, ez, buf[k, 1] - buf[best, 1], buf[k, 2] - buf[best, 2],
                             buf[k, 3] - buf[best, 3])
-        s = abs(cx * nx + cy * ny + cz * nz)
+        s = abs(cx * nx + cy * ny + cz * nz) - REDUCE_DEPTH_WEIGHT * span * buf[k, 0]
         if s > area:
             area = s
             i2 = k
-    if area <= 1e-12 * far:
+    if i2 < 0:
+        return 2
+    cx, cy, cz = _cross(ex, ey, ez, buf[i2, 1] - buf[best, 1], buf[i2, 2] - buf[best, 2],
+                        buf[i2, 3] - buf[best, 3])
+    if abs(cx * nx + cy * ny + cz * nz) <= 1e-12 * far:
         return 2
     keep[2] = i2
     cx, cy, cz = _cross(ex, ey, ez, buf[i2, 1] - buf[best, 1], buf[i2, 2] - buf[best, 2],
@@ -461,10 +476,13 @@ def _reduce(buf, count, keep):
         cx, cy, cz = _cross(ex, ey, ez, buf[k, 1] - buf[best, 1], buf[k, 2] - buf[best, 2],
                             buf[k, 3] - buf[best, 3])
         s = -(cx * nx + cy * ny + cz * nz) * (1.0 if side > 0.0 else -1.0)
+        if s <= 1e-12 * far:
+            continue
+        s -= REDUCE_DEPTH_WEIGHT * span * buf[k, 0]
         if s > area:
             area = s
             i3 = k
-    if i3 < 0 or area <= 1e-12 * far:
+    if i3 < 0:
         return 3
     keep[3] = i3
     return 4
@@ -853,35 +871,42 @@ def _normal_block(prow, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn
     # instead of putting it on a diagonal pair, which would twist the bodies apart.
     chosen = -1
     least = math.inf
+    closest = -1  # the set violating its conditions least, should round-off leave none
+    smallest = math.inf
     # All points first: if that least-norm solution is feasible it is the answer (every
-    # solution has the same velocities, so it is the least-norm one of them all).
+    # solution has the same velocities, so it is the least-norm one of them all).  The empty
+    # set (no impulse: nothing approaches) is tried too.
     full = (1 << m) - 1
-    for mask in range(full, 0, -1):
+    for mask in range(full, -1, -1):
         for k in range(m):
             active[k] = 1.0 if (mask >> k & 1) == 1 else 0.0
         _solve_small(mat, rhs, active, m, lam)
         ok = True
         norm = 0.0
+        worst = 0.0
         for k in range(m):
             if active[k] != 0.0:
                 norm += lam[k] * lam[k]
                 if lam[k] < 0.0:
                     ok = False
-                    break
+                    worst = max(worst, -lam[k] * mat[k, k])
             else:
                 u = free[k]
                 for jj in range(m):
                     u += mat[k, jj] * lam[jj]
                 if u < contacts[s0 + k, C_BIAS] - 1e-9 * (abs(rhs[k]) + 1e-12):
                     ok = False
-                    break
+                    worst = max(worst, contacts[s0 + k, C_BIAS] - u)
+        if worst < smallest:
+            smallest = worst
+            closest = mask
         if ok and norm < least * (1.0 - 1e-12):
             least = norm
             chosen = mask
             if mask == full:
                 break
     if chosen < 0:
-        chosen = (1 << m) - 1   # round-off left none feasible: all, clamped below
+        chosen = closest   # round-off left none feasible: the nearest one, clamped below
     for k in range(m):
         active[k] = 1.0 if (chosen >> k & 1) == 1 else 0.0
     _solve_small(mat, rhs, active, m, lam)

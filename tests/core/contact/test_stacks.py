@@ -28,6 +28,7 @@ NonFiniteError and stays at its last finite state); the pyramid stands 10 s at b
 from contact_scenes import body, ground, STEP_IDS, steps, STEPS_NS, world
 import numpy as np
 import pytest
+from rbd_ros.core.loads import AppliedWrench
 from rbd_ros.core.state import BodyState
 
 SIDE_M = 0.2
@@ -176,3 +177,52 @@ def test_a_stack_is_bit_identical_however_its_steps_are_called():
     again.reset()
     again.step(100)
     np.testing.assert_array_equal(one.arrays[0], again.arrays[0])
+
+
+@steps_ns
+def test_a_push_inside_the_friction_cone_moves_nothing_in_a_stack(h_ns):
+    # Two equal boxes stacked exactly (flush edges); the top one pushed with 1 N along x, well
+    # inside its cone (μ m g = 4.9 N), and the pair inside theirs (9.8 N): nothing moves. The
+    # lower box's top corners must not stand in for the upper box's (a hair outside its
+    # footprint they read a sideways gap as a normal one, and the upper box tipped back).
+    sim = stack_world(column(2), h_ns)
+    start = positions(sim)
+    sim.set_body_loads(1, [AppliedWrench(force=(1.0, 0.0, 0.0))])
+    sim.step(steps(1.0, h_ns))
+    # Round-off drift (measured 6e-12 m in 1 s at 1 ms, as the resting column's), far below
+    # any slip: a net 1e-3 N left unbalanced would move the box 5e-4 m in 1 s.
+    np.testing.assert_allclose(positions(sim), start, rtol=0, atol=1e-9)
+    assert kinetic_energy_j(sim) < 1e-16
+
+
+@steps_ns
+def test_a_stack_knocked_over_never_gains_energy_once_the_push_ends(h_ns):
+    # A 2 kg striker pushed 40 N for 0.4 s into a column of three: after the push only gravity
+    # (conservative) and contact (ε = 0, dissipative) act, so the total energy may only fall.
+    # Before the empty impulse set was tried, a corner patch with no feasible set took the
+    # clamped all-points solution and one step added 19 J.
+    boxes = [body(f'b{i}', 'box', [SIDE_M] * 3, material=(MU, 0.0)) for i in range(3)]
+    boxes.append(body('striker', 'box', [SIDE_M] * 3, mass_kg=2.0, material=(MU, 0.0)))
+    states = [BodyState(position_w=c) for c in column(3)]
+    states.append(BodyState(position_w=(-0.8, 0.0, 0.5 * SIDE_M)))
+    sim = world(boxes, states, ground(material=(MU, 0.0)), h_ns)
+
+    def energy_j():
+        return sum(sim.body_state(i).kinetic_energy(b.model)
+                   + b.model.mass_kg * 9.81 * sim.body_state(i).position_w[2]
+                   for i, b in enumerate(sim.bodies))
+    sim.set_body_loads(3, [AppliedWrench(force=(40.0, 0.0, 0.0))])
+    sim.step(steps(0.4, h_ns))
+    sim.set_body_loads(3, [])
+    previous = energy_j()
+    gain = 0.0
+    for _ in range(steps(2.0, h_ns)):
+        sim.step(1)
+        now = energy_j()
+        gain = max(gain, now - previous)
+        previous = now
+    # Round-off of ~20 J summed over 4 bodies (~1e-13 J), plus the push-out of round-off
+    # penetrations, which lifts a body by its depth: m g × 1e-9 m ≈ 2e-8 J (measured 6e-9 J
+    # at 10 ms). The bug this guards against added 19 J in one step.
+    assert gain <= 1e-7, gain
+    assert sim.body_state(0).position_w[0] > 0.5  # the bottom box was knocked out
