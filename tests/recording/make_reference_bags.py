@@ -119,7 +119,7 @@ def record(name, workdir):
         pubs = {topic: talker.create_publisher(conversions.WrenchStamped, topic, 10)
                 for topic in topics}
         wait_until(lambda: all(p.get_subscription_count() > 0 for p in pubs.values())
-                   or node.process.poll() is not None, 60.0, what='the node to subscribe')
+                   or node.process.poll() is not None, 300.0, what='the node to subscribe')
         if overrides.get('start_paused'):
             # Sim time starts when the wrench publishers are connected: unpause now.
             pause = talker.create_client(SetBool, '/rigid_body_node/pause')

@@ -123,6 +123,13 @@ def test_the_world_bags_cover_issue_10():
     assert attached[mesh.config['mesh_path']] == (
         REPO / 'msg_config' / 'meshes' / 'l_block.stl').read_bytes()
     assert mesh.config['obstacles'] == ['wall_n', 'wall_s', 'wall_e', 'wall_w']
+    stack = open_bag(str(REPO / 'bags' / 'stack_knocked'))
+    assert stack.topics['/striker/wrench'].message_count == 2
+    final = {body: list(stack.decoded_messages([f'/{body}/pose']))[-1][1].pose.position
+             for body in ('bottom', 'middle', 'top')}
+    assert final['bottom'].x > 0.5  # shoved out from under the column
+    # The two boxes above fell to the floor: their COMs at half a side, not 0.3 and 0.5 m.
+    assert abs(final['middle'].z - 0.1) < 1e-6 and abs(final['top'].z - 0.1) < 1e-6
 
 
 @pytest.mark.parametrize('bag', BAGS, ids=[b.name for b in BAGS])
