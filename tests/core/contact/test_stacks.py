@@ -221,8 +221,9 @@ def test_a_stack_knocked_over_never_gains_energy_once_the_push_ends(h_ns):
         now = energy_j()
         gain = max(gain, now - previous)
         previous = now
-    # Round-off of ~20 J summed over 4 bodies (~1e-13 J), plus the push-out of round-off
-    # penetrations, which lifts a body by its depth: m g × 1e-9 m ≈ 2e-8 J (measured 6e-9 J
-    # at 10 ms). The bug this guards against added 19 J in one step.
-    assert gain <= 1e-7, gain
+    # Round-off of ~20 J summed over 4 bodies (~1e-13 J), plus the push-out of penetrations
+    # while boxes tumble onto each other, which lifts a body by at most its depth (tens of µm
+    # at impacts): m g × 5e-5 m ≈ 1e-3 J (measured up to 1.2e-4 J). The bug this guards
+    # against added 19 J in one step.
+    assert gain <= 1e-3, gain
     assert sim.body_state(0).position_w[0] > 0.5  # the bottom box was knocked out
