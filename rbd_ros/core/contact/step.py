@@ -1006,6 +1006,26 @@ def solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x,
 
 
 @_inl
+def _tangent_response(inv_mass, inv_inertia_w, a, b, dyn_b, wa, wb, rax, ray, raz, rbx, rby,
+                      rbz, t1x, t1y, t1z, t2x, t2y, t2z):
+    """Return the 2×2 response ``(k11, k12, k22)`` of a point's tangential velocity."""
+    k11 = wa * _response(inv_mass, inv_inertia_w, a, rax, ray, raz, t1x, t1y, t1z,
+                         t1x, t1y, t1z)
+    k12 = wa * _response(inv_mass, inv_inertia_w, a, rax, ray, raz, t2x, t2y, t2z,
+                         t1x, t1y, t1z)
+    k22 = wa * _response(inv_mass, inv_inertia_w, a, rax, ray, raz, t2x, t2y, t2z,
+                         t2x, t2y, t2z)
+    if dyn_b:
+        k11 += wb * _response(inv_mass, inv_inertia_w, b, rbx, rby, rbz, t1x, t1y, t1z,
+                              t1x, t1y, t1z)
+        k12 += wb * _response(inv_mass, inv_inertia_w, b, rbx, rby, rbz, t2x, t2y, t2z,
+                              t1x, t1y, t1z)
+        k22 += wb * _response(inv_mass, inv_inertia_w, b, rbx, rby, rbz, t2x, t2y, t2z,
+                              t2x, t2y, t2z)
+    return k11, k12, k22
+
+
+@_inl
 def _tangent_basis(nx, ny, nz):
     """Two unit vectors completing ``n`` to a right-handed orthonormal basis."""
     if abs(nx) < 0.57735:
@@ -1098,19 +1118,8 @@ def _friction(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, x
     u1 = ux * t1x + uy * t1y + uz * t1z
     u2 = ux * t2x + uy * t2y + uz * t2z
     # 2×2 response of the tangential velocity at c to a tangential impulse at c.
-    k11 = wa * _response(inv_mass, inv_inertia_w, a, rax, ray, raz, t1x, t1y, t1z,
-                         t1x, t1y, t1z)
-    k12 = wa * _response(inv_mass, inv_inertia_w, a, rax, ray, raz, t2x, t2y, t2z,
-                         t1x, t1y, t1z)
-    k22 = wa * _response(inv_mass, inv_inertia_w, a, rax, ray, raz, t2x, t2y, t2z,
-                         t2x, t2y, t2z)
-    if dyn_b:
-        k11 += wb * _response(inv_mass, inv_inertia_w, b, rbx, rby, rbz, t1x, t1y, t1z,
-                              t1x, t1y, t1z)
-        k12 += wb * _response(inv_mass, inv_inertia_w, b, rbx, rby, rbz, t2x, t2y, t2z,
-                              t1x, t1y, t1z)
-        k22 += wb * _response(inv_mass, inv_inertia_w, b, rbx, rby, rbz, t2x, t2y, t2z,
-                              t2x, t2y, t2z)
+    k11, k12, k22 = _tangent_response(inv_mass, inv_inertia_w, a, b, dyn_b, wa, wb, rax, ray,
+                                      raz, rbx, rby, rbz, t1x, t1y, t1z, t2x, t2y, t2z)
     det = k11 * k22 - k12 * k12
     fx, fy, fz = patches[q, Q_FT], patches[q, Q_FT + 1], patches[q, Q_FT + 2]
     f1 = fx * t1x + fy * t1y + fz * t1z
@@ -1200,19 +1209,8 @@ def _friction_points(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b, d
             bx, by, bz = _point_velocity(vel, b, rbx, rby, rbz)
             ux, uy, uz = ux - bx, uy - by, uz - bz
         t1x, t1y, t1z, t2x, t2y, t2z = _tangent_basis(nx, ny, nz)
-        k11 = wa * _response(inv_mass, inv_inertia_w, a, rax, ray, raz, t1x, t1y, t1z,
-                             t1x, t1y, t1z)
-        k12 = wa * _response(inv_mass, inv_inertia_w, a, rax, ray, raz, t2x, t2y, t2z,
-                             t1x, t1y, t1z)
-        k22 = wa * _response(inv_mass, inv_inertia_w, a, rax, ray, raz, t2x, t2y, t2z,
-                             t2x, t2y, t2z)
-        if dyn_b:
-            k11 += wb * _response(inv_mass, inv_inertia_w, b, rbx, rby, rbz, t1x, t1y, t1z,
-                                  t1x, t1y, t1z)
-            k12 += wb * _response(inv_mass, inv_inertia_w, b, rbx, rby, rbz, t2x, t2y, t2z,
-                                  t1x, t1y, t1z)
-            k22 += wb * _response(inv_mass, inv_inertia_w, b, rbx, rby, rbz, t2x, t2y, t2z,
-                                  t2x, t2y, t2z)
+        k11, k12, k22 = _tangent_response(inv_mass, inv_inertia_w, a, b, dyn_b, wa, wb, rax, ray,
+                                          raz, rbx, rby, rbz, t1x, t1y, t1z, t2x, t2y, t2z)
         if not k11 * k22 - k12 * k12 > 0.0:
             continue
         fx, fy, fz = c[C_FRICTION], c[C_FRICTION + 1], c[C_FRICTION + 2]
