@@ -137,22 +137,64 @@ def _contact_points(shape):
     return points, points, 0.0
 
 
+def _kd_order(points, index):
+    """
+    Return ``index`` reordered so that every run of ``cs.CHUNK_POINTS`` is a compact cell.
+
+    Recursive halving along the widest extent (a k-d tree whose leaves hold
+    ``cs.CHUNK_POINTS`` points, but the last); ties keep their order (a stable sort).
+    """
+    if len(index) <= cs.CHUNK_POINTS:
+        return index
+    sub = points[index]
+    axis = int(np.argmax(sub.max(axis=0) - sub.min(axis=0)))
+    index = index[np.argsort(sub[:, axis], kind='stable')]
+    half = cs.CHUNK_POINTS * math.ceil(len(index) / (2 * cs.CHUNK_POINTS))
+    return np.concatenate([_kd_order(points, index[:half]), _kd_order(points, index[half:])])
+
+
+def _chunked(points):
+    """
+    Group ``points`` into compact cells of at most ``cs.CHUNK_POINTS``; return their balls.
+
+    Return ``((cells, 4) centre and radius of each cell, (points,) the cell of each point)``,
+    cells as the leaves of :func:`_kd_order`.  The points keep their order (it decides ties
+    when a patch's points are chosen).  The narrow phase skips a cell when φ at its centre
+    says no point of it can be within reach (:func:`rbd_ros.core.contact.step._one_way`).
+    """
+    order = _kd_order(points, np.arange(len(points)))
+    cell_of = np.empty(len(points), dtype=np.int64)
+    balls = []
+    for i in range(0, len(points), cs.CHUNK_POINTS):
+        run = order[i:i + cs.CHUNK_POINTS]
+        cell_of[run] = len(balls)
+        centre = points[run].mean(axis=0)
+        balls.append([*centre, np.sqrt(((points[run] - centre) ** 2).sum(axis=1)).max()])
+    return np.array(balls, dtype=np.float64).reshape(-1, 4), cell_of
+
+
 def _shape_table(shapes, materials):
     """Pack shapes and materials into the tuple of arrays the compiled stages read."""
     kinds = np.array([s.kind for s in shapes], dtype=np.int64)
     sparams = np.ascontiguousarray(np.stack([s.params for s in shapes]))
-    pts, ppts, radius = [], [], []
+    pts, ppts, radius, balls, cells = [], [], [], [], []
     for shape in shapes:
         if shape.kind == ck.KIND_PLANE:
             pts.append(np.zeros((0, 3)))
             ppts.append(np.zeros((0, 3)))
+            balls.append(np.zeros((0, 4)))
+            cells.append(np.zeros(0, dtype=np.int64))
             radius.append(0.0)
             continue
         p, pp, r = _contact_points(shape)
+        ball, cell = _chunked(np.asarray(p, dtype=np.float64))
         pts.append(p)
         ppts.append(pp)
+        balls.append(ball)
+        cells.append(cell)
         radius.append(r)
     pt_off = np.concatenate([[0], np.cumsum([len(p) for p in pts])]).astype(np.int64)
+    ch_off = np.concatenate([[0], np.cumsum([len(b) for b in balls])]).astype(np.int64)
     ppt_off = np.concatenate([[0], np.cumsum([len(p) for p in ppts])]).astype(np.int64)
     grids = [np.ascontiguousarray(s.grid, dtype=np.float64) for s in shapes]
     grid_off = np.concatenate([[0], np.cumsum([g.size for g in grids])[:-1]]).astype(np.int64)
@@ -163,7 +205,8 @@ def _shape_table(shapes, materials):
             np.array(radius, dtype=np.float64), bound,
             np.ascontiguousarray(np.concatenate([g.ravel() for g in grids])), grid_off,
             grid_dim, np.array([m.friction for m in materials], dtype=np.float64),
-            np.array([m.restitution for m in materials], dtype=np.float64))
+            np.array([m.restitution for m in materials], dtype=np.float64),
+            np.ascontiguousarray(np.concatenate(balls)), ch_off, np.concatenate(cells))
 
 
 def _static_table(objects):
@@ -242,7 +285,8 @@ class WorldSimulator(BatchSimulator):
         n = len(bodies)
         self._wrench = np.zeros((n, 6))
         self._ws = (np.zeros((n, 6)), np.zeros(n), np.zeros((n, 3, 3)), np.zeros((n, 3, 3)),
-                    np.zeros((n, 3)), np.zeros((n, 3, 3)), np.zeros(n, dtype=np.bool_))
+                    np.zeros((n, 3)), np.zeros((n, 3, 3)), np.zeros(n, dtype=np.bool_),
+                    np.full((n, cs.N_RESPONSE), -1.0))
         self._contacts = np.zeros((0, cs.N_CONTACT))
 
     @property

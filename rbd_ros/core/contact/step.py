@@ -51,6 +51,17 @@ normal sticks likewise up to ``μ Σ λ_k |r_k − c|``.
 
 Everything is serial and in a fixed order (pairs sorted by body index), so results are
 bit-identical run after run.
+
+**Cost.** Three things keep a resting body cheap, none of them changing a result: a patch
+whose points approach no faster than their targets takes no impulse without building its
+response (:func:`_idle`); a body's patch on a static object reuses its response ``K`` and
+``K⁺`` while their inputs are the same bits (:data:`R_STATIC`); and a body's surface points
+are tried in cells, a cell skipped when φ at its centre puts it out of reach (:func:`_one_way`).
+``K⁺`` comes from a Cholesky factor when ``K`` is well conditioned, from a rank-one deflation
+for a flat patch, else from Jacobi eigen-decomposition (:func:`_pinv_small`).  The solver's
+inner functions are inlined and index their tables in place: a numba row view, or an array
+passed to a function that calls another, costs two atomic reference-count updates, which
+were a fifth of a resting world's step.
 """
 
 import math
@@ -79,6 +90,14 @@ PATCH_ITERATIONS = 64
 VELOCITY_TOL_M_S = 1e-13
 #: At most this many points per patch.
 PATCH_POINTS = 4
+#: Surface points are grouped in cells of this many, a cell skipped when its ball is out of
+#: reach (see _one_way).
+CHUNK_POINTS = 16
+#: A Lipschitz bound of a mesh's φ: the trilinear interpolant of exact distances has
+#: |∂φ/∂x_k| <= 1 in a cell (|∇φ| <= √3), and outside the grid box φ adds the distance to it.
+PHI_LIPSCHITZ_MESH = 1.0 + math.sqrt(3.0)
+#: Slack (m) on the skip test of a cell, against round-off in φ at its centre.
+CULL_SLACK_M = 1e-9
 #: How much depth counts against reach when _reduce picks a patch's extreme points (m/m):
 #: 2 or more keeps a box under a push inside its cone on an equal box still; 10 let the
 #: 5-layer pyramid at 10 ms drift 8 µm; 4 keeps both (and the 10-box column) at rest.
@@ -111,6 +130,21 @@ Q_CACHED = 12    # 1.0 once Q_K and Q_PINV hold this stage's normal response (bo
 Q_K = 13         # K_nn of the points, row-major PATCH_POINTS², fixed within a stage
 Q_PINV = 29      # its pseudo-inverse, the same layout
 N_PATCH = 45
+
+# Response cache of a body's patch on a static object (rows of the (N, N_RESPONSE) table kept
+# from stage to stage and step to step): the patch's K and pseudo-inverse with what they are a
+# function of.  A body at rest meets the same lever arms, normals and inverse inertia from
+# one stage to the next, bit for bit (always from the last stage of a step to the first of
+# the next, which no drift separates); a hit reuses the values, so results are the same as
+# recomputing them, whatever the cache held before.
+R_STATIC = 0     # the static object's index (N + s), or -1 for none
+R_COUNT = 1      # the patch's points
+R_ROWS = 2       # per point: lever arm from A's COM (3) and normal (3)
+R_INV_MASS = R_ROWS + 6 * PATCH_POINTS
+R_INV_INERTIA = R_INV_MASS + 1   # R I_b⁻¹ Rᵀ of A, row-major, 9
+R_K = R_INV_INERTIA + 9
+R_PINV = R_K + PATCH_POINTS * PATCH_POINTS
+N_RESPONSE = R_PINV + PATCH_POINTS * PATCH_POINTS
 
 _jit = nb.njit(cache=kk.CACHE_DIR is not None, fastmath=False, nogil=True)
 _inl = nb.njit(cache=kk.CACHE_DIR is not None, fastmath=False, nogil=True, inline='always')
@@ -291,30 +325,59 @@ def _grid_of(grid_data, grid_off, grid_dim, s):
     return grid_data[o:o + nx * ny * nz].reshape((nx, ny, nz))
 
 
+@_inl
+def _push_point(buf, count, phi, rx, ry, rz, pos_x, ix, gwx, gwy, gwz, lx, ly, lz, flip):
+    """Append a row ``[φ, point_w(3), n_w(3), point_y(3), flip]`` to ``buf`` (point = pos + r)."""
+    buf[count, 0] = phi
+    buf[count, 1] = pos_x[ix, 0] + rx
+    buf[count, 2] = pos_x[ix, 1] + ry
+    buf[count, 3] = pos_x[ix, 2] + rz
+    buf[count, 4] = flip * gwx
+    buf[count, 5] = flip * gwy
+    buf[count, 6] = flip * gwz
+    buf[count, 7] = lx
+    buf[count, 8] = ly
+    buf[count, 9] = lz
+    buf[count, 10] = flip
+    return count + 1
+
+
 @_jit
-def _one_way(sx, sy, is_plane_y, pts, pt_off, ppts, ppt_off, pt_radius, kinds, sparams,
-             grid_data, grid_off, grid_dim, rot_x, pos_x, rot_xc, pos_xc, ix,
-             rot_y, pos_y, rot_yc, pos_yc, iy, margin, buf, count, flip):
+def _one_way(sx, sy, pts, pt_off, balls, ball_off, cell_of, near, pt_radius, kinds, sparams,
+             grid_data, grid_off, grid_dim, rot_x, pos_x, rot_xc, pos_xc, ix, rot_yc, pos_yc,
+             iy, margin, buf, count, flip):
     """
-    Append the points of shape ``sx`` that come near shape ``sy`` to ``buf``.
+    Append the points of shape ``sx`` that come near shape ``sy`` (not a plane) to ``buf``.
 
     Points of ``sx`` (pose index ``ix``) within ``margin`` of ``sy`` at the candidate poses
-    become rows
-    ``[φ, point_w(3), n_w(3), point_y(3), flip]``: ``n_w = flip ∇φ_y`` in the world, the
-    point in y's candidate frame.  Return the buffer (it may grow) and the new count.
+    become rows ``[φ, point_w(3), n_w(3), point_y(3), flip]``: ``n_w = flip ∇φ_y`` in the
+    world, the point in y's candidate frame.  ``buf`` has room for every point.  Return the
+    new count.
+
+    The points are grouped in cells of at most :data:`CHUNK_POINTS` with a ball around each
+    (``balls``, ``ball_off`` per shape; ``cell_of`` per point, its cell's index among its
+    shape's cells): a cell is skipped when φ at its centre, less the ball's radius times φ's
+    Lipschitz bound, is beyond the margin, for then none of its points is within reach.  The
+    points left are tried in their own order, so the rows are exactly those without the
+    test.  ``near`` is scratch, a flag per cell of ``sx``.
     """
-    if is_plane_y:
-        src = ppts
-        a0, a1 = ppt_off[sx], ppt_off[sx + 1]
-    else:
-        src = pts
-        a0, a1 = pt_off[sx], pt_off[sx + 1]
     radius = pt_radius[sx]
-    grid = _grid_of(grid_data, grid_off, grid_dim, sy)
     kind = kinds[sy]
+    grid = _grid_of(grid_data, grid_off, grid_dim, sy)
     prm = sparams[sy]
-    for n in range(a0, a1):
-        bx, by, bz = src[n, 0], src[n, 1], src[n, 2]
+    lipschitz = PHI_LIPSCHITZ_MESH if kind == ck.KIND_MESH else 1.0
+    c0 = ball_off[sx]
+    for ci in range(c0, ball_off[sx + 1]):  # every cell's flag is set before it is read
+        wx, wy, wz = _mat_vec(rot_xc, ix, balls[ci, 0], balls[ci, 1], balls[ci, 2])
+        lx, ly, lz = _mat_t_vec(rot_yc, iy, wx + pos_xc[ix, 0] - pos_yc[iy, 0],
+                                wy + pos_xc[ix, 1] - pos_yc[iy, 1],
+                                wz + pos_xc[ix, 2] - pos_yc[iy, 2])
+        phi = ck.phi_grad(kind, prm, grid, lx, ly, lz)[0]
+        near[ci - c0] = phi - radius - lipschitz * balls[ci, 3] < margin + CULL_SLACK_M
+    for n in range(pt_off[sx], pt_off[sx + 1]):
+        if not near[cell_of[n]]:
+            continue
+        bx, by, bz = pts[n, 0], pts[n, 1], pts[n, 2]
         # Candidate world point, then into y's candidate frame.
         wx, wy, wz = _mat_vec(rot_xc, ix, bx, by, bz)
         wx, wy, wz = wx + pos_xc[ix, 0], wy + pos_xc[ix, 1], wz + pos_xc[ix, 2]
@@ -326,27 +389,50 @@ def _one_way(sx, sy, is_plane_y, pts, pt_off, ppts, ppt_off, pt_radius, kinds, s
             continue
         gwx, gwy, gwz = _mat_vec(rot_yc, iy, gx, gy, gz)
         # The contact point on x's surface in the current configuration.
-        cx, cy, cz = _mat_vec(rot_x, ix, bx, by, bz)
-        cx += pos_x[ix, 0] - radius * gwx
-        cy += pos_x[ix, 1] - radius * gwy
-        cz += pos_x[ix, 2] - radius * gwz
-        if count == buf.shape[0]:
-            grown = np.empty((2 * buf.shape[0], buf.shape[1]))
-            grown[:count] = buf[:count]
-            buf = grown
-        buf[count, 0] = phi
-        buf[count, 1] = cx
-        buf[count, 2] = cy
-        buf[count, 3] = cz
-        buf[count, 4] = flip * gwx
-        buf[count, 5] = flip * gwy
-        buf[count, 6] = flip * gwz
-        buf[count, 7] = lx
-        buf[count, 8] = ly
-        buf[count, 9] = lz
-        buf[count, 10] = flip
-        count += 1
-    return buf, count
+        rx, ry, rz = _mat_vec(rot_x, ix, bx, by, bz)
+        count = _push_point(buf, count, phi, rx - radius * gwx, ry - radius * gwy,
+                            rz - radius * gwz, pos_x, ix, gwx, gwy, gwz, lx, ly, lz, flip)
+    return count
+
+
+@_inl
+def _plane_points(sx, sy, ppts, ppt_off, pt_radius, sparams, rot_x, pos_x, rot_xc, pos_xc,
+                  ix, rot_yc, pos_yc, iy, margin, buf):
+    """
+    Fill ``buf`` with the points of shape ``sx`` near the plane ``sy`` as :func:`_one_way`.
+
+    A plane's φ is linear: ``φ(b) = n_x · b + offset`` for a point ``b`` in x's frame, with
+    the plane normal ``n_x`` in x's candidate frame (3 products a point instead of a pose
+    change).  Only the points that can be lowest (``ppts``) are tried.  Return the count.
+    """
+    radius = pt_radius[sx]
+    gwx, gwy, gwz = _mat_vec(rot_yc, iy, sparams[sy, 0], sparams[sy, 1], sparams[sy, 2])
+    pnx, pny, pnz = _mat_t_vec(rot_xc, ix, gwx, gwy, gwz)
+    offset = (gwx * (pos_xc[ix, 0] - pos_yc[iy, 0]) + gwy * (pos_xc[ix, 1] - pos_yc[iy, 1])
+              + gwz * (pos_xc[ix, 2] - pos_yc[iy, 2]) - sparams[sy, 3] - radius)
+    count = 0
+    for n in range(ppt_off[sx], ppt_off[sx + 1]):
+        bx, by, bz = ppts[n, 0], ppts[n, 1], ppts[n, 2]
+        phi = pnx * bx + pny * by + pnz * bz + offset
+        if not phi < margin:
+            continue
+        wx, wy, wz = _mat_vec(rot_xc, ix, bx, by, bz)
+        lx, ly, lz = _mat_t_vec(rot_yc, iy, wx + pos_xc[ix, 0] - pos_yc[iy, 0],
+                                wy + pos_xc[ix, 1] - pos_yc[iy, 1],
+                                wz + pos_xc[ix, 2] - pos_yc[iy, 2])
+        rx, ry, rz = _mat_vec(rot_x, ix, bx, by, bz)
+        count = _push_point(buf, count, phi, rx - radius * gwx, ry - radius * gwy,
+                            rz - radius * gwz, pos_x, ix, gwx, gwy, gwz, lx, ly, lz, 1.0)
+    return count
+
+
+@_inl
+def _one_normal(buf, count):
+    """Tell whether every row of ``buf[:count]`` has one normal (a face on a plane or a face)."""
+    for k in range(1, count):
+        if buf[k, 4] != buf[0, 4] or buf[k, 5] != buf[0, 5] or buf[k, 6] != buf[0, 6]:
+            return False
+    return True
 
 
 @_jit
@@ -368,7 +454,7 @@ def _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off, g
     normal and friction impulses can grow without bound.  On a smooth surface a point's own
     normal passes the test only within ~8° of ``n̄`` (cos 8° ≈ 0.99).
     """
-    if count < 2:
+    if count < 2 or _one_normal(buf, count):
         return
     best_w = -1.0
     best = 0
@@ -490,7 +576,7 @@ def _reduce(buf, count, keep):
     return 4
 
 
-@_jit
+@_inl
 def _touching(buf, count, vel, x, a, b, n_bodies, h, v_rest):
     """
     Keep the rows of ``buf`` in resting contact now; return their count.
@@ -513,7 +599,8 @@ def _touching(buf, count, vel, x, a, b, n_bodies, h, v_rest):
         un0 = ux * buf[k, 4] + uy * buf[k, 5] + uz * buf[k, 6]
         if buf[k, 0] - h * un0 <= TOUCH_M and un0 >= -v_rest:
             if kept != k:
-                buf[kept, :] = buf[k, :]
+                for f in range(buf.shape[1]):
+                    buf[kept, f] = buf[k, f]
             kept += 1
     return kept
 
@@ -521,11 +608,14 @@ def _touching(buf, count, vel, x, a, b, n_bodies, h, v_rest):
 @_jit
 def narrow_phase(pairs, n_bodies, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_inertia_w,
                  st_rot, st_pos, kinds, sparams, pts, pt_off, ppts, ppt_off, pt_radius,
-                 grid_data, grid_off, grid_dim, mu, eps, h, phase, stage):
+                 grid_data, grid_off, grid_dim, mu, eps, h, phase, stage, responses, balls,
+                 ball_off, cell_of):
     """
     Return ``(contacts (C, N_CONTACT), patches (Q, N_PATCH))`` of the candidate ``pairs``.
 
-    Static objects get their fixed pose for both the current and the candidate one.
+    Static objects get their fixed pose for both the current and the candidate one.  A patch
+    on a static object whose response is in ``responses`` (see :data:`R_STATIC`) starts with
+    it (:func:`keep_responses` fills the table).
     """
     n = n_bodies
     n_static = st_rot.shape[0]
@@ -542,26 +632,32 @@ def narrow_phase(pairs, n_bodies, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_
     pose_rc[n:] = st_rot
     pose_p[n:] = st_pos
     pose_pc[n:] = st_pos
-    contacts = np.zeros((max(16, 4 * pairs.shape[0]), N_CONTACT))
-    patches = np.zeros((max(4, pairs.shape[0]), N_PATCH))
-    buf = np.empty((64, 11))
+    # Not zeroed (a megabyte per stage for 1000 bodies): each row is filled when it is used.
+    contacts = np.empty((max(16, 4 * pairs.shape[0]), N_CONTACT))
+    patches = np.empty((max(4, pairs.shape[0]), N_PATCH))
+    # Room for every point of the two shapes of any pair.
+    most = 0
+    for s in range(pt_off.shape[0] - 1):
+        most = max(most, pt_off[s + 1] - pt_off[s], ppt_off[s + 1] - ppt_off[s])
+    buf = np.empty((2 * most + 1, 11))
+    near = np.empty(most + 1, dtype=np.bool_)  # per cell of a shape: within reach
     keep = np.empty(PATCH_POINTS, dtype=np.int64)
     nc = 0
     nq = 0
     for q in range(pairs.shape[0]):
         a = pairs[q, 0]
         b = pairs[q, 1]
-        count = 0
-        b_plane = kinds[b] == ck.KIND_PLANE
-        buf, count = _one_way(a, b, b_plane, pts, pt_off, ppts, ppt_off, pt_radius, kinds,
-                              sparams, grid_data, grid_off, grid_dim, pose_r, pose_p, pose_rc,
-                              pose_pc, a, pose_r, pose_p, pose_rc, pose_pc, b, MARGIN_M, buf,
-                              count, 1.0)
-        if not b_plane:
-            buf, count = _one_way(b, a, False, pts, pt_off, ppts, ppt_off, pt_radius, kinds,
-                                  sparams, grid_data, grid_off, grid_dim, pose_r, pose_p,
-                                  pose_rc, pose_pc, b, pose_r, pose_p, pose_rc, pose_pc, a,
-                                  MARGIN_M, buf, count, -1.0)
+        if kinds[b] == ck.KIND_PLANE:
+            count = _plane_points(a, b, ppts, ppt_off, pt_radius, sparams, pose_r, pose_p,
+                                  pose_rc, pose_pc, a, pose_rc, pose_pc, b, MARGIN_M, buf)
+        else:
+            count = _one_way(a, b, pts, pt_off, balls, ball_off, cell_of, near, pt_radius,
+                             kinds, sparams, grid_data, grid_off, grid_dim, pose_r, pose_p,
+                             pose_rc, pose_pc, a, pose_rc, pose_pc, b, MARGIN_M, buf, 0, 1.0)
+            count = _one_way(b, a, pts, pt_off, balls, ball_off, cell_of, near, pt_radius,
+                             kinds, sparams, grid_data, grid_off, grid_dim, pose_r, pose_p,
+                             pose_rc, pose_pc, b, pose_rc, pose_pc, a, MARGIN_M, buf, count,
+                             -1.0)
         if stage == 2:
             ja = 0 if prm.shape[1] == 1 else a
             v_rest = 1e-9 + h * math.sqrt(prm[P_GRAVITY, ja] ** 2 + prm[P_GRAVITY + 1, ja] ** 2
@@ -573,70 +669,128 @@ def narrow_phase(pairs, n_bodies, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_
             count = _touching(buf, count, vel, x, a, b, n, h, v_rest)
         if count == 0:
             continue
-        _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off, grid_dim,
-                            pose_rc)
-        m = _reduce(buf, count, keep)
+        if count > 1 and not _one_normal(buf, count):
+            _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off,
+                                grid_dim, pose_rc)
+        if count <= PATCH_POINTS:
+            m = count
+            for k in range(m):
+                keep[k] = k
+        else:
+            m = _reduce(buf, count, keep)
         if nq == patches.shape[0]:
-            grown = np.zeros((2 * nq, N_PATCH))
+            grown = np.empty((2 * nq, N_PATCH))
             grown[:nq] = patches
             patches = grown
         while nc + m > contacts.shape[0]:
-            grown = np.zeros((2 * contacts.shape[0], N_CONTACT))
+            grown = np.empty((2 * contacts.shape[0], N_CONTACT))
             grown[:nc] = contacts[:nc]
             contacts = grown
         pair_mu = math.sqrt(mu[a] * mu[b])
         pair_eps = max(eps[a], eps[b]) if phase == PHASE_COLLISION else 0.0
         static_b = b >= n
+        for f in range(Q_K):
+            patches[nq, f] = 0.0
         patches[nq, Q_A] = a
         patches[nq, Q_B] = b
         patches[nq, Q_START] = nc
         patches[nq, Q_COUNT] = m
         patches[nq, Q_MU] = pair_mu
         for k in range(m):
-            row = buf[keep[k]]
-            c = contacts[nc]
-            c[C_A] = a
-            c[C_B] = b
-            c[C_PHASE] = stage
-            c[C_PHI] = row[0]
-            px, py, pz = row[1], row[2], row[3]
-            nx, ny, nz = row[4], row[5], row[6]
-            c[C_POINT] = px
-            c[C_POINT + 1] = py
-            c[C_POINT + 2] = pz
-            c[C_NORMAL] = nx
-            c[C_NORMAL + 1] = ny
-            c[C_NORMAL + 2] = nz
+            r = keep[k]
+            c = nc
+            for f in range(N_CONTACT):
+                contacts[c, f] = 0.0
+            contacts[c, C_A] = a
+            contacts[c, C_B] = b
+            contacts[c, C_PHASE] = stage
+            contacts[c, C_PHI] = buf[r, 0]
+            px, py, pz = buf[r, 1], buf[r, 2], buf[r, 3]
+            nx, ny, nz = buf[r, 4], buf[r, 5], buf[r, 6]
+            contacts[c, C_POINT] = px
+            contacts[c, C_POINT + 1] = py
+            contacts[c, C_POINT + 2] = pz
+            contacts[c, C_NORMAL] = nx
+            contacts[c, C_NORMAL + 1] = ny
+            contacts[c, C_NORMAL + 2] = nz
             rax, ray, raz = px - x[S_POS, a], py - x[S_POS + 1, a], pz - x[S_POS + 2, a]
-            c[C_RA] = rax
-            c[C_RA + 1] = ray
-            c[C_RA + 2] = raz
+            contacts[c, C_RA] = rax
+            contacts[c, C_RA + 1] = ray
+            contacts[c, C_RA + 2] = raz
             # Relative normal velocity now.
             ux, uy, uz = _cross(vel[a, 3], vel[a, 4], vel[a, 5], rax, ray, raz)
             ux += vel[a, 0]
             uy += vel[a, 1]
             uz += vel[a, 2]
             if not static_b:
-                rbx, rby, rbz = px - x[S_POS, b], py - x[S_POS + 1, b], pz - x[S_POS + 2, b]
-                c[C_RB] = rbx
-                c[C_RB + 1] = rby
-                c[C_RB + 2] = rbz
+                rbx, rby, rbz = (px - x[S_POS, b], py - x[S_POS + 1, b],
+                                 pz - x[S_POS + 2, b])
+                contacts[c, C_RB] = rbx
+                contacts[c, C_RB + 1] = rby
+                contacts[c, C_RB + 2] = rbz
                 wx, wy, wz = _cross(vel[b, 3], vel[b, 4], vel[b, 5], rbx, rby, rbz)
                 ux -= vel[b, 0] + wx
                 uy -= vel[b, 1] + wy
                 uz -= vel[b, 2] + wz
             un0 = ux * nx + uy * ny + uz * nz
-            phi_now = row[0] - h * un0
+            phi_now = buf[r, 0] - h * un0
             if phi_now >= 0.0:
-                bias = un0 - row[0] / h
+                bias = un0 - buf[r, 0] / h
             else:
                 bias = min(-PUSH_FRACTION * phi_now / h, PUSH_MAX_M_S)
-            if pair_eps > 0.0 and un0 < 0.0 and row[0] < 0.0:
+            if pair_eps > 0.0 and un0 < 0.0 and buf[r, 0] < 0.0:
                 bias = max(bias, -pair_eps * un0)
-            c[C_BIAS] = bias
+            contacts[c, C_BIAS] = bias
             nc += 1
+        if static_b:
+            _reuse_response(responses, patches, nq, contacts, nc - m, m, a, b, inv_mass,
+                            inv_inertia_w)
         nq += 1
     return contacts[:nc], patches[:nq]
+
+
+@_inl
+def _reuse_response(responses, patches, q, contacts, s0, m, a, b, inv_mass, inv_inertia_w):
+    """Give patch ``q`` (body ``a`` on static ``b``) its cached K and K⁺ if they match."""
+    if (responses[a, R_STATIC] != b or responses[a, R_COUNT] != m
+            or responses[a, R_INV_MASS] != inv_mass[a]):
+        return
+    for k in range(9):
+        if responses[a, R_INV_INERTIA + k] != inv_inertia_w[a, k // 3, k % 3]:
+            return
+    for k in range(m):
+        for d in range(3):
+            if (responses[a, R_ROWS + 6 * k + d] != contacts[s0 + k, C_RA + d]
+                    or responses[a, R_ROWS + 6 * k + 3 + d] != contacts[s0 + k, C_NORMAL + d]):
+                return
+    for k in range(PATCH_POINTS * PATCH_POINTS):
+        patches[q, Q_K + k] = responses[a, R_K + k]
+        patches[q, Q_PINV + k] = responses[a, R_PINV + k]
+    patches[q, Q_CACHED] = 1.0
+
+
+@_jit
+def keep_responses(responses, patches, contacts, n_bodies, inv_mass, inv_inertia_w):
+    """Store the K and K⁺ of every patch on a static object that computed them."""
+    for q in range(patches.shape[0]):
+        b = patches[q, Q_B]
+        if b < n_bodies or patches[q, Q_CACHED] == 0.0:
+            continue
+        a = int(patches[q, Q_A])
+        s0 = int(patches[q, Q_START])
+        m = int(patches[q, Q_COUNT])
+        responses[a, R_STATIC] = b
+        responses[a, R_COUNT] = m
+        responses[a, R_INV_MASS] = inv_mass[a]
+        for k in range(9):
+            responses[a, R_INV_INERTIA + k] = inv_inertia_w[a, k // 3, k % 3]
+        for k in range(m):
+            for d in range(3):
+                responses[a, R_ROWS + 6 * k + d] = contacts[s0 + k, C_RA + d]
+                responses[a, R_ROWS + 6 * k + 3 + d] = contacts[s0 + k, C_NORMAL + d]
+        for k in range(PATCH_POINTS * PATCH_POINTS):
+            responses[a, R_K + k] = patches[q, Q_K + k]
+            responses[a, R_PINV + k] = patches[q, Q_PINV + k]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -694,165 +848,349 @@ def _cross_response(inv_mass, inv_inertia_w, i, rlx, rly, rlz, dx, dy, dz, rkx, 
     return inv_mass[i] * (dx * ex + dy * ey + dz * ez) + ix * kx + iy * ky + iz * kz
 
 
-@_jit
-def _eigh_small(a, p, v):
-    """
-    Diagonalise the symmetric ``a[:p, :p]`` in place by cyclic Jacobi rotations.
+# Rows of a patch solve's scratch table ``scr`` (SCR_ROWS, PATCH_POINTS): everything the
+# normal block works on, indexed in place (no row views: each would be reference counted).
+SCR_K = 0                           # K of the points, PATCH_POINTS rows
+SCR_FREE = PATCH_POINTS             # u without the patch's normal impulses
+SCR_RHS = SCR_FREE + 1              # bias − u0
+SCR_LAM = SCR_FREE + 2              # λ of the active set being tried
+SCR_BEST = SCR_FREE + 3             # the chosen λ
+SCR_ACTIVE = SCR_FREE + 4           # 1.0 for the points in the active set
+SCR_IDX = SCR_FREE + 5              # the active points' indices
+SCR_PINV = SCR_FREE + 6             # (K_AA)⁺ scattered to the points, PATCH_POINTS rows
+SCR_A = SCR_PINV + PATCH_POINTS     # K_AA compacted, then the eigenvalues on its diagonal
+SCR_V = SCR_A + PATCH_POINTS        # eigenvectors, or the inverse of a fast path
+SCR_LOW = SCR_V + PATCH_POINTS      # a Cholesky factor
+SCR_INV_LOW = SCR_LOW + PATCH_POINTS  # its inverse
+SCR_U = SCR_INV_LOW + PATCH_POINTS  # a null vector (one row)
+SCR_SHIFTED = SCR_U + 1             # K_AA + s u uᵀ
+SCR_ROWS = SCR_SHIFTED + PATCH_POINTS
 
-    Afterwards ``a``'s diagonal holds the eigenvalues and ``v[:p, :p]``'s columns the
+
+@_jit
+def patch_scratch():
+    """Return a scratch table for :func:`solve_patch` (one per thread)."""
+    return np.empty((SCR_ROWS, PATCH_POINTS))
+
+
+@_jit
+def _eigh_small(w, a0, p, v0):
+    """
+    Diagonalise the symmetric ``w[a0:a0+p, :p]`` in place by cyclic Jacobi rotations.
+
+    Afterwards its diagonal holds the eigenvalues and the columns of ``w[v0:v0+p, :p]`` the
     eigenvectors (Rutishauser's rotation formulas, no trigonometric functions).
     """
     for r in range(p):
         for c in range(p):
-            v[r, c] = 1.0 if r == c else 0.0
+            w[v0 + r, c] = 1.0 if r == c else 0.0
     for _ in range(30):
         off = 0.0
         for r in range(p):
             for c in range(r + 1, p):
-                off += a[r, c] * a[r, c]
+                off += w[a0 + r, c] * w[a0 + r, c]
         if off <= 1e-60:
             break
         for r in range(p):
             for c in range(r + 1, p):
-                if a[r, c] == 0.0:
+                if w[a0 + r, c] == 0.0:
                     continue
-                theta = (a[c, c] - a[r, r]) / (2.0 * a[r, c])
+                theta = (w[a0 + c, c] - w[a0 + r, r]) / (2.0 * w[a0 + r, c])
                 t = 1.0 / (abs(theta) + math.sqrt(theta * theta + 1.0))
                 if theta < 0.0:
                     t = -t
                 cs_ = 1.0 / math.sqrt(t * t + 1.0)
                 sn = t * cs_
                 for k in range(p):
-                    akr, akc = a[k, r], a[k, c]
-                    a[k, r] = cs_ * akr - sn * akc
-                    a[k, c] = sn * akr + cs_ * akc
+                    akr, akc = w[a0 + k, r], w[a0 + k, c]
+                    w[a0 + k, r] = cs_ * akr - sn * akc
+                    w[a0 + k, c] = sn * akr + cs_ * akc
                 for k in range(p):
-                    ark, ack = a[r, k], a[c, k]
-                    a[r, k] = cs_ * ark - sn * ack
-                    a[c, k] = sn * ark + cs_ * ack
+                    ark, ack = w[a0 + r, k], w[a0 + c, k]
+                    w[a0 + r, k] = cs_ * ark - sn * ack
+                    w[a0 + c, k] = sn * ark + cs_ * ack
                 for k in range(p):
-                    vkr, vkc = v[k, r], v[k, c]
-                    v[k, r] = cs_ * vkr - sn * vkc
-                    v[k, c] = sn * vkr + cs_ * vkc
+                    vkr, vkc = w[v0 + k, r], w[v0 + k, c]
+                    w[v0 + k, r] = cs_ * vkr - sn * vkc
+                    w[v0 + k, c] = sn * vkr + cs_ * vkc
+
+
+#: The fast paths of :func:`_pinv_small` take a Cholesky factor only if every pivot is at
+#: least this share of the largest diagonal entry (an inverse then accurate to ~1e-13; two
+#: balls colliding off-centre give a K of condition 6e4, whose Cholesky inverse was off by
+#: 2e-12 and let an elastic collision gain that much energy): else the eigen-decomposition.
+PIVOT_TOL = 1e-3
 
 
 @_jit
-def _pinv_small(mat, active, m, out):
+def _spd_inverse(w, a0, p, tol, o0):
     """
-    Write the pseudo-inverse of ``mat[A, A]`` (active rows ``A``) into ``out`` (0 elsewhere).
+    Invert the symmetric ``w[a0:a0+p, :p]`` by Cholesky into ``w[o0:o0+p, :p]``.
 
-    ``mat`` is symmetric positive semi-definite (a contact response); eigenvalues below 1e-9
-    of the largest count as zero.  Four coplanar points leave a rigid body's normal impulses
+    False (and nothing written) if a pivot is <= ``tol``.  Uses the rows ``SCR_LOW`` and
+    ``SCR_INV_LOW`` of ``w``.
+    """
+    lo = SCR_LOW
+    il = SCR_INV_LOW
+    for j in range(p):
+        for k in range(p):
+            w[lo + j, k] = 0.0
+            w[il + j, k] = 0.0
+    for j in range(p):
+        d = w[a0 + j, j]
+        for k in range(j):
+            d -= w[lo + j, k] * w[lo + j, k]
+        if not d > tol:
+            return False
+        w[lo + j, j] = math.sqrt(d)
+        for i in range(j + 1, p):
+            acc = w[a0 + i, j]
+            for k in range(j):
+                acc -= w[lo + i, k] * w[lo + j, k]
+            w[lo + i, j] = acc / w[lo + j, j]
+    # L⁻¹ (lower triangular), then the inverse L⁻ᵀ L⁻¹.
+    for j in range(p):
+        w[il + j, j] = 1.0 / w[lo + j, j]
+        for i in range(j + 1, p):
+            acc = 0.0
+            for k in range(j, i):
+                acc -= w[lo + i, k] * w[il + k, j]
+            w[il + i, j] = acc / w[lo + i, i]
+    for r in range(p):
+        for c in range(r, p):
+            acc = 0.0
+            for k in range(c, p):
+                acc += w[il + k, r] * w[il + k, c]
+            w[o0 + r, c] = acc
+            w[o0 + c, r] = acc
+    return True
+
+
+@_inl
+def _skip(k, s):
+    """Return the ``k``-th index of ``0, 1, …`` with ``s`` left out."""
+    return k if k < s else k + 1
+
+
+@_jit
+def _cofactor(w, a0, p, r, c):
+    """Return the cofactor ``(−1)^(r+c) det(a less row r, column c)`` of ``w[a0:a0+p, :p]``."""
+    r0, r1, r2 = a0 + _skip(0, r), a0 + _skip(1, r), a0 + _skip(2, r)
+    c0, c1, c2 = _skip(0, c), _skip(1, c), _skip(2, c)
+    if p == 1:
+        det = 1.0
+    elif p == 2:
+        det = w[r0, c0]
+    elif p == 3:
+        det = w[r0, c0] * w[r1, c1] - w[r0, c1] * w[r1, c0]
+    else:
+        det = (w[r0, c0] * (w[r1, c1] * w[r2, c2] - w[r1, c2] * w[r2, c1])
+               - w[r0, c1] * (w[r1, c0] * w[r2, c2] - w[r1, c2] * w[r2, c0])
+               + w[r0, c2] * (w[r1, c0] * w[r2, c1] - w[r1, c1] * w[r2, c0]))
+    return -det if (r + c) % 2 == 1 else det
+
+
+@_jit
+def _deflated_inverse(w, a0, p, top, o0):
+    """
+    Pseudo-inverse of a symmetric PSD ``w[a0:a0+p, :p]`` of rank ``p − 1`` into ``w[o0:]``.
+
+    False if it is not of that rank.  The adjugate of such a matrix is ``c u uᵀ`` with ``u``
+    its unit null vector (four points of one normal on a rigid body always have one: the
+    normal impulses that sum to no force and no moment), so
+    ``a⁺ = (a + s u uᵀ)⁻¹ − u uᵀ / s``.  Checked: ``|a u|`` must be round-off and
+    ``a + s u uᵀ`` well conditioned, else the caller decomposes.
+    """
+    j = -1
+    big = 0.0
+    for k in range(p):
+        d = _cofactor(w, a0, p, k, k)
+        if d > big:
+            big = d
+            j = k
+    if j < 0:
+        return False
+    u = SCR_U
+    norm = 0.0
+    for k in range(p):
+        w[u, k] = _cofactor(w, a0, p, j, k)
+        norm += w[u, k] * w[u, k]
+    norm = math.sqrt(norm)
+    for k in range(p):
+        w[u, k] /= norm
+    for r in range(p):
+        acc = 0.0
+        for c in range(p):
+            acc += w[a0 + r, c] * w[u, c]
+        if abs(acc) > 1e-9 * top:
+            return False
+    sh = SCR_SHIFTED
+    for r in range(p):
+        for c in range(p):
+            w[sh + r, c] = w[a0 + r, c] + top * w[u, r] * w[u, c]
+    if not _spd_inverse(w, sh, p, PIVOT_TOL * top, o0):
+        return False
+    for r in range(p):
+        for c in range(p):
+            w[o0 + r, c] -= w[u, r] * w[u, c] / top
+    return True
+
+
+@_jit
+def _pinv_small(scr, m):
+    """
+    Set ``scr``'s SCR_PINV rows to the pseudo-inverse of ``K[A, A]`` (0 off the active set).
+
+    ``K`` is ``scr``'s SCR_K rows, ``A`` the points flagged in its SCR_ACTIVE row.  ``K`` is
+    symmetric positive semi-definite (a contact response); eigenvalues below 1e-9 of the
+    largest count as zero.  Four coplanar points leave a rigid body's normal impulses
     indeterminate along one direction: the least-norm solution shares the load
     symmetrically instead of in an order-dependent way, and a nearly singular direction (a
-    normal tilted by round-off) cannot produce a huge impulse.
+    normal tilted by round-off) cannot produce a huge impulse.  A well-conditioned matrix is
+    inverted by Cholesky, one of rank one less (the flat patch) by :func:`_deflated_inverse`;
+    anything else by Jacobi eigen-decomposition.
     """
-    idx = np.empty(PATCH_POINTS, dtype=np.int64)
     p = 0
     for k in range(m):
         for jj in range(m):
-            out[k, jj] = 0.0
-        if active[k] != 0.0:
-            idx[p] = k
+            scr[SCR_PINV + k, jj] = 0.0
+        if scr[SCR_ACTIVE, k] != 0.0:
+            scr[SCR_IDX, p] = k
             p += 1
     if p == 0:
         return
-    a = np.empty((PATCH_POINTS, PATCH_POINTS))
-    v = np.empty((PATCH_POINTS, PATCH_POINTS))
+    diag = 0.0
     for r in range(p):
         for c in range(p):
-            a[r, c] = mat[idx[r], idx[c]]
-    _eigh_small(a, p, v)
+            scr[SCR_A + r, c] = scr[SCR_K + int(scr[SCR_IDX, r]), int(scr[SCR_IDX, c])]
+        diag = max(diag, scr[SCR_A + r, r])
+    if diag <= 0.0:
+        return
+    if (_spd_inverse(scr, SCR_A, p, PIVOT_TOL * diag, SCR_V)
+            or (p > 1 and _deflated_inverse(scr, SCR_A, p, diag, SCR_V))):
+        for r in range(p):
+            for c in range(p):
+                scr[SCR_PINV + int(scr[SCR_IDX, r]), int(scr[SCR_IDX, c])] = scr[SCR_V + r, c]
+        return
+    _eigh_small(scr, SCR_A, p, SCR_V)
     top = 0.0
     for r in range(p):
-        top = max(top, a[r, r])
+        top = max(top, scr[SCR_A + r, r])
     if top <= 0.0:
         return
     for e in range(p):
-        sigma = a[e, e]
+        sigma = scr[SCR_A + e, e]
         if sigma <= 1e-9 * top:
             continue
         for r in range(p):
             for c in range(p):
-                out[idx[r], idx[c]] += v[r, e] * v[c, e] / sigma
+                scr[SCR_PINV + int(scr[SCR_IDX, r]), int(scr[SCR_IDX, c])] += (
+                    scr[SCR_V + r, e] * scr[SCR_V + c, e] / sigma)
 
 
 @_jit
-def _solve_small(mat, rhs, active, m, out):
-    """Least-norm solution of ``mat[A, A] x = rhs[A]`` (:func:`_pinv_small`; others 0)."""
-    pinv = np.empty((PATCH_POINTS, PATCH_POINTS))
-    _pinv_small(mat, active, m, pinv)
+def _solve_small(scr, m):
+    """Set SCR_LAM to the least-norm solution of ``K[A, A] λ = rhs[A]`` (others 0)."""
+    _pinv_small(scr, m)
     for r in range(m):
         acc = 0.0
         for c in range(m):
-            acc += pinv[r, c] * rhs[c]
-        out[r] = acc
+            acc += scr[SCR_PINV + r, c] * scr[SCR_RHS, c]
+        scr[SCR_LAM, r] = acc
 
 
-@_jit
-def _normal_block(prow, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, wa, wb,
-                  wrench, scr):
+@_inl
+def _idle(scr, contacts, s0, m):
+    """
+    Tell whether no normal impulse is the answer: no point approaches faster than its target.
+
+    Then it is the least-norm feasible set: any other feasible λ has ``λᵀKλ = λᵀ rhs <= 0``,
+    so ``Kλ = 0`` and it changes no velocity.  The common case of bodies at rest before the
+    velocity update, and of touching neighbours that press nothing.  ``scr``'s SCR_FREE row
+    holds the velocities without the patch's impulses; the tolerance is the feasibility
+    test's.
+    """
+    for k in range(m):
+        rhs = contacts[s0 + k, C_BIAS] - scr[SCR_FREE, k]
+        if rhs > 1e-9 * (abs(rhs) + 1e-12):
+            return False
+    return True
+
+
+@_inl
+def _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b,
+                  wa, wb, wrench, scr):
     """
     Set the normal impulses of one patch exactly; return the largest Δu (m/s).
 
     The complementarity problem ``u_n >= bias, λ >= 0, λ (u_n − bias) = 0`` of its (at most
     four) points: the least-norm solution with every point active first (its response ``K``
-    and pseudo-inverse are computed once per stage and kept in the patch row ``prow``), then,
-    if that is not feasible, every other active set (:func:`_solve_small` for each).
+    and pseudo-inverse are computed once per stage and kept in the patch row), then, if that
+    is not feasible, every other active set (:func:`_solve_small` for each).
     """
-    # Scratch rows (no allocation per call): K, then u0, rhs, λ, best λ, active flags.
-    mat = scr[0:PATCH_POINTS]
-    free = scr[PATCH_POINTS]
-    rhs = scr[PATCH_POINTS + 1]
-    lam = scr[PATCH_POINTS + 2]
-    best = scr[PATCH_POINTS + 3]
-    active = scr[PATCH_POINTS + 4]
     free_pair = wa == 1.0 and (not dyn_b or wb == 1.0)
-    cached = free_pair and prow[Q_CACHED] != 0.0
+    cached = free_pair and patches[q, Q_CACHED] != 0.0
+    held = False
     for k in range(m):
-        ck_ = contacts[s0 + k]
-        nkx, nky, nkz = ck_[C_NORMAL], ck_[C_NORMAL + 1], ck_[C_NORMAL + 2]
-        for jj in range(m):
-            if cached:
-                mat[k, jj] = prow[Q_K + PATCH_POINTS * k + jj]
-                continue
-            cl = contacts[s0 + jj]
-            nlx, nly, nlz = cl[C_NORMAL], cl[C_NORMAL + 1], cl[C_NORMAL + 2]
-            v = wa * _cross_response(inv_mass, inv_inertia_w, a, cl[C_RA], cl[C_RA + 1],
-                                     cl[C_RA + 2], nlx, nly, nlz, ck_[C_RA], ck_[C_RA + 1],
-                                     ck_[C_RA + 2], nkx, nky, nkz)
-            if dyn_b:
-                v += wb * _cross_response(inv_mass, inv_inertia_w, b, cl[C_RB], cl[C_RB + 1],
-                                          cl[C_RB + 2], nlx, nly, nlz, ck_[C_RB],
-                                          ck_[C_RB + 1], ck_[C_RB + 2], nkx, nky, nkz)
-            mat[k, jj] = v
-        ux, uy, uz = _point_velocity(vel, a, ck_[C_RA], ck_[C_RA + 1], ck_[C_RA + 2])
+        c = s0 + k
+        ux, uy, uz = _point_velocity(vel, a, contacts[c, C_RA], contacts[c, C_RA + 1],
+                                     contacts[c, C_RA + 2])
         if dyn_b:
-            bx, by, bz = _point_velocity(vel, b, ck_[C_RB], ck_[C_RB + 1], ck_[C_RB + 2])
+            bx, by, bz = _point_velocity(vel, b, contacts[c, C_RB], contacts[c, C_RB + 1],
+                                         contacts[c, C_RB + 2])
             ux, uy, uz = ux - bx, uy - by, uz - bz
-        free[k] = ux * nkx + uy * nky + uz * nkz
+        scr[SCR_FREE, k] = (ux * contacts[c, C_NORMAL] + uy * contacts[c, C_NORMAL + 1]
+                            + uz * contacts[c, C_NORMAL + 2])
+        held = held or contacts[c, C_LAMBDA] != 0.0
+        scr[SCR_ACTIVE, k] = 0.0
+        scr[SCR_LAM, k] = 0.0
+        scr[SCR_BEST, k] = 0.0
+    if not held and _idle(scr, contacts, s0, m):
+        return 0.0  # nothing held, nothing to hold
+    for k in range(m):
+        ck = s0 + k
+        nkx = contacts[ck, C_NORMAL]
+        nky = contacts[ck, C_NORMAL + 1]
+        nkz = contacts[ck, C_NORMAL + 2]
+        for jj in range(k, m):
+            if cached:
+                v = patches[q, Q_K + PATCH_POINTS * k + jj]
+            else:
+                cl = s0 + jj
+                v = wa * _cross_response(
+                    inv_mass, inv_inertia_w, a, contacts[cl, C_RA], contacts[cl, C_RA + 1],
+                    contacts[cl, C_RA + 2], contacts[cl, C_NORMAL], contacts[cl, C_NORMAL + 1],
+                    contacts[cl, C_NORMAL + 2], contacts[ck, C_RA], contacts[ck, C_RA + 1],
+                    contacts[ck, C_RA + 2], nkx, nky, nkz)
+                if dyn_b:
+                    v += wb * _cross_response(
+                        inv_mass, inv_inertia_w, b, contacts[cl, C_RB], contacts[cl, C_RB + 1],
+                        contacts[cl, C_RB + 2], contacts[cl, C_NORMAL],
+                        contacts[cl, C_NORMAL + 1], contacts[cl, C_NORMAL + 2],
+                        contacts[ck, C_RB], contacts[ck, C_RB + 1], contacts[ck, C_RB + 2],
+                        nkx, nky, nkz)
+            scr[SCR_K + k, jj] = v
+            scr[SCR_K + jj, k] = v
     # Velocities without this patch's normal impulses: u0 = u − K λ.
     for k in range(m):
-        acc = free[k]
+        acc = scr[SCR_FREE, k]
         for jj in range(m):
-            acc -= mat[k, jj] * contacts[s0 + jj, C_LAMBDA]
-        free[k] = acc
-        rhs[k] = contacts[s0 + k, C_BIAS] - acc
-    active[:] = 0.0
-    lam[:] = 0.0
-    best[:] = 0.0
+            acc -= scr[SCR_K + k, jj] * contacts[s0 + jj, C_LAMBDA]
+        scr[SCR_FREE, k] = acc
+    if _idle(scr, contacts, s0, m):
+        return _apply_normals(scr, SCR_BEST, s0, m, contacts, vel, inv_mass, inv_inertia_w,
+                              a, b, dyn_b, wa, wb, wrench)
+    for k in range(m):
+        scr[SCR_RHS, k] = contacts[s0 + k, C_BIAS] - scr[SCR_FREE, k]
     if free_pair and not cached:
         for k in range(m):
-            for jj in range(m):
-                prow[Q_K + PATCH_POINTS * k + jj] = mat[k, jj]
-        for k in range(m):
-            active[k] = 1.0
-        pinv = np.empty((PATCH_POINTS, PATCH_POINTS))
-        _pinv_small(mat, active, m, pinv)
+            scr[SCR_ACTIVE, k] = 1.0
+        _pinv_small(scr, m)
         for k in range(m):
             for jj in range(m):
-                prow[Q_PINV + PATCH_POINTS * k + jj] = pinv[k, jj]
-        prow[Q_CACHED] = 1.0
+                patches[q, Q_K + PATCH_POINTS * k + jj] = scr[SCR_K + k, jj]
+                patches[q, Q_PINV + PATCH_POINTS * k + jj] = scr[SCR_PINV + k, jj]
+        patches[q, Q_CACHED] = 1.0
         cached = True
     if cached:
         # The full set from the kept pseudo-inverse; feasible means done.
@@ -860,13 +1198,13 @@ def _normal_block(prow, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn
         for k in range(m):
             acc = 0.0
             for jj in range(m):
-                acc += prow[Q_PINV + PATCH_POINTS * k + jj] * rhs[jj]
-            lam[k] = acc
+                acc += patches[q, Q_PINV + PATCH_POINTS * k + jj] * scr[SCR_RHS, jj]
+            scr[SCR_LAM, k] = acc
             if acc < 0.0:
                 feasible = False
         if feasible:
-            return _apply_normals(lam, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b,
-                                  dyn_b, wa, wb, wrench, mat)
+            return _apply_normals(scr, SCR_LAM, s0, m, contacts, vel, inv_mass,
+                                  inv_inertia_w, a, b, dyn_b, wa, wb, wrench)
     # Every active set in a fixed order; of the feasible ones (λ >= 0 on it, u_n >= bias off
     # it) the one with the least |λ| wins.  Where K is singular (coplanar points) several
     # are feasible with the same velocities; the least-norm one spreads the load evenly
@@ -881,24 +1219,26 @@ def _normal_block(prow, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn
     full = (1 << m) - 1
     for mask in range(full, -1, -1):
         for k in range(m):
-            active[k] = 1.0 if (mask >> k & 1) == 1 else 0.0
-        _solve_small(mat, rhs, active, m, lam)
+            scr[SCR_ACTIVE, k] = 1.0 if (mask >> k & 1) == 1 else 0.0
+        _solve_small(scr, m)
         ok = True
         norm = 0.0
         worst = 0.0
         for k in range(m):
-            if active[k] != 0.0:
-                norm += lam[k] * lam[k]
-                if lam[k] < 0.0:
+            lam = scr[SCR_LAM, k]
+            if scr[SCR_ACTIVE, k] != 0.0:
+                norm += lam * lam
+                if lam < 0.0:
                     ok = False
-                    worst = max(worst, -lam[k] * mat[k, k])
+                    worst = max(worst, -lam * scr[SCR_K + k, k])
             else:
-                u = free[k]
+                u = scr[SCR_FREE, k]
                 for jj in range(m):
-                    u += mat[k, jj] * lam[jj]
-                if u < contacts[s0 + k, C_BIAS] - 1e-9 * (abs(rhs[k]) + 1e-12):
+                    u += scr[SCR_K + k, jj] * scr[SCR_LAM, jj]
+                bias = contacts[s0 + k, C_BIAS]
+                if u < bias - 1e-9 * (abs(scr[SCR_RHS, k]) + 1e-12):
                     ok = False
-                    worst = max(worst, contacts[s0 + k, C_BIAS] - u)
+                    worst = max(worst, bias - u)
         if worst < smallest:
             smallest = worst
             closest = mask
@@ -910,36 +1250,37 @@ def _normal_block(prow, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn
     if chosen < 0:
         chosen = closest   # round-off left none feasible: the nearest one, clamped below
     for k in range(m):
-        active[k] = 1.0 if (chosen >> k & 1) == 1 else 0.0
-    _solve_small(mat, rhs, active, m, lam)
+        scr[SCR_ACTIVE, k] = 1.0 if (chosen >> k & 1) == 1 else 0.0
+    _solve_small(scr, m)
     for k in range(m):
-        best[k] = max(lam[k], 0.0)
-    return _apply_normals(best, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b,
-                          wa, wb, wrench, mat)
+        scr[SCR_BEST, k] = max(scr[SCR_LAM, k], 0.0)
+    return _apply_normals(scr, SCR_BEST, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b,
+                          dyn_b, wa, wb, wrench)
 
 
 @_jit
-def _apply_normals(best, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, wa, wb,
-                   wrench, mat):
-    """Apply the change from the points' normal impulses to ``best``; return the largest Δu."""
+def _apply_normals(scr, row, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, wa,
+                   wb, wrench):
+    """Apply the change to the normal impulses in ``scr[row]``; return the largest Δu."""
     change = 0.0
     for k in range(m):
-        c = contacts[s0 + k]
-        d = best[k] - c[C_LAMBDA]
+        c = s0 + k
+        d = scr[row, k] - contacts[c, C_LAMBDA]
         if d == 0.0:
             continue
-        c[C_LAMBDA] = best[k]
-        nx, ny, nz = c[C_NORMAL], c[C_NORMAL + 1], c[C_NORMAL + 2]
-        jx, jy, jz = d * nx, d * ny, d * nz
-        _apply(vel, inv_mass, inv_inertia_w, a, wa, c[C_RA], c[C_RA + 1], c[C_RA + 2],
-               jx, jy, jz, 0.0, 0.0, 0.0)
-        _record(wrench, a, 1.0, c[C_RA], c[C_RA + 1], c[C_RA + 2], jx, jy, jz, 0.0, 0.0, 0.0)
+        contacts[c, C_LAMBDA] = scr[row, k]
+        jx = d * contacts[c, C_NORMAL]
+        jy = d * contacts[c, C_NORMAL + 1]
+        jz = d * contacts[c, C_NORMAL + 2]
+        rax, ray, raz = contacts[c, C_RA], contacts[c, C_RA + 1], contacts[c, C_RA + 2]
+        _apply(vel, inv_mass, inv_inertia_w, a, wa, rax, ray, raz, jx, jy, jz, 0.0, 0.0, 0.0)
+        _record(wrench, a, 1.0, rax, ray, raz, jx, jy, jz, 0.0, 0.0, 0.0)
         if dyn_b:
-            _apply(vel, inv_mass, inv_inertia_w, b, -wb, c[C_RB], c[C_RB + 1], c[C_RB + 2],
-                   jx, jy, jz, 0.0, 0.0, 0.0)
-            _record(wrench, b, -1.0, c[C_RB], c[C_RB + 1], c[C_RB + 2], jx, jy, jz,
-                    0.0, 0.0, 0.0)
-        change = max(change, abs(d) * mat[k, k])
+            rbx, rby, rbz = contacts[c, C_RB], contacts[c, C_RB + 1], contacts[c, C_RB + 2]
+            _apply(vel, inv_mass, inv_inertia_w, b, -wb, rbx, rby, rbz, jx, jy, jz,
+                   0.0, 0.0, 0.0)
+            _record(wrench, b, -1.0, rbx, rby, rbz, jx, jy, jz, 0.0, 0.0, 0.0)
+        change = max(change, abs(d) * scr[SCR_K + k, k])
     return change
 
 
@@ -965,7 +1306,7 @@ def solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x,
     for _ in range(PATCH_ITERATIONS):
         change = 0.0
         # Normal impulses: the patch's small LCP solved exactly (see _normal_block).
-        change = _normal_block(patches[q], s0, m, contacts, vel, inv_mass, inv_inertia_w, a,
+        change = _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a,
                                b, dyn_b, wa, wb, wrench, scr)
         if per_point:
             if friction and mu > 0.0:
@@ -1038,7 +1379,7 @@ def _tangent_basis(nx, ny, nz):
     return tx, ty, tz, sx, sy, sz
 
 
-@_jit
+@_inl
 def _coulomb(k11, k12, k22, u1, u2, limit):
     """
     Return the friction impulse ``f`` (2-D) for the slip ``u0`` without friction.
@@ -1103,7 +1444,7 @@ def _coulomb(k11, k12, k22, u1, u2, limit):
     return f1 * limit / size, f2 * limit / size
 
 
-@_jit
+@_inl
 def _friction(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, x, wa, wb,
               wrench, total, cx, cy, cz, nx, ny, nz, s0, m, mu):
     """One friction update of patch ``q``: stick if the cone allows, else slide; return Δu."""
@@ -1199,11 +1540,10 @@ def _friction_points(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b, d
     patches amplifies.  Four points sticking also hold the twist, so no torsion term.
     """
     change = 0.0
-    for k in range(s0, s0 + m):
-        c = contacts[k]
-        nx, ny, nz = c[C_NORMAL], c[C_NORMAL + 1], c[C_NORMAL + 2]
-        rax, ray, raz = c[C_RA], c[C_RA + 1], c[C_RA + 2]
-        rbx, rby, rbz = c[C_RB], c[C_RB + 1], c[C_RB + 2]
+    for c in range(s0, s0 + m):
+        nx, ny, nz = contacts[c, C_NORMAL], contacts[c, C_NORMAL + 1], contacts[c, C_NORMAL + 2]
+        rax, ray, raz = contacts[c, C_RA], contacts[c, C_RA + 1], contacts[c, C_RA + 2]
+        rbx, rby, rbz = contacts[c, C_RB], contacts[c, C_RB + 1], contacts[c, C_RB + 2]
         ux, uy, uz = _point_velocity(vel, a, rax, ray, raz)
         if dyn_b:
             bx, by, bz = _point_velocity(vel, b, rbx, rby, rbz)
@@ -1213,23 +1553,25 @@ def _friction_points(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b, d
                                           raz, rbx, rby, rbz, t1x, t1y, t1z, t2x, t2y, t2z)
         if not k11 * k22 - k12 * k12 > 0.0:
             continue
-        fx, fy, fz = c[C_FRICTION], c[C_FRICTION + 1], c[C_FRICTION + 2]
+        fx = contacts[c, C_FRICTION]
+        fy = contacts[c, C_FRICTION + 1]
+        fz = contacts[c, C_FRICTION + 2]
         f1 = fx * t1x + fy * t1y + fz * t1z
         f2 = fx * t2x + fy * t2y + fz * t2z
         u1 = ux * t1x + uy * t1y + uz * t1z
         u2 = ux * t2x + uy * t2y + uz * t2z
         w1 = u1 - (k11 * f1 + k12 * f2)
         w2 = u2 - (k12 * f1 + k22 * f2)
-        n1, n2 = _coulomb(k11, k12, k22, w1, w2, mu * max(c[C_LAMBDA], 0.0))
+        n1, n2 = _coulomb(k11, k12, k22, w1, w2, mu * max(contacts[c, C_LAMBDA], 0.0))
         d1, d2 = n1 - f1, n2 - f2
         if d1 == 0.0 and d2 == 0.0:
             continue
         jx = d1 * t1x + d2 * t2x
         jy = d1 * t1y + d2 * t2y
         jz = d1 * t1z + d2 * t2z
-        c[C_FRICTION] = fx + jx
-        c[C_FRICTION + 1] = fy + jy
-        c[C_FRICTION + 2] = fz + jz
+        contacts[c, C_FRICTION] = fx + jx
+        contacts[c, C_FRICTION + 1] = fy + jy
+        contacts[c, C_FRICTION + 2] = fz + jz
         patches[q, Q_FT] += jx
         patches[q, Q_FT + 1] += jy
         patches[q, Q_FT + 2] += jz
@@ -1276,7 +1618,7 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
 
     Return whether patches share a body (then friction is per point, else per patch).
     """
-    scr = np.empty((PATCH_POINTS + 5, PATCH_POINTS))
+    scr = patch_scratch()
     # Patches that share no body are independent: each is solved to convergence by its own
     # iterations, so one sweep is exact and shock propagation has nothing to order.
     uses = np.zeros(n_bodies, dtype=np.int64)
@@ -1350,15 +1692,15 @@ def contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi,
     ``geo`` is the shape table tuple (see :func:`world_step`), ``ws`` the per-body work arrays.
     """
     (kinds, sparams, pts, pt_off, ppts, ppt_off, pt_radius, bound_r, grid_data, grid_off,
-     grid_dim, mu, eps) = geo
-    vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, touched = ws
+     grid_dim, mu, eps, balls, ball_off, cell_of) = geo
+    vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, touched, responses = ws
     n = x.shape[1]
     prepare_bodies(x, prm, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h)
     pairs = broad_phase(x, pos_c, bound_r, n, st_kind, st_params, st_lo, st_hi, MARGIN_M)
     contacts, patches = narrow_phase(
         pairs, n, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_inertia_w, st_rot, st_pos, kinds,
         sparams, pts, pt_off, ppts, ppt_off, pt_radius, grid_data, grid_off, grid_dim, mu, eps,
-        h, phase, stage)
+        h, phase, stage, responses, balls, ball_off, cell_of)
     if patches.shape[0] == 0:
         return contacts
     touched[:] = False
@@ -1368,6 +1710,7 @@ def contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi,
             touched[int(patches[q, Q_B])] = True
     if not solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n, x, wrench, shock):
         finish_contacts(contacts, patches)
+    keep_responses(responses, patches, contacts, n, inv_mass, inv_inertia_w)
     store_velocities(x, prm, vel, touched)
     return contacts
 
@@ -1408,7 +1751,7 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, w
     n = x.shape[1]
     shared = prm.shape[1] == 1
     saved = np.empty_like(x)
-    contacts = np.zeros((0, N_CONTACT))
+    c0 = c1 = c2 = np.zeros((0, N_CONTACT))
     done = 0
     for _ in range(n_steps):
         saved[:] = x
@@ -1453,7 +1796,6 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, w
                 kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
             c2 = contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi,
                                h, PHASE_CONTACT, 2, True, wrench, ws)
-            contacts = np.concatenate((c0, c1, c2))
         else:
             for i in range(n):
                 j = 0 if shared else i
@@ -1468,7 +1810,6 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, w
                 px, py, pz, qw, qx, qy, qz = kk.se_position(
                     method, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz)
                 kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
-            contacts = np.concatenate((c0, c1))
         _half_damping(x, prm, h)
         ok = True
         for i in range(n):
@@ -1485,4 +1826,5 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, w
     for i in range(n):
         for k in range(6):
             wrench[i, k] *= inv_h
-    return done, contacts
+    # The contacts of the last step (c2 is empty unless the method has a second stage).
+    return done, np.concatenate((c0, c1, c2))
