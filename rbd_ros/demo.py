@@ -106,8 +106,10 @@ def main(argv=None):
             raise RuntimeError(f'rigid_body_node exited with status {node.returncode}')
 
     try:
-        _wait(lambda: wrench.get_subscription_count() > 0 and pause.service_is_ready(), 120,
-              spin, 'rigid_body_node (discovery)')
+        # On a first start the node compiles the contact step first (about 2 minutes here,
+        # longer on a slower machine; it logs that it does): wait for it, not for DDS alone.
+        _wait(lambda: wrench.get_subscription_count() > 0 and pause.service_is_ready(), 900,
+              spin, 'rigid_body_node (discovery, after compiling on a first start)')
         future = pause.call_async(SetBool.Request(data=False))
         _wait(future.done, 30, spin, 'the ~/pause service')
         for t_ns, frame_id, force, torque, what in SCRIPT:
