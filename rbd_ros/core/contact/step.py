@@ -454,8 +454,8 @@ def _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off, g
     normal and friction impulses can grow without bound.  On a smooth surface a point's own
     normal passes the test only within ~8° of ``n̄`` (cos 8° ≈ 0.99).
     """
-    if count < 2 or _one_normal(buf, count):
-        return
+    if count < 2:
+        return  # (narrow_phase calls this only where the normals differ: see _one_normal)
     best_w = -1.0
     best = 0
     top = min(count, 16)
@@ -672,7 +672,7 @@ def narrow_phase(pairs, n_bodies, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_
         if count > 1 and not _one_normal(buf, count):
             _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off,
                                 grid_dim, pose_rc)
-        if count <= PATCH_POINTS:
+        if count <= PATCH_POINTS:  # all of them (as _reduce would say, without the call)
             m = count
             for k in range(m):
                 keep[k] = k
