@@ -367,7 +367,11 @@ def _one_way(sx, sy, pts, pt_off, balls, ball_off, cell_of, near, pt_radius, kin
     prm = sparams[sy]
     lipschitz = PHI_LIPSCHITZ_MESH if kind == ck.KIND_MESH else 1.0
     c0 = ball_off[sx]
-    for ci in range(c0, ball_off[sx + 1]):  # every cell's flag is set before it is read
+    # Every cell's flag is set before it is read.  A shape of one cell (a sphere's centre, a
+    # small capsule's axis) is simply tried: its test would cost what trying it costs.
+    near[0] = True
+    first = c0 + 1 if ball_off[sx + 1] - c0 == 1 else c0
+    for ci in range(first, ball_off[sx + 1]):
         wx, wy, wz = _mat_vec(rot_xc, ix, balls[ci, 0], balls[ci, 1], balls[ci, 2])
         lx, ly, lz = _mat_t_vec(rot_yc, iy, wx + pos_xc[ix, 0] - pos_yc[iy, 0],
                                 wy + pos_xc[ix, 1] - pos_yc[iy, 1],
