@@ -77,7 +77,7 @@ _NS_TOLERANCE = 1e-3
 
 #: ``real_time_factor`` is 0 (as fast as possible) or within these bounds: below 1e-3 a 1 ms step
 #: takes more than 1 s of wall time (a value such as 5e-324 freezes the node), above 1e6 the
-#: catch-up cap (1000 steps per tick) drops wall time at any step size.
+#: catch-up cap (a backlog of 1000 steps) drops wall time at any step size.
 REAL_TIME_FACTOR_RANGE = (1e-3, 1e6)
 #: The slowest publish rate, Hz: a publish period of at most 1e6 s (about 11.6 days).
 MIN_PUBLISH_RATE_HZ = 1e-6

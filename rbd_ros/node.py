@@ -23,8 +23,11 @@ Everything else lives in rclpy-free modules: :mod:`rbd_ros.config` (parameters),
 overrides in the ROS arguments). The wall clock only paces the fixed physics
 step: the sim time due is ``sim_anchor + (wall_now - wall_anchor) * real_time_factor`` against
 an absolute wall anchor (re-anchored on pause, reset and a change of the factor), so pacing
-error does not accumulate; at most :data:`MAX_STEPS_PER_TICK` steps run per tick, and a larger
-backlog is dropped (counted in ``/diagnostics`` as ``wall_time_dropped_s``). Timers run on a
+error does not accumulate. A tick steps for at most :data:`TICK_BUDGET_NS` of wall time and then
+returns to the spin loop, so a node behind the wall clock (a slow world, a high factor) still
+takes wrenches and service calls within about that time; the steps left due run in the next
+tick. A backlog of more than :data:`MAX_BACKLOG_STEPS` steps is dropped (counted in
+``/diagnostics`` as ``wall_time_dropped_s``). Timers run on a
 steady clock, so ``use_sim_time`` (which launch files set on every node) cannot freeze the
 node: its stamps are always its own sim time.
 """
@@ -68,8 +71,8 @@ from rclpy.signals import SignalHandlerOptions
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
 
-MAX_STEPS_PER_TICK = 1000  # the catch-up cap
-AS_FAST_BUDGET_NS = 10_000_000  # wall time per tick at real_time_factor 0 (then serve callbacks)
+MAX_BACKLOG_STEPS = 1000  # the catch-up cap: a longer backlog of due steps is dropped
+TICK_BUDGET_NS = 10_000_000  # wall time a tick may step for (then serve callbacks)
 _TYPES = {cfg.BOOL: ParameterType.PARAMETER_BOOL, cfg.INTEGER: ParameterType.PARAMETER_INTEGER,
           cfg.DOUBLE: ParameterType.PARAMETER_DOUBLE, cfg.STRING: ParameterType.PARAMETER_STRING,
           cfg.DOUBLE_ARRAY: ParameterType.PARAMETER_DOUBLE_ARRAY,
@@ -140,6 +143,7 @@ class RigidBodyNode(Node):
         self._rtf = config.real_time_factor
         self._dropped_ns = 0
         self._lag_max_ns = 0  # largest wall-minus-sim lag seen at a tick, since the last diag
+        self._step_wall_ns = 1_000_000  # wall time per step of the last run (1 ms until measured)
 
         self._recorder = None
         if config.world:
@@ -369,39 +373,52 @@ class RigidBodyNode(Node):
         return min(longest_s, max(0.0, (due_ns - time.monotonic_ns()) * 1e-9))
 
     def tick(self):
-        """Run the physics steps that are due by the wall clock (all the wall budget at RTF 0)."""
+        """Run the steps due by the wall clock (at RTF 0: steps) for at most the tick budget."""
         session = self.session
         if session.paused or self.done:
             return
+        deadline_ns = time.monotonic_ns() + TICK_BUDGET_NS
         if self._rtf == 0:
-            deadline = time.monotonic_ns() + AS_FAST_BUDGET_NS
-            while time.monotonic_ns() < deadline and not (self.done or session.paused):
-                self._run(MAX_STEPS_PER_TICK)
+            self._run(sys.maxsize, deadline_ns=deadline_ns)
             return
         elapsed_ns = time.monotonic_ns() - self._wall_anchor_ns
         target_ns = self._sim_anchor_ns + (
             elapsed_ns if self._rtf == 1.0 else int(elapsed_ns * self._rtf))
         self._lag_max_ns = max(self._lag_max_ns, target_ns - session.time_ns)
         due = (target_ns - session.time_ns) // session.timestep_ns
-        if due > MAX_STEPS_PER_TICK:  # too far behind: run the cap, drop the rest
-            self._dropped_ns += (due - MAX_STEPS_PER_TICK) * session.timestep_ns
-            self._sim_anchor_ns -= (due - MAX_STEPS_PER_TICK) * session.timestep_ns
+        if due > MAX_BACKLOG_STEPS:  # too far behind: keep the cap, drop the rest
+            self._dropped_ns += (due - MAX_BACKLOG_STEPS) * session.timestep_ns
+            self._sim_anchor_ns -= (due - MAX_BACKLOG_STEPS) * session.timestep_ns
             self.get_logger().warning('falling behind the wall clock: dropping wall time',
                                       throttle_duration_sec=5.0)
-            due = MAX_STEPS_PER_TICK
+            due = MAX_BACKLOG_STEPS
         if due > 0:
-            self._run(due)
+            self._run(due, deadline_ns=deadline_ns)
 
-    def _run(self, n_steps, manual=False):
+    def _run(self, n_steps, manual=False, deadline_ns=None):
+        """
+        Take ``n_steps`` (one when ``manual``), publishing the samples that fall due.
+
+        With ``deadline_ns`` (monotonic), stop once it has passed; each call into the session
+        asks for as many steps as the last call's wall time per step says still fit.
+        """
         while n_steps > 0 and not self.done:
+            ask = n_steps
+            if deadline_ns is not None:
+                start_ns = time.monotonic_ns()
+                if start_ns >= deadline_ns:
+                    return
+                ask = min(n_steps, max(1, (deadline_ns - start_ns) // self._step_wall_ns))
             try:
-                report = self.session.step() if manual else self.session.advance(n_steps)
+                report = self.session.step() if manual else self.session.advance(ask)
             except NonFiniteError as exc:
                 self._record_events(getattr(exc, 'events', ()))  # incl. the one that caused it
                 if self._recorder is not None:
                     self._failure = (self.session.time_ns, str(exc))
                 self.get_logger().error(f'{exc}; paused (call ~/reset)')
                 return
+            if deadline_ns is not None and report.steps:
+                self._step_wall_ns = max(1, (time.monotonic_ns() - start_ns) // report.steps)
             self._record_events(report.events)
             if report.sample_due:
                 self._publish_sample()

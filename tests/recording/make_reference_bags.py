@@ -25,8 +25,9 @@ Each bag is recorded by ``rigid_body_node`` started as a user starts it (``pytho
 rbd_ros.node``, which is what ``ros2 run rbd_ros rigid_body_node`` runs) with a
 ``msg_config/*.yaml`` file plus a few overrides (``record_path``, ``duration_s``,
 ``real_time_factor``); a test-side rclpy publisher sends the scripted wrenches through real DDS
-(own ``ROS_DOMAIN_ID``, localhost only).  The wrenches land on whatever physics step DDS
-delivers them at; the recording captures that step, so the replay stays bit-exact.  Existing
+(own ``ROS_DOMAIN_ID``, localhost only) on the node's sim time: each goes out once a sample at
+or past its time has arrived, and lands on whatever later step DDS delivers it at; the
+recording captures that step, so the replay stays bit-exact.  Existing
 bags are never replaced without ``--force``.  After writing, every bag is replayed and must
 match bit for bit.
 """
@@ -36,7 +37,6 @@ import os
 import pathlib
 import shutil
 import sys
-import time
 
 HERE = pathlib.Path(__file__).resolve().parent
 REPO = HERE.parents[1]
@@ -105,6 +105,7 @@ def _command_line(name, config_file, overrides):
 
 def record(name, workdir):
     """Record ``bags/<name>`` with the node and the scripted wrenches; return the bag path."""
+    from geometry_msgs.msg import PoseArray, PoseStamped
     import rclpy
     from rbd_ros import conversions
     from std_srvs.srv import SetBool
@@ -116,6 +117,7 @@ def record(name, workdir):
     rclpy.init()
     try:
         talker = rclpy.create_node(f'bag_maker_{os.getpid()}')
+        spin = lambda: rclpy.spin_once(talker, timeout_sec=0.01)  # noqa: E731
         pubs = {topic: talker.create_publisher(conversions.WrenchStamped, topic, 10)
                 for topic in topics}
         wait_until(lambda: all(p.get_subscription_count() > 0 for p in pubs.values())
@@ -123,16 +125,21 @@ def record(name, workdir):
         if overrides.get('start_paused'):
             # Sim time starts when the wrench publishers are connected: unpause now.
             pause = talker.create_client(SetBool, '/rigid_body_node/pause')
-            wait_until(lambda: pause.service_is_ready(), 60.0, what='~/pause',
-                       spin=lambda: rclpy.spin_once(talker, timeout_sec=0.05))
+            wait_until(lambda: pause.service_is_ready(), 60.0, what='~/pause', spin=spin)
             future = pause.call_async(SetBool.Request(data=False))
             rclpy.spin_until_future_complete(talker, future, timeout_sec=30.0)
             assert future.done() and future.result().success, 'could not unpause the node'
-        start = time.monotonic()
+        # The script runs on the node's sim time: each wrench goes out once a sample at or
+        # past its offset has arrived (a world publishes `poses`, a single body `pose`).
+        newest = [-1]
+
+        def on_sample(msg):
+            newest[0] = max(newest[0], conversions.time_from_msg(msg.header.stamp))
+        talker.create_subscription(PoseStamped, 'pose', on_sample, 10)
+        talker.create_subscription(PoseArray, 'poses', on_sample, 10)
         for offset, topic, frame_id, force, torque in sorted(script, key=lambda s: s[0]):
-            delay = start + offset - time.monotonic()
-            if delay > 0:
-                time.sleep(delay)  # the script's own schedule, not a discovery wait
+            wait_until(lambda: newest[0] >= round(offset * 1e9), 300.0,
+                       what=f'sim time {offset} s', spin=spin)
             pubs[topic].publish(conversions.wrench_to_msg(frame_id, force, torque))
         status = node.wait(120.0)
         talker.destroy_node()
