@@ -33,6 +33,9 @@ import pytest
 import yaml
 
 REPO = pathlib.Path(__file__).resolve().parents[1]
+#: How long a node's first start may take: compiling the contact step takes about 3 min on
+#: this machine, more under load (the demo waits as long).
+FIRST_START_S = 900.0
 if str(REPO) not in sys.path:  # the package is tested from its source tree
     sys.path.insert(0, str(REPO))
 

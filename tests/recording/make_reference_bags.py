@@ -43,7 +43,7 @@ REPO = HERE.parents[1]
 sys.path.insert(0, str(HERE.parent))  # tests/conftest.py: domain id, NodeProcess, wait_until
 sys.path.insert(0, str(REPO))
 
-from conftest import NodeProcess, wait_until  # noqa: E402
+from conftest import FIRST_START_S, NodeProcess, wait_until  # noqa: E402
 
 BAGS = REPO / 'bags'
 
@@ -121,7 +121,8 @@ def record(name, workdir):
         pubs = {topic: talker.create_publisher(conversions.WrenchStamped, topic, 10)
                 for topic in topics}
         wait_until(lambda: all(p.get_subscription_count() > 0 for p in pubs.values())
-                   or node.process.poll() is not None, 300.0, what='the node to subscribe')
+                   or node.process.poll() is not None, FIRST_START_S,
+                   what='the node to subscribe')
         if overrides.get('start_paused'):
             # Sim time starts when the wrench publishers are connected: unpause now.
             pause = talker.create_client(SetBool, '/rigid_body_node/pause')

@@ -26,7 +26,7 @@ time at which the node's recording says that wrench took effect.
 import glob
 import statistics
 
-from conftest import NodeProcess, wait_until
+from conftest import FIRST_START_S, NodeProcess, wait_until
 from geometry_msgs.msg import PoseStamped
 from mcap.reader import make_reader
 import pytest
@@ -80,7 +80,7 @@ def test_a_node_behind_the_wall_clock_takes_wrenches_within_its_tick_budget(
     sent_after = []
     try:
         wait_until(lambda: all(p.get_subscription_count() > 0 for p in pushes) and stamps,
-                   300.0, spin=spin, what='the world node (a first start may compile)')
+                   FIRST_START_S, spin=spin, what='the world node (a first start may compile)')
         for push in pushes:
             seen = len(stamps)
             wait_until(lambda: len(stamps) > seen, 60.0, spin=spin, what='a fresh sample')

@@ -22,7 +22,7 @@ force ``−m g`` (the ground holds its weight), no torque.
 
 import math
 
-from conftest import REPO, wait_until, write_params
+from conftest import FIRST_START_S, REPO, wait_until, write_params
 from geometry_msgs.msg import PointStamped, PoseStamped, WrenchStamped
 import numpy as np
 import pytest
@@ -54,7 +54,7 @@ def _subscribe(probe, msg_type, topic, store):
 
 def _connect_and_run(probe):
     """Wait for the paused node's endpoints (contact_wrench too), then un-pause it."""
-    probe.wait_connected(300.0)  # a first start may compile the contact step
+    probe.wait_connected(FIRST_START_S)  # a first start may compile the contact step
     probe.wait(lambda: probe.node.count_publishers('contact_wrench') >= 1, 60.0,
                'the contact_wrench publisher')
     assert probe.call('pause', SetBool.Request(data=False), timeout_s=120.0).success
@@ -122,7 +122,7 @@ def test_a_resting_box_feels_minus_m_g_and_no_torque(start_node, probe_for):
 def test_single_body_files_without_contact_have_todays_topics(start_node, probe_for):
     node = start_node({'start_paused': True}, namespace=True)
     probe = probe_for(node)
-    probe.wait_connected(300.0)  # a first start may compile the contact step
+    probe.wait_connected(FIRST_START_S)  # a first start may compile the contact step
     names = dict(probe.node.get_topic_names_and_types())
     ns = node.namespace
     assert f'{ns}/pose' in names and f'{ns}/contact_wrench' not in names
@@ -140,7 +140,7 @@ def test_a_relative_mesh_path_resolves_against_the_params_file(tmp_path, start_n
         'real_time_factor': 0.0})
     node = start_node(params_file=params, namespace=True)  # its cwd is tmp_path
     probe = probe_for(node)
-    probe.wait_connected(300.0)  # a first start may compile the contact step
+    probe.wait_connected(FIRST_START_S)  # a first start may compile the contact step
     assert probe.call('pause', SetBool.Request(data=False), timeout_s=120.0).success
     pose = probe.wait(lambda: probe.samples['pose'].get(300_000_000), 120.0, 'pose at 0.3 s')
     assert node.stop() == 0, node.stderr
@@ -206,7 +206,7 @@ def _run_config(start_node, probe_for, name, until_ns):
     node = start_node({'start_paused': True, 'real_time_factor': 0.0},
                       params_file=REPO / 'msg_config' / f'{name}.yaml', namespace=True)
     probe = probe_for(node)
-    probe.wait_connected(300.0)  # a first start may compile the contact step
+    probe.wait_connected(FIRST_START_S)  # a first start may compile the contact step
     assert probe.call('pause', SetBool.Request(data=False), timeout_s=120.0).success
     probe.wait(lambda: probe.samples['pose'].get(until_ns), 120.0, f'the pose at {until_ns} ns')
     probe.wait(lambda: probe.samples['twist'].get(until_ns), 120.0, f'the twist at {until_ns} ns')
@@ -268,7 +268,7 @@ def test_drag_and_clicks_move_the_box_and_the_bag_replays(tmp_path, start_node, 
     probe = probe_for(node)
     drag = probe.node.create_publisher(PointStamped, 'drag', 10)
     click = probe.node.create_publisher(PointStamped, '/clicked_point', 10)
-    probe.wait_connected(300.0)
+    probe.wait_connected(FIRST_START_S)
     probe.wait(lambda: drag.get_subscription_count() and click.get_subscription_count(), 60.0,
                'the drag subscriptions')
     k, g = 50.0, 9.81
@@ -312,7 +312,7 @@ def test_a_late_subscriber_gets_the_static_markers(start_node, probe_for):
     node = start_node({'start_paused': True},
                       params_file=REPO / 'msg_config' / 'l_block_bin.yaml', namespace=True)
     probe = probe_for(node)
-    probe.wait_connected(300.0)
+    probe.wait_connected(FIRST_START_S)
     probe.wait(lambda: probe.node.count_publishers('static_markers') >= 1, 60.0,
                'the static_markers publisher')
     # Subscribed after the node published them once: transient local delivers them anyway.

@@ -23,7 +23,7 @@ a ball launched at 1 m/s without spin ends rolling at ``5/7 v0``; a box pushed o
 bit; bad world files exit 2 naming the parameter.
 """
 
-from conftest import NodeProcess, REPO, wait_until
+from conftest import FIRST_START_S, NodeProcess, REPO, wait_until
 from geometry_msgs.msg import PoseArray, PoseStamped, TwistStamped
 import numpy as np
 import pytest
@@ -69,7 +69,7 @@ def world_run(module_tmp):
     pause = node.create_client(SetBool, f'{ns}/rigid_body_node/pause')
     try:
         wait_until(lambda: push.get_subscription_count() > 0 and pause.service_is_ready(),
-                   300.0, spin=spin, what='the world node (a first start may compile)')
+                   FIRST_START_S, spin=spin, what='the world node (a first start may compile)')
         future = pause.call_async(SetBool.Request(data=False))
         wait_until(future.done, 30.0, spin=spin, what='~/pause')
         for t_ns, force in ((500_000_000, 10.0), (1_000_000_000, 0.0)):

@@ -126,7 +126,8 @@ Q_MU = 4
 Q_FT = 5         # accumulated tangential friction impulse, world vector, 3
 Q_MT = 8         # accumulated torsional couple about the patch normal (N·m·s)
 Q_NORMAL = 9     # patch normal (unit, λ-weighted mean), 3
-Q_CACHED = 12    # 1.0 once Q_K and Q_PINV hold this stage's normal response (both bodies free)
+Q_CACHED = 12    # Q_K and Q_PINV hold this stage's normal response (both bodies free): 1.0
+#                  computed in this stage, 2.0 taken from the response cache (R_*), else 0.0
 Q_K = 13         # K_nn of the points, row-major PATCH_POINTS², fixed within a stage
 Q_PINV = 29      # its pseudo-inverse, the same layout
 N_PATCH = 45
@@ -188,19 +189,22 @@ def _set_rotation(out, i, qw, qx, qy, qz):
 
 
 @_jit
-def prepare_bodies(x, prm, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h):
+def prepare_bodies(x, prm, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h, same_pose):
     """
     Fill the per-body arrays a stage reads from the state ``x`` (velocities as stored there).
 
     ``vel`` (N, 6): ``v_w`` and ``ω_w``; ``inv_mass`` (N,); ``inv_inertia_w`` (N, 3, 3)
     ``R I_b⁻¹ Rᵀ``; ``rot`` (N, 3, 3) current ``R``; ``pos_c`` (N, 3) and ``rot_c`` the
     candidate pose after ``h`` at these velocities (exact rotation by ``h ω``).
+    ``same_pose``: ``rot`` and ``inv_inertia_w`` already hold this pose's values (the last
+    stage saw the same orientations and parameters), so they are kept.
     """
     shared = prm.shape[1] == 1
     for i in range(x.shape[1]):
         j = 0 if shared else i
         qw, qx, qy, qz = x[S_QUAT, i], x[S_QUAT + 1, i], x[S_QUAT + 2, i], x[S_QUAT + 3, i]
-        _set_rotation(rot, i, qw, qx, qy, qz)
+        if not same_pose:
+            _set_rotation(rot, i, qw, qx, qy, qz)
         wbx, wby, wbz = x[S_OMEGA, i], x[S_OMEGA + 1, i], x[S_OMEGA + 2, i]
         wx, wy, wz = _mat_vec(rot, i, wbx, wby, wbz)
         vel[i, 0] = x[S_VEL, i]
@@ -210,13 +214,15 @@ def prepare_bodies(x, prm, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h):
         vel[i, 4] = wy
         vel[i, 5] = wz
         inv_mass[i] = prm[P_INV_MASS, j]
-        for r in range(3):
-            for c in range(3):
-                acc = 0.0
-                for m in range(3):
-                    for n in range(3):
-                        acc += rot[i, r, m] * prm[P_INV_INERTIA + 3 * m + n, j] * rot[i, c, n]
-                inv_inertia_w[i, r, c] = acc
+        if not same_pose:
+            for r in range(3):
+                for c in range(3):
+                    acc = 0.0
+                    for m in range(3):
+                        for n in range(3):
+                            acc += (rot[i, r, m] * prm[P_INV_INERTIA + 3 * m + n, j]
+                                    * rot[i, c, n])
+                    inv_inertia_w[i, r, c] = acc
         for k in range(3):
             pos_c[i, k] = x[S_POS + k, i] + h * vel[i, k]
         dw, dx, dy, dz = kk._quat_exp_half(wbx, wby, wbz, h)
@@ -770,7 +776,7 @@ def _reuse_response(responses, patches, q, contacts, s0, m, a, b, inv_mass, inv_
     for k in range(PATCH_POINTS * PATCH_POINTS):
         patches[q, Q_K + k] = responses[a, R_K + k]
         patches[q, Q_PINV + k] = responses[a, R_PINV + k]
-    patches[q, Q_CACHED] = 1.0
+    patches[q, Q_CACHED] = 2.0
 
 
 @_jit
@@ -778,7 +784,7 @@ def keep_responses(responses, patches, contacts, n_bodies, inv_mass, inv_inertia
     """Store the K and K⁺ of every patch on a static object that computed them."""
     for q in range(patches.shape[0]):
         b = patches[q, Q_B]
-        if b < n_bodies or patches[q, Q_CACHED] == 0.0:
+        if b < n_bodies or patches[q, Q_CACHED] != 1.0:  # none, or taken from the cache
             continue
         a = int(patches[q, Q_A])
         s0 = int(patches[q, Q_START])
@@ -1122,6 +1128,21 @@ def _idle(scr, contacts, s0, m):
 
 
 @_inl
+def _normal_velocities(scr, contacts, vel, a, b, dyn_b, s0, m):
+    """Set ``scr``'s SCR_FREE row to the normal velocities ``u_n`` of the points s0 … s0+m-1."""
+    for k in range(m):
+        c = s0 + k
+        ux, uy, uz = _point_velocity(vel, a, contacts[c, C_RA], contacts[c, C_RA + 1],
+                                     contacts[c, C_RA + 2])
+        if dyn_b:
+            bx, by, bz = _point_velocity(vel, b, contacts[c, C_RB], contacts[c, C_RB + 1],
+                                         contacts[c, C_RB + 2])
+            ux, uy, uz = ux - bx, uy - by, uz - bz
+        scr[SCR_FREE, k] = (ux * contacts[c, C_NORMAL] + uy * contacts[c, C_NORMAL + 1]
+                            + uz * contacts[c, C_NORMAL + 2])
+
+
+@_inl
 def _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b,
                   wa, wb, wrench, scr):
     """
@@ -1134,18 +1155,10 @@ def _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, 
     """
     free_pair = wa == 1.0 and (not dyn_b or wb == 1.0)
     cached = free_pair and patches[q, Q_CACHED] != 0.0
+    _normal_velocities(scr, contacts, vel, a, b, dyn_b, s0, m)
     held = False
     for k in range(m):
-        c = s0 + k
-        ux, uy, uz = _point_velocity(vel, a, contacts[c, C_RA], contacts[c, C_RA + 1],
-                                     contacts[c, C_RA + 2])
-        if dyn_b:
-            bx, by, bz = _point_velocity(vel, b, contacts[c, C_RB], contacts[c, C_RB + 1],
-                                         contacts[c, C_RB + 2])
-            ux, uy, uz = ux - bx, uy - by, uz - bz
-        scr[SCR_FREE, k] = (ux * contacts[c, C_NORMAL] + uy * contacts[c, C_NORMAL + 1]
-                            + uz * contacts[c, C_NORMAL + 2])
-        held = held or contacts[c, C_LAMBDA] != 0.0
+        held = held or contacts[s0 + k, C_LAMBDA] != 0.0
         scr[SCR_ACTIVE, k] = 0.0
         scr[SCR_LAM, k] = 0.0
         scr[SCR_BEST, k] = 0.0
@@ -1288,7 +1301,7 @@ def _apply_normals(scr, row, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b
     return change
 
 
-@_jit
+@_inl
 def solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wa, wb,
                 wrench, friction, scr, per_point):
     """
@@ -1308,44 +1321,42 @@ def solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x,
     mu = patches[q, Q_MU]
     biggest = 0.0
     for _ in range(PATCH_ITERATIONS):
-        change = 0.0
-        # Normal impulses: the patch's small LCP solved exactly (see _normal_block).
-        change = _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a,
-                               b, dyn_b, wa, wb, wrench, scr)
+        # Normal impulses: the patch's small LCP solved exactly (see _normal_block), for the
+        # velocities as they are; another round is needed only if friction then changes them
+        # by more than the tolerance (solving again would give the same impulses).
+        biggest = max(biggest, _normal_block(patches, q, s0, m, contacts, vel, inv_mass,
+                                             inv_inertia_w, a, b, dyn_b, wa, wb, wrench, scr))
+        slip = 0.0
         if per_point:
             if friction and mu > 0.0:
-                change = max(change, _friction_points(q, patches, contacts, vel, inv_mass,
-                                                      inv_inertia_w, a, b, dyn_b, wa, wb,
-                                                      wrench, s0, m, mu))
-            biggest = max(biggest, change)
-            if change <= VELOCITY_TOL_M_S:
-                break
-            continue
-        # Friction of the patch at its normal-impulse centre.
-        total = 0.0
-        cx = cy = cz = 0.0
-        nbx = nby = nbz = 0.0
-        for k in range(s0, s0 + m):
-            lam = contacts[k, C_LAMBDA]
-            total += lam
-            cx += lam * contacts[k, C_POINT]
-            cy += lam * contacts[k, C_POINT + 1]
-            cz += lam * contacts[k, C_POINT + 2]
-            nbx += lam * contacts[k, C_NORMAL]
-            nby += lam * contacts[k, C_NORMAL + 1]
-            nbz += lam * contacts[k, C_NORMAL + 2]
-        nn = math.sqrt(nbx * nbx + nby * nby + nbz * nbz)
-        if friction and total > 0.0 and mu > 0.0 and nn > 0.0:
-            cx, cy, cz = cx / total, cy / total, cz / total
-            nbx, nby, nbz = nbx / nn, nby / nn, nbz / nn
-            patches[q, Q_NORMAL] = nbx
-            patches[q, Q_NORMAL + 1] = nby
-            patches[q, Q_NORMAL + 2] = nbz
-            change = max(change, _friction(q, patches, contacts, vel, inv_mass,
-                                           inv_inertia_w, a, b, dyn_b, x, wa, wb, wrench,
-                                           total, cx, cy, cz, nbx, nby, nbz, s0, m, mu))
-        biggest = max(biggest, change)
-        if change <= VELOCITY_TOL_M_S:
+                slip = _friction_points(q, patches, contacts, vel, inv_mass, inv_inertia_w, a,
+                                        b, dyn_b, wa, wb, wrench, s0, m, mu)
+        else:
+            # Friction of the patch at its normal-impulse centre.
+            total = 0.0
+            cx = cy = cz = 0.0
+            nbx = nby = nbz = 0.0
+            for k in range(s0, s0 + m):
+                lam = contacts[k, C_LAMBDA]
+                total += lam
+                cx += lam * contacts[k, C_POINT]
+                cy += lam * contacts[k, C_POINT + 1]
+                cz += lam * contacts[k, C_POINT + 2]
+                nbx += lam * contacts[k, C_NORMAL]
+                nby += lam * contacts[k, C_NORMAL + 1]
+                nbz += lam * contacts[k, C_NORMAL + 2]
+            nn = math.sqrt(nbx * nbx + nby * nby + nbz * nbz)
+            if friction and total > 0.0 and mu > 0.0 and nn > 0.0:
+                cx, cy, cz = cx / total, cy / total, cz / total
+                nbx, nby, nbz = nbx / nn, nby / nn, nbz / nn
+                patches[q, Q_NORMAL] = nbx
+                patches[q, Q_NORMAL + 1] = nby
+                patches[q, Q_NORMAL + 2] = nbz
+                slip = _friction(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b,
+                                 dyn_b, x, wa, wb, wrench, total, cx, cy, cz, nbx, nby, nbz,
+                                 s0, m, mu)
+        biggest = max(biggest, slip)
+        if slip <= VELOCITY_TOL_M_S:
             break
     return biggest
 
@@ -1635,9 +1646,19 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
         if b < n_bodies:
             uses[b] += 1
             coupled = coupled or uses[b] > 1
-    for _ in range(SWEEPS if coupled else 1):
+    for sweep in range(SWEEPS if coupled else 1):
         change = 0.0
         for q in range(patches.shape[0]):
+            if sweep == 0:
+                # No impulse is held yet: a patch none of whose points approaches faster than
+                # its target takes none, and neither friction (solve_patch would find so).
+                a = int(patches[q, Q_A])
+                b = int(patches[q, Q_B])
+                s0 = int(patches[q, Q_START])
+                m = int(patches[q, Q_COUNT])
+                _normal_velocities(scr, contacts, vel, a, b, b < n_bodies, s0, m)
+                if _idle(scr, contacts, s0, m):
+                    continue
             change = max(change, solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w,
                                              n_bodies, x, 1.0, 1.0, wrench, True, scr,
                                              coupled))
@@ -1689,17 +1710,18 @@ def finish_contacts(contacts, patches):
 
 @_jit
 def contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi, h, phase,
-                  stage, shock, wrench, ws):
+                  stage, shock, wrench, ws, same_pose):
     """
     One detection-and-impulse stage on the velocities stored in ``x``; return the contacts.
 
-    ``geo`` is the shape table tuple (see :func:`world_step`), ``ws`` the per-body work arrays.
+    ``geo`` is the shape table tuple (see :func:`world_step`), ``ws`` the per-body work arrays;
+    ``same_pose``: no orientation changed since the last stage (see :func:`prepare_bodies`).
     """
     (kinds, sparams, pts, pt_off, ppts, ppt_off, pt_radius, bound_r, grid_data, grid_off,
      grid_dim, mu, eps, balls, ball_off, cell_of) = geo
     vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, touched, responses = ws
     n = x.shape[1]
-    prepare_bodies(x, prm, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h)
+    prepare_bodies(x, prm, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h, same_pose)
     pairs = broad_phase(x, pos_c, bound_r, n, st_kind, st_params, st_lo, st_hi, MARGIN_M)
     contacts, patches = narrow_phase(
         pairs, n, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_inertia_w, st_rot, st_pos, kinds,
@@ -1757,6 +1779,7 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, w
     saved = np.empty_like(x)
     c0 = c1 = c2 = np.zeros((0, N_CONTACT))
     done = 0
+    same_pose = False  # the pose arrays in ws hold the current pose (see prepare_bodies)
     for _ in range(n_steps):
         saved[:] = x
         wrench[:] = 0.0
@@ -1764,7 +1787,7 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, w
         _half_damping(x, prm, h)
         # 1. Collisions with restitution on the current velocities.
         c0 = contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi, h,
-                           PHASE_COLLISION, 0, False, wrench, ws)
+                           PHASE_COLLISION, 0, False, wrench, ws, same_pose)
         if method == kk.MIDPOINT_CAYLEY:
             lmom = np.empty((n, 3))
             # 2. First half kick.
@@ -1779,7 +1802,7 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, w
                 lmom[i, 0], lmom[i, 1], lmom[i, 2] = lx, ly, lz
             # 3. Contacts on the kicked velocities.
             c1 = contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi,
-                               h, PHASE_CONTACT, 1, True, wrench, ws)
+                               h, PHASE_CONTACT, 1, True, wrench, ws, True)
             touched = ws[6]
             # 4. Drift; then the second half kick and its contact stage.
             for i in range(n):
@@ -1799,7 +1822,8 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, w
                     lx, ly, lz, wx, wy, wz)
                 kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
             c2 = contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi,
-                               h, PHASE_CONTACT, 2, True, wrench, ws)
+                               h, PHASE_CONTACT, 2, True, wrench, ws, False)
+            same_pose = True  # the next step's first stage sees this pose
         else:
             for i in range(n):
                 j = 0 if shared else i
@@ -1808,7 +1832,7 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, w
                     prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz)
                 kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
             c1 = contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi,
-                               h, PHASE_CONTACT, 1, True, wrench, ws)
+                               h, PHASE_CONTACT, 1, True, wrench, ws, True)
             for i in range(n):
                 px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = kk._read_state(x, i)
                 px, py, pz, qw, qx, qy, qz = kk.se_position(

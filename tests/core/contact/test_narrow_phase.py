@@ -65,7 +65,7 @@ def contacts(sim, x, geo, stage):
     vel, inv_mass, inv_inertia_w = np.zeros((n, 6)), np.zeros(n), np.zeros((n, 3, 3))
     rot, pos_c, rot_c = np.zeros((n, 3, 3)), np.zeros((n, 3)), np.zeros((n, 3, 3))
     h = 1e-3
-    cs.prepare_bodies(x, sim._params, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h)
+    cs.prepare_bodies(x, sim._params, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h, False)
     pairs = cs.broad_phase(x, pos_c, bound_r, n, st_kind, st_params, st_lo, st_hi,
                            cs.MARGIN_M)
     responses = np.full((n, cs.N_RESPONSE), -1.0)
