@@ -31,8 +31,7 @@ from geometry_msgs.msg import PoseStamped
 from mcap.reader import make_reader
 import pytest
 from rbd_ros import conversions
-import rclpy
-from rclpy.executors import SingleThreadedExecutor
+from ros_context import ros_fixture  # noqa: F401 - the fixture ros
 
 BODIES = 150
 TRIALS = 9
@@ -61,15 +60,11 @@ def world_params(record_path, real_time_factor):
 
 @pytest.mark.parametrize('real_time_factor', [0.0, 10.0])
 def test_a_node_behind_the_wall_clock_takes_wrenches_within_its_tick_budget(
-        tmp_path, real_time_factor):
+        tmp_path, ros, real_time_factor):
+    node, executor = ros
     record = tmp_path / 'behind'
     node_proc = NodeProcess(tmp_path, world_params(str(record), real_time_factor),
                             namespace=True)
-    context = rclpy.Context()
-    context.init()
-    node = rclpy.create_node('behind_talker', context=context)
-    executor = SingleThreadedExecutor(context=context)
-    executor.add_node(node)
     ns = node_proc.namespace
     spin = lambda: executor.spin_once(timeout_sec=0.02)  # noqa: E731
     stamps = []
@@ -92,9 +87,6 @@ def test_a_node_behind_the_wall_clock_takes_wrenches_within_its_tick_budget(
                    what='3000 more steps after the last wrench')
     finally:
         assert node_proc.stop() == 0, node_proc.stderr
-        executor.shutdown()
-        node.destroy_node()
-        context.try_shutdown()
     (bag,) = glob.glob(str(record / '*.mcap'))
     topics = [f'{ns}/b{k + 1}/wrench' for k in range(TRIALS)]
     applied = {}  # the sim time at which each wrench took effect, as recorded

@@ -12,7 +12,7 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The ``ros`` fixture of the node recording tests: a test-side rclpy node in its own context."""
+"""The ``ros`` fixture of the node tests: a test-side rclpy node in its own context."""
 
 import pytest
 import rclpy
