@@ -86,7 +86,8 @@ PUSH_MAX_M_S = 0.1
 #: Gauss–Seidel sweeps over all patches per stage, and the iterations of one patch.
 SWEEPS = 24
 PATCH_ITERATIONS = 64
-#: A sweep that changes no velocity by more than this (m/s) ends the stage early.
+#: A sweep that changes no velocity by more than this (m/s) ends the stage early; a patch's
+#: iterations end once its friction changes none by more.
 VELOCITY_TOL_M_S = 1e-13
 #: At most this many points per patch.
 PATCH_POINTS = 4
@@ -1144,7 +1145,7 @@ def _normal_velocities(scr, contacts, vel, a, b, dyn_b, s0, m):
 
 @_inl
 def _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b,
-                  wa, wb, wrench, scr):
+                  wa, wb, wrench, scr, free_known):
     """
     Set the normal impulses of one patch exactly; return the largest Δu (m/s).
 
@@ -1155,7 +1156,8 @@ def _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, 
     """
     free_pair = wa == 1.0 and (not dyn_b or wb == 1.0)
     cached = free_pair and patches[q, Q_CACHED] != 0.0
-    _normal_velocities(scr, contacts, vel, a, b, dyn_b, s0, m)
+    if not free_known:  # (else the caller has just set SCR_FREE for these velocities)
+        _normal_velocities(scr, contacts, vel, a, b, dyn_b, s0, m)
     held = False
     for k in range(m):
         held = held or contacts[s0 + k, C_LAMBDA] != 0.0
@@ -1303,7 +1305,7 @@ def _apply_normals(scr, row, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b
 
 @_inl
 def solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wa, wb,
-                wrench, friction, scr, per_point):
+                wrench, friction, scr, per_point, free_known):
     """
     Iterate the normal impulses and the friction of patch ``q``; return the largest Δu (m/s).
 
@@ -1311,7 +1313,8 @@ def solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x,
     a static object, or a lower level in shock propagation); the impulses are recorded in
     ``wrench`` (N, 6) for both bodies all the same.  ``per_point``: friction by
     :func:`_friction_points` (patches that share a body) instead of the patch's own
-    :func:`_friction`.
+    :func:`_friction`.  ``free_known``: ``scr``'s SCR_FREE row already holds the points'
+    normal velocities (:func:`_normal_velocities`) for ``vel`` as it is.
     """
     a = int(patches[q, Q_A])
     b = int(patches[q, Q_B])
@@ -1320,12 +1323,13 @@ def solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x,
     m = int(patches[q, Q_COUNT])
     mu = patches[q, Q_MU]
     biggest = 0.0
-    for _ in range(PATCH_ITERATIONS):
+    for it in range(PATCH_ITERATIONS):
         # Normal impulses: the patch's small LCP solved exactly (see _normal_block), for the
         # velocities as they are; another round is needed only if friction then changes them
         # by more than the tolerance (solving again would give the same impulses).
         biggest = max(biggest, _normal_block(patches, q, s0, m, contacts, vel, inv_mass,
-                                             inv_inertia_w, a, b, dyn_b, wa, wb, wrench, scr))
+                                             inv_inertia_w, a, b, dyn_b, wa, wb, wrench, scr,
+                                             free_known and it == 0))
         slip = 0.0
         if per_point:
             if friction and mu > 0.0:
@@ -1661,7 +1665,7 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
                     continue
             change = max(change, solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w,
                                              n_bodies, x, 1.0, 1.0, wrench, True, scr,
-                                             coupled))
+                                             coupled, sweep == 0))
         if change <= VELOCITY_TOL_M_S:
             break
     if not shock or not coupled:
@@ -1683,7 +1687,7 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
             elif level[b] < level[a]:
                 wb = 0.0
         solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wa, wb,
-                    wrench, True, scr, True)
+                    wrench, True, scr, True, False)
     return coupled
 
 
