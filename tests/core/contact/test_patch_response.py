@@ -86,7 +86,7 @@ def _inertia(rng):
 
 def _patch(rng, count, normal, spread_m, offset_m, body_b=False):
     """
-    A patch of ``count`` points of one normal, body A = 1 on body B = 0 or a static object.
+    Return a patch of ``count`` points of one normal: body A = 1 on body B = 0 or a static.
 
     Lever arms on a grid of 2⁻¹² m, so that B's (A's shifted by the COMs' offset) are exact
     in floating point and the exact K has rank 3, as it has mathematically.
