@@ -1060,8 +1060,9 @@ def _pinv_small(scr, m):
     indeterminate along one direction: the least-norm solution shares the load
     symmetrically instead of in an order-dependent way, and a nearly singular direction (a
     normal tilted by round-off) cannot produce a huge impulse.  A well-conditioned matrix is
-    inverted by Cholesky, one of rank one less (the flat patch) by :func:`_deflated_inverse`;
-    anything else by Jacobi eigen-decomposition.
+    inverted by Cholesky, one of rank one less (a flat patch :func:`_flat_response` did not
+    take, or a subset of one) by :func:`_deflated_inverse`; anything else by Jacobi
+    eigen-decomposition.
     """
     p = 0
     for k in range(m):
@@ -1132,9 +1133,9 @@ def _flat_response(patches, q, contacts, s0, m, inv_mass, inv_inertia_w, a, b, d
     block diagonal, and ``K⁺_kl = f_kᵀ C⁻¹ f_l`` with ``f_k = (1/n_p − ᾱ·e_k, e_k)``,
     ``e_k = S₂⁻¹ β_k``, ``S₂ = Σ β_k β_kᵀ`` (``n_p`` points).  The least-norm inverse of
     four points' rank-3 K (which the general route finds by cofactors and a shifted
-    Cholesky) from 2×2 and 3×3 inverses: ~100× closer to exact and several times faster,
-    which counts since a resting body's pose moves in its last bits and so misses the
-    response cache once a step.
+    Cholesky) from 2×2 and 3×3 inverses: ~100× closer to exact (test_patch_response), and
+    a miss of the response cache, which a resting body's pose makes once a step as it moves
+    in its last bits, costs ~0.1 µs instead of ~0.37 µs.
     """
     if m < 3:
         return False
