@@ -122,6 +122,7 @@ def _flat(contacts, count, inv_mass, inv_inertia_w, body_b=False):
 def test_flat_response_is_the_exact_pseudo_inverse(count, tilted, body_b):
     rng = np.random.default_rng(count + 10 * tilted + 100 * body_b)
     checked = 0
+    errors, general = [], []
     for _ in range(25):
         normal = np.array([0.0, 0.0, 1.0])
         if tilted:
@@ -151,10 +152,22 @@ def test_flat_response_is_the_exact_pseudo_inverse(count, tilted, body_b):
         # largest entry, against a median of 1-3e-13 and at most 0.8-1.5e-9 for the general
         # route of _pinv_small on the exact K.  5e-12 leaves a margin and still fails any
         # wrong term (those are O(1) relative).
-        assert (np.abs(pinv[:count, :count] - exact_pinv).max()
-                <= 5e-12 * np.abs(exact_pinv).max())
+        scale = np.abs(exact_pinv).max()
+        errors.append(np.abs(pinv[:count, :count] - exact_pinv).max() / scale)
+        assert errors[-1] <= 5e-12
         assert not pinv[count:].any() and not pinv[:, count:].any()
+        # The general route (_pinv_small) on the exact K rounded to floats, for comparison.
+        scr = step.patch_scratch()
+        scr[step.SCR_K:step.SCR_K + count, :count] = exact_k
+        scr[step.SCR_ACTIVE, :count] = 1.0
+        step._pinv_small(scr, count)
+        general.append(np.abs(scr[step.SCR_PINV:step.SCR_PINV + count, :count]
+                              - exact_pinv).max() / scale)
     assert checked >= 20  # (about 1 % of random triangles are slivers)
+    # What the README says: ~100× closer to exact than the general route (medians 1e-15
+    # against 1-3e-13 over 300 patches; 60-2000× apart in these eight cases); asserted
+    # with a margin: 10×.
+    assert np.median(errors) * 10.0 <= np.median(general)
 
 
 def test_flat_response_leaves_other_patches_to_the_general_route():
