@@ -152,9 +152,9 @@ def _body_model(bag: Bag) -> Tuple[Optional[BodyModel], float]:
     """Return the body model and the wrench timeout (s) of the stored configuration."""
     if bag.config is None:
         return None, 0.0
-    from rbd_ros.config import NodeConfig
+    from rbd_ros.replay import config_from_bag  # the stored config, its meshes attached
     try:
-        config = NodeConfig.from_parameters(bag.config)
+        config = config_from_bag(bag)
     except RbdError:
         return None, 0.0
     return config.model, config.wrench_timeout_ns / NS_PER_S

@@ -47,13 +47,23 @@ def test_there_are_reference_bags():
     assert len(BAGS) >= 3, BAGS
 
 
-def _decode(bag_dir):
-    """Return ``(config, {topic: [(log_time_ns, message), ...]})`` read with mcap_ros2."""
+def _decode(bag_dir, mesh_dir):
+    """
+    Return ``(config, {topic: [(log_time_ns, message), ...]})`` read with mcap_ros2.
+
+    A mesh the node attached is written to ``mesh_dir`` and the config points at it: the
+    recorded ``mesh_path`` is where the mesh was on the recording machine.
+    """
     (mcap_path,) = bag_dir.glob('*.mcap')
     with open(mcap_path, 'rb') as stream:
         reader = make_reader(stream, decoder_factories=[DecoderFactory()])
         record = next(m for m in reader.iter_metadata() if m.name == 'rbd_ros')
         config = yaml.safe_load(record.metadata['config_yaml'])
+        for attachment in reader.iter_attachments():
+            if attachment.name == config.get('mesh_path'):
+                copy = mesh_dir / Path(attachment.name).name
+                copy.write_bytes(attachment.data)
+                config['mesh_path'] = str(copy)
         messages = {}
         for _, channel, raw, msg in reader.iter_decoded_messages():
             if channel.topic != '/diagnostics':
@@ -84,9 +94,9 @@ def _held_value(x, y, t):
     raise AssertionError(f'the held line does not cover t = {t} s')
 
 
-def _expected(bag_dir):
+def _expected(bag_dir, mesh_dir):
     """Return the panels' expected curves, from the independently decoded bag."""
-    config, messages = _decode(bag_dir)
+    config, messages = _decode(bag_dir, mesh_dir)
     (odom,) = [rows for topic, rows in messages.items() if topic.endswith('odom')]
     t = np.array([stamp for stamp, _ in odom]) / 1e9
     p = np.array([[m.pose.pose.position.x, m.pose.pose.position.y, m.pose.pose.position.z]
@@ -161,9 +171,9 @@ def test_every_panel_shows_curves_or_says_why_not(drawn):
             assert panel['note'] and coloured == 0 and dark > 30, (panel['title'], dark)
 
 
-def test_the_curves_are_the_recorded_values(drawn):
+def test_the_curves_are_the_recorded_values(drawn, tmp_path):
     bag, _, panels = drawn
-    expected, wrenches, timeout_s, t_end = _expected(bag)
+    expected, wrenches, timeout_s, t_end = _expected(bag, tmp_path)
     for panel, want in zip(panels, expected):
         if want is None:
             continue
