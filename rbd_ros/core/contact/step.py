@@ -440,10 +440,16 @@ def _plane_points(sx, sy, ppts, ppt_off, pt_radius, sparams, rot_x, pos_x, rot_x
 
 
 @_inl
-def _one_normal(buf, count):
-    """Tell whether every row of ``buf[:count]`` has one normal (a face on a plane or a face)."""
-    for k in range(1, count):
-        if buf[k, 4] != buf[0, 4] or buf[k, 5] != buf[0, 5] or buf[k, 6] != buf[0, 6]:
+def _one_normal(rows, first, count, col):
+    """
+    Tell whether rows ``first … first+count-1`` have one normal (columns ``col … col+2``).
+
+    A face on a plane or a face: ``buf`` rows in the narrow phase, a patch's contact rows in
+    :func:`_flat_response`.
+    """
+    for k in range(first + 1, first + count):
+        if (rows[k, col] != rows[first, col] or rows[k, col + 1] != rows[first, col + 1]
+                or rows[k, col + 2] != rows[first, col + 2]):
             return False
     return True
 
@@ -682,7 +688,7 @@ def narrow_phase(pairs, n_bodies, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_
             count = _touching(buf, count, vel, x, a, b, n, h, v_rest)
         if count == 0:
             continue
-        if count > 1 and not _one_normal(buf, count):
+        if count > 1 and not _one_normal(buf, 0, count, 4):
             _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off,
                                 grid_dim, pose_rc)
         if count <= PATCH_POINTS:  # all of them (as _reduce would say, without the call)
@@ -1137,13 +1143,9 @@ def _flat_response(patches, q, contacts, s0, m, inv_mass, inv_inertia_w, a, b, d
     a miss of the response cache, which a resting body's pose makes once a step as it moves
     in its last bits, costs ~0.1 µs instead of ~0.37 µs.
     """
-    if m < 3:
+    if m < 3 or not _one_normal(contacts, s0, m, C_NORMAL):
         return False
     nx, ny, nz = contacts[s0, C_NORMAL], contacts[s0, C_NORMAL + 1], contacts[s0, C_NORMAL + 2]
-    for c in range(s0 + 1, s0 + m):
-        if (contacts[c, C_NORMAL] != nx or contacts[c, C_NORMAL + 1] != ny
-                or contacts[c, C_NORMAL + 2] != nz):
-            return False
     t1x, t1y, t1z, t2x, t2y, t2z = _tangent_basis(nx, ny, nz)
     nn = nx * nx + ny * ny + nz * nz
     # α_k (scr's SCR_A rows), their mean, and B's shift δ.
