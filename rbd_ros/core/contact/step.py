@@ -458,36 +458,75 @@ def _one_normal(rows, first, count, col):
 def _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off, grid_dim,
                         pose_rc):
     """
-    Give points on an edge or corner of the other shape their patch's normal.
+    Give points on an edge or corner of the other shape their patch's normal; return it.
 
     ∇φ is ambiguous where the shape it is taken of has an edge or a corner: a box placed
     exactly on another has its bottom edges on the lower box's top edges, where φ's gradient
-    may point sideways.  The patch normal ``n̄`` is the point normal (among the deepest 16)
-    with the largest depth-weighted support (normals within ~25°).  Any other point takes
-    ``n̄`` if ``n̄`` is also a normal of the surface there (in its normal cone): a step of
-    :data:`MARGIN_M` / 4 out of the other shape along ``n̄`` raises φ by the step (to 1 %).
-    A peg touching the side of a hole fails that test and keeps its own normal.  Small tilts
-    matter as much as large ones: two boxes of one width stacked have their side faces
-    flush, and a point on both edges gets a gradient tilted by anything up to 45° from the
-    round-off of its position; a tilt below atan μ makes the patch a self-locking wedge whose
-    normal and friction impulses can grow without bound.  On a smooth surface a point's own
-    normal passes the test only within ~8° of ``n̄`` (cos 8° ≈ 0.99).
+    may point sideways, and a corner a hair outside the lower box's footprint gets a gradient
+    tilted by anything up to 90° from the round-off of its position.
+
+    The patch normal ``n̄``: the candidates are the deepest point of each distinct normal, in
+    order of depth, up to 16 normals (where faces lie flush every point ties in φ to
+    round-off, so the deepest 16 points may all be edge points).  The candidate with the
+    largest depth-weighted support within ~25° (cos > 0.9) gives the patch's direction;
+    among the candidates in that cone, the one whose own normal has the largest support (to
+    ~1e-6 rad: one face seen from either shape) is ``n̄``: the face's normal, not a tilted
+    edge normal in the cone's middle, whose wide support also takes in the tilted normals on
+    its side.  A tilt matters however small: one below atan μ makes the patch a self-locking
+    wedge whose normal and friction impulses can grow without bound.
+
+    Any other point takes ``n̄`` if ``n̄`` is also a normal of the surface there (in its
+    normal cone): a step of :data:`MARGIN_M` / 4 out of the other shape along ``n̄`` raises
+    φ by the step (to 1 %; on a smooth surface that holds within ~8° of ``n̄``).  Its φ then
+    becomes its depth along ``n̄`` as the step measures it, ``φ(p + step n̄) − step``, where
+    that is deeper (by at most 1 % of the step): an upper box's corner on the lower box's
+    side plane has φ = the distance to that side, about 0, however deep it is below the top
+    face, so a sinking would show no depth to push out and the stack would creep down.  (A
+    point a distance e outside the other box's side reads ~e² / (2 step) less than the
+    face's depth: at most 1.3e-8 m where the cone test passes, a fixed offset, not a creep.)  A
+    peg touching the side of a hole fails the cone test and keeps its own normal and φ.
     """
-    if count < 2:
-        return  # (narrow_phase calls this only where the normals differ: see _one_normal)
-    best_w = -1.0
-    best = 0
-    top = min(count, 16)
     order = np.argsort(buf[:count, 0])
-    for ii in range(top):
+    cand = np.empty(16, dtype=np.int64)
+    n_cand = 0
+    for ii in range(count):
         i = order[ii]
+        fresh = True
+        for c in range(n_cand):
+            j = cand[c]
+            if buf[i, 4] == buf[j, 4] and buf[i, 5] == buf[j, 5] and buf[i, 6] == buf[j, 6]:
+                fresh = False
+                break
+        if fresh:
+            cand[n_cand] = i
+            n_cand += 1
+            if n_cand == 16:
+                break
+    wide = np.empty(16)
+    tight = np.empty(16)
+    best = 0
+    for c in range(n_cand):
+        i = cand[c]
         w = 0.0
+        t = 0.0
         for k in range(count):
-            if buf[k, 4] * buf[i, 4] + buf[k, 5] * buf[i, 5] + buf[k, 6] * buf[i, 6] > 0.9:
+            d = buf[k, 4] * buf[i, 4] + buf[k, 5] * buf[i, 5] + buf[k, 6] * buf[i, 6]
+            if d > 0.9:
                 w += MARGIN_M - buf[k, 0]
-        if w > best_w:
-            best_w = w
-            best = i
+                if d > 1.0 - 1e-12:
+                    t += MARGIN_M - buf[k, 0]
+        wide[c] = w
+        tight[c] = t
+        if w > wide[best]:
+            best = c
+    i = cand[best]
+    top = best
+    for c in range(n_cand):
+        j = cand[c]
+        if (tight[c] > tight[top] and buf[j, 4] * buf[i, 4] + buf[j, 5] * buf[i, 5]
+                + buf[j, 6] * buf[i, 6] > 0.9):
+            top = c
+    best = cand[top]
     sx, sy, sz = buf[best, 4], buf[best, 5], buf[best, 6]
     step = 0.25 * MARGIN_M
     for k in range(count):
@@ -506,11 +545,19 @@ def _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off, g
             buf[k, 4] = sx
             buf[k, 5] = sy
             buf[k, 6] = sz
+            # (buf's φ is phi0 less the point radius: shift it by the same difference.)
+            buf[k, 0] += min(0.0, (phi1 - step) - phi0)
+    return sx, sy, sz
 
 
 @_jit
-def _reduce(buf, count, keep):
-    """Choose up to PATCH_POINTS rows of ``buf[:count]`` spanning the patch; fill ``keep``."""
+def _reduce(buf, count, keep, nx, ny, nz):
+    """
+    Choose up to PATCH_POINTS rows of ``buf[:count]`` spanning the patch; fill ``keep``.
+
+    Areas are measured across the patch normal ``n`` (not a point's own normal, which may be
+    an edge's sideways one).
+    """
     if count <= PATCH_POINTS:
         for k in range(count):
             keep[k] = k
@@ -556,7 +603,6 @@ def _reduce(buf, count, keep):
     ex = buf[i1, 1] - buf[best, 1]
     ey = buf[i1, 2] - buf[best, 2]
     ez = buf[i1, 3] - buf[best, 3]
-    nx, ny, nz = buf[best, 4], buf[best, 5], buf[best, 6]
     span = math.sqrt(far)
     area = 0.0
     i2 = -1
@@ -688,15 +734,16 @@ def narrow_phase(pairs, n_bodies, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_
             count = _touching(buf, count, vel, x, a, b, n, h, v_rest)
         if count == 0:
             continue
+        pnx, pny, pnz = buf[0, 4], buf[0, 5], buf[0, 6]
         if count > 1 and not _one_normal(buf, 0, count, 4):
-            _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off,
-                                grid_dim, pose_rc)
+            pnx, pny, pnz = _consistent_normals(buf, count, a, b, kinds, sparams, grid_data,
+                                                grid_off, grid_dim, pose_rc)
         if count <= PATCH_POINTS:  # all of them (as _reduce would say, without the call)
             m = count
             for k in range(m):
                 keep[k] = k
         else:
-            m = _reduce(buf, count, keep)
+            m = _reduce(buf, count, keep, pnx, pny, pnz)
         if nq == patches.shape[0]:
             grown = np.empty((2 * nq, N_PATCH))
             grown[:nq] = patches

@@ -20,11 +20,16 @@ radius times φ's Lipschitz bound, is out of reach.  That must never lose a poin
 returns (and so every contact) must be bit for bit those of trying every point, which is what
 a cell of infinite radius does.  Checked on every pair kind (primitives, a mesh, a static
 mesh, the plane) in random close poses, shapes interpenetrating or just apart.
+
+And the depth a box shows where it rests on an equal box with their sides flush: its corners
+lie on the lower box's side planes, where φ is the distance to a side (about 0) whatever the
+depth below the top face; the patch must still show that depth along its normal.
 """
 
 import pathlib
 
 import numpy as np
+import pytest
 from rbd_ros.core import layout
 from rbd_ros.core.contact import (ground_plane, load_mesh, Material, obstacle,
                                   primitive_shape, StaticWorld)
@@ -111,3 +116,38 @@ def test_skipping_cells_keeps_every_contact_bit_for_bit():
         cells = balls[ball_off[s]:ball_off[s + 1]]
         if len(cells) > 1:
             assert cells[:, 3].max() < 0.75 * sim.bodies[s].shape.bounding_radius_m, s
+
+
+@pytest.mark.parametrize('shift_m', [0.0, 1e-9, -1e-9, 3e-8])
+def test_a_box_sunk_into_an_equal_box_shows_its_depth_at_every_point(shift_m):
+    # Two 0.2 m boxes, the upper sunk 1e-7 m into the lower and shifted sideways by less than
+    # that in x and y, so its bottom corners and edges lie a hair inside or outside the lower
+    # box's side planes.  The depth is read from the poses, not from the kernels.
+    side = 0.2
+    depth = 1e-7
+    box = primitive_shape('box', [side] * 3)
+    model = BodyModel(1.0, box.mass_properties(1.0).inertia_b)
+    bodies = [WorldBody(f'b{k}', model, box, Material(0.5, 0.0)) for k in range(2)]
+    states = [BodyState(position_w=(0.0, 0.0, 0.5 * side)),
+              BodyState(position_w=(shift_m, shift_m, 1.5 * side - depth))]
+    sim = WorldSimulator(bodies, states, StaticWorld(ground_plane()), timestep_ns=1_000_000)
+    x = sim.arrays[0].copy()
+    want = (x[layout.S_POS + 2, 0] + 0.5 * side) - (x[layout.S_POS + 2, 1] - 0.5 * side)
+    assert abs(want - depth) < 1e-15
+    for stage in (1, 2):
+        found, patches = contacts(sim, x, sim._geo, stage)
+        pair = found[(found[:, cs.C_A] == 0) & (found[:, cs.C_B] == 1)]
+        # The patch spans the face: four points (a three-point patch would tip the box).
+        assert len(pair) == cs.PATCH_POINTS
+        # Every point has the face's normal (the impulse on the lower box is along −z) to
+        # round-off: a sideways or tilted normal here is what tipped a flush column over.
+        np.testing.assert_allclose(pair[:, cs.C_NORMAL:cs.C_NORMAL + 3],
+                                   np.tile([0.0, 0.0, -1.0], (len(pair), 1)), rtol=0,
+                                   atol=1e-15)
+        # And the depth, read a step s = MARGIN_M / 4 out along the normal: a point a shift e
+        # outside the lower box's sides (in x and y) reads sqrt(2 e² + (s − depth)²) − s,
+        # less deep by ~e²/s (3.6e-12 m at e = 3e-8 m); plus the round-off of coordinates
+        # near 0.3 m (5.6e-17 m each; a few operations: 1e-15 m).  The old φ at a corner was
+        # the shift, 0 to 3e-8 m, which showed no depth to push out.
+        bound = 1.01 * shift_m ** 2 / (0.25 * cs.MARGIN_M) + 1e-15
+        np.testing.assert_allclose(pair[:, cs.C_PHI], -want, rtol=0, atol=bound)
