@@ -27,6 +27,8 @@ import shutil
 import subprocess
 import sys
 
+from conftest import FIRST_START_S
+
 REPO = Path(__file__).resolve().parents[1]
 PACKAGE_FILES = ('package.xml', 'setup.py', 'setup.cfg', 'resource', 'rbd_ros', 'msg_config')
 
@@ -64,7 +66,7 @@ def test_colcon_build_installs_a_runnable_rigid_body_node(tmp_path):
     run = subprocess.run(
         [str(executable), '--ros-args', '--params-file', str(installed_config),
          '-p', 'duration_s:=0.05', '-p', 'real_time_factor:=0.0'],
-        cwd=tmp_path, env=run_env, capture_output=True, text=True, timeout=300)
+        cwd=tmp_path, env=run_env, capture_output=True, text=True, timeout=FIRST_START_S)
     assert run.returncode == 0, run.stdout + run.stderr
     assert 'duration_s reached at t = 50000000 ns' in run.stderr
     # A world with a mesh: installed with its mesh, which its relative mesh_path finds; and a
@@ -76,5 +78,5 @@ def test_colcon_build_installs_a_runnable_rigid_body_node(tmp_path):
             [str(executable), '--ros-args', '--params-file', str(mesh_world),
              '-p', 'duration_s:=0.05', '-p', 'real_time_factor:=0.0', *extra],
             cwd=tmp_path, env=dict(run_env, AMENT_PREFIX_PATH=str(prefix)),
-            capture_output=True, text=True, timeout=300)
+            capture_output=True, text=True, timeout=FIRST_START_S)
         assert run.returncode == 0, run.stdout + run.stderr

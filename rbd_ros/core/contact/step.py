@@ -91,6 +91,13 @@ PATCH_ITERATIONS = 64
 #: A sweep that changes no velocity by more than this (m/s) ends the stage early; a patch's
 #: iterations end once its friction changes none by more.
 VELOCITY_TOL_M_S = 1e-13
+#: A point given its patch's normal takes its depth along it (see _consistent_normals) only
+#: where that is deeper than its φ by more than this (m).  Differences at round-off are left
+#: alone: they only reorder _reduce's near-ties, and a grid of boxes side by side, whose
+#: diagonal neighbours meet edge to edge as wedges balanced at round-off, started to move
+#: when they were taken (1000 boxes: 1e-8 J within 6 steps).  A flush stack can sink at most
+#: this far before its corners show the depth.
+FLUSH_DEPTH_MIN_M = 1e-12
 #: At most this many points per patch.
 PATCH_POINTS = 4
 #: Surface points are grouped in cells of this many, a cell skipped when its ball is out of
@@ -479,7 +486,8 @@ def _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off, g
     normal cone): a step of :data:`MARGIN_M` / 4 out of the other shape along ``n̄`` raises
     φ by the step (to 1 %; on a smooth surface that holds within ~8° of ``n̄``).  Its φ then
     becomes its depth along ``n̄`` as the step measures it, ``φ(p + step n̄) − step``, where
-    that is deeper (by at most 1 % of the step): an upper box's corner on the lower box's
+    that is deeper by more than :data:`FLUSH_DEPTH_MIN_M` (and by at most 1 % of the step,
+    which the cone test allows): an upper box's corner on the lower box's
     side plane has φ = the distance to that side, about 0, however deep it is below the top
     face, so a sinking would show no depth to push out and the stack would creep down.  (A
     point a distance e outside the other box's side reads ~e² / (2 step) less than the
@@ -546,7 +554,9 @@ def _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off, g
             buf[k, 5] = sy
             buf[k, 6] = sz
             # (buf's φ is phi0 less the point radius: shift it by the same difference.)
-            buf[k, 0] += min(0.0, (phi1 - step) - phi0)
+            deeper = (phi1 - step) - phi0
+            if deeper < -FLUSH_DEPTH_MIN_M:
+                buf[k, 0] += deeper
     return sx, sy, sz
 
 

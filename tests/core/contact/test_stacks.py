@@ -19,9 +19,9 @@ The scenes are the benchmark's (``tests/benchmarks/contact_refs.py``): boxes of 
 0.2 m, μ = 0.5, placed exactly touching; a pyramid box is centred over the 2 cm gap between
 the two below it.  The issue asks for 10 s (the benchmark prints those figures); 2 s here at
 h = 1 ms and 10 ms keeps the test pass short.  Measured figures are printed (``pytest -s``).
-Over 10 s (measured): the column's top drifts 2.4e-16 m and its deepest penetration is
-5.6e-17 m at both steps; the pyramid's top drifts 1.7e-13 / 2.2e-13 m (1 ms / 10 ms) with
-penetration 3.2e-16 / 3.2e-15 m.
+Over 10 s (measured, 1 ms / 10 ms): the column's top drifts 8.6e-12 / 8.2e-12 m and its
+deepest penetration is 9.8e-13 / 9.7e-13 m; the pyramid's top drifts 2.6e-12 m at 10 ms with
+penetration 9.5e-13 m (and 3.5e-12 m, 9.5e-13 m after 2 s at 1 ms).
 """
 
 from contact_scenes import body, ground, STEP_IDS, steps, STEPS_NS, world
@@ -33,8 +33,8 @@ from rbd_ros.core.state import BodyState
 SIDE_M = 0.2
 MU = 0.5
 GAP_M = 0.02
-#: Round-off bound on a resting stack's penetration over 2 s (see check_standing).
-ROUND_OFF_M = 1e-12
+#: Bound on a resting stack's penetration (see check_standing).
+PENETRATION_BOUND_M = 1e-11
 
 steps_ns = pytest.mark.parametrize('h_ns', STEPS_NS, ids=STEP_IDS)
 
@@ -139,13 +139,14 @@ def check_standing(name, figures):
     assert figures['top_drift_m'] <= 1e-6
     assert figures['max_drift_m'] <= 1e-6
     assert figures['ke_max_j'] <= 1e-10
-    # No growing penetration (issue 9): the boxes start exactly touching, so any depth is
-    # round-off.  A position up to 2 m carries 2.2e-16 m per rounding; two roundings a step
-    # over 2000 steps, all of one sign, would reach ~1e-12 m (measured: <= 3e-15 m).  A stack
-    # whose corner points showed no depth where the boxes' sides are flush crept 5e-11 m in
-    # 2 s (the pyramid at 1 ms before the corners took their depth along the patch normal).
-    assert figures['penetration_early_m'] <= ROUND_OFF_M
-    assert figures['penetration_end_m'] <= ROUND_OFF_M
+    # No growing penetration (issue 9): the boxes start exactly touching.  A corner on the
+    # lower box's side plane takes its depth below the top face once that exceeds
+    # FLUSH_DEPTH_MIN_M = 1e-12 m, and a depth is pushed out at 20 % a step, so an interface
+    # settles within ~1e-12 m (measured: 9.8e-13 m over 10 s); 10× that allows round-off on
+    # positions up to 2 m.  Before the corners took their depth, the 1 ms pyramid crept 5e-11
+    # m in 2 s and the 1 ms column went non-finite at 8.4 s.
+    assert figures['penetration_early_m'] <= PENETRATION_BOUND_M
+    assert figures['penetration_end_m'] <= PENETRATION_BOUND_M
     # Standing means not turning either: 1e-6 rad over the 0.2 m side moves a corner 0.2 µm.
     assert figures['tilt_rad'] <= 1e-6
 
