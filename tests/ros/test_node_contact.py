@@ -282,8 +282,11 @@ def test_drag_and_clicks_move_the_box_and_the_bag_replays(tmp_path, start_node, 
         publisher.publish(msg)
         sent[0] += 1
         # The node counts what it received (/diagnostics, ~1 Hz): wait for it under any load.
-        probe.diagnostic_values(lambda v: int(v['drags_received']) >= sent[0], 60.0)
-        start = max(probe.samples['pose'])
+        values = probe.diagnostic_values(lambda v: int(v['drags_received']) >= sent[0], 60.0)
+        # The point acts from the diagnostics' sim time on (it is applied at the next step
+        # start). Not the newest pose we hold: under load our pose backlog can lag the node
+        # by more than `seconds`, and a pose from before the point arrived would be read.
+        start = round(float(values['sim_time_s']) * 1e9)
         end = probe.wait(lambda: max(probe.samples['pose']) >= start + seconds * 1e9 and
                          max(probe.samples['pose']), 60.0, f'{seconds} s of sim time')
         return np.array(conversions.vector_from_msg(probe.samples['pose'][end].pose.position))
