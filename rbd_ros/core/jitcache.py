@@ -28,8 +28,6 @@ installed sources, is never used.
 anything (numba picks the cache location when a function is decorated).
 """
 
-import glob
-import hashlib
 import logging
 import os
 import stat
@@ -111,34 +109,26 @@ def kernels_on_disk(contact=False):
     """
     Return True when the step kernel is in the on-disk cache, so a start will not compile.
 
-    Looks for numba's index file of :func:`rbd_ros.core.kernels.advance` (the kernel the
-    simulator steps with; the helpers are inlined into it), ``kernels.advance-<line>.py<ver>.nbi``
-    in numba's cache folder for this source directory, no older than ``kernels.py`` (numba
-    recompiles when the source is newer); with ``contact``, also that of the contact step
-    :func:`rbd_ros.core.contact.step.world_step`. A guess from file names and times, not
-    numba's own check: at worst a start says it is compiling when it only loads, or the other
-    way round.
+    Asks numba's own cache of :func:`rbd_ros.core.kernels.advance` (the kernel the simulator
+    steps with; the helpers are inlined into it), and with ``contact`` also that of the contact
+    step :func:`rbd_ros.core.contact.step.world_step`, whether its index file holds entries for
+    the source as it is now: numba's own test (its version and the source's modification time
+    and size, stored in the index), not a guess from file times, which a checkout or a copy
+    that keeps modification times can fool. Reads the index only; compiles nothing.
     """
     from rbd_ros.core import kernels
     if CACHE_DIR is None:
         return False
-    found = _indexed(kernels.__file__, 'kernels.advance')
+    found = _indexed(kernels.advance)
     if contact:
         from rbd_ros.core.contact import step
-        found = found and _indexed(step.__file__, 'step.world_step')
+        found = found and _indexed(step.world_step)
     return found
 
 
-def _indexed(source_file, function):
-    """Tell whether numba's cache holds an index of ``function`` newer than its source."""
-    source = os.path.abspath(source_file)
-    source_dir = os.path.dirname(source)  # numba's folder for it: <dir name>_<sha1 of its path>
-    folder = os.path.join(CACHE_DIR, os.path.basename(source_dir) + '_'
-                          + hashlib.sha1(source_dir.encode()).hexdigest())
-    pattern = f'{function}-*.py{sys.version_info[0]}{sys.version_info[1]}.nbi'
+def _indexed(dispatcher):
+    """Tell whether numba's on-disk index of ``dispatcher`` has entries for today's source."""
     try:
-        source_mtime = os.stat(source).st_mtime
-        return any(os.stat(index).st_mtime >= source_mtime
-                   for index in glob.glob(os.path.join(glob.escape(folder), pattern)))
-    except OSError:
+        return bool(dispatcher._cache._cache_file._load_index())
+    except Exception:  # a numba without these internals, or an index it cannot read
         return False
