@@ -21,6 +21,7 @@ set`` = ``set_parameters``; ``ros2 topic echo --once`` = a subscription whose du
 transient local when every publisher offers it, taking the first sample.
 """
 
+import re
 import signal
 import subprocess
 import sys
@@ -173,6 +174,10 @@ BAD_ARGS = [  # (--ros-args, or a params dict; what the one line must contain)
 ]
 
 
+COMPILE_LOG = re.compile(r'^\[INFO\] \[[0-9.]+\] \[rigid_body_node\]: '
+                         r'(compiling the physics kernels \(|physics kernels compiled in )')
+
+
 @pytest.mark.parametrize('args, texts', BAD_ARGS, ids=[str(i) for i in range(len(BAD_ARGS))])
 def test_bad_arguments_give_one_line_and_exit_2(start_node, tmp_path, args, texts):
     # Item 10 (and 12, 17): one line on stderr, exit 2, no traceback, whoever refuses it.
@@ -180,8 +185,11 @@ def test_bad_arguments_give_one_line_and_exit_2(start_node, tmp_path, args, text
         node = start_node(extra_args=args(tmp_path))
     else:
         node = start_node(args)
-    assert node.wait(60) == 2, node.stderr
-    lines = [line for line in node.stderr.splitlines() if line.strip()]
+    assert node.wait(300) == 2, node.stderr  # time for a compile on a cold cache
+    # A start that reaches the first step logs its compile when numba's cache lacks the kernels
+    # (a cold cache, or this file run alone): progress, not part of the refusal.
+    lines = [line for line in node.stderr.splitlines()
+             if line.strip() and not COMPILE_LOG.search(line)]
     assert len(lines) == 1, lines
     assert lines[0].startswith('rigid_body_node: '), lines
     for text in texts:
