@@ -20,7 +20,8 @@ node's published (and recorded) values: a box launched at 2 m/s stops after ``v0
 a ball launched at 1 m/s without spin ends rolling at ``5/7 v0``; a box pushed on its own
 ``<body>/wrench`` with 10 N from t_on to t_off stops after ``a T²/2 + (a T)²/(2 μ g)``,
 ``a = F/m − μ g``. Per-body topics agree with ``poses`` and ``/tf``; the bag replays bit for
-bit; bad world files exit 2 naming the parameter.
+bit; bad world files exit 2 naming the parameter. And ``msg_config/stack.yaml`` at rest: each
+box of the column reads its own weight on ``contact_wrench``.
 """
 
 from conftest import FIRST_START_S, NodeProcess, REPO, wait_until
@@ -140,6 +141,34 @@ def test_a_box_at_rest_in_the_world_feels_minus_m_g(world_run):
                        conversions.WrenchStamped)[END_NS].wrench
     force = np.array([wrench.force.x, wrench.force.y, wrench.force.z])
     np.testing.assert_allclose(force, [0.0, 0.0, G], rtol=0, atol=1e-9)  # round-off
+
+
+def test_each_box_of_a_resting_column_feels_its_own_weight(tmp_path):
+    # msg_config/stack.yaml unpushed: three 1 kg boxes stacked exactly, read back from the
+    # node's own recording. Each box's net contact force is its weight, m g up (2 m g from
+    # below, m g from the box above), and no torque about its COM (the stack is symmetric).
+    # A solver that stops short of converging and leaves shock propagation to finish records
+    # the lower boxes' reactions short (the 10-box column read 3.5 N for 9.81 N).
+    node_proc = NodeProcess(tmp_path, {
+        'start_paused': False, 'real_time_factor': 100.0, 'duration_s': 1.0,
+        'record_path': str(tmp_path / 'column')},
+        params_file=REPO / 'msg_config' / 'stack.yaml', namespace=True)
+    try:
+        assert node_proc.wait(FIRST_START_S) == 0, node_proc.stderr
+    finally:
+        node_proc.stop()
+    ns, bag = node_proc.namespace, open_bag(str(tmp_path / 'column'))
+    for body in ('bottom', 'middle', 'top'):
+        wrenches = _messages(bag, f'{ns}/{body}/contact_wrench', conversions.WrenchStamped)
+        assert max(wrenches) == 1_000_000_000
+        for t_ns in sorted(wrenches)[-10:]:  # the last 0.1 s
+            w = wrenches[t_ns].wrench
+            # The sweeps' convergence tolerance (1e-12 m/s) over h = 1 ms is ~1e-9 N of a
+            # 9.81 N reaction; 1e-6 N leaves room for round-off in the 3-high stack.
+            np.testing.assert_allclose([w.force.x, w.force.y, w.force.z], [0.0, 0.0, G],
+                                       rtol=0, atol=1e-6, err_msg=f'{body} at {t_ns} ns')
+            np.testing.assert_allclose([w.torque.x, w.torque.y, w.torque.z], [0.0] * 3,
+                                       rtol=0, atol=1e-6, err_msg=f'{body} at {t_ns} ns')
 
 
 def test_the_world_bag_replays_bit_for_bit(world_run):

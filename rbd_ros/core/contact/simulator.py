@@ -286,7 +286,8 @@ class WorldSimulator(BatchSimulator):
         self._wrench = np.zeros((n, 6))
         self._ws = (np.zeros((n, 6)), np.zeros(n), np.zeros((n, 3, 3)), np.zeros((n, 3, 3)),
                     np.zeros((n, 3)), np.zeros((n, 3, 3)), np.zeros(n, dtype=np.bool_),
-                    np.full((n, cs.N_RESPONSE), -1.0))
+                    np.full((n, cs.N_RESPONSE), -1.0),
+                    np.zeros((3, n, cs.W_SLOTS, cs.W_FIELDS)), np.zeros((3, n), dtype=np.int64))
         self._contacts = np.zeros((0, cs.N_CONTACT))
 
     @property
@@ -309,6 +310,7 @@ class WorldSimulator(BatchSimulator):
         super().reset(states)
         if hasattr(self, '_wrench'):
             self._wrench[:] = 0.0
+            self._ws[-1][:] = 0  # no warm start from before the reset
             self._contacts = np.zeros((0, cs.N_CONTACT))
 
     def step(self, n: int = 1) -> None:
