@@ -129,11 +129,9 @@ def _contact_points(shape):
         return points, points[:8], 0.0
     if shape.kind == ck.KIND_MESH:
         return points, shape.vertices_b, 0.0
-    if shape.kind == ck.KIND_CYLINDER:
-        r, hl = shape.params[0], shape.params[1]
-        rim = (np.isclose(np.abs(points[:, 2]), hl, rtol=0.0, atol=1e-12 * max(r, hl))
-               & np.isclose(np.hypot(points[:, 0], points[:, 1]), r, rtol=1e-12, atol=0.0))
-        return points, points[rim], 0.0
+    if shape.kind in (ck.KIND_CYLINDER, ck.KIND_ELLIPSOID):
+        # Its lowest points against a plane are in closed form (cs._plane_points).
+        return points, points[:0], 0.0
     return points, points, 0.0
 
 

@@ -447,15 +447,38 @@ def _one_way(sx, sy, pts, pt_off, balls, ball_off, cell_of, near, pt_radius, kin
     return count
 
 
+#: A cylinder tilted less than this (rad) from a plane's normal rests on the points of its rim
+#: at fixed angles in its frame (the lowest point's direction is round-off there).
+RIM_UPRIGHT_RAD = 1e-9
+
+
 @_inl
-def _plane_points(sx, sy, ppts, ppt_off, pt_radius, sparams, rot_x, pos_x, rot_xc, pos_xc,
-                  ix, rot_yc, pos_yc, iy, margin, buf):
+def _rim_angle(nx, ny):
+    """Return the angle in a cylinder's frame of its rim's lowest point for the normal ``n``."""
+    if nx * nx + ny * ny <= RIM_UPRIGHT_RAD * RIM_UPRIGHT_RAD:
+        return 0.0
+    return math.atan2(-ny, -nx)
+
+
+@_inl
+def _support_ellipsoid(sparams, s, nx, ny, nz):
+    """Return the point of ellipsoid ``s`` lowest along the unit normal ``n`` (its frame)."""
+    ax, ay, az = sparams[s, 0] * nx, sparams[s, 1] * ny, sparams[s, 2] * nz
+    size = math.sqrt(ax * ax + ay * ay + az * az)
+    return -sparams[s, 0] * ax / size, -sparams[s, 1] * ay / size, -sparams[s, 2] * az / size
+
+
+@_inl
+def _plane_points(sx, sy, kinds, ppts, ppt_off, pt_radius, sparams, rot_x, pos_x, rot_xc,
+                  pos_xc, ix, rot_yc, pos_yc, iy, margin, buf):
     """
     Fill ``buf`` with the points of shape ``sx`` near the plane ``sy`` as :func:`_one_way`.
 
     A plane's φ is linear: ``φ(b) = n_x · b + offset`` for a point ``b`` in x's frame, with
     the plane normal ``n_x`` in x's candidate frame (3 products a point instead of a pose
-    change).  Only the points that can be lowest (``ppts``) are tried.  Return the count.
+    change).  Only the points that can be lowest (``ppts``) are tried; a cylinder's and an
+    ellipsoid's are in closed form instead (a cylinder's sampled rims made it roll as a
+    polygon: down 20° for 1 s it fell 10 % short at 1 ms, 18 % at 10 ms).  Return the count.
     """
     radius = pt_radius[sx]
     gwx, gwy, gwz = _mat_vec(rot_yc, iy, sparams[sy, 0], sparams[sy, 1], sparams[sy, 2])
@@ -463,6 +486,47 @@ def _plane_points(sx, sy, ppts, ppt_off, pt_radius, sparams, rot_x, pos_x, rot_x
     offset = (gwx * (pos_xc[ix, 0] - pos_yc[iy, 0]) + gwy * (pos_xc[ix, 1] - pos_yc[iy, 1])
               + gwz * (pos_xc[ix, 2] - pos_yc[iy, 2]) - sparams[sy, 3] - radius)
     count = 0
+    if kinds[sx] == ck.KIND_CYLINDER:
+        # Each rim circle's lowest point in closed form, and the points a quarter, a half and
+        # three quarters round from it (a cylinder on its cap rests on those four).  φ comes
+        # from the candidate pose; the impulse acts where the same point is now (its angle
+        # from the current normal): a rolling cylinder turns h ω a step, and the candidate's
+        # lowest material point, ahead of the contact line now, would brake it.
+        qnx, qny, qnz = _mat_t_vec(rot_x, ix, gwx, gwy, gwz)
+        r, hl = sparams[sx, 0], sparams[sx, 1]
+        cand = _rim_angle(pnx, pny)
+        now = _rim_angle(qnx, qny)
+        for side in (-1.0, 1.0):
+            for quarter in range(4):
+                turn = 0.5 * math.pi * quarter
+                bx, by, bz = r * math.cos(cand + turn), r * math.sin(cand + turn), side * hl
+                phi = pnx * bx + pny * by + pnz * bz + offset
+                if not phi < margin:
+                    continue
+                wx, wy, wz = _mat_vec(rot_xc, ix, bx, by, bz)
+                lx, ly, lz = _mat_t_vec(rot_yc, iy, wx + pos_xc[ix, 0] - pos_yc[iy, 0],
+                                        wy + pos_xc[ix, 1] - pos_yc[iy, 1],
+                                        wz + pos_xc[ix, 2] - pos_yc[iy, 2])
+                rx, ry, rz = _mat_vec(rot_x, ix, r * math.cos(now + turn),
+                                      r * math.sin(now + turn), bz)
+                count = _push_point(buf, count, phi, rx, ry, rz, pos_x, ix, gwx, gwy, gwz,
+                                    lx, ly, lz, 1.0)
+        return count
+    if kinds[sx] == ck.KIND_ELLIPSOID:
+        # The support point −A² n / |A n| (A = diag of the semi-axes), as for the cylinder.
+        bx, by, bz = _support_ellipsoid(sparams, sx, pnx, pny, pnz)
+        phi = pnx * bx + pny * by + pnz * bz + offset
+        if phi < margin:
+            qnx, qny, qnz = _mat_t_vec(rot_x, ix, gwx, gwy, gwz)
+            wx, wy, wz = _mat_vec(rot_xc, ix, bx, by, bz)
+            lx, ly, lz = _mat_t_vec(rot_yc, iy, wx + pos_xc[ix, 0] - pos_yc[iy, 0],
+                                    wy + pos_xc[ix, 1] - pos_yc[iy, 1],
+                                    wz + pos_xc[ix, 2] - pos_yc[iy, 2])
+            bx, by, bz = _support_ellipsoid(sparams, sx, qnx, qny, qnz)
+            rx, ry, rz = _mat_vec(rot_x, ix, bx, by, bz)
+            count = _push_point(buf, count, phi, rx, ry, rz, pos_x, ix, gwx, gwy, gwz,
+                                lx, ly, lz, 1.0)
+        return count
     for n in range(ppt_off[sx], ppt_off[sx + 1]):
         bx, by, bz = ppts[n, 0], ppts[n, 1], ppts[n, 2]
         phi = pnx * bx + pny * by + pnz * bz + offset
@@ -755,8 +819,9 @@ def narrow_phase(pairs, n_bodies, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_
         a = pairs[q, 0]
         b = pairs[q, 1]
         if kinds[b] == ck.KIND_PLANE:
-            count = _plane_points(a, b, ppts, ppt_off, pt_radius, sparams, pose_r, pose_p,
-                                  pose_rc, pose_pc, a, pose_rc, pose_pc, b, MARGIN_M, buf)
+            count = _plane_points(a, b, kinds, ppts, ppt_off, pt_radius, sparams, pose_r,
+                                  pose_p, pose_rc, pose_pc, a, pose_rc, pose_pc, b, MARGIN_M,
+                                  buf)
         else:
             count = _one_way(a, b, pts, pt_off, balls, ball_off, cell_of, near, pt_radius,
                              kinds, sparams, grid_data, grid_off, grid_dim, pose_r, pose_p,
