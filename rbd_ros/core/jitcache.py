@@ -81,7 +81,10 @@ def configure(environ=None, subdir=None):
     # Our own directories: the leaf, and for the default also <cache>/rbd_ros above it (whoever
     # owns a parent can swap the leaf).
     ours = [path] if user_set else [os.path.dirname(path), path]
-    if subdir:
+    # A process started by one that imported rbd_ros inherits its NUMBA_CACHE_DIR, which
+    # already ends in ``subdir``: nesting it again gave the child a cache of its own, so a node
+    # started from Python (a test, a launch script) compiled for minutes on every new checkout.
+    if subdir and os.path.basename(path) != subdir:
         path = os.path.join(path, subdir)
         ours.append(path)
     problem = None

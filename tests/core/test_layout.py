@@ -24,9 +24,11 @@ row number any more.
 import os
 import pathlib
 import re
+import subprocess
+import sys
 
 import numpy as np
-
+import pytest
 from rbd_ros.core import (AppliedWrench, BatchSimulator, BodyModel, BodyState, kernels, layout,
                           Spring)
 
@@ -151,3 +153,17 @@ def test_fingerprint_lists_every_constant_and_names_the_kernel_cache():
     assert sorted(layout.FINGERPRINT) == sorted(getattr(layout, name) for name in constants)
     if kernels.CACHE_DIR is not None:
         assert os.path.basename(kernels.CACHE_DIR) == f'layout-{layout.fingerprint_hash()}'
+
+
+@pytest.mark.parametrize('inherited', [False, True], ids=['set_by_the_user', 'inherited'])
+def test_a_child_process_keeps_the_kernel_cache_it_inherits(tmp_path, inherited):
+    # What a process sees that a Python parent (a test, a launch script) started after
+    # importing rbd_ros: NUMBA_CACHE_DIR already names the fingerprint's directory, and the
+    # child must use that one, not one nested below it (a second cache, compiled cold).
+    leaf = f'layout-{layout.fingerprint_hash()}'
+    given = tmp_path / leaf if inherited else tmp_path / 'mine'
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(given))
+    out = subprocess.run([sys.executable, '-c', 'from rbd_ros.core import kernels; '
+                          'print(kernels.CACHE_DIR)'], env=env, capture_output=True, text=True,
+                         check=True, timeout=120).stdout.strip()
+    assert out == str(given if inherited else given / leaf)
