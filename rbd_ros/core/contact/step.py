@@ -42,7 +42,8 @@ the linear prediction ``φ_next = φ_cand + h (u_n − u_n0)``; its impulse keep
 (so a falling body lands on the surface, not above it), while a point already inside
 (``φ_now = φ_cand − h u_n0 < 0``) is pushed out by at most :data:`PUSH_FRACTION` of its depth
 per step and no faster than :data:`PUSH_MAX_M_S`.  Against a plane only the points that can
-be lowest are tested: a box's corners, a mesh's vertices, a cylinder's rims.
+be lowest are tested: a box's corners, a mesh's vertices; a cylinder's (its rims' lowest points
+and the rim points a quarter turn on) and an ellipsoid's (its support point) in closed form.
 
 **Patches.** The points of one body pair are reduced to at most four (the deepest, the
 farthest from it, then the two that span the largest area): the convex hull of a flat patch,
@@ -469,6 +470,24 @@ def _support_ellipsoid(sparams, s, nx, ny, nz):
 
 
 @_inl
+def _push_plane_point(buf, count, phi, bx, by, bz, cx, cy, cz, radius, rot_x, pos_x, rot_xc,
+                      pos_xc, ix, rot_yc, pos_yc, iy, gwx, gwy, gwz):
+    """
+    Append a point of x near the plane y (normal ``gw``) to ``buf`` as :func:`_push_point`.
+
+    ``b`` (x's frame) is the point in the candidate pose, at φ; ``c`` (x's frame) is where the
+    impulse acts in the current pose (``b`` for a material point), ``radius`` below it.
+    """
+    wx, wy, wz = _mat_vec(rot_xc, ix, bx, by, bz)
+    lx, ly, lz = _mat_t_vec(rot_yc, iy, wx + pos_xc[ix, 0] - pos_yc[iy, 0],
+                            wy + pos_xc[ix, 1] - pos_yc[iy, 1],
+                            wz + pos_xc[ix, 2] - pos_yc[iy, 2])
+    rx, ry, rz = _mat_vec(rot_x, ix, cx, cy, cz)
+    return _push_point(buf, count, phi, rx - radius * gwx, ry - radius * gwy,
+                       rz - radius * gwz, pos_x, ix, gwx, gwy, gwz, lx, ly, lz, 1.0)
+
+
+@_inl
 def _plane_points(sx, sy, kinds, ppts, ppt_off, pt_radius, sparams, rot_x, pos_x, rot_xc,
                   pos_xc, ix, rot_yc, pos_yc, iy, margin, buf):
     """
@@ -501,16 +520,11 @@ def _plane_points(sx, sy, kinds, ppts, ppt_off, pt_radius, sparams, rot_x, pos_x
                 turn = 0.5 * math.pi * quarter
                 bx, by, bz = r * math.cos(cand + turn), r * math.sin(cand + turn), side * hl
                 phi = pnx * bx + pny * by + pnz * bz + offset
-                if not phi < margin:
-                    continue
-                wx, wy, wz = _mat_vec(rot_xc, ix, bx, by, bz)
-                lx, ly, lz = _mat_t_vec(rot_yc, iy, wx + pos_xc[ix, 0] - pos_yc[iy, 0],
-                                        wy + pos_xc[ix, 1] - pos_yc[iy, 1],
-                                        wz + pos_xc[ix, 2] - pos_yc[iy, 2])
-                rx, ry, rz = _mat_vec(rot_x, ix, r * math.cos(now + turn),
-                                      r * math.sin(now + turn), bz)
-                count = _push_point(buf, count, phi, rx, ry, rz, pos_x, ix, gwx, gwy, gwz,
-                                    lx, ly, lz, 1.0)
+                if phi < margin:
+                    count = _push_plane_point(
+                        buf, count, phi, bx, by, bz, r * math.cos(now + turn),
+                        r * math.sin(now + turn), bz, radius, rot_x, pos_x, rot_xc, pos_xc,
+                        ix, rot_yc, pos_yc, iy, gwx, gwy, gwz)
         return count
     if kinds[sx] == ck.KIND_ELLIPSOID:
         # The support point −A² n / |A n| (A = diag of the semi-axes), as for the cylinder.
@@ -518,27 +532,18 @@ def _plane_points(sx, sy, kinds, ppts, ppt_off, pt_radius, sparams, rot_x, pos_x
         phi = pnx * bx + pny * by + pnz * bz + offset
         if phi < margin:
             qnx, qny, qnz = _mat_t_vec(rot_x, ix, gwx, gwy, gwz)
-            wx, wy, wz = _mat_vec(rot_xc, ix, bx, by, bz)
-            lx, ly, lz = _mat_t_vec(rot_yc, iy, wx + pos_xc[ix, 0] - pos_yc[iy, 0],
-                                    wy + pos_xc[ix, 1] - pos_yc[iy, 1],
-                                    wz + pos_xc[ix, 2] - pos_yc[iy, 2])
-            bx, by, bz = _support_ellipsoid(sparams, sx, qnx, qny, qnz)
-            rx, ry, rz = _mat_vec(rot_x, ix, bx, by, bz)
-            count = _push_point(buf, count, phi, rx, ry, rz, pos_x, ix, gwx, gwy, gwz,
-                                lx, ly, lz, 1.0)
+            cx, cy, cz = _support_ellipsoid(sparams, sx, qnx, qny, qnz)
+            count = _push_plane_point(buf, count, phi, bx, by, bz, cx, cy, cz, radius, rot_x,
+                                      pos_x, rot_xc, pos_xc, ix, rot_yc, pos_yc, iy, gwx, gwy,
+                                      gwz)
         return count
     for n in range(ppt_off[sx], ppt_off[sx + 1]):
         bx, by, bz = ppts[n, 0], ppts[n, 1], ppts[n, 2]
         phi = pnx * bx + pny * by + pnz * bz + offset
-        if not phi < margin:
-            continue
-        wx, wy, wz = _mat_vec(rot_xc, ix, bx, by, bz)
-        lx, ly, lz = _mat_t_vec(rot_yc, iy, wx + pos_xc[ix, 0] - pos_yc[iy, 0],
-                                wy + pos_xc[ix, 1] - pos_yc[iy, 1],
-                                wz + pos_xc[ix, 2] - pos_yc[iy, 2])
-        rx, ry, rz = _mat_vec(rot_x, ix, bx, by, bz)
-        count = _push_point(buf, count, phi, rx - radius * gwx, ry - radius * gwy,
-                            rz - radius * gwz, pos_x, ix, gwx, gwy, gwz, lx, ly, lz, 1.0)
+        if phi < margin:
+            count = _push_plane_point(buf, count, phi, bx, by, bz, bx, by, bz, radius, rot_x,
+                                      pos_x, rot_xc, pos_xc, ix, rot_yc, pos_yc, iy, gwx, gwy,
+                                      gwz)
     return count
 
 
