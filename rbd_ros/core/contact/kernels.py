@@ -72,6 +72,10 @@ _S_RTOL = 2.220446049250313e-16
 
 _jit = nb.njit(cache=True, fastmath=False, nogil=True)
 _inl = nb.njit(cache=True, fastmath=False, nogil=True, inline='always')
+#: For functions that allocate nothing and run per point: compiled without numba's reference
+#: counting (its ``_nrt`` option), which costs two atomic updates per array argument per call
+#: (see :mod:`rbd_ros.core.contact.step`, "Reference counts").
+_raw = nb.njit(cache=True, fastmath=False, nogil=True, _nrt=False)
 
 
 @_jit
@@ -333,7 +337,7 @@ def _ellipsoid(a, b, c, x, y, z):
     return phi, _sign(x) * nx, _sign(y) * ny, _sign(z) * nz
 
 
-@_jit
+@_raw
 def _grid_sample(grid, x, y, z):
     """Trilinear value and gradient of ``grid`` at grid coordinates inside ``[0, n - 1]``."""
     nx, ny, nz = grid.shape
@@ -367,7 +371,7 @@ def _grid_sample(grid, x, y, z):
     return value, gx, gy, gz
 
 
-@_jit
+@_raw
 def _mesh(params, grid, x, y, z):
     """Trilinear grid SDF; outside the grid box: boundary value plus distance to the box."""
     h = params[3]
@@ -389,7 +393,7 @@ def _mesh(params, grid, x, y, z):
     return value, ux, uy, uz
 
 
-@_jit
+@_raw
 def phi_grad(kind, params, grid, x, y, z):
     """
     Return ``(φ, ∂φ/∂x, ∂φ/∂y, ∂φ/∂z)`` of a shape at the point ``(x, y, z)`` (its frame, m).
@@ -422,7 +426,7 @@ def phi_grad(kind, params, grid, x, y, z):
     return math.nan, math.nan, math.nan, math.nan
 
 
-@_jit
+@_raw
 def phi_grad_many(kind, params, grid, points, out_phi, out_grad):
     """Fill ``out_phi`` (n,) and ``out_grad`` (n, 3) with :func:`phi_grad` of each point."""
     for n in range(points.shape[0]):
@@ -434,7 +438,7 @@ def phi_grad_many(kind, params, grid, points, out_phi, out_grad):
         out_grad[n, 2] = gz
 
 
-@_jit
+@_raw
 def min_phi_posed(kind, params, grid, rot_ba, trans_ba, points_a):
     """
     Return ``(min φ, index)`` over ``points_a`` mapped into the shape's frame.

@@ -66,10 +66,19 @@ are tried in cells, a cell skipped when φ at its centre puts it out of reach (:
 ``K⁺`` of a flat patch (one normal, three or more points spread in the plane) is in closed
 form (:func:`_flat_response`); otherwise it comes from a Cholesky factor when ``K`` is well
 conditioned, from a rank-one deflation when it lacks one rank, else from Jacobi
-eigen-decomposition (:func:`_pinv_small`).  The solver's
-inner functions are inlined and index their tables in place: a numba row view, or an array
-passed to a function that calls another, costs two atomic reference-count updates, which
-were a fifth of a resting world's step.
+eigen-decomposition (:func:`_pinv_small`).
+
+**Reference counts.** Numba counts references to arrays atomically: every array a function
+takes, and every array passed to an inlined helper inside a loop with branches, costs two
+atomic updates per call (its pruning pass removes them only within straight-line code).  For
+1000 resting boxes that was 171 000 increments a step, and with their decrements ~60 % of
+the step.  So every function that allocates nothing (the loops per pair, per patch, per
+body, and the helpers they call) is compiled without reference counting (:data:`_raw`,
+numba's ``_nrt=False``), and the functions that allocate (the broad phase's and the narrow
+phase's buffers, a stage's scratch) only call them: about 3 000 are left a step.  A raw
+function cannot call one that allocates (numba compiles the callee without reference
+counting too), which is why :func:`_consistent_normals`, which sorts, is called from
+:func:`narrow_phase` between :func:`_pair_points` and :func:`_pair_patch`.
 """
 
 import math
@@ -192,6 +201,9 @@ WARM_LEFT_MAX_M_S = 1e-6
 
 _jit = nb.njit(cache=kk.CACHE_DIR is not None, fastmath=False, nogil=True)
 _inl = nb.njit(cache=kk.CACHE_DIR is not None, fastmath=False, nogil=True, inline='always')
+#: Functions that allocate nothing (the loops per pair, per patch, per body) are compiled
+#: without numba's reference counting (see the module docstring, "Reference counts").
+_raw = nb.njit(cache=kk.CACHE_DIR is not None, fastmath=False, nogil=True, _nrt=False)
 
 
 _cross = kk._cross  # the free-body kernel's, not a second copy
@@ -231,7 +243,7 @@ def _set_rotation(out, i, qw, qx, qy, qz):
 # Poses: current and candidate, world velocities and inverse inertias.
 
 
-@_jit
+@_raw
 def prepare_bodies(x, prm, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h, same_pose):
     """
     Fill the per-body arrays a stage reads from the state ``x`` (velocities as stored there).
@@ -274,7 +286,7 @@ def prepare_bodies(x, prm, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h, s
         _set_rotation(rot_c, i, cw, cx, cy, cz)
 
 
-@_jit
+@_raw
 def store_velocities(x, prm, vel, touched):
     """Write ``v_w`` and ``ω_b = Rᵀ ω_w`` of the bodies a stage touched back into ``x``."""
     for i in range(x.shape[1]):
@@ -292,6 +304,31 @@ def store_velocities(x, prm, vel, touched):
 
 # ---------------------------------------------------------------------------------------------
 # Broad phase: sort and sweep along x over the bodies; every body against each static object.
+
+
+@_raw
+def _sweep(order, lo, hi, pairs):
+    """
+    Write the pairs whose boxes ``lo``, ``hi`` overlap into ``pairs``, swept in ``order``.
+
+    Return how many overlap; only as many as ``pairs`` has rows are written.
+    """
+    n = order.shape[0]
+    count = 0
+    for oi in range(n):
+        a = order[oi]
+        for oj in range(oi + 1, n):
+            b = order[oj]
+            if lo[b, 0] > hi[a, 0]:
+                break
+            if (lo[b, 1] > hi[a, 1] or lo[a, 1] > hi[b, 1]
+                    or lo[b, 2] > hi[a, 2] or lo[a, 2] > hi[b, 2]):
+                continue
+            if count < pairs.shape[0]:
+                pairs[count, 0] = min(a, b)
+                pairs[count, 1] = max(a, b)
+            count += 1
+    return count
 
 
 @_jit
@@ -316,26 +353,11 @@ def broad_phase(x, pos_c, bound_r, n_bodies, st_kind, st_params, st_lo, st_hi, m
             lo[i, k] = min(a, b) - r
             hi[i, k] = max(a, b) + r
     order = np.argsort(lo[:, 0], kind='mergesort')
-    cap = 4 * n + 16
-    pairs = np.empty((cap, 2), dtype=np.int64)
-    count = 0
-    for oi in range(n):
-        a = order[oi]
-        for oj in range(oi + 1, n):
-            b = order[oj]
-            if lo[b, 0] > hi[a, 0]:
-                break
-            if (lo[b, 1] > hi[a, 1] or lo[a, 1] > hi[b, 1]
-                    or lo[b, 2] > hi[a, 2] or lo[a, 2] > hi[b, 2]):
-                continue
-            if count == cap:
-                grown = np.empty((2 * cap, 2), dtype=np.int64)
-                grown[:cap] = pairs
-                pairs = grown
-                cap *= 2
-            pairs[count, 0] = min(a, b)
-            pairs[count, 1] = max(a, b)
-            count += 1
+    pairs = np.empty((4 * n + 16, 2), dtype=np.int64)
+    count = _sweep(order, lo, hi, pairs)
+    if count > pairs.shape[0]:  # more overlaps than room: sweep again with room for all
+        pairs = np.empty((count, 2), dtype=np.int64)
+        _sweep(order, lo, hi, pairs)
     body_pairs = pairs[:count]
     # Fixed processing order whatever the sort did with ties: by (a, b).
     key = body_pairs[:, 0] * n + body_pairs[:, 1]
@@ -391,7 +413,7 @@ def _push_point(buf, count, phi, rx, ry, rz, pos_x, ix, gwx, gwy, gwz, lx, ly, l
     return count + 1
 
 
-@_jit
+@_raw
 def _one_way(sx, sy, pts, pt_off, balls, ball_off, cell_of, near, pt_radius, kinds, sparams,
              grid_data, grid_off, grid_dim, rot_x, pos_x, rot_xc, pos_xc, ix, rot_yc, pos_yc,
              iy, margin, buf, count, flip):
@@ -686,7 +708,7 @@ def _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off, g
     return sx, sy, sz
 
 
-@_jit
+@_raw
 def _reduce(buf, count, keep, nx, ny, nz):
     """
     Choose up to PATCH_POINTS rows of ``buf[:count]`` spanning the patch; fill ``keep``.
@@ -834,8 +856,9 @@ def narrow_phase(pairs, n_bodies, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_
     pose_p[n:] = st_pos
     pose_pc[n:] = st_pos
     # Not zeroed (a megabyte per stage for 1000 bodies): each row is filled when it is used.
-    contacts = np.empty((max(16, 4 * pairs.shape[0]), N_CONTACT))
-    patches = np.empty((max(4, pairs.shape[0]), N_PATCH))
+    # A pair gives at most one patch of at most PATCH_POINTS points.
+    contacts = np.empty((PATCH_POINTS * pairs.shape[0], N_CONTACT))
+    patches = np.empty((pairs.shape[0], N_PATCH))
     # Room for every point of the two shapes of any pair.
     most = 0
     for s in range(pt_off.shape[0] - 1):
@@ -843,116 +866,139 @@ def narrow_phase(pairs, n_bodies, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_
     buf = np.empty((2 * most + 1, 11))
     near = np.empty(most + 1, dtype=np.bool_)  # per cell of a shape: within reach
     keep = np.empty(PATCH_POINTS, dtype=np.int64)
+    # This loop only calls: the functions it calls take no reference counts (see _raw), and
+    # _consistent_normals, which allocates, runs only where a pair's normals differ.
     nc = 0
     nq = 0
     for q in range(pairs.shape[0]):
         a = pairs[q, 0]
         b = pairs[q, 1]
-        if kinds[b] == ck.KIND_PLANE:
-            count = _plane_points(a, b, kinds, ppts, ppt_off, pt_radius, sparams, pose_r,
-                                  pose_p, pose_rc, pose_pc, a, pose_rc, pose_pc, b, MARGIN_M,
-                                  buf)
-        else:
-            count = _one_way(a, b, pts, pt_off, balls, ball_off, cell_of, near, pt_radius,
-                             kinds, sparams, grid_data, grid_off, grid_dim, pose_r, pose_p,
-                             pose_rc, pose_pc, a, pose_rc, pose_pc, b, MARGIN_M, buf, 0, 1.0)
-            count = _one_way(b, a, pts, pt_off, balls, ball_off, cell_of, near, pt_radius,
-                             kinds, sparams, grid_data, grid_off, grid_dim, pose_r, pose_p,
-                             pose_rc, pose_pc, b, pose_rc, pose_pc, a, MARGIN_M, buf, count,
-                             -1.0)
-        if stage == 2:
-            ja = 0 if prm.shape[1] == 1 else a
-            v_rest = 1e-9 + h * math.sqrt(prm[P_GRAVITY, ja] ** 2 + prm[P_GRAVITY + 1, ja] ** 2
-                                          + prm[P_GRAVITY + 2, ja] ** 2)
-            if b < n:
-                jb = 0 if prm.shape[1] == 1 else b
-                v_rest += h * math.sqrt(prm[P_GRAVITY, jb] ** 2 + prm[P_GRAVITY + 1, jb] ** 2
-                                        + prm[P_GRAVITY + 2, jb] ** 2)
-            count = _touching(buf, count, vel, x, a, b, n, h, v_rest)
+        count, mixed = _pair_points(a, b, n, x, prm, vel, pose_r, pose_p, pose_rc, pose_pc,
+                                    kinds, sparams, pts, pt_off, ppts, ppt_off, pt_radius,
+                                    grid_data, grid_off, grid_dim, h, stage, balls, ball_off,
+                                    cell_of, buf, near)
         if count == 0:
             continue
         pnx, pny, pnz = buf[0, 4], buf[0, 5], buf[0, 6]
-        if count > 1 and not _one_normal(buf, 0, count, 4):
+        if mixed:
             pnx, pny, pnz = _consistent_normals(buf, count, a, b, kinds, sparams, grid_data,
                                                 grid_off, grid_dim, pose_rc)
-        if count <= PATCH_POINTS:  # all of them (as _reduce would say, without the call)
-            m = count
-            for k in range(m):
-                keep[k] = k
-        else:
-            m = _reduce(buf, count, keep, pnx, pny, pnz)
-        if nq == patches.shape[0]:
-            grown = np.empty((2 * nq, N_PATCH))
-            grown[:nq] = patches
-            patches = grown
-        while nc + m > contacts.shape[0]:
-            grown = np.empty((2 * contacts.shape[0], N_CONTACT))
-            grown[:nc] = contacts[:nc]
-            contacts = grown
-        pair_mu = math.sqrt(mu[a] * mu[b])
-        pair_eps = max(eps[a], eps[b]) if phase == PHASE_COLLISION else 0.0
-        static_b = b >= n
-        for f in range(Q_K):
-            patches[nq, f] = 0.0
-        patches[nq, Q_A] = a
-        patches[nq, Q_B] = b
-        patches[nq, Q_START] = nc
-        patches[nq, Q_COUNT] = m
-        patches[nq, Q_MU] = pair_mu
-        for k in range(m):
-            r = keep[k]
-            c = nc
-            for f in range(N_CONTACT):
-                contacts[c, f] = 0.0
-            contacts[c, C_A] = a
-            contacts[c, C_B] = b
-            contacts[c, C_PHASE] = stage
-            contacts[c, C_PHI] = buf[r, 0]
-            px, py, pz = buf[r, 1], buf[r, 2], buf[r, 3]
-            nx, ny, nz = buf[r, 4], buf[r, 5], buf[r, 6]
-            contacts[c, C_POINT] = px
-            contacts[c, C_POINT + 1] = py
-            contacts[c, C_POINT + 2] = pz
-            contacts[c, C_NORMAL] = nx
-            contacts[c, C_NORMAL + 1] = ny
-            contacts[c, C_NORMAL + 2] = nz
-            rax, ray, raz = px - x[S_POS, a], py - x[S_POS + 1, a], pz - x[S_POS + 2, a]
-            contacts[c, C_RA] = rax
-            contacts[c, C_RA + 1] = ray
-            contacts[c, C_RA + 2] = raz
-            # Relative normal velocity now.
-            ux, uy, uz = _cross(vel[a, 3], vel[a, 4], vel[a, 5], rax, ray, raz)
-            ux += vel[a, 0]
-            uy += vel[a, 1]
-            uz += vel[a, 2]
-            if not static_b:
-                rbx, rby, rbz = (px - x[S_POS, b], py - x[S_POS + 1, b],
-                                 pz - x[S_POS + 2, b])
-                contacts[c, C_RB] = rbx
-                contacts[c, C_RB + 1] = rby
-                contacts[c, C_RB + 2] = rbz
-                wx, wy, wz = _cross(vel[b, 3], vel[b, 4], vel[b, 5], rbx, rby, rbz)
-                ux -= vel[b, 0] + wx
-                uy -= vel[b, 1] + wy
-                uz -= vel[b, 2] + wz
-            un0 = ux * nx + uy * ny + uz * nz
-            phi_now = buf[r, 0] - h * un0
-            if phi_now >= 0.0:
-                bias = un0 - buf[r, 0] / h
-            else:
-                bias = min(-PUSH_FRACTION * phi_now / h, PUSH_MAX_M_S)
-            # Restitution where the point would end the step inside, or touching to within
-            # TOUCH_M: two boxes meeting face on exactly at the step's end have φ = ±round-off
-            # at their corners, and restitution on some of them only spun them apart.
-            if pair_eps > 0.0 and un0 < 0.0 and buf[r, 0] < TOUCH_M:
-                bias = max(bias, -pair_eps * un0)
-            contacts[c, C_BIAS] = bias
-            nc += 1
-        if static_b:
-            _reuse_response(responses, patches, nq, contacts, nc - m, m, a, b, inv_mass,
-                            inv_inertia_w)
+        nc = _pair_patch(a, b, n, x, vel, inv_mass, inv_inertia_w, mu, eps, h, phase, stage,
+                         responses, buf, count, keep, pnx, pny, pnz, contacts, patches, nc, nq)
         nq += 1
     return contacts[:nc], patches[:nq]
+
+
+@_raw
+def _pair_points(a, b, n, x, prm, vel, pose_r, pose_p, pose_rc, pose_pc, kinds, sparams, pts,
+                 pt_off, ppts, ppt_off, pt_radius, grid_data, grid_off, grid_dim, h, stage,
+                 balls, ball_off, cell_of, buf, near):
+    """
+    Fill ``buf`` with the contact points of the pair ``(a, b)`` (see :func:`_one_way`).
+
+    Return their count and whether their normals differ.
+    """
+    if kinds[b] == ck.KIND_PLANE:
+        count = _plane_points(a, b, kinds, ppts, ppt_off, pt_radius, sparams, pose_r,
+                              pose_p, pose_rc, pose_pc, a, pose_rc, pose_pc, b, MARGIN_M,
+                              buf)
+    else:
+        count = _one_way(a, b, pts, pt_off, balls, ball_off, cell_of, near, pt_radius,
+                         kinds, sparams, grid_data, grid_off, grid_dim, pose_r, pose_p,
+                         pose_rc, pose_pc, a, pose_rc, pose_pc, b, MARGIN_M, buf, 0, 1.0)
+        count = _one_way(b, a, pts, pt_off, balls, ball_off, cell_of, near, pt_radius,
+                         kinds, sparams, grid_data, grid_off, grid_dim, pose_r, pose_p,
+                         pose_rc, pose_pc, b, pose_rc, pose_pc, a, MARGIN_M, buf, count,
+                         -1.0)
+    if stage == 2:
+        ja = 0 if prm.shape[1] == 1 else a
+        v_rest = 1e-9 + h * math.sqrt(prm[P_GRAVITY, ja] ** 2 + prm[P_GRAVITY + 1, ja] ** 2
+                                      + prm[P_GRAVITY + 2, ja] ** 2)
+        if b < n:
+            jb = 0 if prm.shape[1] == 1 else b
+            v_rest += h * math.sqrt(prm[P_GRAVITY, jb] ** 2 + prm[P_GRAVITY + 1, jb] ** 2
+                                    + prm[P_GRAVITY + 2, jb] ** 2)
+        count = _touching(buf, count, vel, x, a, b, n, h, v_rest)
+    return count, count > 1 and not _one_normal(buf, 0, count, 4)
+
+
+@_raw
+def _pair_patch(a, b, n, x, vel, inv_mass, inv_inertia_w, mu, eps, h, phase, stage, responses,
+                buf, count, keep, pnx, pny, pnz, contacts, patches, nc, nq):
+    """
+    Make patch ``nq`` of the pair ``(a, b)`` from its ``count`` points in ``buf``.
+
+    ``pn``: the patch normal.  The contact rows start at ``nc``; return the next free row.
+    """
+    if count <= PATCH_POINTS:  # all of them (as _reduce would say, without the call)
+        m = count
+        for k in range(m):
+            keep[k] = k
+    else:
+        m = _reduce(buf, count, keep, pnx, pny, pnz)
+    pair_mu = math.sqrt(mu[a] * mu[b])
+    pair_eps = max(eps[a], eps[b]) if phase == PHASE_COLLISION else 0.0
+    static_b = b >= n
+    for f in range(Q_K):
+        patches[nq, f] = 0.0
+    patches[nq, Q_A] = a
+    patches[nq, Q_B] = b
+    patches[nq, Q_START] = nc
+    patches[nq, Q_COUNT] = m
+    patches[nq, Q_MU] = pair_mu
+    for k in range(m):
+        r = keep[k]
+        c = nc
+        for f in range(N_CONTACT):
+            contacts[c, f] = 0.0
+        contacts[c, C_A] = a
+        contacts[c, C_B] = b
+        contacts[c, C_PHASE] = stage
+        contacts[c, C_PHI] = buf[r, 0]
+        px, py, pz = buf[r, 1], buf[r, 2], buf[r, 3]
+        nx, ny, nz = buf[r, 4], buf[r, 5], buf[r, 6]
+        contacts[c, C_POINT] = px
+        contacts[c, C_POINT + 1] = py
+        contacts[c, C_POINT + 2] = pz
+        contacts[c, C_NORMAL] = nx
+        contacts[c, C_NORMAL + 1] = ny
+        contacts[c, C_NORMAL + 2] = nz
+        rax, ray, raz = px - x[S_POS, a], py - x[S_POS + 1, a], pz - x[S_POS + 2, a]
+        contacts[c, C_RA] = rax
+        contacts[c, C_RA + 1] = ray
+        contacts[c, C_RA + 2] = raz
+        # Relative normal velocity now.
+        ux, uy, uz = _cross(vel[a, 3], vel[a, 4], vel[a, 5], rax, ray, raz)
+        ux += vel[a, 0]
+        uy += vel[a, 1]
+        uz += vel[a, 2]
+        if not static_b:
+            rbx, rby, rbz = (px - x[S_POS, b], py - x[S_POS + 1, b],
+                             pz - x[S_POS + 2, b])
+            contacts[c, C_RB] = rbx
+            contacts[c, C_RB + 1] = rby
+            contacts[c, C_RB + 2] = rbz
+            wx, wy, wz = _cross(vel[b, 3], vel[b, 4], vel[b, 5], rbx, rby, rbz)
+            ux -= vel[b, 0] + wx
+            uy -= vel[b, 1] + wy
+            uz -= vel[b, 2] + wz
+        un0 = ux * nx + uy * ny + uz * nz
+        phi_now = buf[r, 0] - h * un0
+        if phi_now >= 0.0:
+            bias = un0 - buf[r, 0] / h
+        else:
+            bias = min(-PUSH_FRACTION * phi_now / h, PUSH_MAX_M_S)
+        # Restitution where the point would end the step inside, or touching to within
+        # TOUCH_M: two boxes meeting face on exactly at the step's end have φ = ±round-off
+        # at their corners, and restitution on some of them only spun them apart.
+        if pair_eps > 0.0 and un0 < 0.0 and buf[r, 0] < TOUCH_M:
+            bias = max(bias, -pair_eps * un0)
+        contacts[c, C_BIAS] = bias
+        nc += 1
+    if static_b:
+        _reuse_response(responses, patches, nq, contacts, nc - m, m, a, b, inv_mass,
+                        inv_inertia_w)
+    return nc
 
 
 @_inl
@@ -975,7 +1021,7 @@ def _reuse_response(responses, patches, q, contacts, s0, m, a, b, inv_mass, inv_
     patches[q, Q_CACHED] = 2.0
 
 
-@_jit
+@_raw
 def keep_responses(responses, patches, contacts, n_bodies, inv_mass, inv_inertia_w):
     """Store the K and K⁺ of every patch on a static object that computed them."""
     for q in range(patches.shape[0]):
@@ -1079,7 +1125,7 @@ def patch_scratch():
     return np.empty((SCR_ROWS, PATCH_POINTS))
 
 
-@_jit
+@_raw
 def _eigh_small(w, a0, p, v0):
     """
     Diagonalise the symmetric ``w[a0:a0+p, :p]`` in place by cyclic Jacobi rotations.
@@ -1128,7 +1174,7 @@ def _eigh_small(w, a0, p, v0):
 PIVOT_TOL = 1e-3
 
 
-@_jit
+@_raw
 def _spd_inverse(w, a0, p, tol, o0):
     """
     Invert the symmetric ``w[a0:a0+p, :p]`` by Cholesky into ``w[o0:o0+p, :p]``.
@@ -1178,7 +1224,7 @@ def _skip(k, s):
     return k if k < s else k + 1
 
 
-@_jit
+@_raw
 def _cofactor(w, a0, p, r, c):
     """Return the cofactor ``(−1)^(r+c) det(a less row r, column c)`` of ``w[a0:a0+p, :p]``."""
     r0, r1, r2 = a0 + _skip(0, r), a0 + _skip(1, r), a0 + _skip(2, r)
@@ -1196,7 +1242,7 @@ def _cofactor(w, a0, p, r, c):
     return -det if (r + c) % 2 == 1 else det
 
 
-@_jit
+@_raw
 def _deflated_inverse(w, a0, p, top, o0):
     """
     Pseudo-inverse of a symmetric PSD ``w[a0:a0+p, :p]`` of rank ``p − 1`` into ``w[o0:]``.
@@ -1242,7 +1288,7 @@ def _deflated_inverse(w, a0, p, top, o0):
     return True
 
 
-@_jit
+@_raw
 def _pinv_small(scr, m):
     """
     Set ``scr``'s SCR_PINV rows to the pseudo-inverse of ``K[A, A]`` (0 off the active set).
@@ -1311,7 +1357,7 @@ def _tangent_inertia(inv_inertia_w, i, t1x, t1y, t1z, t2x, t2y, t2z):
             t2x * vx + t2y * vy + t2z * vz)
 
 
-@_jit
+@_raw
 def _flat_response(patches, q, contacts, s0, m, inv_mass, inv_inertia_w, a, b, dyn_b, scr):
     """
     Set patch ``q``'s K and K⁺ (both bodies free) in closed form if it is flat; tell whether.
@@ -1427,7 +1473,7 @@ def _flat_response(patches, q, contacts, s0, m, inv_mass, inv_inertia_w, a, b, d
     return True
 
 
-@_jit
+@_raw
 def _solve_small(scr, m):
     """Set SCR_LAM to the least-norm solution of ``K[A, A] λ = rhs[A]`` (others 0)."""
     _pinv_small(scr, m)
@@ -1640,7 +1686,7 @@ def _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, 
                           dyn_b, wa, wb, wrench)
 
 
-@_jit
+@_raw
 def _apply_normals(scr, row, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, wa,
                    wb, wrench):
     """Apply the change to the normal impulses in ``scr[row]``; return the largest Δu."""
@@ -1908,7 +1954,7 @@ def _friction(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, x
     return change
 
 
-@_jit
+@_raw
 def _friction_points(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, wa, wb,
                      wrench, s0, m, mu):
     """
@@ -1993,7 +2039,7 @@ def _levels(patches, n_bodies):
     return level
 
 
-@_jit
+@_raw
 def _relative_velocities(patches, contacts, vel, n_bodies, out, compare):
     """
     Store every point's relative velocity in ``out`` (C, 3), or compare with it.
@@ -2022,7 +2068,7 @@ def _relative_velocities(patches, contacts, vel, n_bodies, out, compare):
     return largest
 
 
-@_jit
+@_raw
 def _residual(patches, contacts, vel, n_bodies, scr):
     """
     Return the largest violation of the normal complementarity conditions (m/s).
@@ -2046,7 +2092,7 @@ def _residual(patches, contacts, vel, n_bodies, scr):
     return largest
 
 
-@_jit
+@_raw
 def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrench, rot, warm,
                 warm_n, slot, prm):
     """Apply the kept impulses of ``slot`` to the matching points (see :data:`W_SLOTS`)."""
@@ -2112,7 +2158,7 @@ def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrenc
                 _record(wrench, b, -1.0, rbx, rby, rbz, jx, jy, jz, 0.0, 0.0, 0.0)
 
 
-@_jit
+@_raw
 def _keep_warm(patches, contacts, rot, warm, warm_n, slot):
     """Keep the stage's impulses in ``slot`` for the next step (see :data:`W_SLOTS`)."""
     warm_n[slot, :] = 0
@@ -2137,19 +2183,18 @@ def _keep_warm(patches, contacts, rot, warm, warm_n, slot):
             warm[slot, a, row, f + 3] = contacts[c, C_LAMBDA]
 
 
-@_jit
+@_raw
 def _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, scr, coupled,
-            warmed):
+            warmed, before):
     """
     Run the Gauss–Seidel sweeps of a stage, at most SWEEPS, until they converge.
 
-    ``warmed``: the points may hold impulses already (a warm start).
+    ``warmed``: the points may hold impulses already (a warm start).  ``before`` (C, 3) is
+    scratch: a sweep's net change of every point's relative velocity is measured against it,
+    since the updates of a sweep can each move by more than the tolerance while cancelling
+    (impulses circulating between patches in the null space of a statically indeterminate
+    stack), so each update's change alone does not tell when the velocities have converged.
     """
-    # A sweep's net change of every point's relative velocity: the updates of a sweep can
-    # each move by more than the tolerance while cancelling (impulses circulating between
-    # patches in the null space of a statically indeterminate stack), so each update's change
-    # alone does not tell when the velocities have converged.
-    before = np.empty((contacts.shape[0], 3))
     for sweep in range(SWEEPS if coupled else 1):
         if coupled:
             _relative_velocities(patches, contacts, vel, n_bodies, before, False)
@@ -2186,6 +2231,7 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
     (then friction is per point, else per patch).
     """
     scr = patch_scratch()
+    before = np.empty((contacts.shape[0], 3))  # scratch of _sweeps
     # Patches that share no body are independent: each is solved to convergence by its own
     # iterations, so one sweep is exact and shock propagation has nothing to order.
     uses = np.zeros(n_bodies, dtype=np.int64)
@@ -2210,7 +2256,7 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
         _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrench, rot,
                     warm, warm_n, slot, prm)
         _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, scr,
-                coupled, True)
+                coupled, True, before)
         left = _residual(patches, contacts, vel, n_bodies, scr)
         # Kept either way: the sweeps go on from there next step, so a stack that needs more
         # sweeps than the cap (a tall column converges by ~0.97 a sweep) gets them over steps.
@@ -2221,12 +2267,12 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
             vel[:] = saved[2]
             wrench[:] = saved[3]
             _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, scr,
-                    coupled, False)
+                    coupled, False, before)
     else:
         if slot >= 0:
             warm_n[slot, :] = 0
         _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, scr,
-                coupled, False)
+                coupled, False, before)
     if not shock or not coupled:
         return coupled
     level = _levels(patches, n_bodies)
@@ -2235,7 +2281,16 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
         a = int(patches[q, Q_A])
         b = int(patches[q, Q_B])
         low[q] = level[a] if b >= n_bodies else min(level[a], level[b])
-    for q in np.argsort(low, kind='mergesort'):
+    _shock(np.argsort(low, kind='mergesort'), level, patches, contacts, vel, inv_mass,
+           inv_inertia_w, n_bodies, x, wrench, scr)
+    return coupled
+
+
+@_raw
+def _shock(order, level, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench,
+           scr):
+    """Solve the patches in ``order``, a patch's lower body held (see :func:`solve_stage`)."""
+    for q in order:
         a = int(patches[q, Q_A])
         b = int(patches[q, Q_B])
         wa = 1.0
@@ -2247,10 +2302,9 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
                 wb = 0.0
         solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wa, wb,
                     wrench, True, scr, True, False)
-    return coupled
 
 
-@_jit
+@_raw
 def finish_contacts(contacts, patches):
     """Give each point its share ``λ_k / Σλ`` of its patch's friction impulse."""
     for q in range(patches.shape[0]):
@@ -2316,7 +2370,7 @@ def _all_finite(x, i):
     return True
 
 
-@_jit
+@_raw
 def _half_damping(x, prm, h):
     """Apply half a step of every body's exact damping flow to its velocities."""
     shared = prm.shape[1] == 1
