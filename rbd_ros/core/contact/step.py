@@ -70,7 +70,7 @@ eigen-decomposition (:func:`_pinv_small`).
 
 **Reference counts.** Numba counts references to arrays atomically: every array a function
 takes, and every array passed to an inlined helper inside a loop with branches, costs two
-atomic updates per call (its pruning pass removes them only within straight-line code).  For
+atomic updates per call (its pruning pass removes them only in simple control flow).  For
 1000 resting boxes that was 171 000 increments a step, and with their decrements ~60 % of
 the step.  So every function that allocates nothing (the loops per pair, per patch, per
 body, and the helpers they call) is compiled without reference counting (:data:`_raw`,
