@@ -116,6 +116,15 @@ SWEEP_TOL_M_S = 1e-12
 #: when they were taken (1000 boxes: 1e-8 J within 6 steps).  A flush stack can sink at most
 #: this far before its corners show the depth.
 FLUSH_DEPTH_MIN_M = 1e-12
+#: ... and only where the step left the other shape along the patch normal: a step of length
+#: ``s`` that leaves by a face at an angle α to it reads ``s (1 − cos α)`` too deep, which
+#: may be at most this (m).  Boxes side by side meet their diagonal neighbours edge to edge;
+#: before ck.EDGE_ROUNDOFF_M their patch normal could be tilted from the faces by 7°, which
+#: read as 1.8 µm of depth.  The push-out could not remove it (the grid is jammed), so the
+#: sweeps ran to their cap every stage: a step of 1000 such boxes took 3.5–7 s instead of
+#: 0.3 s.  1e-11 m keeps a corner 5e-8 m outside the other box's side (α = 2e-4 rad) reading
+#: the face's depth.
+DEPTH_READ_ERROR_M = 1e-11
 #: At most this many points per patch.
 PATCH_POINTS = 4
 #: Surface points are grouped in cells of this many, a cell skipped when its ball is out of
@@ -185,8 +194,17 @@ N_RESPONSE = R_PINV + PATCH_POINTS * PATCH_POINTS
 # three sweeps.  Rows per body A (the pair's lower index), one per patch, at most W_SLOTS.
 # A point takes the λ of the last step's point of the same pair within WARM_MATCH_M in A's
 # body frame, and only where its normal is within 60° of gravity (WARM_COS_MIN): what holds
-# weight up.  Sideways contacts and friction start from zero: carried over, they let boxes
-# side by side squeeze each other, held by the floor's friction, until the squeeze let go.
+# weight up.  A body with a neighbour beside it (a patch whose normal is not within 60° of
+# gravity) carries its load over, not how the load is spread: the matched points of its
+# patches all start from the mean of their kept impulses.  Carried point by point, a spread
+# that leaned a box (more weight on its outer corners, neighbours pressing its top) leaned
+# it again the next step: boxes side by side built an arch pressing each other at the top,
+# held by the floor's friction, ~20 % stronger a step, until the sweeps ran to their cap
+# every stage (1000 boxes: 3.5–7 s a step from step ~55).  Elsewhere the spread is carried:
+# a pyramid's lower boxes bear their loads off centre, and from the mean its sweeps ended
+# short of converged every step (recorded reactions off by 0.16 N, as from zero).
+# Sideways contacts and friction start from zero: carried over, they let boxes side by side
+# squeeze each other, held by the floor's friction, until the squeeze let go.
 # A warm-started stage whose answer still violates the normal conditions by more than
 # WARM_LEFT_MAX_M_S (see _residual) is solved again from zero (see solve_stage).
 W_SLOTS = 8
@@ -610,7 +628,8 @@ def _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off, g
     φ by the step (to 1 %; on a smooth surface that holds within ~8° of ``n̄``).  Its φ then
     becomes its depth along ``n̄`` as the step measures it, ``φ(p + step n̄) − step``, where
     that is deeper by more than :data:`FLUSH_DEPTH_MIN_M` (and by at most 1 % of the step,
-    which the cone test allows): an upper box's corner on the lower box's
+    which the cone test allows) and the step left the other shape along ``n̄`` (∇φ there is
+    ``n̄`` to within :data:`DEPTH_READ_ERROR_M`): an upper box's corner on the lower box's
     side plane has φ = the distance to that side, about 0, however deep it is below the top
     face, so a sinking would show no depth to push out and the stack would creep down.  (A
     point a distance e outside the other box's side reads ~e² / (2 step) less than the
@@ -680,8 +699,8 @@ def _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off, g
         lx, ly, lz = _mat_t_vec(pose_rc, y, dx, dy, dz)
         grid = _grid_of(grid_data, grid_off, grid_dim, y)
         phi0 = ck.phi_grad(kinds[y], sparams[y], grid, buf[k, 7], buf[k, 8], buf[k, 9])[0]
-        phi1 = ck.phi_grad(kinds[y], sparams[y], grid, buf[k, 7] + step * lx,
-                           buf[k, 8] + step * ly, buf[k, 9] + step * lz)[0]
+        phi1, gx, gy, gz = ck.phi_grad(kinds[y], sparams[y], grid, buf[k, 7] + step * lx,
+                                       buf[k, 8] + step * ly, buf[k, 9] + step * lz)
         out = step
         if abs((phi1 - phi0) - step) > 0.01 * step and reach > step:
             # Deeper than the step, a point on the other shape's side plane (a box dropped
@@ -689,8 +708,8 @@ def _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off, g
             # on it for the whole step, φ = 0.  Step out from the patch's depth instead:
             # where n̄ is the normal the point leaves by, φ then rises along n̄ as the step.
             out = reach
-            phi1 = ck.phi_grad(kinds[y], sparams[y], grid, buf[k, 7] + reach * lx,
-                               buf[k, 8] + reach * ly, buf[k, 9] + reach * lz)[0]
+            phi1, gx, gy, gz = ck.phi_grad(kinds[y], sparams[y], grid, buf[k, 7] + reach * lx,
+                                           buf[k, 8] + reach * ly, buf[k, 9] + reach * lz)
             phi2 = ck.phi_grad(kinds[y], sparams[y], grid, buf[k, 7] + (reach + step) * lx,
                                buf[k, 8] + (reach + step) * ly,
                                buf[k, 9] + (reach + step) * lz)[0]
@@ -702,8 +721,10 @@ def _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off, g
         buf[k, 5] = sy
         buf[k, 6] = sz
         # (buf's φ is phi0 less the point radius: shift it by the same difference.)
+        # (A step that left by a face tilted from n̄ reads too deep: see DEPTH_READ_ERROR_M.)
         deeper = (phi1 - out) - phi0
-        if deeper < -FLUSH_DEPTH_MIN_M:
+        if (deeper < -FLUSH_DEPTH_MIN_M
+                and out * (1.0 - (gx * lx + gy * ly + gz * lz)) <= DEPTH_READ_ERROR_M):
             buf[k, 0] += deeper
     return sx, sy, sz
 
@@ -2094,9 +2115,27 @@ def _residual(patches, contacts, vel, n_bodies, scr):
 
 @_raw
 def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrench, rot, warm,
-                warm_n, slot, prm):
-    """Apply the kept impulses of ``slot`` to the matching points (see :data:`W_SLOTS`)."""
+                warm_n, slot, prm, sideways):
+    """
+    Apply the kept impulses of ``slot`` to the matching points (see :data:`W_SLOTS`).
+
+    ``sideways`` (N,) bool is scratch: whether a body has a patch whose normal is not within
+    60° of gravity (a neighbour beside it).
+    """
     shared = prm.shape[1] == 1
+    sideways[:] = False
+    for q in range(patches.shape[0]):
+        a = int(patches[q, Q_A])
+        b = int(patches[q, Q_B])
+        j = 0 if shared else a
+        gx, gy, gz = prm[P_GRAVITY, j], prm[P_GRAVITY + 1, j], prm[P_GRAVITY + 2, j]
+        s0 = int(patches[q, Q_START])
+        if (abs(contacts[s0, C_NORMAL] * gx + contacts[s0, C_NORMAL + 1] * gy
+                + contacts[s0, C_NORMAL + 2] * gz)
+                < WARM_COS_MIN * math.sqrt(gx * gx + gy * gy + gz * gz)):
+            sideways[a] = True
+            if b < n_bodies:
+                sideways[b] = True
     for q in range(patches.shape[0]):
         a = int(patches[q, Q_A])
         b = int(patches[q, Q_B])
@@ -2116,9 +2155,16 @@ def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrenc
         s0 = int(patches[q, Q_START])
         m = int(patches[q, Q_COUNT])
         old = int(warm[slot, a, row, W_COUNT])
+        # Beside a neighbour, the matched points take the mean of their kept impulses
+        # (C_LAMBDA holds each point's own until then): the patch's load, not its spread
+        # (see W_SLOTS).
+        spread = not sideways[a] and not (dyn_b and sideways[b])
         used = 0
+        total = 0.0
+        taken = 0
         for k in range(m):
             c = s0 + k
+            contacts[c, C_LAMBDA] = 0.0
             rax, ray, raz = contacts[c, C_RA], contacts[c, C_RA + 1], contacts[c, C_RA + 2]
             px, py, pz = _mat_t_vec(rot, a, rax, ray, raz)
             best = -1
@@ -2146,6 +2192,21 @@ def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrenc
             nz = contacts[c, C_NORMAL + 2]
             if abs(nx * gx + ny * gy + nz * gz) < WARM_COS_MIN * g:
                 continue
+            contacts[c, C_LAMBDA] = lam
+            total += lam
+            taken += 1
+        if taken == 0:
+            continue
+        mean = total / taken
+        for k in range(m):
+            c = s0 + k
+            if contacts[c, C_LAMBDA] == 0.0:
+                continue
+            rax, ray, raz = contacts[c, C_RA], contacts[c, C_RA + 1], contacts[c, C_RA + 2]
+            nx = contacts[c, C_NORMAL]
+            ny = contacts[c, C_NORMAL + 1]
+            nz = contacts[c, C_NORMAL + 2]
+            lam = contacts[c, C_LAMBDA] if spread else mean
             contacts[c, C_LAMBDA] = lam
             jx, jy, jz = lam * nx, lam * ny, lam * nz
             _apply(vel, inv_mass, inv_inertia_w, a, 1.0, rax, ray, raz, jx, jy, jz,
@@ -2254,7 +2315,7 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
         # and a resting column's bottom box read 3.5 N of contact force for its 9.81 N).
         saved = (contacts.copy(), patches.copy(), vel.copy(), wrench.copy())
         _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrench, rot,
-                    warm, warm_n, slot, prm)
+                    warm, warm_n, slot, prm, np.empty(n_bodies, dtype=np.bool_))
         _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, scr,
                 coupled, True, before)
         left = _residual(patches, contacts, vel, n_bodies, scr)

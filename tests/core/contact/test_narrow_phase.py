@@ -151,3 +151,36 @@ def test_a_box_sunk_into_an_equal_box_shows_its_depth_at_every_point(shift_m):
         # the shift, 0 to 3e-8 m, which showed no depth to push out.
         bound = 1.01 * shift_m ** 2 / (0.25 * cs.MARGIN_M) + 1e-15
         np.testing.assert_allclose(pair[:, cs.C_PHI], -want, rtol=0, atol=bound)
+
+
+def test_a_patch_normal_tilted_from_the_face_a_point_leaves_by_reads_no_depth():
+    # The depth a point shows along the patch normal n̄ is read by a step s out of the other
+    # shape: φ(p + s n̄) − s.  That is the depth only where the step leaves by a face whose
+    # normal is n̄; leaving by a face at 5° from it, a point on that face (depth 0) read
+    # s (1 − cos 5°) = 9.5e-7 m of depth, which the push-out then tried to remove (boxes
+    # side by side, their diagonal neighbours' patch normals tilted by round-off, could not
+    # give way: their sweeps ran to the cap every stage).  Here the rows are made by hand:
+    # three points with the tilted normal n̄ = (cos 5°, sin 5°, 0) (the patch's) and one point
+    # exactly on body 1's +x face, p = (0.1, 0, 0) in its frame, with the face's normal.
+    box = primitive_shape('box', [0.2, 0.2, 0.2])
+    model = BodyModel(1.0, box.mass_properties(1.0).inertia_b)
+    bodies = [WorldBody(f'b{k}', model, box, Material(0.5, 0.0)) for k in range(2)]
+    states = [BodyState(position_w=(3.0 * k, 0.0, 1.0)) for k in range(2)]
+    sim = WorldSimulator(bodies, states, StaticWorld(ground_plane()), timestep_ns=1_000_000)
+    kinds, sparams = sim._geo[0], sim._geo[1]
+    grid_data, grid_off, grid_dim = sim._geo[8], sim._geo[9], sim._geo[10]
+    tilt = np.radians(5.0)
+    n_bar = [np.cos(tilt), np.sin(tilt), 0.0]
+    buf = np.zeros((4, 11))
+    for k in range(3):
+        buf[k] = [-1e-9, 0.0, 0.0, 0.0, *n_bar, 0.1, 0.0, 0.01 * k, 1.0]
+    buf[3] = [0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.1, 0.0, 0.0, 1.0]
+    pose_rc = np.tile(np.eye(3), (3, 1, 1))
+    got = cs._consistent_normals(buf, 4, 0, 1, kinds, sparams, grid_data, grid_off, grid_dim,
+                                 pose_rc)
+    np.testing.assert_array_equal(got, n_bar)
+    # The point takes the patch's normal (φ rises by s cos 5°, within the 1 % the test on
+    # the normal allows)...
+    np.testing.assert_array_equal(buf[3, 4:7], n_bar)
+    # ... but keeps φ = 0: the step left by the +x face, not along n̄.
+    assert buf[3, 0] == 0.0

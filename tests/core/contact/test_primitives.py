@@ -288,6 +288,39 @@ def test_outside_gaps_whose_square_underflows_give_the_gap(shape):
     np.testing.assert_array_equal(grad, [1.0, 0.0, 0.0])
 
 
+@pytest.mark.parametrize('shape, dims, corner', [
+    ('box', [0.2, 0.2, 0.2], [0.1, 0.1, 0.0]),       # the edge x = y = 0.1
+    ('box', [0.2, 0.2, 0.2], [0.1, 0.1, 0.1]),       # a corner
+    ('cylinder', [0.1, 0.2], [0.1, 0.0, 0.1]),       # the top rim
+])
+def test_a_point_outside_an_edge_by_round_off_takes_a_face_normal(shape, dims, corner):
+    # A point a few ulps outside an edge or a corner: the direction from the edge is the
+    # round-off of its coordinates (here (1, 2, 3) ulps: 27° from either face before the
+    # change), and a patch normal tilted like that locked boxes side by side into wedges.
+    # It takes the face normal of its largest outward offset; φ stays the exact distance.
+    solid = primitive_shape(shape, dims)
+    point = np.array(corner, dtype=float)
+    for axis, ulps in enumerate([1, 2, 3]):
+        for _ in range(ulps if corner[axis] != 0.0 else 0):
+            point[axis] = np.nextafter(point[axis], 1.0)
+    value, grad = solid.signed_distance(point)
+    # Exact reference: the offsets are exact differences of nearby floats (Sterbenz).
+    if shape == 'box':
+        offsets = [max(point[k] - 0.1, 0.0) for k in range(3)]
+        faces = np.eye(3)
+    else:
+        offsets = [math.hypot(point[0], point[1]) - 0.1, point[2] - 0.1]
+        faces = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    assert 0.0 < max(offsets) < 1e-15
+    assert value == pytest.approx(math.hypot(*offsets), rel=1e-12)
+    np.testing.assert_array_equal(grad, faces[int(np.argmax(offsets))])
+    # A real gap (1e-9 m, not round-off) keeps the direction from the edge.
+    far = np.array(corner) + 1e-9 * (np.array(corner) != 0.0)
+    value, grad = solid.signed_distance(far)
+    bent = (np.array(corner) != 0.0) / math.sqrt(np.count_nonzero(corner))
+    np.testing.assert_allclose(grad, bent, rtol=0, atol=1e-6)
+
+
 def test_building_twice_gives_identical_bytes():
     for shape, dims in SHAPES:
         a = primitive_shape(shape, dims)
