@@ -65,10 +65,10 @@ N_SHAPE_PARAM = 8
 #: not the direction from the nearest edge or corner: that close the direction is the
 #: round-off of the point's coordinates.  Boxes side by side meet their diagonal neighbours
 #: edge on edge; their edge points got normals anywhere between the two faces' (and tilted
-#: up or down at the corners), and a patch normal tilted from the faces by less than atan μ
-#: locks against the side contacts as a wedge: in a grid of 1000 boxes the squeeze grew
-#: until the sweeps ran to their cap every stage (3.5–7 s a step instead of 0.3 s).  φ is the
-#: exact distance all the same.
+#: up or down at the corners).  In a grid of 1000 boxes a patch normal tilted 7° like that
+#: read 1.8 µm of depth that was not there (see step.DEPTH_READ_ERROR_M), and one tilted
+#: from the faces by less than atan μ can lock as a wedge (see step._consistent_normals).
+#: φ is the exact distance all the same.
 EDGE_ROUNDOFF_M = 1e-12
 
 # Eberly's root is found by Newton steps from the left end of his bracket (see _root), with
