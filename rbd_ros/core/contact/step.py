@@ -2113,6 +2113,13 @@ def _residual(patches, contacts, vel, n_bodies, scr):
     return largest
 
 
+@_inl
+def _beside(contacts, c, gx, gy, gz, g):
+    """Tell whether point ``c``'s normal is not within 60° of gravity (WARM_COS_MIN)."""
+    return (abs(contacts[c, C_NORMAL] * gx + contacts[c, C_NORMAL + 1] * gy
+                + contacts[c, C_NORMAL + 2] * gz) < WARM_COS_MIN * g)
+
+
 @_raw
 def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrench, rot, warm,
                 warm_n, slot, prm, sideways):
@@ -2129,10 +2136,8 @@ def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrenc
         b = int(patches[q, Q_B])
         j = 0 if shared else a
         gx, gy, gz = prm[P_GRAVITY, j], prm[P_GRAVITY + 1, j], prm[P_GRAVITY + 2, j]
-        s0 = int(patches[q, Q_START])
-        if (abs(contacts[s0, C_NORMAL] * gx + contacts[s0, C_NORMAL + 1] * gy
-                + contacts[s0, C_NORMAL + 2] * gz)
-                < WARM_COS_MIN * math.sqrt(gx * gx + gy * gy + gz * gz)):
+        if _beside(contacts, int(patches[q, Q_START]), gx, gy, gz,
+                   math.sqrt(gx * gx + gy * gy + gz * gz)):
             sideways[a] = True
             if b < n_bodies:
                 sideways[b] = True
@@ -2156,15 +2161,14 @@ def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrenc
         m = int(patches[q, Q_COUNT])
         old = int(warm[slot, a, row, W_COUNT])
         # Beside a neighbour, the matched points take the mean of their kept impulses
-        # (C_LAMBDA holds each point's own until then): the patch's load, not its spread
-        # (see W_SLOTS).
+        # (C_LAMBDA, 0 from the narrow phase, holds each point's own until then): the
+        # patch's load, not its spread (see W_SLOTS).
         spread = not sideways[a] and not (dyn_b and sideways[b])
         used = 0
         total = 0.0
         taken = 0
         for k in range(m):
             c = s0 + k
-            contacts[c, C_LAMBDA] = 0.0
             rax, ray, raz = contacts[c, C_RA], contacts[c, C_RA + 1], contacts[c, C_RA + 2]
             px, py, pz = _mat_t_vec(rot, a, rax, ray, raz)
             best = -1
@@ -2185,12 +2189,7 @@ def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrenc
             used |= 1 << best
             f = W_POINTS + W_STRIDE * best
             lam = warm[slot, a, row, f + 3]
-            if not lam > 0.0:
-                continue
-            nx = contacts[c, C_NORMAL]
-            ny = contacts[c, C_NORMAL + 1]
-            nz = contacts[c, C_NORMAL + 2]
-            if abs(nx * gx + ny * gy + nz * gz) < WARM_COS_MIN * g:
+            if not lam > 0.0 or _beside(contacts, c, gx, gy, gz, g):
                 continue
             contacts[c, C_LAMBDA] = lam
             total += lam
