@@ -44,6 +44,12 @@ the linear prediction ``φ_next = φ_cand + h (u_n − u_n0)``; its impulse keep
 per step and no faster than :data:`PUSH_MAX_M_S`.  Against a plane only the points that can
 be lowest are tested: a box's corners, a mesh's vertices; a cylinder's (its rims' lowest points
 and the rim points a quarter turn on) and an ellipsoid's (its support point) in closed form.
+Two boxes (bodies or a static box) take their points from :mod:`~rbd_ros.core.contact.box_box`
+instead: the separating axis of least overlap, then the face of one clipped by the other's (or
+one point edge on edge), all points with one normal.  A face resting on a face has the corners
+of their overlap, at most eight before the reduction, where the sampled surface points gave
+~100 a pair to try, keep and reduce, and points on the other box's edges needed
+:func:`_consistent_normals`' repairs.
 
 **Patches.** The points of one body pair are reduced to at most four (the deepest, the
 farthest from it, then the two that span the largest area): the convex hull of a flat patch,
@@ -87,6 +93,7 @@ import numba as nb
 import numpy as np
 
 from rbd_ros.core import kernels as kk
+from rbd_ros.core.contact import box_box as bb
 from rbd_ros.core.contact import kernels as ck
 from rbd_ros.core.layout import (N_STATE, P_ANG_DAMPING, P_GRAVITY, P_INERTIA, P_INV_INERTIA,
                                  P_INV_MASS, P_LIN_DAMPING, S_OMEGA, S_POS, S_QUAT, S_VEL)
@@ -488,6 +495,30 @@ def _one_way(sx, sy, pts, pt_off, balls, ball_off, cell_of, near, pt_radius, kin
     return count
 
 
+@_raw
+def _box_points(a, b, sparams, pose_r, pose_p, pose_rc, pose_pc, margin, clip, buf):
+    """
+    Fill ``buf`` with the points of boxes ``a`` and ``b`` as :func:`_one_way` would.
+
+    The points and their depths come from :func:`box_box.box_box` at the candidate poses:
+    points of one box's face clipped by the other's (or one point edge on edge), all with the
+    one normal of the separating axis.  Each is a material point of its box, so its row has
+    where that point is now.  Return the count.
+    """
+    count, nx, ny, nz, ix = bb.box_box(sparams, pose_rc, pose_pc, a, b, margin, clip, buf)
+    iy = b if ix == a else a
+    flip = 1.0 if ix == a else -1.0
+    for k in range(count):
+        bx, by, bz = _mat_t_vec(pose_rc, ix, buf[k, 1] - pose_pc[ix, 0],
+                                buf[k, 2] - pose_pc[ix, 1], buf[k, 3] - pose_pc[ix, 2])
+        rx, ry, rz = _mat_vec(pose_r, ix, bx, by, bz)
+        lx, ly, lz = _mat_t_vec(pose_rc, iy, buf[k, 1] - pose_pc[iy, 0],
+                                buf[k, 2] - pose_pc[iy, 1], buf[k, 3] - pose_pc[iy, 2])
+        _push_point(buf, k, buf[k, 0], rx, ry, rz, pose_p, ix, flip * nx, flip * ny,
+                    flip * nz, lx, ly, lz, flip)
+    return count
+
+
 #: A cylinder tilted less than this (rad) from a plane's normal rests on the points of its rim
 #: at fixed angles in its frame (the lowest point's direction is round-off there).
 RIM_UPRIGHT_RAD = 1e-9
@@ -886,6 +917,7 @@ def narrow_phase(pairs, n_bodies, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_
         most = max(most, pt_off[s + 1] - pt_off[s], ppt_off[s + 1] - ppt_off[s])
     buf = np.empty((2 * most + 1, 11))
     near = np.empty(most + 1, dtype=np.bool_)  # per cell of a shape: within reach
+    clip = np.empty((bb.CLIP_ROWS, bb.CLIP_COLS))  # box on box: the clipped face
     keep = np.empty(PATCH_POINTS, dtype=np.int64)
     # This loop only calls: the functions it calls take no reference counts (see _raw), and
     # _consistent_normals, which allocates, runs only where a pair's normals differ.
@@ -897,7 +929,7 @@ def narrow_phase(pairs, n_bodies, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_
         count, mixed = _pair_points(a, b, n, x, prm, vel, pose_r, pose_p, pose_rc, pose_pc,
                                     kinds, sparams, pts, pt_off, ppts, ppt_off, pt_radius,
                                     grid_data, grid_off, grid_dim, h, stage, balls, ball_off,
-                                    cell_of, buf, near)
+                                    cell_of, buf, near, clip)
         if count == 0:
             continue
         pnx, pny, pnz = buf[0, 4], buf[0, 5], buf[0, 6]
@@ -913,7 +945,7 @@ def narrow_phase(pairs, n_bodies, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_
 @_raw
 def _pair_points(a, b, n, x, prm, vel, pose_r, pose_p, pose_rc, pose_pc, kinds, sparams, pts,
                  pt_off, ppts, ppt_off, pt_radius, grid_data, grid_off, grid_dim, h, stage,
-                 balls, ball_off, cell_of, buf, near):
+                 balls, ball_off, cell_of, buf, near, clip):
     """
     Fill ``buf`` with the contact points of the pair ``(a, b)`` (see :func:`_one_way`).
 
@@ -923,6 +955,9 @@ def _pair_points(a, b, n, x, prm, vel, pose_r, pose_p, pose_rc, pose_pc, kinds, 
         count = _plane_points(a, b, kinds, ppts, ppt_off, pt_radius, sparams, pose_r,
                               pose_p, pose_rc, pose_pc, a, pose_rc, pose_pc, b, MARGIN_M,
                               buf)
+    elif kinds[a] == ck.KIND_BOX and kinds[b] == ck.KIND_BOX:
+        count = _box_points(a, b, sparams, pose_r, pose_p, pose_rc, pose_pc, MARGIN_M, clip,
+                            buf)
     else:
         count = _one_way(a, b, pts, pt_off, balls, ball_off, cell_of, near, pt_radius,
                          kinds, sparams, grid_data, grid_off, grid_dim, pose_r, pose_p,
