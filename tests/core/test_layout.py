@@ -155,6 +155,16 @@ def test_fingerprint_lists_every_constant_and_names_the_kernel_cache():
         assert os.path.basename(kernels.CACHE_DIR) == f'layout-{layout.fingerprint_hash()}'
 
 
+def test_every_compiled_source_is_in_the_kernel_cache_name():
+    # A compiled function embeds what it calls, but numba checks only the caller's file before
+    # loading it from the cache: a module of compiled functions left out of KERNEL_SOURCES
+    # could be edited and the step would still run its old machine code from the cache.
+    compiled = {path.relative_to(CORE).as_posix() for path in CORE.rglob('*.py')
+                if 'njit(' in path.read_text()}
+    assert compiled, 'no compiled module found: the scan is broken'
+    assert compiled <= set(layout.KERNEL_SOURCES), compiled - set(layout.KERNEL_SOURCES)
+
+
 @pytest.mark.parametrize('inherited', [False, True], ids=['set_by_the_user', 'inherited'])
 def test_a_child_process_keeps_the_kernel_cache_it_inherits(tmp_path, inherited):
     # What a process sees that a Python parent (a test, a launch script) started after
