@@ -639,6 +639,10 @@ def _consistent_normals(buf, count, a, b, kinds, sparams, grid_data, grid_off, g
     """
     Give points on an edge or corner of the other shape their patch's normal; return it.
 
+    (Two boxes never come here: :func:`_box_points` gives their points one normal.  The box
+    examples below are how this was found; it serves every other pair, a mesh's or a
+    cylinder's face on a box's, say.)
+
     ∇φ is ambiguous where the shape it is taken of has an edge or a corner: a box placed
     exactly on another has its bottom edges on the lower box's top edges, where φ's gradient
     may point sideways, and a corner a hair outside the lower box's footprint gets a gradient

@@ -19,9 +19,10 @@ The scenes are the benchmark's (``tests/benchmarks/contact_refs.py``): boxes of 
 0.2 m, μ = 0.5, placed exactly touching; a pyramid box is centred over the 2 cm gap between
 the two below it.  The issue asks for 10 s (the benchmark prints those figures); 2 s here at
 h = 1 ms and 10 ms keeps the test pass short.  Measured figures are printed (``pytest -s``).
-Over 10 s (measured, 1 ms / 10 ms, sampled each second): the column's top drifts 8.4e-12 /
-8.5e-12 m and its deepest penetration is 9.8e-13 m at both; the pyramid's top drifts 2.3e-12 /
-3.1e-12 m with penetration up to 1.3e-12 / 1.6e-12 m.
+Over 10 s (the benchmark, 1 ms / 10 ms, boxes touching through their clipped faces): the
+column's top drifts 4.6e-15 / 4.5e-14 m and its deepest penetration is 1.8e-16 / 1.1e-15 m;
+the pyramid's top drifts 3.3e-15 / 8.7e-15 m with penetration up to 2.6e-16 / 3.0e-15 m.
+(With sampled box points, before box_box.py: drifts ~1e-11 m, penetration ~1e-12 m.)
 """
 
 from contact_scenes import body, ground, STEP_IDS, steps, STEPS_NS, world
@@ -140,12 +141,12 @@ def check_standing(name, figures):
     assert figures['top_drift_m'] <= 1e-6
     assert figures['max_drift_m'] <= 1e-6
     assert figures['ke_max_j'] <= 1e-10
-    # No growing penetration (issue 9): the boxes start exactly touching.  A corner on the
-    # lower box's side plane takes its depth below the top face once that exceeds
-    # FLUSH_DEPTH_MIN_M = 1e-12 m, and a depth is pushed out at 20 % a step, so an interface
-    # settles within ~1e-12 m (measured: up to 1.6e-12 m over 10 s); 1e-11 m allows round-off on
-    # positions up to 2 m.  Before the corners took their depth, the 1 ms pyramid crept 5e-11
-    # m in 2 s and the 1 ms column went non-finite at 8.4 s.
+    # No growing penetration (issue 9): the boxes start exactly touching, and every clipped
+    # corner has its depth below the other box's face, pushed out at 20 % a step, so an
+    # interface stays at round-off (measured: up to 3e-15 m over 10 s, 1e-12 m once in the
+    # first second of the pyramid at 10 ms); 1e-11 m allows round-off on positions up to 2 m.
+    # With sampled points, before a corner on the lower box's side plane took its depth, the
+    # 1 ms pyramid crept 5e-11 m in 2 s and the 1 ms column went non-finite at 8.4 s.
     assert figures['penetration_early_m'] <= PENETRATION_BOUND_M
     assert figures['penetration_end_m'] <= PENETRATION_BOUND_M
     # Standing means not turning either: 1e-6 rad over the 0.2 m side moves a corner 0.2 µm.
@@ -193,7 +194,8 @@ def test_each_box_of_a_resting_stack_feels_its_own_weight(make, h_ns):
     # 7.6, 6.7, ... 3.5 N instead of 9.81 N, the pyramid was off by 0.16 N.  Started from the
     # last step's impulses, the sweeps converge over the first steps (at 10 ms the error is
     # 1e-3 N at 0.15 s, 1e-5 N at 0.3 s) and shock propagation then has nothing left to do.
-    # Measured after 1 s: within 2e-6 N (0.2 ppm of m g) at both steps; the bound is 50×.
+    # Measured after 1 s: within 4.4e-9 N at both steps (2e-6 N with sampled box points); the
+    # bound is 1e-4 N, 1e-5 of m g.
     sim = stack_world(make(), h_ns)
     sim.step(steps(1.0, h_ns))
     weight = np.array([[0.0, 0.0, b.model.mass_kg * 9.81] for b in sim.bodies])
@@ -209,7 +211,7 @@ def test_boxes_side_by_side_stay_at_rest():
     # nothing, so nothing may move.  Warm-starting the friction too let neighbours squeeze each
     # other, held by the floor's friction carried over from step to step, until the squeeze
     # let go (1e-8 J at step 148); warm-starting every impulse did the same by step 290.  A
-    # box of 1 kg moving 1e-10 m/s has 5e-21 J; measured: ~1e-25 J (round-off) over 400 steps.
+    # box of 1 kg moving 1e-10 m/s has 5e-21 J; measured: ~1e-27 J (round-off) over 400 steps.
     side, count = 0.1, 8
     boxes = [body(f'b{i}', 'box', [side] * 3, material=(MU, 0.0)) for i in range(count ** 2)]
     states = [BodyState(position_w=(side * (i % count), side * (i // count), 0.5 * side))
@@ -232,7 +234,7 @@ def test_boxes_side_by_side_set_spinning_at_round_off_do_not_squeeze_each_other(
     # impulse per step, 9.8e-3 N·s), and the sweeps then ran to their cap every stage: a step
     # of 1000 such boxes took 3.5–7 s instead of 0.3 s.  Now a patch's matched points start
     # from the mean of their kept impulses.  Measured: every impulse between boxes stays
-    # below 4e-11 N·s over 300 steps (round-off after the first steps, ~1e-14); the bound is
+    # below 7.2e-11 N·s over 300 steps (4e-11 with sampled box points); the bound is
     # 1e-9 N·s, 1e-7 of a box's weight impulse.  The boxes come to rest: a box of 1 kg moving
     # 1e-10 m/s has 5e-21 J.
     side, count = 0.1, 3
@@ -264,7 +266,7 @@ def test_a_push_inside_the_friction_cone_moves_nothing_in_a_stack(h_ns):
     start = positions(sim)
     sim.set_body_loads(1, [AppliedWrench(force=(1.0, 0.0, 0.0))])
     sim.step(steps(1.0, h_ns))
-    # Round-off drift (measured 6e-12 m in 1 s at 1 ms, as the resting column's), far below
+    # Round-off drift (measured 1.5e-15 / 7.5e-15 m in 1 s at 1 ms / 10 ms), far below
     # any slip: a net 1e-3 N left unbalanced would move the box 5e-4 m in 1 s.
     np.testing.assert_allclose(positions(sim), start, rtol=0, atol=1e-9)
     assert kinetic_energy_j(sim) < 1e-16
@@ -300,12 +302,13 @@ def test_a_stack_knocked_over_loses_energy_once_the_push_ends(h_ns):
     # A step may add energy only by pushing a penetration out: a point inside is pushed out at
     # most at PUSH_MAX_M_S (v), which gives a body at most ½ m v² and lifts it by at most v h,
     # so at most Σ m (½ v² + g v h) for the four bodies (0.074 J at 10 ms, 0.030 J at 1 ms).
-    # Measured: 1.6e-6 J at 1 ms; 8.6e-3 J at 10 ms, a step where the tumbling striker's
-    # corner lay 6.8 mm inside the bottom box (the code before warm starting adds the same
-    # from that state). The bug this guards against added 19 J in one step.
+    # Measured: 4.4e-15 J at 1 ms; 6.6e-9 J at 10 ms, from a corner 3.4e-9 m deep.  With
+    # sampled box points (before box–box clipping) 1.6e-6 J and 8.6e-3 J, a step where the
+    # tumbling striker's corner lay 6.8 mm inside the bottom box.  The bug this guards
+    # against added 19 J in one step.
     v, h = cs.PUSH_MAX_M_S, h_ns * 1e-9
     assert gain <= sum(b.model.mass_kg for b in sim.bodies) * (0.5 * v * v + 9.81 * v * h), gain
-    # Over the whole fall contact only takes energy out (measured: 26 J at 1 ms and 52 J at
-    # 10 ms down to 4.9 J, every box lying on the floor).
+    # Over the whole fall contact only takes energy out (measured: 25.5 J at 1 ms and 25.4 J
+    # at 10 ms down to 6.87 J, the top box lying on the middle one, the others on the floor).
     assert previous < start, (start, previous)
     assert sim.body_state(0).position_w[0] > 0.5  # the bottom box was knocked out
