@@ -115,6 +115,21 @@ def _separation(half, rot, i, lx, ly, lz):
 
 
 @_raw
+def _faces(half, rot, s, t, dx, dy, dz):
+    """Return the largest separation of boxes ``s``, ``t`` along ``s``'s face normals, its axis."""
+    best = -math.inf
+    face = 0
+    for i in range(3):
+        lx, ly, lz = rot[s, 0, i], rot[s, 1, i], rot[s, 2, i]
+        gap = (abs(dx * lx + dy * ly + dz * lz) - half[s, i]
+               - _separation(half, rot, t, lx, ly, lz))
+        if gap > best:
+            best = gap
+            face = i
+    return best, face
+
+
+@_raw
 def box_box(half, rot, pos, a, b, margin, poly, out):
     """
     Find the contact points of boxes ``a`` and ``b``; return ``(count, nx, ny, nz, incident)``.
@@ -130,26 +145,10 @@ def box_box(half, rot, pos, a, b, margin, poly, out):
     dx = pos[a, 0] - pos[b, 0]
     dy = pos[a, 1] - pos[b, 1]
     dz = pos[a, 2] - pos[b, 2]
-    best_a = -math.inf
-    face_a = 0
-    for i in range(3):
-        lx, ly, lz = rot[a, 0, i], rot[a, 1, i], rot[a, 2, i]
-        s = abs(dx * lx + dy * ly + dz * lz) - half[a, i] - _separation(half, rot, b, lx, ly, lz)
-        if s >= margin:
-            return 0, 0.0, 0.0, 0.0, a
-        if s > best_a:
-            best_a = s
-            face_a = i
-    best_b = -math.inf
-    face_b = 0
-    for j in range(3):
-        lx, ly, lz = rot[b, 0, j], rot[b, 1, j], rot[b, 2, j]
-        s = abs(dx * lx + dy * ly + dz * lz) - half[b, j] - _separation(half, rot, a, lx, ly, lz)
-        if s >= margin:
-            return 0, 0.0, 0.0, 0.0, a
-        if s > best_b:
-            best_b = s
-            face_b = j
+    best_a, face_a = _faces(half, rot, a, b, dx, dy, dz)
+    best_b, face_b = _faces(half, rot, b, a, dx, dy, dz)
+    if best_a >= margin or best_b >= margin:
+        return 0, 0.0, 0.0, 0.0, a
     best_e = -math.inf
     edge_a = 0
     edge_b = 0
