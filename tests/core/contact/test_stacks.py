@@ -257,6 +257,36 @@ def test_boxes_side_by_side_set_spinning_at_round_off_do_not_squeeze_each_other(
 
 
 @steps_ns
+def test_a_column_started_overlapping_is_pushed_apart_and_stands(h_ns):
+    # A start overlap up to the 1 mm build tolerance is accepted and pushed out at 20 % a
+    # step.  Ten boxes, each sunk 0.9 mm into the one below (the bottom one into the floor):
+    # every interface is pushed apart, so the top rises by the ten overlaps, 9 mm, and the
+    # column stands upright and at rest.  Measured after 2 s: the rise to 5.4e-15 m,
+    # sideways 2.4e-14 m, tilt 3.5e-14 rad, KE 1.9e-24 J (and the same after 10 s).  With
+    # sampled box points (before box_box.py) it stood too, but 3.5e-12 / 8.2e-12 m short:
+    # corners on the lower box's side planes kept ~1e-12 m of depth at each interface.
+    overlap = 0.9e-3
+    centres = [(0.0, 0.0, SIDE_M * (i + 0.5) - overlap * (i + 1)) for i in range(10)]
+    sim = stack_world(centres, h_ns)
+    start = positions(sim)
+    sim.step(steps(2.0, h_ns))
+    moved = positions(sim) - start
+    print(f'\noverlapping column h={h_ns} ns: top rose {moved[-1, 2]!r} m of '
+          f'{10 * overlap!r}, sideways {np.abs(moved[:, :2]).max():.2e} m, tilt '
+          f'{max(tilt_rad(sim, i) for i in range(10)):.2e} rad, KE '
+          f'{kinetic_energy_j(sim):.2e} J')
+    # Pushed out at 20 % a step: after 2 s (200 steps at 10 ms) 0.8^200 of 0.9 mm is left.
+    # Each box rises by the overlaps below it; 1e-12 m allows round-off on 2 m of positions.
+    np.testing.assert_allclose(moved[:, 2], overlap * np.arange(1, 11), rtol=0, atol=1e-12)
+    # Nothing pushes sideways or tilts (round-off, as the resting column's).
+    assert np.abs(moved[:, :2]).max() <= 1e-9
+    assert max(tilt_rad(sim, i) for i in range(10)) <= 1e-6
+    # At rest (the bound), and the depth stays at round-off.
+    assert kinetic_energy_j(sim) <= 1e-10
+    assert deepest_penetration_m(sim) <= PENETRATION_BOUND_M
+
+
+@steps_ns
 def test_a_push_inside_the_friction_cone_moves_nothing_in_a_stack(h_ns):
     # Two equal boxes stacked exactly (flush edges); the top one pushed with 1 N along x, well
     # inside its cone (μ m g = 4.9 N), and the pair inside theirs (9.8 N): nothing moves. The
