@@ -106,8 +106,8 @@ def _repeated(poly, k, out, count):
 
 
 @_raw
-def _separation(half, rot, i, lx, ly, lz):
-    """Return the half extent of box ``i`` (``half``, axes ``rot[i]``) along the unit ``l``."""
+def _extent(half, rot, i, lx, ly, lz):
+    """Return how far box ``i`` (``half``, axes ``rot[i]``) reaches from its centre along ``l``."""
     r = 0.0
     for k in range(3):
         r += half[i, k] * abs(lx * rot[i, 0, k] + ly * rot[i, 1, k] + lz * rot[i, 2, k])
@@ -122,7 +122,7 @@ def _faces(half, rot, s, t, dx, dy, dz):
     for i in range(3):
         lx, ly, lz = rot[s, 0, i], rot[s, 1, i], rot[s, 2, i]
         gap = (abs(dx * lx + dy * ly + dz * lz) - half[s, i]
-               - _separation(half, rot, t, lx, ly, lz))
+               - _extent(half, rot, t, lx, ly, lz))
         if gap > best:
             best = gap
             face = i
@@ -162,8 +162,8 @@ def box_box(half, rot, pos, a, b, margin, poly, out):
             if size < PARALLEL_SIN:
                 continue
             lx, ly, lz = lx / size, ly / size, lz / size
-            s = (abs(dx * lx + dy * ly + dz * lz) - _separation(half, rot, a, lx, ly, lz)
-                 - _separation(half, rot, b, lx, ly, lz))
+            s = (abs(dx * lx + dy * ly + dz * lz) - _extent(half, rot, a, lx, ly, lz)
+                 - _extent(half, rot, b, lx, ly, lz))
             if s >= margin:
                 return 0, 0.0, 0.0, 0.0, a
             if s > best_e:
@@ -174,8 +174,7 @@ def box_box(half, rot, pos, a, b, margin, poly, out):
     on_b = best_b > best_a + FACE_BIAS_M
     best_f = best_b if on_b else best_a
     if best_e > best_f + FACE_BIAS_M:
-        return _edge_point(half, rot, pos, a, b, edge_a, edge_b, ex, ey, ez, best_e, margin,
-                           out)
+        return _edge_point(half, rot, pos, a, b, edge_a, edge_b, ex, ey, ez, best_e, out)
     if on_b:
         return _face_points(half, rot, pos, b, a, face_b, margin, poly, out, 1.0)
     return _face_points(half, rot, pos, a, b, face_a, margin, poly, out, -1.0)
@@ -242,8 +241,12 @@ def _face_points(half, rot, pos, r, c, i, margin, poly, out, toward_a):
 
 
 @_raw
-def _edge_point(half, rot, pos, a, b, i, j, lx, ly, lz, s, margin, out):
-    """Return the edge-on-edge point of :func:`box_box` along ``l`` = ``A_i × B_j`` (unit)."""
+def _edge_point(half, rot, pos, a, b, i, j, lx, ly, lz, s, out):
+    """
+    Return the edge-on-edge point of :func:`box_box` along ``l`` = ``A_i × B_j`` (unit).
+
+    ``s``: the separation along ``l``, below the margin (:func:`box_box` has checked).
+    """
     if (lx * (pos[a, 0] - pos[b, 0]) + ly * (pos[a, 1] - pos[b, 1])
             + lz * (pos[a, 2] - pos[b, 2])) < 0.0:
         lx, ly, lz = -lx, -ly, -lz
@@ -263,7 +266,7 @@ def _edge_point(half, rot, pos, a, b, i, j, lx, ly, lz, s, margin, out):
             pbx += sb * rot[b, 0, k]
             pby += sb * rot[b, 1, k]
             pbz += sb * rot[b, 2, k]
-    # The closest points of the two lines p_a + σ A_i and p_b + τ B_j, kept on the edges.
+    # The point of the line p_a + σ A_i closest to the line p_b + τ B_j, kept on a's edge.
     ax, ay, az = rot[a, 0, i], rot[a, 1, i], rot[a, 2, i]
     bx, by, bz = rot[b, 0, j], rot[b, 1, j], rot[b, 2, j]
     rx, ry, rz = pax - pbx, pay - pby, paz - pbz
@@ -272,8 +275,6 @@ def _edge_point(half, rot, pos, a, b, i, j, lx, ly, lz, s, margin, out):
     e2 = bx * rx + by * ry + bz * rz
     sigma = (c * e2 - e1) / (1.0 - c * c)
     sigma = min(max(sigma, -half[a, i]), half[a, i])
-    if s >= margin:
-        return 0, lx, ly, lz, a
     out[0, 0] = s
     out[0, 1] = pax + sigma * ax
     out[0, 2] = pay + sigma * ay
