@@ -115,7 +115,9 @@ def _rotate(quat_wxyz, vectors, inverse=False):
 def solref_damping_ratio(restitution):
     """Damping ratio of a linear oscillator whose rebound speed ratio is ``restitution``."""
     log_eps = math.log(restitution)
-    return -log_eps / math.sqrt(math.pi ** 2 + log_eps ** 2)
+    # eps = 1 gives 0, which MuJoCo takes for a "mixed solref format" and replaces by its
+    # default (critically damped, no rebound at all): the smallest positive ratio instead.
+    return max(-log_eps / math.sqrt(math.pi ** 2 + log_eps ** 2), 1e-9)
 
 
 class MujocoWorld:
@@ -395,6 +397,29 @@ def rolling(world_cls, h_s, quick=False):
             'slip_max_m_s': max(slips)}
 
 
+def cradle(world_cls, h_s, quick=False):
+    """
+    Strike a row of 4 touching spheres with a fifth at 1 m/s, eps 1, mu 0, no gravity.
+
+    The row floats 1 m above the plane, the striker starts 5 cm from it; after 0.5 s: the
+    share of the momentum the last ball carries (exact 1), the largest speed left to the
+    others (exact 0), and the kinetic energy over the start's (exact 1).
+    """
+    r, count, gap = SPHERE_RADIUS_M, 5, 0.05
+    bodies = tuple(Body('sphere', r, MASS_KG, (2.0 * r * k + (gap if k else 0.0), 0.0, 1.0))
+                   for k in range(count))
+    world = world_cls(Scene(h_s, bodies, 0.0, 1.0, gravity_w=(0.0, 0.0, 0.0)))
+    try:
+        world.set_velocity(0, (1.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        world.step(steps(0.5, h_s))
+        _, vel, omega = world.state()
+    finally:
+        world.close()
+    return {'last_share': float(vel[-1, 0]),
+            'others_max_m_s': float(np.abs(vel[:-1]).max()),
+            'energy_ratio': kinetic_energy(bodies, vel, omega) / (0.5 * MASS_KG)}
+
+
 def column_scene_bodies(count=10):
     """Stack ``count`` boxes (side 0.2 m) exactly touching, the lowest on the plane."""
     return tuple(_box(z=BOX_SIDE_M * (i + 0.5)) for i in range(count))
@@ -541,7 +566,7 @@ def measurements(world_cls):
 
 
 CASES = {'sliding_stop': sliding_stop, 'slope_hold': slope_hold, 'slope_slide': slope_slide,
-         'bounce': bounce, 'rolling': rolling, 'stack_column': stack_column,
+         'bounce': bounce, 'rolling': rolling, 'cradle': cradle, 'stack_column': stack_column,
          'stack_pyramid': stack_pyramid, 'cost_1000': cost_1000,
          'cost_1000_touching': cost_1000_touching, 'cost_per_body': cost_per_body}
 # What each case's table is headed with.
@@ -557,6 +582,9 @@ TITLES = {
               'trick (timeconst 0.02 s, damping ratio from eps)',
     'rolling': 'sphere r 0.1 m released on a 30 degree slope, mu 0.5: acceleration fitted to v(t) '
                'over 0.1-1 s (exact 5/7 g sin) and the largest slip of the contact point',
+    'cradle': "Newton's cradle: 5 spheres (1 kg, r 0.1 m) in a row, the first at 1 m/s into the "
+              'other four, eps 1, mu 0, no gravity: after 0.5 s the share of the momentum in the '
+              'last, the largest speed of the others, the energy ratio; MuJoCo: solref trick',
     'stack_column': 'column of 10 boxes (1 kg, side 0.2 m), mu 0.5: top box drift from its '
                     'placement and from t = 1 s, largest kinetic energy in the last second, '
                     'deepest penetration at 1 s and at the end, wall time per step',
@@ -586,6 +614,7 @@ def _exact():
                    'apex3_error_pct': 0.0},
         'rolling': {'accel_m_s2': 5.0 / 7.0 * G * math.sin(math.radians(30.0)),
                     'error_pct': 0.0, 'slip_max_m_s': 0.0},
+        'cradle': {'last_share': 1.0, 'others_max_m_s': 0.0, 'energy_ratio': 1.0},
         'stack_column': stack, 'stack_pyramid': stack}
 
 

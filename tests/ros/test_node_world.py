@@ -21,7 +21,8 @@ a ball launched at 1 m/s without spin ends rolling at ``5/7 v0``; a box pushed o
 ``<body>/wrench`` with 10 N from t_on to t_off stops after ``a T²/2 + (a T)²/(2 μ g)``,
 ``a = F/m − μ g``. Per-body topics agree with ``poses`` and ``/tf``; the bag replays bit for
 bit; bad world files exit 2 naming the parameter. And ``msg_config/stack.yaml`` at rest: each
-box of the column reads its own weight on ``contact_wrench``.
+box of the column reads its own weight on ``contact_wrench``; ``msg_config/cradle.yaml``'s
+striker hands its motion through a row of four balls to the last.
 """
 
 from conftest import FIRST_START_S, NodeProcess, REPO, wait_until
@@ -169,6 +170,37 @@ def test_each_box_of_a_resting_column_feels_its_own_weight(tmp_path):
                                        rtol=0, atol=1e-6, err_msg=f'{body} at {t_ns} ns')
             np.testing.assert_allclose([w.torque.x, w.torque.y, w.torque.z], [0.0] * 3,
                                        rtol=0, atol=1e-6, err_msg=f'{body} at {t_ns} ns')
+
+
+def test_newtons_cradle_hands_the_motion_to_the_last_ball(tmp_path):
+    # msg_config/cradle.yaml: the striker b0 at 1 m/s, 5 cm from four touching balls on a
+    # frictionless floor, ε = 1. Equal balls exchange their velocities in each collision, so
+    # from the hit (t = gap / v = 0.05 s) b4 moves on at 1 m/s and b0-b3 are at rest. Read back
+    # from the node's own recording at 1 s.
+    node_proc = NodeProcess(tmp_path, {
+        'start_paused': False, 'real_time_factor': 100.0, 'duration_s': 1.0,
+        'record_path': str(tmp_path / 'cradle')},
+        params_file=REPO / 'msg_config' / 'cradle.yaml', namespace=True)
+    try:
+        assert node_proc.wait(FIRST_START_S) == 0, node_proc.stderr
+    finally:
+        node_proc.stop()
+    ns, bag = node_proc.namespace, open_bag(str(tmp_path / 'cradle'))
+    end = 1_000_000_000
+    speed = {b: _messages(bag, f'{ns}/{b}/twist', TwistStamped)[end].twist.linear
+             for b in ('b0', 'b1', 'b2', 'b3', 'b4')}
+    x = {b: _messages(bag, f'{ns}/{b}/pose', PoseStamped)[end].pose.position.x
+         for b in ('b0', 'b4')}
+    # Velocities: each exchange is exact to round-off (measured: b4 1 m/s to the bit, 5.6e-17
+    # m/s left to the others); 1e-12 m/s bounds round-off of 1 m/s over a few impulses.
+    assert speed['b4'].x == pytest.approx(1.0, abs=1e-12)
+    for b in ('b0', 'b1', 'b2', 'b3'):
+        assert abs(speed[b].x) <= 1e-12 and abs(speed[b].y) <= 1e-12, (b, speed[b])
+    # Positions: contact is speculative, so a collision is resolved in the step whose end
+    # would reach it: up to one step early, v h = 1 mm (b0 stops up to 1 mm short of b1, b4
+    # leaves up to 1 ms early).
+    assert x['b4'] == pytest.approx(0.85 + 1.0 * (1.0 - 0.05), abs=1e-3)
+    assert x['b0'] == pytest.approx(0.05, abs=1e-3)
 
 
 def test_the_world_bag_replays_bit_for_bit(world_run):

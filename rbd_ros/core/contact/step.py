@@ -19,6 +19,9 @@ One step, in the paper's order (:func:`world_step`):
 
 1. **Collisions** (:data:`PHASE_COLLISION`): candidate poses from the current velocities,
    broad phase, narrow phase, and impulses with restitution ε on the current velocities.
+   A pair with ε > 0 is a new collision at every visit of a sweep, its restitution taken
+   from its approach velocity then (see :func:`solve_patch`), so a row of touching balls
+   hands the motion on (Newton's cradle).
 2. **Velocities**: the forces (gravity, wrenches, springs) through the integrator's velocity
    update: the whole step for symplectic Euler, the first half kick for ``midpoint_cayley``.
 3. **Contacts** (:data:`PHASE_CONTACT`): candidates from the new velocities, impulses with
@@ -168,7 +171,10 @@ C_LAMBDA = 15    # accumulated normal impulse (N·s)
 C_PHI = 16       # candidate φ (m)
 C_FRICTION = 17  # this point's share of the patch friction impulse (N·s), 3
 C_PHASE = 20     # the stage: 0 collision, 1 first contact stage, 2 second
-N_CONTACT = 21
+C_TARGET = 21    # the target without restitution (m/s): C_BIAS of a contact stage
+C_TOUCH_U = 22   # restitution applies while u_n is below this (m/s): the point then ends the
+#                  step within TOUCH_M of the other shape (see _collision_targets)
+N_CONTACT = 23
 
 # Patch record fields (rows of the (Q, N_PATCH) float64 patch table).
 Q_A = 0
@@ -183,7 +189,8 @@ Q_CACHED = 12    # Q_K and Q_PINV hold this stage's normal response (both bodies
 #                  computed in this stage, 2.0 taken from the response cache (R_*), else 0.0
 Q_K = 13         # K_nn of the points, row-major PATCH_POINTS², fixed within a stage
 Q_PINV = 29      # its pseudo-inverse, the same layout
-N_PATCH = 45
+Q_EPS = 45       # restitution of the pair in the collision stage, else 0 (see solve_patch)
+N_PATCH = 46
 
 # Response cache of a body's patch on a static object (rows of the (N, N_RESPONSE) table kept
 # from stage to stage and step to step): the patch's K and pseudo-inverse with what they are a
@@ -1015,6 +1022,7 @@ def _pair_patch(a, b, n, x, vel, inv_mass, inv_inertia_w, mu, eps, h, phase, sta
     patches[nq, Q_START] = nc
     patches[nq, Q_COUNT] = m
     patches[nq, Q_MU] = pair_mu
+    patches[nq, Q_EPS] = pair_eps
     for k in range(m):
         r = keep[k]
         c = nc
@@ -1057,6 +1065,8 @@ def _pair_patch(a, b, n, x, vel, inv_mass, inv_inertia_w, mu, eps, h, phase, sta
             bias = un0 - buf[r, 0] / h
         else:
             bias = min(-PUSH_FRACTION * phi_now / h, PUSH_MAX_M_S)
+        contacts[c, C_TARGET] = bias
+        contacts[c, C_TOUCH_U] = un0 + (TOUCH_M - buf[r, 0]) / h
         # Restitution where the point would end the step inside, or touching to within
         # TOUCH_M: two boxes meeting face on exactly at the step's end have φ = ±round-off
         # at their corners, and restitution on some of them only spun them apart.
@@ -1185,7 +1195,8 @@ SCR_LOW = SCR_V + PATCH_POINTS      # a Cholesky factor
 SCR_INV_LOW = SCR_LOW + PATCH_POINTS  # its inverse
 SCR_U = SCR_INV_LOW + PATCH_POINTS  # a null vector (one row)
 SCR_SHIFTED = SCR_U + 1             # K_AA + s u uᵀ
-SCR_ROWS = SCR_SHIFTED + PATCH_POINTS
+SCR_BASE = SCR_SHIFTED + PATCH_POINTS  # the normal impulses a collision visit starts from
+SCR_ROWS = SCR_BASE + 1
 
 
 @_jit
@@ -1576,7 +1587,8 @@ def _complementary(scr, contacts, s0, m):
     Tell whether the held impulses solve the patch's problem for the velocities as they are.
 
     ``u_n = bias`` (to VELOCITY_TOL_M_S) where ``λ > 0``, ``u_n >= bias`` where ``λ = 0``;
-    ``scr``'s SCR_FREE row holds ``u_n`` with the held impulses.  Where ``K`` is singular
+    ``scr``'s SCR_FREE row holds ``u_n`` with the held impulses, and λ counts from SCR_BASE
+    (a collision visit's start, else 0).  Where ``K`` is singular
     (four coplanar points) other impulses give the same velocities; keeping the held ones,
     instead of moving to the least-norm one of them, stops them circulating between the
     patches of a stack from sweep to sweep, and a warm-started stage is done in a sweep.
@@ -1585,7 +1597,7 @@ def _complementary(scr, contacts, s0, m):
         gap = scr[SCR_FREE, k] - contacts[s0 + k, C_BIAS]
         if gap < -VELOCITY_TOL_M_S:
             return False
-        if contacts[s0 + k, C_LAMBDA] > 0.0 and gap > VELOCITY_TOL_M_S:
+        if contacts[s0 + k, C_LAMBDA] > scr[SCR_BASE, k] and gap > VELOCITY_TOL_M_S:
             return False
     return True
 
@@ -1617,14 +1629,16 @@ def _normal_velocities(scr, contacts, vel, a, b, dyn_b, s0, m):
 
 @_inl
 def _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b,
-                  wa, wb, wrench, scr, free_known):
+                  wa, wb, wrench, scr, free_known, fresh):
     """
     Set the normal impulses of one patch exactly; return the largest Δu (m/s).
 
     The complementarity problem ``u_n >= bias, λ >= 0, λ (u_n − bias) = 0`` of its (at most
     four) points: the least-norm solution with every point active first (its response ``K``
     and pseudo-inverse are computed once per stage and kept in the patch row), then, if that
-    is not feasible, every other active set (:func:`_solve_small` for each).
+    is not feasible, every other active set (:func:`_solve_small` for each).  ``fresh``: a
+    collision visit (see :func:`solve_patch`): the impulses solved for are added to SCR_BASE,
+    the ones the visit started from, instead of replacing them.
     """
     free_pair = wa == 1.0 and (not dyn_b or wb == 1.0)
     cached = free_pair and patches[q, Q_CACHED] != 0.0
@@ -1632,7 +1646,7 @@ def _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, 
         _normal_velocities(scr, contacts, vel, a, b, dyn_b, s0, m)
     held = False
     for k in range(m):
-        held = held or contacts[s0 + k, C_LAMBDA] != 0.0
+        held = held or contacts[s0 + k, C_LAMBDA] != scr[SCR_BASE, k]
         scr[SCR_ACTIVE, k] = 0.0
         scr[SCR_LAM, k] = 0.0
         scr[SCR_BEST, k] = 0.0
@@ -1667,15 +1681,15 @@ def _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, 
                         nkx, nky, nkz)
             scr[SCR_K + k, jj] = v
             scr[SCR_K + jj, k] = v
-    # Velocities without this patch's normal impulses: u0 = u − K λ.
+    # Velocities without this patch's normal impulses (beyond a visit's base): u0 = u − K λ.
     for k in range(m):
         acc = scr[SCR_FREE, k]
         for jj in range(m):
-            acc -= scr[SCR_K + k, jj] * contacts[s0 + jj, C_LAMBDA]
+            acc -= scr[SCR_K + k, jj] * (contacts[s0 + jj, C_LAMBDA] - scr[SCR_BASE, jj])
         scr[SCR_FREE, k] = acc
     if _idle(scr, contacts, s0, m):
         return _apply_normals(scr, SCR_BEST, s0, m, contacts, vel, inv_mass, inv_inertia_w,
-                              a, b, dyn_b, wa, wb, wrench)
+                              a, b, dyn_b, wa, wb, wrench, fresh)
     for k in range(m):
         scr[SCR_RHS, k] = contacts[s0 + k, C_BIAS] - scr[SCR_FREE, k]
     if free_pair and not cached:
@@ -1700,7 +1714,7 @@ def _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, 
                 feasible = False
         if feasible:
             return _apply_normals(scr, SCR_LAM, s0, m, contacts, vel, inv_mass,
-                                  inv_inertia_w, a, b, dyn_b, wa, wb, wrench)
+                                  inv_inertia_w, a, b, dyn_b, wa, wb, wrench, fresh)
     # Every active set in a fixed order; of the feasible ones (λ >= 0 on it, u_n >= bias off
     # it) the one with the least |λ| wins.  Where K is singular (coplanar points) several
     # are feasible with the same velocities; the least-norm one spreads the load evenly
@@ -1751,20 +1765,21 @@ def _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, 
     for k in range(m):
         scr[SCR_BEST, k] = max(scr[SCR_LAM, k], 0.0)
     return _apply_normals(scr, SCR_BEST, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b,
-                          dyn_b, wa, wb, wrench)
+                          dyn_b, wa, wb, wrench, fresh)
 
 
 @_raw
 def _apply_normals(scr, row, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, wa,
-                   wb, wrench):
-    """Apply the change to the normal impulses in ``scr[row]``; return the largest Δu."""
+                   wb, wrench, fresh):
+    """Make the normal impulses ``scr[row]`` (+ SCR_BASE if ``fresh``); return the largest Δu."""
     change = 0.0
     for k in range(m):
         c = s0 + k
-        d = scr[row, k] - contacts[c, C_LAMBDA]
+        lam = scr[row, k] + scr[SCR_BASE, k] if fresh else scr[row, k]
+        d = lam - contacts[c, C_LAMBDA]
         if d == 0.0:
             continue
-        contacts[c, C_LAMBDA] = scr[row, k]
+        contacts[c, C_LAMBDA] = lam
         jx = d * contacts[c, C_NORMAL]
         jy = d * contacts[c, C_NORMAL + 1]
         jz = d * contacts[c, C_NORMAL + 2]
@@ -1781,6 +1796,24 @@ def _apply_normals(scr, row, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b
 
 
 @_inl
+def _collision_targets(patches, q, contacts, s0, m, scr):
+    """
+    Set the targets of a collision visit to patch ``q`` from the velocities in SCR_FREE.
+
+    A point approaching (``u_n < 0``) that would end the step within TOUCH_M of the other
+    shape (``u_n < C_TOUCH_U``) is to leave at ``−ε u_n``; any other keeps C_TARGET.
+    """
+    eps = patches[q, Q_EPS]
+    for k in range(m):
+        c = s0 + k
+        u = scr[SCR_FREE, k]
+        bias = contacts[c, C_TARGET]
+        if u < 0.0 and u < contacts[c, C_TOUCH_U]:
+            bias = max(bias, -eps * u)
+        contacts[c, C_BIAS] = bias
+
+
+@_inl
 def solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wa, wb,
                 wrench, friction, scr, per_point, free_known):
     """
@@ -1792,6 +1825,16 @@ def solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x,
     :func:`_friction_points` (patches that share a body) instead of the patch's own
     :func:`_friction`.  ``free_known``: ``scr``'s SCR_FREE row already holds the points'
     normal velocities (:func:`_normal_velocities`) for ``vel`` as it is.
+
+    A patch with restitution in the collision stage (``Q_EPS > 0``) is solved as the paper
+    processes collisions: each visit is a new collision, its targets taken from the approach
+    velocities at the visit (:func:`_collision_targets`), its impulses added to the ones the
+    visit started from, which it never takes back.  So in a row of touching balls the
+    impulse of each collision is handed on to the next pair within one sweep (Newton's
+    cradle).  Accumulated instead, towards targets fixed at the stage's start, the row
+    answered as one block: a later sweep pulling a pair's impulse back to the least one that
+    keeps its target would have pushed apart again what had already exchanged its motion.
+    Every other patch accumulates, clamped to ``λ >= 0`` in total (projected Gauss–Seidel).
     """
     a = int(patches[q, Q_A])
     b = int(patches[q, Q_B])
@@ -1799,6 +1842,14 @@ def solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x,
     s0 = int(patches[q, Q_START])
     m = int(patches[q, Q_COUNT])
     mu = patches[q, Q_MU]
+    fresh = patches[q, Q_EPS] > 0.0
+    if fresh:
+        if not free_known:
+            _normal_velocities(scr, contacts, vel, a, b, dyn_b, s0, m)
+            free_known = True
+        _collision_targets(patches, q, contacts, s0, m, scr)
+    for k in range(m):
+        scr[SCR_BASE, k] = contacts[s0 + k, C_LAMBDA] if fresh else 0.0
     biggest = 0.0
     for it in range(PATCH_ITERATIONS):
         # Normal impulses: the patch's small LCP solved exactly (see _normal_block), for the
@@ -1806,7 +1857,7 @@ def solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x,
         # by more than the tolerance (solving again would give the same impulses).
         biggest = max(biggest, _normal_block(patches, q, s0, m, contacts, vel, inv_mass,
                                              inv_inertia_w, a, b, dyn_b, wa, wb, wrench, scr,
-                                             free_known and it == 0))
+                                             free_known and it == 0, fresh))
         slip = 0.0
         if per_point:
             if friction and mu > 0.0:
@@ -2144,6 +2195,8 @@ def _residual(patches, contacts, vel, n_bodies, scr):
     Per point: how much faster than its target ``bias`` it still approaches, and where it
     holds an impulse, how much faster than that target it separates (the impulse is then too
     large: left, it would push the bodies apart and add energy).  0 at the exact solution.
+    A collision patch with restitution (``Q_EPS > 0``) may separate faster with an impulse:
+    its visits add impulses, each complementary only to its own targets (see solve_patch).
     """
     largest = 0.0
     for q in range(patches.shape[0]):
@@ -2152,10 +2205,11 @@ def _residual(patches, contacts, vel, n_bodies, scr):
         s0 = int(patches[q, Q_START])
         m = int(patches[q, Q_COUNT])
         _normal_velocities(scr, contacts, vel, a, b, b < n_bodies, s0, m)
+        added = patches[q, Q_EPS] > 0.0
         for k in range(m):
             gap = scr[SCR_FREE, k] - contacts[s0 + k, C_BIAS]
             largest = max(largest, -gap)
-            if contacts[s0 + k, C_LAMBDA] > 0.0:
+            if contacts[s0 + k, C_LAMBDA] > 0.0 and not added:
                 largest = max(largest, gap)
     return largest
 
@@ -2189,6 +2243,8 @@ def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrenc
             if b < n_bodies:
                 sideways[b] = True
     for q in range(patches.shape[0]):
+        if patches[q, Q_EPS] > 0.0:
+            continue  # a collision visit never takes back what it is given (see solve_patch)
         a = int(patches[q, Q_A])
         b = int(patches[q, Q_B])
         j = 0 if shared else a
@@ -2316,6 +2372,8 @@ def _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench
                 s0 = int(patches[q, Q_START])
                 m = int(patches[q, Q_COUNT])
                 _normal_velocities(scr, contacts, vel, a, b, b < n_bodies, s0, m)
+                if patches[q, Q_EPS] > 0.0:
+                    _collision_targets(patches, q, contacts, s0, m, scr)
                 if _idle(scr, contacts, s0, m) and not (warmed and _held(contacts, patches, q)):
                     continue
             change = max(change, solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w,
