@@ -144,21 +144,26 @@ def test_a_box_at_rest_in_the_world_feels_minus_m_g(world_run):
     np.testing.assert_allclose(force, [0.0, 0.0, G], rtol=0, atol=1e-9)  # round-off
 
 
+def _run_unpushed(tmp_path, config):
+    """Run ``msg_config/<config>.yaml`` for 1 s unpushed, 100× real time; its namespace, bag."""
+    node_proc = NodeProcess(tmp_path, {
+        'start_paused': False, 'real_time_factor': 100.0, 'duration_s': 1.0,
+        'record_path': str(tmp_path / config)},
+        params_file=REPO / 'msg_config' / f'{config}.yaml', namespace=True)
+    try:
+        assert node_proc.wait(FIRST_START_S) == 0, node_proc.stderr
+    finally:
+        node_proc.stop()
+    return node_proc.namespace, open_bag(str(tmp_path / config))
+
+
 def test_each_box_of_a_resting_column_feels_its_own_weight(tmp_path):
     # msg_config/stack.yaml unpushed: three 1 kg boxes stacked exactly, read back from the
     # node's own recording. Each box's net contact force is its weight, m g up (2 m g from
     # below, m g from the box above), and no torque about its COM (the stack is symmetric).
     # A solver that stops short of converging and leaves shock propagation to finish records
     # the lower boxes' reactions short (a 10-box column's bottom box read 3.5 N for 9.81 N).
-    node_proc = NodeProcess(tmp_path, {
-        'start_paused': False, 'real_time_factor': 100.0, 'duration_s': 1.0,
-        'record_path': str(tmp_path / 'column')},
-        params_file=REPO / 'msg_config' / 'stack.yaml', namespace=True)
-    try:
-        assert node_proc.wait(FIRST_START_S) == 0, node_proc.stderr
-    finally:
-        node_proc.stop()
-    ns, bag = node_proc.namespace, open_bag(str(tmp_path / 'column'))
+    ns, bag = _run_unpushed(tmp_path, 'stack')
     for body in ('bottom', 'middle', 'top'):
         wrenches = _messages(bag, f'{ns}/{body}/contact_wrench', conversions.WrenchStamped)
         assert max(wrenches) == 1_000_000_000
@@ -177,15 +182,7 @@ def test_newtons_cradle_hands_the_motion_to_the_last_ball(tmp_path):
     # frictionless floor, ε = 1. Equal balls exchange their velocities in each collision, so
     # from the hit (t = gap / v = 0.05 s) b4 moves on at 1 m/s and b0-b3 are at rest. Read back
     # from the node's own recording at 1 s.
-    node_proc = NodeProcess(tmp_path, {
-        'start_paused': False, 'real_time_factor': 100.0, 'duration_s': 1.0,
-        'record_path': str(tmp_path / 'cradle')},
-        params_file=REPO / 'msg_config' / 'cradle.yaml', namespace=True)
-    try:
-        assert node_proc.wait(FIRST_START_S) == 0, node_proc.stderr
-    finally:
-        node_proc.stop()
-    ns, bag = node_proc.namespace, open_bag(str(tmp_path / 'cradle'))
+    ns, bag = _run_unpushed(tmp_path, 'cradle')
     end = 1_000_000_000
     speed = {b: _messages(bag, f'{ns}/{b}/twist', TwistStamped)[end].twist.linear
              for b in ('b0', 'b1', 'b2', 'b3', 'b4')}
