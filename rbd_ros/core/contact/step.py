@@ -979,14 +979,18 @@ def _pair_points(a, b, n, x, prm, vel, pose_r, pose_p, pose_rc, pose_pc, kinds, 
         count = _box_points(a, b, sparams, pose_r, pose_p, pose_rc, pose_pc, MARGIN_M, clip,
                             buf)
     else:
-        count = _one_way(a, b, pts, pt_off, balls, ball_off, cell_of, near, pt_radius,
-                         kinds, sparams, grid_data, grid_off, grid_dim, pose_r, pose_p,
-                         pose_rc, pose_pc, a, pose_rc, pose_pc, b, MARGIN_M, buf, 0, 1.0)
-        # Two spheres touch at one point: A's centre against B's φ finds it.  B's centre
-        # against A's φ found it again, a lever arm apart: a patch of two near-copies whose
-        # response (condition ~1e5) let the visits of a break of 15 balls at ε = 1 gain
-        # 3e-12 of the energy.
-        if kinds[a] != ck.KIND_SPHERE or kinds[b] != ck.KIND_SPHERE:
+        # A sphere touches a convex primitive (any shape but a mesh, each φ exact) at one
+        # point, which its centre against the other's φ finds exactly; the other's points
+        # against the sphere's φ find only near-copies of it.  Two spheres had a patch of two,
+        # a lever arm apart, whose response (condition ~1e5) let the collisions of a break of
+        # 15 balls at ε = 1 gain 3e-12 of the energy.
+        count = 0
+        if not (kinds[b] == ck.KIND_SPHERE and kinds[a] != ck.KIND_MESH
+                and kinds[a] != ck.KIND_SPHERE):
+            count = _one_way(a, b, pts, pt_off, balls, ball_off, cell_of, near, pt_radius,
+                             kinds, sparams, grid_data, grid_off, grid_dim, pose_r, pose_p,
+                             pose_rc, pose_pc, a, pose_rc, pose_pc, b, MARGIN_M, buf, 0, 1.0)
+        if not (kinds[a] == ck.KIND_SPHERE and kinds[b] != ck.KIND_MESH):
             count = _one_way(b, a, pts, pt_off, balls, ball_off, cell_of, near, pt_radius,
                              kinds, sparams, grid_data, grid_off, grid_dim, pose_r, pose_p,
                              pose_rc, pose_pc, b, pose_rc, pose_pc, a, MARGIN_M, buf, count,
@@ -1070,14 +1074,10 @@ def _pair_patch(a, b, n, x, vel, inv_mass, inv_inertia_w, mu, eps, h, phase, sta
             bias = un0 - buf[r, 0] / h
         else:
             bias = min(-PUSH_FRACTION * phi_now / h, PUSH_MAX_M_S)
+        # Restitution is set at each collision visit, from C_TOUCH_U (_collision_targets).
         contacts[c, C_TARGET] = bias
-        contacts[c, C_TOUCH_U] = un0 + (TOUCH_M - buf[r, 0]) / h
-        # Restitution where the point would end the step inside, or touching to within
-        # TOUCH_M: two boxes meeting face on exactly at the step's end have φ = ±round-off
-        # at their corners, and restitution on some of them only spun them apart.
-        if pair_eps > 0.0 and un0 < 0.0 and buf[r, 0] < TOUCH_M:
-            bias = max(bias, -pair_eps * un0)
         contacts[c, C_BIAS] = bias
+        contacts[c, C_TOUCH_U] = un0 + (TOUCH_M - buf[r, 0]) / h
         nc += 1
     if static_b:
         _reuse_response(responses, patches, nq, contacts, nc - m, m, a, b, inv_mass,
@@ -1805,8 +1805,10 @@ def _collision_targets(patches, q, contacts, s0, m, scr):
     """
     Set the targets of a collision visit to patch ``q`` from the velocities in SCR_FREE.
 
-    A point approaching (``u_n < 0``) that would end the step within TOUCH_M of the other
-    shape (``u_n < C_TOUCH_U``) is to leave at ``−ε u_n``; any other keeps C_TARGET.
+    A point approaching (``u_n < 0``) that would end the step inside the other shape or
+    within TOUCH_M of it (``u_n < C_TOUCH_U``) is to leave at ``−ε u_n``; any other keeps
+    C_TARGET.  (Within TOUCH_M: two boxes meeting face on exactly at the step's end have
+    φ = ±round-off at their corners, and restitution on some of them only spun them apart.)
     """
     eps = patches[q, Q_EPS]
     for k in range(m):
