@@ -516,14 +516,14 @@ class RigidBodyNode(Node):
         That compiles the physics kernels (or loads them from numba's cache): logged when it
         compiles, so the check comes after the look into the cache.
         """
-        on_disk = jitcache.kernels_on_disk(self.config.contact)
+        contact = self.config.contact
+        on_disk = jitcache.kernels_on_disk(contact)
         if not on_disk:
-            where = (f'first start, can take a minute; cached in {jitcache.CACHE_DIR}'
-                     if jitcache.CACHE_DIR else f'can take a minute; {jitcache.PROBLEM}')
-            self.get_logger().info(f'compiling the physics kernels ({where})')
+            self.get_logger().info(jitcache.compile_notice(contact))
         start = time.monotonic()
         cfg.check_first_step(self.config)
         if not on_disk:
+            jitcache.mark_compiled(contact)
             self.get_logger().info(
                 f'physics kernels compiled in {time.monotonic() - start:.1f} s')
 

@@ -26,12 +26,31 @@ installed sources, is never used.
 
 :func:`configure` runs when :mod:`rbd_ros.core.kernels` is imported, before numba decorates
 anything (numba picks the cache location when a function is decorated).
+
+**One cache for every copy of the same sources.** numba's own locators key a cache by the
+directory the source file sits in and its modification time, so a ``colcon build`` install, a
+``pip install`` or a second checkout of the very same version compiled everything again on its
+first start (minutes, for the contact step). :class:`SourceCacheLocator` keys it by the
+module's name and a SHA-256 of the source file's bytes instead, inside a directory named after
+the layout and every kernel source (``layout-<hash>``, see
+:func:`rbd_ros.core.layout.fingerprint_hash`). It is installed through numba's
+``NUMBA_CACHE_LOCATOR_CLASSES`` setting, ahead of numba's own locators, which still serve
+every function that is not ``rbd_ros``'s.
+
+**One set of compile options.** Every kernel is compiled through :func:`kernel`: IEEE float
+semantics (``error_model='numpy'``: a division by zero gives ±inf or nan, which the step's
+finiteness check turns into :class:`~rbd_ros.core.errors.NonFiniteError`, where numba's default
+raised ``ZeroDivisionError`` out of the middle of a step), no ``fastmath`` (no reassociation:
+bit-for-bit results), and the GIL released.
 """
 
+import hashlib
 import logging
 import os
 import stat
 import sys
+
+from numba.core import caching
 
 _LOG = logging.getLogger('rbd_ros')
 
@@ -39,6 +58,15 @@ _LOG = logging.getLogger('rbd_ros')
 CACHE_DIR = None
 #: Why the cache is off (one line), or None.
 PROBLEM = None
+#: The locators numba tries, in order: ours first (for rbd_ros's functions), then numba's own.
+LOCATORS = ('rbd_ros.core.jitcache.SourceCacheLocator', 'UserProvidedCacheLocator',
+            'InTreeCacheLocator', 'UserWideCacheLocator', 'IPythonCacheLocator',
+            'ZipCacheLocator')
+#: What every kernel is compiled with (see the module docstring).
+OPTIONS = {'error_model': 'numpy', 'fastmath': False, 'nogil': True}
+#: Name of the file :func:`mark_compiled` leaves in the cache directory once a kind of kernel
+#: (``free`` or ``contact``) has been compiled and stepped there.
+MARK = 'compiled-{kind}'
 
 
 def default_dir(environ=None):
@@ -103,35 +131,108 @@ def configure(environ=None, subdir=None):
         _LOG.warning(problem)
         return None
     environ['NUMBA_CACHE_DIR'] = path
-    if 'numba.core.config' in sys.modules:
-        sys.modules['numba.core.config'].CACHE_DIR = path
+    environ['NUMBA_CACHE_LOCATOR_CLASSES'] = ','.join(LOCATORS)
+    config = sys.modules['numba.core.config']  # imported with numba.core.caching above
+    config.CACHE_DIR = path
+    config.CACHE_LOCATOR_CLASSES = environ['NUMBA_CACHE_LOCATOR_CLASSES']
     return path
+
+
+_CONFIGURED = False
+
+
+def configured():
+    """Run :func:`configure` for this layout once (the first kernel module imported does)."""
+    global _CONFIGURED
+    if not _CONFIGURED:
+        from rbd_ros.core import layout
+        configure(subdir=f'layout-{layout.fingerprint_hash()}')
+        _CONFIGURED = True
+    return CACHE_DIR
+
+
+def kernel(**options):
+    """
+    Return numba's ``njit`` decorator with :data:`OPTIONS`, ``options`` and the disk cache.
+
+    ``options`` adds to or overrides :data:`OPTIONS` (``inline='always'`` for small helpers,
+    ``parallel=True``, ``_nrt=False``). Cached when :func:`configured` finds a usable directory.
+    """
+    import numba
+    return numba.njit(cache=configured() is not None, **{**OPTIONS, **options})
+
+
+class SourceCacheLocator(caching.UserProvidedCacheLocator):
+    """
+    numba's cache of an ``rbd_ros`` function, keyed by module name and source bytes, not path.
+
+    The functions of module ``rbd_ros.core.x`` go to ``<CACHE_DIR>/rbd_ros.core.x``; an entry is
+    valid while the source file's SHA-256 is the one it was compiled from. Any other function
+    is left to numba's own locators (``from_function`` returns None).
+    """
+
+    def __init__(self, py_func, py_file):
+        """Put the cache of ``py_func`` in ``<CACHE_DIR>/<its module>``."""
+        super().__init__(py_func, py_file)
+        self._cache_path = os.path.join(CACHE_DIR, py_func.__module__)
+
+    def get_source_stamp(self):
+        """Return the SHA-256 of the source file (not its time and size, as numba's)."""
+        with open(self._py_file, 'rb') as source:
+            return hashlib.sha256(source.read()).hexdigest()
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        """Serve functions of the ``rbd_ros`` package when a cache directory is in use."""
+        module = getattr(py_func, '__module__', '') or ''
+        if CACHE_DIR is None or not (module == 'rbd_ros' or module.startswith('rbd_ros.')):
+            return None
+        return super().from_function(py_func, py_file)
+
+
+def _mark(contact):
+    return os.path.join(CACHE_DIR, MARK.format(kind='contact' if contact else 'free'))
 
 
 def kernels_on_disk(contact=False):
     """
-    Return True when the step kernel is in the on-disk cache, so a start will not compile.
+    Return True when this version's step kernel (``contact``: the contact step's) is on disk.
 
-    Asks numba's own cache of :func:`rbd_ros.core.kernels.advance` (the kernel the simulator
-    steps with; the helpers are inlined into it), and with ``contact`` also that of the contact
-    step :func:`rbd_ros.core.contact.step.world_step`, whether its index file holds entries for
-    the source as it is now: numba's own test (its version and the source's modification time
-    and size, stored in the index), not a guess from file times, which a checkout or a copy
-    that keeps modification times can fool. Reads the index only; compiles nothing.
+    :func:`mark_compiled` leaves a mark in the cache directory (whose name changes with every
+    kernel source, see the module docstring) after a first step of that kind compiled there;
+    numba's index files must be there too. Reads file names only; compiles nothing.
     """
-    from rbd_ros.core import kernels
-    if CACHE_DIR is None:
+    if CACHE_DIR is None or not os.path.isfile(_mark(contact)):
         return False
-    found = _indexed(kernels.advance)
-    if contact:
-        from rbd_ros.core.contact import step
-        found = found and _indexed(step.world_step)
-    return found
-
-
-def _indexed(dispatcher):
-    """Tell whether numba's on-disk index of ``dispatcher`` has entries for today's source."""
+    module = 'rbd_ros.core.contact.step' if contact else 'rbd_ros.core.kernels'
     try:
-        return bool(dispatcher._cache._cache_file._load_index())
-    except Exception:  # a numba without these internals, or an index it cannot read
+        return any(name.endswith('.nbi') for name in os.listdir(os.path.join(CACHE_DIR, module)))
+    except OSError:
         return False
+
+
+#: Roughly how long a first compile takes on a 2-core machine (s), to tell the user (measured
+#: with an empty cache: see tests/benchmarks/bench_start.py).
+COMPILE_S = {'free': 25, 'contact': 150}
+
+
+def compile_notice(contact=False):
+    """Return the one line the node logs before a step that compiles (what, how long, where)."""
+    kind = 'contact' if contact else 'free'
+    what = 'the contact step' if contact else 'the free-body step'
+    where = (f'once per version; cached in {CACHE_DIR}' if CACHE_DIR else
+             f'at every start: {PROBLEM}')
+    return (f'compiling the physics kernels ({what}: about {COMPILE_S[kind]} s on a 2-core '
+            f'machine, {where})')
+
+
+def mark_compiled(contact=False):
+    """Leave the mark :func:`kernels_on_disk` looks for, after a first step that compiled."""
+    if CACHE_DIR is None:
+        return
+    try:
+        with open(_mark(contact), 'a'):
+            pass
+    except OSError as exc:
+        _LOG.warning(f'cannot write {_mark(contact)} ({exc.strerror}): the next start will say '
+                     'it compiles although it loads from the cache')

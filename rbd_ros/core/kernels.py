@@ -29,8 +29,6 @@ import math
 import numba as nb
 import numpy as np
 from rbd_ros.core import jitcache
-
-from rbd_ros.core import layout
 from rbd_ros.core.layout import (L_A, L_B, L_KIND, L_POINT, LOAD_BODY, LOAD_NONE, LOAD_WORLD,
                                  N_STATE, P_ANG_DAMPING, P_DIAGONAL, P_GRAVITY, P_INERTIA,
                                  P_INV_INERTIA, P_INV_MASS, P_LIN_DAMPING, P_MASS, S_OMEGA,
@@ -68,12 +66,11 @@ _FIXED_POINT_ITER = 8
 #: keys its cache by this file, not by the values of the globals it imports from layout.py, so
 #: the directory is one per layout (``layout-<fingerprint hash>``): a changed offset compiles
 #: afresh instead of running machine code built for the old one.
-CACHE_DIR = jitcache.configure(subdir=f'layout-{layout.fingerprint_hash()}')
-_CACHE = CACHE_DIR is not None
-_jit = nb.njit(cache=_CACHE, fastmath=False, nogil=True)
+CACHE_DIR = jitcache.configured()
+_jit = jitcache.kernel()
 # Small helpers are inlined at numba IR level: measured 20-25 % faster per body-step than
 # leaving them to LLVM, for a longer first compilation (cached on disk afterwards).
-_inl = nb.njit(cache=_CACHE, fastmath=False, nogil=True, inline='always')
+_inl = jitcache.kernel(inline='always')
 
 
 @_inl
@@ -716,8 +713,7 @@ def step_body(x, prm, ld, t, i, j, method, h, dt_ns, n_steps):
 
 # The same Python function, inlined at numba IR level where it is called (never compiled or
 # cached on its own): one source for both kernels.
-_step_body_inline = nb.njit(cache=True, fastmath=False, nogil=True,
-                            inline='always')(getattr(step_body, 'py_func', step_body))
+_step_body_inline = jitcache.kernel(inline='always')(getattr(step_body, 'py_func', step_body))
 
 
 @_jit
@@ -732,7 +728,7 @@ def advance(x, prm, ld, t, method, h, dt_ns, n_steps):
     return failed
 
 
-@nb.njit(cache=_CACHE, fastmath=False, nogil=True, parallel=True)
+@jitcache.kernel(parallel=True)
 def advance_parallel(x, prm, ld, t, method, h, dt_ns, n_steps):
     """:func:`advance` over threads; each body runs the same scalar code (bit-identical)."""
     n = x.shape[1]

@@ -22,6 +22,7 @@ directory that other users can write (see :mod:`rbd_ros.core.jitcache`). A cold 
 
 import os
 import pathlib
+import shutil
 import stat
 import subprocess
 import sys
@@ -48,8 +49,9 @@ def test_a_cold_start_logs_the_compile_and_caches_in_the_users_cache_dir(tmp_pat
     cold = NodeProcess(tmp_path, params, namespace=True)
     assert cold.wait(900) == 0, cold.stderr
     cache_dir = cache_home / 'rbd_ros' / 'numba' / f'layout-{layout.fingerprint_hash()}'
-    assert f'compiling the physics kernels (first start, can take a minute; cached in ' \
-           f'{cache_dir})' in cold.stderr, cold.stderr
+    assert 'compiling the physics kernels (the free-body step: about ' in cold.stderr, \
+        cold.stderr
+    assert f'once per version; cached in {cache_dir})' in cold.stderr, cold.stderr
     assert 'physics kernels compiled in' in cold.stderr, cold.stderr
     written = numba_files(cache_dir)
     assert any(p.suffix == '.nbi' for p in written) and any(p.suffix == '.nbc' for p in written)
@@ -70,6 +72,18 @@ def test_a_cold_start_logs_the_compile_and_caches_in_the_users_cache_dir(tmp_pat
     assert warm.wait(300) == 0, warm.stderr
     assert 'compiling the physics kernels' not in warm.stderr, warm.stderr
     assert numba_files(cache_dir) == written  # loaded, not compiled again
+
+    # A copy of the same sources somewhere else, with new file times (as `colcon build` or
+    # `pip install` leave an installed copy): the same cache serves it, nothing is compiled.
+    copy = tmp_path / 'elsewhere' / 'site-packages'
+    shutil.copytree(PACKAGE, copy / 'rbd_ros', ignore=shutil.ignore_patterns('__pycache__'))
+    for path in (copy / 'rbd_ros').rglob('*.py'):
+        path.touch()
+    monkeypatch.setenv('PYTHONPATH', str(copy))
+    moved = NodeProcess(tmp_path, params, namespace=True)
+    assert moved.wait(300) == 0, moved.stderr
+    assert 'compiling the physics kernels' not in moved.stderr, moved.stderr
+    assert numba_files(cache_dir) == written
 
 
 def test_a_cache_dir_that_others_can_write_is_refused(tmp_path, monkeypatch):

@@ -42,7 +42,8 @@ allocates; loops are fixed, so results are bit-identical run after run.
 
 import math
 
-import numba as nb
+from rbd_ros.core import jitcache
+
 
 #: Flush faces give equal separations to round-off: the face of ``a`` stays the reference
 #: unless ``b``'s separates by more than this (m), and a face stays the contact normal unless
@@ -64,7 +65,7 @@ CLIP_ROWS = 16
 #: it (φ), then the world point.
 CLIP_COLS = 6
 
-_raw = nb.njit(cache=True, fastmath=False, nogil=True, _nrt=False)
+_raw = jitcache.kernel(_nrt=False)
 
 
 @_raw

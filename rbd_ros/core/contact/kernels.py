@@ -50,8 +50,9 @@ is used anywhere.
 
 import math
 
-import numba as nb
 import numpy as np
+
+from rbd_ros.core import jitcache
 
 KIND_PLANE = 0
 KIND_SPHERE = 1
@@ -79,12 +80,12 @@ _NEWTON_MAX = 200
 _BISECT_MAX = 2200
 _S_RTOL = 2.220446049250313e-16
 
-_jit = nb.njit(cache=True, fastmath=False, nogil=True)
-_inl = nb.njit(cache=True, fastmath=False, nogil=True, inline='always')
+_jit = jitcache.kernel()
+_inl = jitcache.kernel(inline='always')
 #: For functions that allocate nothing and run per point: compiled without numba's reference
 #: counting (its ``_nrt`` option), which costs two atomic updates per array argument per call
 #: (see :mod:`rbd_ros.core.contact.step`, "Reference counts").
-_raw = nb.njit(cache=True, fastmath=False, nogil=True, _nrt=False)
+_raw = jitcache.kernel(_nrt=False)
 
 
 @_jit
@@ -350,13 +351,24 @@ def _ellipsoid(a, b, c, x, y, z):
     return phi, _sign(x) * nx, _sign(y) * ny, _sign(z) * nz
 
 
+@_inl
+def _cell(x, n):
+    """Return the cell ``floor(x)`` clamped to ``[0, n - 2]``, 0 for nan (no int of a nan)."""
+    cell = math.floor(x)
+    if not cell >= 0.0:
+        return 0
+    if cell > n - 2.0:
+        return n - 2
+    return int(cell)
+
+
 @_raw
 def _grid_sample(grid, x, y, z):
     """Trilinear value and gradient of ``grid`` at grid coordinates inside ``[0, n - 1]``."""
     nx, ny, nz = grid.shape
-    i = min(max(int(math.floor(x)), 0), nx - 2)
-    j = min(max(int(math.floor(y)), 0), ny - 2)
-    k = min(max(int(math.floor(z)), 0), nz - 2)
+    i = _cell(x, nx)
+    j = _cell(y, ny)
+    k = _cell(z, nz)
     u = x - i
     v = y - j
     w = z - k

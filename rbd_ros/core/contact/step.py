@@ -93,9 +93,9 @@ counting too), which is why :func:`_consistent_normals`, which sorts, is called 
 
 import math
 
-import numba as nb
 import numpy as np
 
+from rbd_ros.core import jitcache
 from rbd_ros.core import kernels as kk
 from rbd_ros.core.contact import box_box as bb
 from rbd_ros.core.contact import kernels as ck
@@ -240,11 +240,11 @@ WARM_MATCH_M = 1e-4
 WARM_COS_MIN = 0.5
 WARM_LEFT_MAX_M_S = 1e-6
 
-_jit = nb.njit(cache=kk.CACHE_DIR is not None, fastmath=False, nogil=True)
-_inl = nb.njit(cache=kk.CACHE_DIR is not None, fastmath=False, nogil=True, inline='always')
+_jit = jitcache.kernel()
+_inl = jitcache.kernel(inline='always')
 #: Functions that allocate nothing (the loops per pair, per patch, per body) are compiled
 #: without numba's reference counting (see the module docstring, "Reference counts").
-_raw = nb.njit(cache=kk.CACHE_DIR is not None, fastmath=False, nogil=True, _nrt=False)
+_raw = jitcache.kernel(_nrt=False)
 
 
 _cross = kk._cross  # the free-body kernel's, not a second copy
