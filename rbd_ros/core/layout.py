@@ -86,8 +86,8 @@ FINGERPRINT = (S_POS, S_QUAT, S_VEL, S_OMEGA, N_STATE, P_MASS, P_INV_MASS, P_INE
 #: machine code of every function it calls or inlines, but numba checks only the caller's own
 #: file before loading it from its cache: the contact step inlines the integrator's kicks
 #: from ``kernels.py``, so an edit there would otherwise leave a stale step in the cache.
-KERNEL_SOURCES = ('layout.py', 'kernels.py', 'contact/kernels.py', 'contact/box_box.py',
-                  'contact/step.py')
+KERNEL_SOURCES = ('layout.py', 'jitcache.py', 'kernels.py', 'contact/kernels.py',
+                  'contact/box_box.py', 'contact/step.py')
 
 
 def fingerprint_hash() -> str:
