@@ -213,12 +213,12 @@ def test_config_and_session_do_not_import_rclpy():
     assert out.stdout.strip() == '[]'
 
 
-def test_readme_documents_every_parameter_and_starts_with_the_two_commands():
-    readme = (REPO / 'README.md').read_text()
+def test_the_docs_document_every_parameter_and_the_readme_starts_with_the_two_commands():
+    reference = (REPO / 'doc' / 'parameters.md').read_text()
     for spec in (cfg.PARAMETERS + cfg.input_parameter_specs('<name>')
                  + cfg.obstacle_parameter_specs('<name>')):
-        assert f'| `{spec.name}` |' in readme, spec.name
-    lines = readme.splitlines()
+        assert f'| `{spec.name}` |' in reference, spec.name
+    lines = (REPO / 'README.md').read_text().splitlines()
     assert lines[0] == '```bash' and lines[3] == '```'
     assert lines[1].startswith('bash .ci/setup && .venv/bin/python -m rbd_ros.demo')
     assert lines[2].startswith('bash .ci/run')
@@ -239,9 +239,9 @@ def _readme_value(text):
         return tuple(value) if isinstance(value, list) else value
 
 
-def test_the_readme_parameter_table_is_the_parameter_table():
+def test_the_documented_parameter_table_is_the_parameter_table():
     rows = {}
-    for line in (REPO / 'README.md').read_text(encoding='utf-8').splitlines():
+    for line in (REPO / 'doc' / 'parameters.md').read_text(encoding='utf-8').splitlines():
         cells = [c.strip() for c in re.split(r'(?<!\\)\|', line)[1:-1]]  # '\|' is text
         if line.startswith('| `') and len(cells) == 6 and cells[1] in README_TYPES.values():
             rows[cells[0].strip('`')] = cells[1:4]

@@ -12,7 +12,7 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The README's Contact example runs as printed and says what its comments promise."""
+"""The contact page's example runs as printed and says what its comments promise."""
 
 import contextlib
 import io
@@ -21,26 +21,25 @@ import re
 
 import numpy as np
 
-README = pathlib.Path(__file__).resolve().parents[3] / 'README.md'
+PAGE = pathlib.Path(__file__).resolve().parents[3] / 'doc' / 'contact.md'
 
 
 def contact_example():
-    """Return the first Python block of the README's Contact section."""
-    text = README.read_text(encoding='utf-8')
-    section = text[text.index('## Contact'):]
+    """Return the first Python block of doc/contact.md."""
+    section = PAGE.read_text(encoding='utf-8')
     return re.search(r'```python\n(.*?)```', section, re.S).group(1)
 
 
-def test_readme_contact_example_slides_to_the_exact_stop_and_reads_m_g():
+def test_the_contact_page_example_slides_to_the_exact_stop_and_reads_m_g():
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
-        exec(compile(contact_example(), 'README.md', 'exec'), {})  # noqa: S102
+        exec(compile(contact_example(), 'doc/contact.md', 'exec'), {})  # noqa: S102
     lines = out.getvalue().splitlines()
     distance = float(lines[0])
     exact = 2.0 ** 2 / (2 * 0.5 * 9.81)
     # Kick-drift-kick with friction in each half kick is exact for constant deceleration; only
     # the stopping step is cut short, by less than μ g h² = 4.9e-4 m at h = 10 ms, which the
-    # README's 0.05 % target (2e-4 m) bounds in practice (measured 3e-3 %).
+    # the page's 0.05 % target (2e-4 m) bounds in practice (measured 3e-3 %).
     assert abs(distance - exact) <= 5e-4 * exact, (distance, exact)
     wrench = np.array(' '.join(lines[1:]).replace('[', ' ').replace(']', ' ').split(),
                       dtype=float)
