@@ -18,8 +18,8 @@ The node's parameters as data, and :class:`NodeConfig`, the validated configurat
 :data:`PARAMETERS` is the one table of the public parameter interface: name, type, default,
 unit, description, allowed range and whether it is read-only.  The node declares its ROS
 parameters from it (descriptions, ``FloatingPointRange``/``IntegerRange``),
-:meth:`NodeConfig.from_parameters` validates against it, and a test checks that the README's
-parameter tables list exactly these names with these defaults and units.
+:meth:`NodeConfig.from_parameters` validates against it, and a test checks that the parameter
+tables of ``doc/parameters.md`` list exactly these names with these defaults and units.
 
 :meth:`NodeConfig.from_parameters` takes a plain ``dict`` name → value (missing names take their
 default) and either returns a frozen :class:`NodeConfig` or raises :class:`ConfigError` /
@@ -93,11 +93,11 @@ class ParamSpec:
         ``string_array``.
     :param default: the default value (a tuple for arrays).
     :param unit: SI unit ('' for none).
-    :param description: one sentence for ``ros2 param describe`` and the README.
+    :param description: one sentence for ``ros2 param describe`` and ``doc/parameters.md``.
     :param bounds: ``(low, high)`` closed bounds for numbers (also advertised to ROS as
         ``FloatingPointRange``/``IntegerRange``), or None.
     :param read_only: True when a live change would make no sense.
-    :param rule: the rule beyond the range, in words (for the README), or ''.
+    :param rule: the rule beyond the range, in words (for doc/parameters.md), or ''.
     """
 
     name: str
@@ -535,8 +535,8 @@ class NodeConfig:
             unknown = sorted(params)[0]
             raise ConfigError(
                 f'parameter {unknown} = {_fmt(params[unknown])}: unknown parameter name '
-                '(known: see README; wrench input, obstacle and body parameters need their '
-                'name in wrench_inputs, obstacles or bodies)')
+                '(known: see doc/parameters.md; wrench input, obstacle and body parameters need '
+                'their name in wrench_inputs, obstacles or bodies)')
         time_settings = _time_settings(values)
         static_world = _static_world(values, obstacle_names)
         if body_inputs:

@@ -111,7 +111,7 @@ def _rcl_text(exc):
 
 
 class RigidBodyNode(Node):
-    """Simulate one rigid body; see the README for parameters, topics and services."""
+    """Simulate one rigid body; see doc/ for parameters, topics and services."""
 
     def __init__(self, global_args=None, **kwargs):
         """

@@ -29,7 +29,7 @@ The registry :data:`INTEGRATORS` is the one source of what each integrator is: i
 (measured by ``tests/core/test_convergence.py``: a tumbling body under a force and a torque,
 undamped and with ``c_v = c_ω = 0.5`` 1/s, against an independent numpy reference; the same
 with and without damping), how it takes damping, what it conserves, the frame of ``ω`` and its
-orientation update. The README's integrator table is generated from it by
+orientation update. The integrator table of ``doc/physics.md`` is generated from it by
 :func:`markdown_table` (``tests/core/test_integrators.py`` checks that it is up to date), and
 the list at the end of this docstring likewise.
 
@@ -51,7 +51,7 @@ from rbd_ros.core.errors import ConfigError
 @dataclass(frozen=True)
 class IntegratorInfo:
     """
-    What an integrator is: the one record the docs and the README table are made from.
+    What an integrator is: the one record the docs and their table are made from.
 
     :ivar name: the name users select it by.
     :ivar kernel_id: its method id in :mod:`rbd_ros.core.kernels`.
@@ -145,7 +145,7 @@ def integrator_info(name: str) -> IntegratorInfo:
 
 
 def markdown_table() -> str:
-    """Return the README's integrator table (Markdown), generated from :data:`INTEGRATORS`."""
+    """Return the integrator table of ``doc/physics.md``, generated from :data:`INTEGRATORS`."""
     def cell(text):
         return text.replace('|', '\\|')
 
