@@ -157,3 +157,80 @@ def start_node(tmp_path):
 def module_tmp(tmp_path_factory):
     """Return a temporary directory shared by one test module (for module-scoped nodes)."""
     return tmp_path_factory.mktemp('module')
+
+
+# --- The kernels compile once, in the background, while tests that need none run -----------
+#
+# A fresh clone's first contact test compiles the contact step for ~150-190 s of one core, and
+# the batch test the threaded kernel for ~50 s, while the other core idles. So the session starts
+# `python -m rbd_ros.core.warmup --batch` in a background process (it fills the same per-user
+# cache the tests and their nodes read) and runs first the tests that compile nothing, then
+# those that need only the free-body step (compiled first, ~20 s), then the rest once the
+# warm-up has ended. Nothing is skipped: a warm-up that fails only means the tests compile the
+# kernels themselves, as they would without it. With a warm cache the process ends in ~2 s.
+
+#: Test files that compile no physics kernel (run first, beside the warm-up).
+NO_KERNEL_FILES = ('test_lint.py', 'test_docs.py', 'test_import_boundaries.py',
+                   'core/test_rotations.py', 'core/test_inertia.py', 'core/test_layout.py',
+                   'core/test_validators.py')
+#: Test files that need the free-body step only (run once the warm-up compiled it).
+FREE_KERNEL_DIR = 'core/'
+_WARM_UP = {}
+
+
+def _tier(item):
+    path = item.path.relative_to(REPO / 'tests').as_posix()
+    if path in NO_KERNEL_FILES:
+        return 0
+    if path.startswith(FREE_KERNEL_DIR) and not path.startswith('core/contact/') \
+            and path != 'core/test_batch.py':
+        return 1
+    return 2
+
+
+def pytest_collection_modifyitems(session, config, items):
+    """Order the tests by tier (stable within one) and start the background warm-up."""
+    items.sort(key=_tier)
+    if os.environ.get('RBD_TEST_NO_WARM_UP') or not any(_tier(i) for i in items):
+        return
+    _WARM_UP['process'] = subprocess.Popen(
+        [sys.executable, '-m', 'rbd_ros.core.warmup', '--batch'], cwd=REPO,
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    _WARM_UP['started'] = time.monotonic()
+
+
+def _wait_for_warm_up(tier):
+    process = _WARM_UP.get('process')
+    if process is None or 'ended' in _WARM_UP:
+        return
+    if tier == 1:
+        from rbd_ros.core import jitcache
+        jitcache.configured()
+        wait_until(lambda: process.poll() is not None or jitcache.kernels_on_disk(False),
+                   FIRST_START_S, what='the free-body kernels of the warm-up')
+        return
+    try:
+        out, _ = process.communicate(timeout=FIRST_START_S)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        out, _ = process.communicate()
+    _WARM_UP['ended'] = time.monotonic()
+    if process.returncode != 0:
+        print(f'\nkernel warm-up failed (exit {process.returncode}); the tests compile the '
+              f'kernels themselves:\n{out}')
+
+
+@pytest.fixture(autouse=True)
+def _kernels_warmed_up(request):
+    """Before a test that needs compiled kernels, wait for the warm-up to have compiled them."""
+    tier = _tier(request.node)
+    if tier:
+        _wait_for_warm_up(tier)
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """Never leave the warm-up running after the session."""
+    process = _WARM_UP.get('process')
+    if process is not None and process.poll() is None:
+        process.kill()
+        process.communicate()

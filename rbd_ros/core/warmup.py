@@ -1,0 +1,102 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Compile every physics kernel once, or load it from the cache: ``python -m rbd_ros.core.warmup``.
+
+What a first step compiles, without a node or a parameter file: the free-body step
+(:class:`~rbd_ros.core.Simulator`), the contact step (a box on a ground plane, the same compiled
+specialisation every world uses) and, with ``--batch``, the threaded batch kernel. Each kind is
+marked in the cache (:func:`jitcache.mark_compiled`) once it compiled, as the node does, so a
+node started afterwards loads them and says nothing about compiling. The test suite runs this in
+a background process while it runs the tests that need no kernel (``tests/conftest.py``); a
+packager can run it after installing, so the first ``ros2 run`` starts warm.
+"""
+
+import argparse
+import sys
+import time
+
+from rbd_ros.core import jitcache
+from rbd_ros.core.inertia import box
+from rbd_ros.core.model import BodyModel
+from rbd_ros.core.simulator import BatchSimulator, Simulator
+from rbd_ros.core.state import BodyState
+
+#: The kinds of kernel, in the order :func:`compile_kernels` compiles them.
+KINDS = ('free', 'contact', 'batch')
+
+
+def _model():
+    body = box(1.0, (0.2, 0.1, 0.05))
+    return BodyModel(body.mass_kg, body.inertia_b)
+
+
+def _free():
+    Simulator(_model(), BodyState()).step(1)
+
+
+def _contact():
+    from rbd_ros.core.contact import ground_plane, Material, primitive_shape, StaticWorld
+    from rbd_ros.core.contact.simulator import WorldBody, WorldSimulator
+    shape = primitive_shape('box', [0.2, 0.2, 0.2])
+    model = BodyModel(1.0, shape.mass_properties(1.0).inertia_b, gravity_w=(0, 0, -9.81))
+    WorldSimulator([WorldBody('box', model, shape, Material(friction=0.5))],
+                   [BodyState(position_w=(0, 0, 0.1))],
+                   StaticWorld(ground_plane(material=Material(friction=0.5)))).step(1)
+
+
+def _batch():
+    model = _model()
+    BatchSimulator([model, model], [BodyState(), BodyState()], threads=2).step(1)
+
+
+COMPILERS = {'free': _free, 'contact': _contact, 'batch': _batch}
+
+
+def compile_kernels(kinds=KINDS, log=print):
+    """
+    Take one step of each kind in ``kinds``, compiling what the cache does not hold.
+
+    :param log: called with one line per kind that had to compile (what, how long it took).
+    :returns: wall seconds per kind.
+    """
+    jitcache.configured()
+    taken = {}
+    for kind in kinds:
+        marked = kind in ('free', 'contact')
+        contact = kind == 'contact'
+        cold = not (marked and jitcache.kernels_on_disk(contact))
+        start = time.monotonic()
+        COMPILERS[kind]()
+        taken[kind] = time.monotonic() - start
+        if marked and cold:
+            jitcache.mark_compiled(contact)
+        if cold:
+            log(f'{kind} kernels ready in {taken[kind]:.1f} s (cache: {jitcache.CACHE_DIR})')
+    return taken
+
+
+def main(argv=None):
+    """Compile the free-body and contact kernels (and with ``--batch`` the batch kernel)."""
+    parser = argparse.ArgumentParser(prog='python -m rbd_ros.core.warmup',
+                                     description=main.__doc__)
+    parser.add_argument('--batch', action='store_true', help='also the threaded batch kernel')
+    args = parser.parse_args(argv)
+    compile_kernels(KINDS if args.batch else KINDS[:2])
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
