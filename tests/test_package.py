@@ -34,7 +34,7 @@ import sys
 import time
 from xml.etree import ElementTree
 
-from conftest import FIRST_START_S, write_params
+from conftest import FIRST_START_S
 import pytest
 from rbd_ros import drag, node, outputs
 from rbd_ros.config import PARAMETERS_BY_NAME
@@ -325,13 +325,11 @@ def test_rviz_config_shows_what_the_node_publishes(tmp_path):
     # What the node really offers on them (a world with contact, in a namespace of its own, as
     # the launch file runs RViz in the node's namespace): type and durability, through DDS.
     ns = f'/rviz_{os.getpid()}'
-    world = REPO / 'msg_config' / 'l_block_bin.yaml'
-    params = write_params(tmp_path / 'p.yaml', {
-        'mesh_path': str(REPO / 'msg_config' / 'meshes' / 'l_block.stl'),
-        'real_time_factor': 1.0})
+    # stack.yaml: a world (bodies, so poses) with a floor and obstacles (markers).
+    world = REPO / 'msg_config' / 'stack.yaml'
     process = subprocess.Popen(
         [sys.executable, '-m', 'rbd_ros.node', '--ros-args', '-r', f'__ns:={ns}',
-         '--params-file', str(world), '--params-file', str(params)],
+         '--params-file', str(world)],
         cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=open(tmp_path / 'err', 'wb'))
     context = Context()
     rclpy.init(context=context)
