@@ -281,7 +281,9 @@ def test_launch_file_declares_its_arguments_and_points_at_installed_files(colcon
     calls = [n for n in ast.walk(_launch_tree()) if isinstance(n, ast.Call)]
     declared = [c.args[0].value for c in calls if _call_name(c) == 'DeclareLaunchArgument']
     assert sorted(declared) == sorted(LAUNCH_ARGUMENTS)
-    used = {c.args[0].value for c in calls if _call_name(c) == 'LaunchConfiguration'}
+    # Each is used: LaunchConfiguration('name'), or _flag(context, 'name') for a boolean.
+    used = {c.args[-1].value for c in calls if _call_name(c) in ('LaunchConfiguration', '_flag')
+            and isinstance(c.args[-1], ast.Constant)}
     assert used == LAUNCH_ARGUMENTS
     # Files it finds in the package's share directory: os.path.join(share, 'dir', 'file').
     pointed = [Path(*(a.value for a in c.args[1:])) for c in calls
@@ -293,10 +295,16 @@ def test_launch_file_declares_its_arguments_and_points_at_installed_files(colcon
     assert (share / 'launch' / 'rbd_ros.launch.py').read_bytes() == source.read_bytes()
     for relative in pointed:
         assert (REPO / relative).is_file() and (share / relative).is_file(), relative
-    nodes = {c.keywords[0].value.value if isinstance(c.keywords[0].value, ast.Constant)
-             else c.keywords[0].value.id: {k.arg for k in c.keywords}
-             for c in calls if _call_name(c) == 'Node'}
-    assert set(nodes) == {'PACKAGE', 'rviz2'}
+    # Two Node actions: rigid_body_node of this package, and rviz2; both in the namespace, both
+    # given parameters (the params file and use_sim_time; RViz its use_sim_time).
+    nodes = {k.value.value: {k.arg for k in c.keywords} for c in calls if _call_name(c) == 'Node'
+             for k in c.keywords if k.arg == 'executable'}
+    assert set(nodes) == {'rigid_body_node', 'rviz2'}
+    for keywords in nodes.values():
+        assert {'package', 'executable', 'namespace', 'parameters'} <= keywords
+    (package,) = [n.value.value for n in _launch_tree().body if isinstance(n, ast.Assign)
+                  and n.targets[0].id == 'PACKAGE']
+    assert package == PACKAGE_XML.findtext('name')
     # The node's executable is a console script of the package.
     assert "'rigid_body_node = rbd_ros.node:main'" in (REPO / 'setup.py').read_text()
 
@@ -327,10 +335,10 @@ def test_rviz_config_shows_what_the_node_publishes(tmp_path):
     ns = f'/rviz_{os.getpid()}'
     # stack.yaml: a world (bodies, so poses) with a floor and obstacles (markers).
     world = REPO / 'msg_config' / 'stack.yaml'
-    process = subprocess.Popen(
-        [sys.executable, '-m', 'rbd_ros.node', '--ros-args', '-r', f'__ns:={ns}',
-         '--params-file', str(world)],
-        cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=open(tmp_path / 'err', 'wb'))
+    with open(tmp_path / 'err', 'wb') as err:
+        process = subprocess.Popen(
+            [sys.executable, '-m', 'rbd_ros.node', '--ros-args', '-r', f'__ns:={ns}',
+             '--params-file', str(world)], cwd=tmp_path, stdout=subprocess.DEVNULL, stderr=err)
     context = Context()
     rclpy.init(context=context)
     probe = rclpy.create_node(f'rviz_probe_{os.getpid()}', namespace=ns, context=context)
