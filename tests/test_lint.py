@@ -20,12 +20,13 @@ from ament_flake8.main import main_with_errors
 from ament_pep257.main import main as pep257_main
 
 REPO = Path(__file__).resolve().parents[1]
-PATHS = [str(REPO / 'rbd_ros'), str(REPO / 'tests'), str(REPO / 'setup.py')]
+PATHS = [str(REPO / 'rbd_ros'), str(REPO / 'tests'), str(REPO / 'launch'),
+         str(REPO / 'setup.py')]
 
 
 def python_files():
     files = [REPO / 'setup.py']
-    for top in ('rbd_ros', 'tests'):
+    for top in ('rbd_ros', 'tests', 'launch'):
         files += sorted(p for p in (REPO / top).rglob('*.py') if '__pycache__' not in p.parts)
     return files
 
