@@ -173,6 +173,15 @@ def module_tmp(tmp_path_factory):
 NO_KERNEL_FILES = ('test_lint.py', 'test_docs.py', 'test_import_boundaries.py',
                    'core/test_rotations.py', 'core/test_inertia.py', 'core/test_layout.py',
                    'core/test_validators.py')
+#: Single tests (file::name) that compile no physics kernel: the clean-venv install (~1 min of
+#: pip) and the package metadata checks.
+NO_KERNEL_TESTS = tuple(
+    f'test_package.py::{name}' for name in (
+        'test_pip_install_in_a_clean_venv_imports_checks_and_plots',
+        'test_every_third_party_import_is_declared_for_pip_and_rosdep',
+        'test_install_requires_lower_bounds_are_the_tested_pins',
+        'test_one_version_in_package_xml_read_by_setup_py_and_rbd_ros',
+        'test_colcon_files_are_right'))
 #: Test files that need the free-body step only (run once the warm-up compiled it).
 FREE_KERNEL_DIR = 'core/'
 _WARM_UP = {}
@@ -180,7 +189,7 @@ _WARM_UP = {}
 
 def _tier(item):
     path = item.path.relative_to(REPO / 'tests').as_posix()
-    if path in NO_KERNEL_FILES:
+    if path in NO_KERNEL_FILES or f'{path}::{item.name}' in NO_KERNEL_TESTS:
         return 0
     if path.startswith(FREE_KERNEL_DIR) and not path.startswith('core/contact/') \
             and path != 'core/test_batch.py':
