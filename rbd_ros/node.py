@@ -508,7 +508,7 @@ class RigidBodyNode(Node):
             'drags_received': s.drags.received, 'drags_rejected': s.drags.rejected_total,
             **{f'wrenches_rejected_{k}': v for k, v in s.inputs.rejected.items()},
             'kinetic_energy_j': energy,
-            'angular_momentum_norm_nms': float(sum(x * x for x in momentum) ** 0.5),
+            'angular_momentum_norm_nms': math.hypot(*momentum),
             'wall_time_dropped_s': self._dropped_ns * 1e-9, 'resets': s.resets,
             'pacing_lag_max_ms': self._lag_max_ns * 1e-6}
         self._lag_max_ns = 0

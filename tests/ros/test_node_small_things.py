@@ -27,6 +27,9 @@ import sys
 import time
 
 from conftest import NodeProcess, REPO, wait_until
+import pytest
+from rbd_ros.config import NodeConfig
+from rbd_ros.core import ConfigError
 from rcl_interfaces.msg import Parameter as ParameterMsg, ParameterType, ParameterValue
 from rcl_interfaces.srv import DescribeParameters, GetParameters, SetParameters
 from rclpy.qos import ReliabilityPolicy
@@ -100,6 +103,12 @@ def test_parameters_qos_overrides_and_force_messages_of_a_single_body(start_node
     assert 'ignoring qos_overrides' not in node.stderr, node.stderr
     assert '|force| = 1.41421e+300 N exceeds max_force_n' in node.stderr, node.stderr
     assert 'inf N' not in node.stderr, node.stderr
+
+
+def test_a_huge_quaternion_is_reported_by_its_norm_not_inf():
+    with pytest.raises(ConfigError, match=r'^parameter initial_orientation = \[1e\+300, 0\.0, '
+                                          r'0\.0, 1e\+300\]: norm 1\.41421e\+300 must be'):
+        NodeConfig.from_parameters({'initial_orientation': [1e300, 0.0, 0.0, 1e300]})
 
 
 def test_world_diagnostics_name_the_node_not_base_link(start_node):
