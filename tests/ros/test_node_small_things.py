@@ -29,7 +29,7 @@ import time
 from conftest import NodeProcess, REPO, wait_until
 import pytest
 from rbd_ros.config import NodeConfig
-from rbd_ros.core import ConfigError
+from rbd_ros.core import ConfigError, jitcache
 from rcl_interfaces.msg import Parameter as ParameterMsg, ParameterType, ParameterValue
 from rcl_interfaces.srv import DescribeParameters, GetParameters, SetParameters
 from rclpy.qos import ReliabilityPolicy
@@ -161,6 +161,11 @@ def test_sigint_during_a_cold_compile_exits_at_once(tmp_path, monkeypatch):
         assert time.monotonic() - start < 2.0, node.stderr
         assert status == 0, node.stderr
         assert 'Traceback' not in node.stderr, node.stderr
+        # The compile did not finish: no compile mark, so the next start still says it
+        # compiles (a warm start, which says nothing, is tested in test_node_first_start).
+        marks = [p.name for p in (tmp_path / 'xdg_cache').rglob(
+            jitcache.MARK.format(kind='free'))]
+        assert marks == [], marks
     finally:
         if node.process.poll() is None:
             os.kill(node.process.pid, signal.SIGKILL)
