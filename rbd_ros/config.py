@@ -901,7 +901,7 @@ def _unit_quaternion(spec, q_xyzw):
     """Return ``q_xyzw`` ([x, y, z, w], norm within 1e-3 of 1) as a unit (w, x, y, z) array."""
     if len(q_xyzw) != 4:
         _fail(spec, q_xyzw, 'must have 4 values [x, y, z, w]')
-    norm = math.sqrt(sum(v * v for v in q_xyzw))
+    norm = math.hypot(*q_xyzw)  # scaled: the norm of [1e300, 0, 0, 1e300] is not inf
     if abs(norm - 1.0) > 1e-3:
         _fail(spec, q_xyzw, f'norm {norm:.6g} must be within 1e-3 of 1 ([x, y, z, w] order)')
     return np.asarray(xyzw_to_wxyz(q_xyzw)) / norm

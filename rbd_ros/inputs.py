@@ -159,12 +159,13 @@ class WrenchInputs:
             raise WrenchRejected(
                 'non_finite', f'{spec.topic}: force {force} N / torque {torque} N·m is not '
                 'three finite numbers each')
-        force_n = math.sqrt(sum(v * v for v in force))
+        # math.hypot scales: |(1e300, 1e300, 0)| is 1.41e300, where a sum of squares is inf.
+        force_n = math.hypot(*force)
         if force_n > self._max_force_n:
             raise WrenchRejected(
                 'force_limit', f'{spec.topic}: |force| = {force_n:g} N exceeds max_force_n = '
                 f'{self._max_force_n:g} N')
-        torque_nm = math.sqrt(sum(v * v for v in torque))
+        torque_nm = math.hypot(*torque)
         if torque_nm > self._max_torque_nm:
             raise WrenchRejected(
                 'torque_limit', f'{spec.topic}: |torque| = {torque_nm:g} N·m exceeds '

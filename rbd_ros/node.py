@@ -38,6 +38,7 @@ import re
 import signal
 import sys
 import tempfile
+import threading
 import time
 
 # Ctrl-C while the imports below load (~1 s) in `python -m rbd_ros.node` or the installed
@@ -90,6 +91,9 @@ STATE_QOS = {'depth': 1, 'reliability': ReliabilityPolicy.RELIABLE,
 QOS_OVERRIDES = QoSOverridingOptions(policy_kinds=(
     QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH, QoSPolicyKind.RELIABILITY,
     QoSPolicyKind.DURABILITY))
+#: Set while the first step runs (a compile, or a load from numba's cache): main()'s SIGINT and
+#: SIGTERM handlers then exit 0 at once (nothing to finalise yet; a compile cannot be cancelled).
+WARMING_UP = threading.Event()
 OUTPUT_TOPICS = ('pose', 'twist', 'odom', 'contact_wrench', 'markers', 'static_markers', '/clock',
                  '/diagnostics', '/tf')
 
@@ -136,6 +140,7 @@ class RigidBodyNode(Node):
         self._warm_up()
         for spec in config.all_specs():
             self._declare(spec, config.parameters[spec.name])
+        self.add_pre_set_parameters_callback(self._coerce_parameters)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.session = SimSession(config)
         self.done = False
@@ -176,12 +181,6 @@ class RigidBodyNode(Node):
             qos_overriding_options=QOS_OVERRIDES) for spec in config.wrench_inputs]
         if config.publish_tf and 'tf' not in self._builder.kinds:
             self.get_logger().info('tf2_msgs is not importable: not broadcasting /tf')
-        for name in overrides:
-            if name.startswith('qos_overrides.') and not self.has_parameter(name):
-                self.get_logger().warning(
-                    f'ignoring {name}: no endpoint of this node has that topic and policy '
-                    '(qos_overrides.<absolute topic>.publisher|subscription.history|depth|'
-                    'reliability|durability)')
         # Drags: drag (<body>/drag in a world) and /clicked_point (RViz, Foxglove).
         drag_topics = {name: name for name in self.session.drags.input_names}
         drag_topics[CLICKED_POINT] = '/clicked_point'
@@ -194,6 +193,14 @@ class RigidBodyNode(Node):
         self._input_topics.update({name: sub.topic_name
                                    for name, sub in zip(drag_topics, point_subs)})
         self._input_subs += point_subs
+        # After every endpoint (the drag and /clicked_point subscriptions included): an
+        # override that rclpy declared as a parameter was applied to one of them.
+        for name in overrides:
+            if name.startswith('qos_overrides.') and not self.has_parameter(name):
+                self.get_logger().warning(
+                    f'ignoring {name}: no endpoint of this node has that topic and policy '
+                    '(qos_overrides.<absolute topic>.publisher|subscription.history|depth|'
+                    'reliability|durability)')
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)
         self.create_service(Trigger, '~/step', self._on_step)
@@ -270,7 +277,10 @@ class RigidBodyNode(Node):
             name=spec.name, type=_TYPES[spec.kind], read_only=spec.read_only,
             description=spec.description + (f' [{spec.unit}]' if spec.unit else ''),
             additional_constraints=spec.rule)
-        if spec.bounds is not None and spec.kind == cfg.DOUBLE:
+        if spec.bounds is not None and spec.kind == cfg.DOUBLE and not (
+                spec.rule.startswith('> 0') and spec.bounds[0] == 0.0):
+            # A '> 0' rule has no closed range that excludes 0 but admits every positive
+            # double: the range is left out (the rule is in additional_constraints).
             descriptor.floating_point_range = [FloatingPointRange(
                 from_value=float(spec.bounds[0]), to_value=float(spec.bounds[1]))]
         elif spec.bounds is not None and spec.kind == cfg.INTEGER:
@@ -291,8 +301,27 @@ class RigidBodyNode(Node):
             value = list(value)
         self.declare_parameter(spec.name, value, descriptor, ignore_override=True)
 
+    @staticmethod
+    def _coerce_parameters(params):
+        """
+        Return ``params`` with an integer ``real_time_factor`` as a double.
+
+        ``ros2 param set <node> real_time_factor 2`` sends an INTEGER, which rclpy would refuse
+        against the DOUBLE descriptor; a params file's ``real_time_factor: 2`` is accepted.
+        """
+        return [Parameter(p.name, Parameter.Type.DOUBLE, float(p.value))
+                if p.name == 'real_time_factor' and p.type_ == Parameter.Type.INTEGER else p
+                for p in params]
+
     def _on_set_parameters(self, params):
         for param in params:
+            if param.name == 'use_sim_time':
+                # The node's stamps are its own sim time and its timers run on a steady clock:
+                # use_sim_time changes nothing, so a live change that claims to is refused.
+                return SetParametersResult(successful=False, reason=(
+                    f'parameter use_sim_time = {param.value!r}: read-only at run time (the '
+                    'node stamps everything with its own sim time whatever it says; set it '
+                    'at start, as launch files do)'))
             if param.name == 'real_time_factor':
                 try:
                     cfg.check_real_time_factor(param.value)
@@ -479,7 +508,7 @@ class RigidBodyNode(Node):
             'drags_received': s.drags.received, 'drags_rejected': s.drags.rejected_total,
             **{f'wrenches_rejected_{k}': v for k, v in s.inputs.rejected.items()},
             'kinetic_energy_j': energy,
-            'angular_momentum_norm_nms': float(sum(x * x for x in momentum) ** 0.5),
+            'angular_momentum_norm_nms': math.hypot(*momentum),
             'wall_time_dropped_s': self._dropped_ns * 1e-9, 'resets': s.resets,
             'pacing_lag_max_ms': self._lag_max_ns * 1e-6}
         self._lag_max_ns = 0
@@ -492,7 +521,8 @@ class RigidBodyNode(Node):
         if non_finite:
             message += '; not finite: ' + ', '.join(non_finite)
         self._publish('diagnostics', conv.diagnostics_to_msg(
-            s.time_ns, f'{self.get_fully_qualified_name()}: rigid body', self.config.body_frame,
+            s.time_ns, f'{self.get_fully_qualified_name()}: rigid body',
+            self.get_fully_qualified_name() if self.config.world else self.config.body_frame,
             level, message, values), s.time_ns)
 
     def _energy_and_momentum(self):
@@ -521,7 +551,7 @@ class RigidBodyNode(Node):
         if not on_disk:
             self.get_logger().info(jitcache.compile_notice(contact))
         start = time.monotonic()
-        cfg.check_first_step(self.config)
+        _first_step_in_a_thread(self.config)
         if not on_disk:
             jitcache.mark_compiled(contact)
             self.get_logger().info(
@@ -609,6 +639,42 @@ class RigidBodyNode(Node):
         return self.exit_status
 
 
+def _first_step_in_a_thread(config):
+    """
+    :func:`cfg.check_first_step` in a worker thread, the main thread waiting with a timeout.
+
+    numba compiles holding the GIL in long stretches; Python runs signal handlers in the main
+    thread only, between its bytecodes, so a compile in the main thread delayed Ctrl-C until
+    it ended. Waiting on the worker with a timeout lets the handlers run within ~50 ms.
+    """
+    outcome = []
+
+    def run():
+        try:
+            cfg.check_first_step(config)
+        except BaseException as exc:  # re-raised in the caller's thread
+            outcome.append(exc)
+    worker = threading.Thread(target=run, name='rbd_ros first step', daemon=True)
+    WARMING_UP.set()
+    try:
+        worker.start()
+        while worker.is_alive():
+            worker.join(0.05)
+    finally:
+        WARMING_UP.clear()
+    if outcome:
+        raise outcome[0]
+
+
+def _on_stop_signal(stop):
+    """Return a SIGINT/SIGTERM handler: exit 0 at once while warming up, else ask to stop."""
+    def handler(*_):
+        if WARMING_UP.is_set():
+            os._exit(0)
+        stop.append(True)
+    return handler
+
+
 def _init_rclpy(args):
     """
     ``rclpy.init`` without its own signal handlers; return None, or one line on why it failed.
@@ -646,7 +712,7 @@ def main(args=None):
     # would shut the context down under a running callback, whose next publish then fails.)
     stop = []
     for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.append(True))
+        signal.signal(signum, _on_stop_signal(stop))
     error = _init_rclpy(args)
     if error is not None:
         print(f'rigid_body_node: {error}', file=sys.stderr, flush=True)

@@ -41,7 +41,8 @@ recorded time.
 
 Messages are decoded with the schemas stored in the file (``mcap-ros2-support``); rclpy is not
 imported.  Exit status: 0 match, 1 mismatch, 2 the bag cannot be replayed (missing, empty,
-truncated before any data, corrupt, foreign: one line on stderr, never a traceback).
+truncated before any data, corrupt, foreign: one line on stderr, never a traceback), 141
+the reader closed the pipe (``replay --json bag | head``: no traceback).
 """
 
 import argparse
@@ -807,10 +808,15 @@ def main(argv: Optional[List[str]] = None) -> int:
     status, result = run_on_bag('replay', args.bag, 'replayed', run)
     if status:
         return status
-    if args.json:
-        print(json.dumps(result.to_dict(), indent=2))
-    else:
-        print(format_summary(result))
+    try:
+        print(json.dumps(result.to_dict(), indent=2) if args.json else format_summary(result),
+              flush=True)
+    except BrokenPipeError:
+        # `replay --json bag | head` closed the pipe: the Python recipe (stdout to devnull,
+        # so the flush at exit cannot raise again), and 141 = 128 + SIGPIPE, the status of a
+        # C tool the closed pipe ended (what `set -o pipefail` users see from `cat`).
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 141
     return 0 if result.match else 1
 
 

@@ -288,8 +288,27 @@ def penetration_depth(shape_a, position_a, orientation_a, shape_b, position_b, o
     depth_a, point_a = _one_way(shape_a, rot_a, pos_a, shape_b, rot_b, pos_b)
     depth_b, point_b = _one_way(shape_b, rot_b, pos_b, shape_a, rot_a, pos_a)
     if depth_b > depth_a:
-        return depth_b, point_b
+        depth_a, point_a = depth_b, point_b
+    for centre in (_centre_depth(shape_a, rot_a, pos_a, shape_b, rot_b, pos_b),
+                   _centre_depth(shape_b, rot_b, pos_b, shape_a, rot_a, pos_a)):
+        if centre[0] > depth_a:
+            depth_a, point_a = centre
     return depth_a, point_a
+
+
+def _centre_depth(shape_a, rot_a, pos_a, shape_b, rot_b, pos_b):
+    """
+    Overlap depth (m) proven by A's origin, and that point: ``min(-φ_A(o_A), -φ_B(o_A))``.
+
+    Surface points miss coincident or nested shapes (on coincident surfaces φ reads 0): a ball
+    of that radius about A's origin lies inside both shapes (less the φ error bounds).
+    """
+    if shape_a.kind == k.KIND_PLANE:
+        return -math.inf, None
+    inside_a = -float(shape_a.signed_distance(np.zeros(3))[0]) - phi_error_bound(shape_a)
+    in_b = rot_b.T @ (pos_a - pos_b)
+    inside_b = -float(shape_b.signed_distance(in_b)[0]) - phi_error_bound(shape_b)
+    return min(inside_a, inside_b), pos_a.copy()
 
 
 def check_overlaps(bodies, world=None, tolerance_m=DEFAULT_OVERLAP_TOLERANCE_M):

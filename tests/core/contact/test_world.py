@@ -139,6 +139,23 @@ def test_a_small_body_wholly_inside_a_big_one_is_found():
     assert swapped == depth
 
 
+@pytest.mark.parametrize('shape, dimensions, inner_m', [
+    ('box', [0.2, 0.2, 0.2], 0.1), ('sphere', [0.5], 0.5), ('capsule', [0.1, 0.4], 0.1),
+    ('cylinder', [0.2, 0.1], 0.05)])
+def test_coincident_identical_bodies_overlap_by_their_inner_radius(shape, dimensions, inner_m):
+    # Issue 25 item 7: on coincident surfaces every surface point reads φ = 0, so the surface
+    # test found no overlap; the origins prove one as deep as the distance from the origin
+    # to the nearest face (the ball of that radius lies in both).
+    body = primitive_shape(shape, dimensions)
+    q = quat_from_axis_angle([0.0, 1.0, 0.0], 0.3)
+    depth, point = penetration_depth(body, [1.0, 2.0, 3.0], q, body, [1.0, 2.0, 3.0], q)
+    assert depth == pytest.approx(inner_m, abs=ROUND_OFF)
+    np.testing.assert_allclose(point, [1.0, 2.0, 3.0])
+    with pytest.raises(ModelError, match=r'^bodies\.a\.position_w: \[1\.0, 2\.0, 3\.0\] m puts '
+                                         r'the body .* deep inside bodies\.b'):
+        check_overlaps([('a', body, [1.0, 2.0, 3.0], q), ('b', body, [1.0, 2.0, 3.0], q)])
+
+
 def test_check_overlaps_refuses_bodies_deep_inside_and_accepts_resting_ones():
     ground = ground_plane()
     ramp = obstacle('ramp', 'box', [2.0, 1.0, 0.5], position_w=[5.0, 0.0, 0.25])
