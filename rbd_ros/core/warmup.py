@@ -93,8 +93,10 @@ def main(argv=None):
     parser = argparse.ArgumentParser(prog='python -m rbd_ros.core.warmup',
                                      description=main.__doc__)
     parser.add_argument('--batch', action='store_true', help='also the threaded batch kernel')
+    parser.add_argument('--only', choices=KINDS, action='append',
+                        help='compile only this kind (repeatable)')
     args = parser.parse_args(argv)
-    compile_kernels(KINDS if args.batch else KINDS[:2])
+    compile_kernels(args.only or (KINDS if args.batch else KINDS[:2]))
     return 0
 
 

@@ -86,6 +86,24 @@ def test_a_cold_start_logs_the_compile_and_caches_in_the_users_cache_dir(tmp_pat
     assert numba_files(cache_dir) == written
 
 
+def test_the_warm_up_module_compiles_ahead_and_the_node_then_starts_warm(tmp_path, monkeypatch):
+    # What doc/getting-started.md promises a packager: `python -m rbd_ros.core.warmup` after an
+    # install compiles what a first start would, and the first `ros2 run` after it says nothing
+    # about compiling. The free-body kind alone keeps this test to one ~20 s compile.
+    monkeypatch.setenv('XDG_CACHE_HOME', str(tmp_path / 'xdg_cache'))
+    monkeypatch.delenv('NUMBA_CACHE_DIR', raising=False)
+    ahead = subprocess.run([sys.executable, '-m', 'rbd_ros.core.warmup', '--only', 'free'],
+                           cwd=REPO, capture_output=True, text=True, timeout=900)
+    assert ahead.returncode == 0, ahead.stderr
+    assert ahead.stdout.startswith('free kernels ready in '), ahead.stdout
+    node = NodeProcess(tmp_path, {'duration_s': 0.01, 'start_paused': False}, namespace=True)
+    assert node.wait(300) == 0, node.stderr
+    assert 'compiling the physics kernels' not in node.stderr, node.stderr
+    again = subprocess.run([sys.executable, '-m', 'rbd_ros.core.warmup', '--only', 'free'],
+                           cwd=REPO, capture_output=True, text=True, timeout=300)
+    assert again.returncode == 0 and again.stdout == '', again.stdout  # nothing left to compile
+
+
 def test_a_cache_dir_that_others_can_write_is_refused(tmp_path, monkeypatch):
     cache_dir = tmp_path / 'rbd_ros' / 'numba'
     cache_dir.mkdir(parents=True)
