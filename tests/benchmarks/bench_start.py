@@ -88,7 +88,7 @@ def main(argv=None):
     parser.add_argument('--runs', type=int, default=3)
     parser.add_argument('--only', action='append', help='msg_config file name (repeatable)')
     parser.add_argument('--warm-only', action='store_true',
-                        help='time warm starts only (on one cache that the first start fills, untimed)')
+                        help='time warm starts only (one cache, filled by an untimed start)')
     args = parser.parse_args(argv)
     files = sorted(pathlib.Path(REPO, 'msg_config').glob('*.yaml'))
     if args.only:
