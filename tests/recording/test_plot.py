@@ -108,7 +108,7 @@ def _expected(bag_dir, mesh_dir):
     w_b = np.array([[m.twist.twist.angular.x, m.twist.twist.angular.y,
                      m.twist.twist.angular.z] for _, m in odom])
     v_w = np.array([_matrix(qk / np.linalg.norm(qk)) @ vk for qk, vk in zip(q, v_b)])
-    model = NodeConfig.from_parameters(config).model
+    model = NodeConfig.from_parameters(recorded_parameters(config)).model
     kinetic = 0.5 * model.mass_kg * np.sum(v_b * v_b, axis=1) + 0.5 * np.einsum(
         'ni,ij,nj->n', w_b, model.inertia_b, w_b)
     panels = [
