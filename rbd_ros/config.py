@@ -171,7 +171,7 @@ PARAMETERS = (
     ParamSpec('max_torque_nm', DOUBLE, 1e6, 'N·m',
               'Wrenches with a larger |torque| are rejected and counted.', (0.0, _BIG),
               rule='> 0'),
-    ParamSpec('wrench_inputs', STRING_ARRAY, (), '',
+    ParamSpec('wrench_input_names', STRING_ARRAY, (), '',
               'Names of extra wrench inputs, each with wrench_inputs.<name>.topic, .frame and '
               '.point_b.', rule='distinct names of letters, digits and _'),
     ParamSpec('friction', DOUBLE, 0.5, '',
@@ -193,7 +193,7 @@ PARAMETERS = (
               (0.0, _BIG), rule='>= 0'),
     ParamSpec('ground.restitution', DOUBLE, 0.0, '', 'Coefficient of restitution ε of the ground.',
               (0.0, 1.0)),
-    ParamSpec('obstacles', STRING_ARRAY, (), '',
+    ParamSpec('obstacle_names', STRING_ARRAY, (), '',
               'Names of static obstacles, each with obstacles.<name>.shape, .dimensions_m, '
               '.mesh_path, .mesh_scale, .position, .orientation, .friction and .restitution.',
               rule='distinct names of letters, digits and _'),
@@ -207,7 +207,7 @@ PARAMETERS = (
               'Damping c of the drag spring: f = -k d - c v at the held point.', (0.0, _BIG)),
     ParamSpec('drag_click_radius_m', DOUBLE, 0.05, 'm',
               'A /clicked_point this near a body surface grabs it there.', (0.0, _BIG)),
-    ParamSpec('bodies', STRING_ARRAY, (), '',
+    ParamSpec('body_names', STRING_ARRAY, (), '',
               'Names of the bodies of a world, each with bodies.<name>.* (the per-body '
               'parameters above); [] = one body from the parameters above.',
               rule='distinct names of letters, digits and _; not with per-body parameters'),
@@ -227,6 +227,46 @@ PARAMETERS = (
 )
 
 PARAMETERS_BY_NAME = {spec.name: spec for spec in PARAMETERS}
+
+#: The list parameters renamed so that no parameter name is the prefix of another (at a '.'):
+#: ``ros2 param dump`` nests names on '.', and a list cannot hold its items (``bodies`` and
+#: ``bodies.a.mass_kg``). Old name → new name; the items (``bodies.<name>.*``,
+#: ``obstacles.<name>.*``, ``wrench_inputs.<name>.*``) keep their names. Per body,
+#: ``bodies.<name>.wrench_inputs`` became ``bodies.<name>.wrench_input_names``.
+RENAMED_PARAMETERS = {'bodies': 'body_names', 'obstacles': 'obstacle_names',
+                      'wrench_inputs': 'wrench_input_names'}
+
+
+def new_parameter_name(name):
+    """Return the new name of the renamed parameter ``name``, or None if it was not renamed."""
+    if name in RENAMED_PARAMETERS:
+        return RENAMED_PARAMETERS[name]
+    parts = name.split('.')
+    if len(parts) == 3 and parts[0] == 'bodies' and parts[2] == 'wrench_inputs':
+        return f'bodies.{parts[1]}.wrench_input_names'
+    return None
+
+
+def recorded_parameters(params):
+    """
+    Return the parameters of a recording under today's names (the one place that reads old ones).
+
+    A recording stores the node's parameters under the names of the day it was made; a
+    recording made before :data:`RENAMED_PARAMETERS` reads as if made today. Other names pass
+    through unchanged (:meth:`NodeConfig.from_parameters` judges them).
+    """
+    return {new_parameter_name(name) or name: value for name, value in params.items()}
+
+
+def _refuse_old_names(params):
+    """Refuse a renamed parameter with one line naming its new name (a params file of old)."""
+    for name in sorted(params):
+        new = new_parameter_name(name)
+        if new is not None:
+            raise ConfigError(
+                f'parameter {name} = {_fmt(params[name])}: renamed to {new} (a list is never '
+                f'the prefix of its items; the items {name}.<name>.* keep their names)')
+
 
 # Parameters of the body model: their errors are ModelError, the others' ConfigError.
 _MODEL_PARAMETERS = frozenset((
@@ -261,7 +301,7 @@ BODY_PARAMETERS = (
     'mass_kg', 'inertia', 'shape', 'dimensions_m', 'mesh_path', 'mesh_scale', 'friction',
     'restitution', 'initial_position', 'initial_orientation', 'initial_linear_velocity',
     'initial_angular_velocity', 'linear_damping', 'angular_damping', 'body_frame',
-    'drag_point_b', 'wrench_inputs')
+    'drag_point_b', 'wrench_input_names')
 
 
 def body_parameter_specs(name):
@@ -288,7 +328,7 @@ class BodyConfig:
     """
     One body of a world: name, model, start, collision shape, material, frame and inputs.
 
-    :ivar name: its name in ``bodies`` (its topics are ``<name>/pose``, ...).
+    :ivar name: its name in ``body_names`` (its topics are ``<name>/pose``, ...).
     :ivar model: its :class:`BodyModel`.
     :ivar initial_state: its :class:`BodyState` at time 0.
     :ivar collision_shape: its :class:`rbd_ros.core.contact.CollisionShape`.
@@ -350,7 +390,7 @@ class WrenchInputSpec:
     """
     One wrench input: its name, topic, default frame keyword and application point.
 
-    :param name: ``'wrench'`` for the main input, else the name listed in ``wrench_inputs``.
+    :param name: ``'wrench'`` for the main input, else the name listed in ``wrench_input_names``.
     :param topic: the (relative) topic name.
     :param frame: ``'world'`` or ``'body'``: how a message with an empty ``frame_id`` is read.
     :param point_b: application point of the force, body frame relative to the COM, m.
@@ -513,7 +553,7 @@ class NodeConfig:
 
     @property
     def world(self):
-        """Return True for a world of named bodies (``bodies`` not empty)."""
+        """Return True for a world of named bodies (``body_names`` not empty)."""
         return bool(self.bodies)
 
     @classmethod
@@ -525,8 +565,11 @@ class NodeConfig:
             integrator or frame keyword, a step that is not a whole number of ns, ...
         :raises ModelError: a mass or inertia the core rejects (not positive definite,
             triangle inequality), both ``inertia`` and ``shape`` given, ...
+        :raises ConfigError: a renamed parameter under its old name (:data:`RENAMED_PARAMETERS`;
+            a recording's parameters go through :func:`recorded_parameters` first).
         """
         params = dict(params or {})
+        _refuse_old_names(params)
         values = _table_values(params)
         input_names = _input_values(values, params)
         obstacle_names = _obstacle_values(values, params)
@@ -536,7 +579,7 @@ class NodeConfig:
             raise ConfigError(
                 f'parameter {unknown} = {_fmt(params[unknown])}: unknown parameter name '
                 '(known: see doc/parameters.md; wrench input, obstacle and body parameters need '
-                'their name in wrench_inputs, obstacles or bodies)')
+                'their name in wrench_input_names, obstacle_names or body_names)')
         time_settings = _time_settings(values)
         static_world = _static_world(values, obstacle_names)
         if body_inputs:
@@ -570,13 +613,13 @@ class NodeConfig:
     def all_specs(self):
         """Return the specs of every parameter of this config (table + wrench input ones)."""
         specs = list(PARAMETERS)
-        for input_name in self.parameters['wrench_inputs']:
+        for input_name in self.parameters['wrench_input_names']:
             specs.extend(input_parameter_specs(input_name))
-        for obstacle_name in self.parameters['obstacles']:
+        for obstacle_name in self.parameters['obstacle_names']:
             specs.extend(obstacle_parameter_specs(obstacle_name))
-        for body_name in self.parameters['bodies']:
+        for body_name in self.parameters['body_names']:
             specs.extend(body_parameter_specs(body_name))
-            for input_name in self.parameters[f'bodies.{body_name}.wrench_inputs']:
+            for input_name in self.parameters[f'bodies.{body_name}.wrench_input_names']:
                 specs.extend(_body_input_specs(body_name, input_name))
         return tuple(specs)
 
@@ -593,9 +636,9 @@ def _table_values(params):
 
 
 def _input_values(values, params):
-    """Check ``wrench_inputs``; take each input's parameters out of ``params`` into ``values``."""
-    spec = PARAMETERS_BY_NAME['wrench_inputs']
-    names = values['wrench_inputs']
+    """Check ``wrench_input_names``; move each input's parameters from ``params`` to ``values``."""
+    spec = PARAMETERS_BY_NAME['wrench_input_names']
+    names = values['wrench_input_names']
     for name in names:
         if not name or not (name.replace('_', 'a').isalnum() and name.isascii()):
             _fail(spec, list(names), f'input name {name!r} must be letters, digits and _')
@@ -611,9 +654,9 @@ def _input_values(values, params):
 
 
 def _obstacle_values(values, params):
-    """Check ``obstacles``; take each obstacle's parameters out of ``params`` into ``values``."""
-    spec = PARAMETERS_BY_NAME['obstacles']
-    names = values['obstacles']
+    """Check ``obstacle_names``; move each obstacle's parameters from ``params`` to ``values``."""
+    spec = PARAMETERS_BY_NAME['obstacle_names']
+    names = values['obstacle_names']
     for name in names:
         if not name or not (name.replace('_', 'a').isalnum() and name.isascii()) \
                 or name[0].isdigit():
@@ -650,12 +693,12 @@ def _check_names(spec, names, what):
 
 def _body_values(values, params):
     """
-    Check ``bodies``; take each body's parameters out of ``params`` into ``values``.
+    Check ``body_names``; take each body's parameters out of ``params`` into ``values``.
 
-    Returns ``{body: its extra input names}`` (empty without ``bodies``).
+    Returns ``{body: its extra input names}`` (empty without ``body_names``).
     """
-    names = values['bodies']
-    _check_names(PARAMETERS_BY_NAME['bodies'], names, 'body')
+    names = values['body_names']
+    _check_names(PARAMETERS_BY_NAME['body_names'], names, 'body')
     out = {}
     for name in names:
         for spec in body_parameter_specs(name):
@@ -663,15 +706,15 @@ def _body_values(values, params):
             if spec.kind in (DOUBLE, INTEGER):
                 _check_range(spec, value)
             values[spec.name] = value
-        inputs_spec = PARAMETERS_BY_NAME['wrench_inputs']
-        inputs = values[f'bodies.{name}.wrench_inputs']
+        inputs_spec = PARAMETERS_BY_NAME['wrench_input_names']
+        inputs = values[f'bodies.{name}.wrench_input_names']
         try:
             _check_names(inputs_spec, inputs, 'input')
             if MAIN_INPUT in inputs:
                 _fail(inputs_spec, list(inputs), f'{MAIN_INPUT!r} is the main input')
         except ConfigError as exc:
-            raise ConfigError(str(exc).replace('parameter wrench_inputs',
-                                               f'parameter bodies.{name}.wrench_inputs'))
+            raise ConfigError(str(exc).replace('parameter wrench_input_names',
+                                               f'parameter bodies.{name}.wrench_input_names'))
         for input_name in inputs:
             for spec in _body_input_specs(name, input_name):
                 values[spec.name] = _coerce(spec, params.pop(spec.name, spec.default))
@@ -692,7 +735,7 @@ def _world_bodies(values, body_inputs, static_world, integrator):
     for base in BODY_PARAMETERS:
         spec = PARAMETERS_BY_NAME[base]
         if values[base] != spec.default:
-            _fail(spec, values[base], f'with bodies, each body has its own: set '
+            _fail(spec, values[base], f'with body_names, each body has its own: set '
                   f'bodies.<name>.{base} instead')
     if integrator not in CONTACT_INTEGRATORS:
         _fail(PARAMETERS_BY_NAME['integrator'], integrator,
@@ -841,7 +884,7 @@ def _model(values, collision=None):
 
 
 def _static_world(values, obstacle_names):
-    """Return the :class:`StaticWorld` of ``ground.*`` and ``obstacles``, or None if empty."""
+    """Return the :class:`StaticWorld` of ``ground.*`` and ``obstacle_names``, or None if empty."""
     p = PARAMETERS_BY_NAME
     ground = None
     if values['ground.enabled']:
@@ -882,11 +925,11 @@ def _check_contact(values, collision, static_world, initial_state, integrator):
     if collision is None:
         raise ModelError(
             f'parameter inertia = {_fmt(values["inertia"])} kg·m²: a body given only by its '
-            'inertia has no collision shape; with ground.enabled or obstacles give shape and '
-            'dimensions_m, or mesh_path')
+            'inertia has no collision shape; with ground.enabled or obstacle_names give shape '
+            'and dimensions_m, or mesh_path')
     if integrator not in CONTACT_INTEGRATORS:
         _fail(p['integrator'], integrator,
-              'cannot take contact (ground.enabled or obstacles): use one of '
+              'cannot take contact (ground.enabled or obstacle_names): use one of '
               + ', '.join(CONTACT_INTEGRATORS))
     try:
         check_overlaps([('body', collision, initial_state.position_w,

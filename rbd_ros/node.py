@@ -81,7 +81,8 @@ _TYPES = {cfg.BOOL: ParameterType.PARAMETER_BOOL, cfg.INTEGER: ParameterType.PAR
 _ARRAY_TYPES = {cfg.DOUBLE_ARRAY: Parameter.Type.DOUBLE_ARRAY,
                 cfg.STRING_ARRAY: Parameter.Type.STRING_ARRAY}
 _IGNORED = ('use_sim_time', 'start_type_description_service')
-# Parameters whose names depend on a list: wrench_inputs.<name>.*, obstacles.<name>.*, ...
+# Parameters whose names depend on a list (wrench_input_names, obstacle_names, body_names):
+# wrench_inputs.<name>.*, obstacles.<name>.*, bodies.<name>.*
 _DYNAMIC_PREFIXES = ('wrench_inputs.', 'obstacles.', 'bodies.')
 # pose, twist and odom: reliable, transient local, keep last 1: a subscriber that arrives while the
 # node is paused (ros2 topic echo pose --once) gets the latest sample. The other topics: depth 10,
@@ -131,7 +132,8 @@ class RigidBodyNode(Node):
         self._overrides = overrides = self._read_overrides(global_args, kwargs)
         params = {}
         for name, value in overrides.items():
-            if name in cfg.PARAMETERS_BY_NAME or name.startswith(_DYNAMIC_PREFIXES):
+            if name in cfg.PARAMETERS_BY_NAME or name.startswith(_DYNAMIC_PREFIXES) \
+                    or name in cfg.RENAMED_PARAMETERS:  # refused by name by from_parameters
                 params[name] = value
             elif name not in _IGNORED and not name.startswith('qos_overrides.'):
                 self.get_logger().warning(f'ignoring unknown parameter {name} = {value!r}')

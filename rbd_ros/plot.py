@@ -35,7 +35,7 @@ from typing import Any, Dict, List, Optional, Tuple, Union
 
 import numpy as np
 from rbd_ros.cli import open_bag_with_notes, run_on_bag
-from rbd_ros.config import NS_PER_S
+from rbd_ros.config import NS_PER_S, recorded_parameters
 from rbd_ros.conversions import quaternion_from_msg as _quat, vector_from_msg as _vec
 from rbd_ros.core import BodyState, RbdError
 from rbd_ros.core.model import BodyModel
@@ -455,7 +455,7 @@ def render(bag: Union[str, os.PathLike, Bag], out_path: str,
     """Render the recording ``bag`` (opened or a path) to the PNG ``out_path``; return it."""
     if not isinstance(bag, Bag):
         bag = open_bag(bag)
-    if bag.config and bag.config.get('bodies'):
+    if bag.config and recorded_parameters(bag.config).get('body_names'):
         fig, _ = draw_world(bag, title)
     else:
         fig, _ = draw(bag, title)

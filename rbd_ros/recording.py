@@ -612,9 +612,11 @@ class Bag:
     Attributes: ``path`` (as given), ``mcap_path``, ``finalised`` (MCAP summary with statistics
     present and ``metadata.yaml`` present), ``notes`` (why it is not finalised, or what was
     cut off), ``profile``, ``library``, ``topics`` (name -> :class:`TopicInfo`), ``config``
-    (the node parameters, or None for a bag without our configuration), ``rbd_metadata`` (the
-    ``rbd_ros`` record), ``run_metadata`` (the ``rbd_ros.run`` record written at close: how the
-    run ended and the digest of the wrenches it applied; None if not finalised),
+    (the node parameters as recorded, under the names of the day: read them through
+    :func:`rbd_ros.config.recorded_parameters`; None for a bag without our configuration),
+    ``rbd_metadata`` (the ``rbd_ros`` record), ``run_metadata`` (the ``rbd_ros.run`` record
+    written at close: how the run ended and the digest of the wrenches it applied; None if not
+    finalised),
     ``rosbag2_metadata`` (last ``rosbag2`` record, parsed),
     ``metadata_yaml`` (parsed ``metadata.yaml`` or None), ``statistics`` (the MCAP Statistics
     record or None), ``message_count``, ``start_ns``, ``end_ns``.

@@ -59,7 +59,7 @@ import numpy as np
 from rbd_ros import conversions
 from rbd_ros import outputs
 from rbd_ros.cli import open_bag_with_notes, run_on_bag
-from rbd_ros.config import NodeConfig
+from rbd_ros.config import NodeConfig, recorded_parameters
 from rbd_ros.core import NonFiniteError
 from rbd_ros.core.errors import RbdError
 from rbd_ros.core.rotations import quat_angle_between
@@ -181,7 +181,7 @@ def config_from_bag(bag: Bag, integrator: Optional[str] = None,
         raise ReplayError(
             f'{bag.mcap_path}: no rbd_ros configuration record in the file (not recorded by '
             'rbd_ros, or cut off before it); cannot rebuild the simulator')
-    params = dict(bag.config)
+    params = recorded_parameters(bag.config)  # a bag of old parameter names replays too
     if integrator is not None:
         params['integrator'] = integrator
     if timestep_s is not None:

@@ -48,7 +48,7 @@ def world_params(count):
     """Return the params of ``count`` resting boxes on a floor (a square grid)."""
     side = int(count ** 0.5 + 0.999)
     names = [f'b{i}' for i in range(count)]
-    params = {'gravity': [0.0, 0.0, -9.81], 'ground.enabled': True, 'bodies': names,
+    params = {'gravity': [0.0, 0.0, -9.81], 'ground.enabled': True, 'body_names': names,
               'publish_rate_hz': 100.0, 'timestep_s': 0.001}
     for i, name in enumerate(names):
         params[f'bodies.{name}.shape'] = 'box'

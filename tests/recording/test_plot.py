@@ -28,7 +28,7 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 import numpy as np
 import pytest
-from rbd_ros.config import NodeConfig
+from rbd_ros.config import NodeConfig, recorded_parameters
 from rbd_ros.plot import draw, load_series, load_world, main, render, SAVE_DPI
 from rbd_ros.recording import open_bag
 import yaml
@@ -36,7 +36,7 @@ import yaml
 REPO = Path(__file__).resolve().parents[2]
 # Single-body bags: the 8-panel figure (a world bag gets the world figure, tested below).
 BAGS = sorted(p for p in (REPO / 'bags').iterdir() if (p / 'metadata.yaml').is_file()
-              and not open_bag(str(p)).config.get('bodies'))
+              and not recorded_parameters(open_bag(str(p)).config).get('body_names'))
 # Decoded doubles go through the same IEEE operations (or a differently ordered equivalent), so
 # the drawn values equal the recorded ones exactly where nothing is computed, and to a few ulp
 # where a rotation or a norm is: 1e-12 relative (|values| ≲ 10) is far below any real mistake.
@@ -108,7 +108,7 @@ def _expected(bag_dir, mesh_dir):
     w_b = np.array([[m.twist.twist.angular.x, m.twist.twist.angular.y,
                      m.twist.twist.angular.z] for _, m in odom])
     v_w = np.array([_matrix(qk / np.linalg.norm(qk)) @ vk for qk, vk in zip(q, v_b)])
-    model = NodeConfig.from_parameters(config).model
+    model = NodeConfig.from_parameters(recorded_parameters(config)).model
     kinetic = 0.5 * model.mass_kg * np.sum(v_b * v_b, axis=1) + 0.5 * np.einsum(
         'ni,ij,nj->n', w_b, model.inertia_b, w_b)
     panels = [

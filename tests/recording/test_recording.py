@@ -54,7 +54,7 @@ TOPICS = {
 CONFIG = {
     'mass_kg': 1.0, 'inertia': [0.1 / 3, 1e-300, 0.2, 0.0, 0.0, 0.0], 'integrator': 'rk4',
     'timestep_s': 0.001, 'world_frame': 'world', 'record_path': '/x/{stamp}',
-    'wrench_inputs': [], 'start_paused': False,
+    'wrench_input_names': [], 'start_paused': False,
 }
 
 

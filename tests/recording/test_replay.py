@@ -40,7 +40,7 @@ BOX_SCRIPT = [
 ]
 THRUSTERS = {
     'mass_kg': 2.0, 'shape': 'box', 'dimensions_m': [0.5, 0.5, 0.02],
-    'gravity': [0.0, 0.0, -9.81], 'wrench_inputs': ['left', 'right'],
+    'gravity': [0.0, 0.0, -9.81], 'wrench_input_names': ['left', 'right'],
     'wrench_inputs.left.topic': 'wrench_left', 'wrench_inputs.left.frame': 'body',
     'wrench_inputs.left.point_b': [0.0, 0.25, 0.0],
     'wrench_inputs.right.topic': 'wrench_right', 'wrench_inputs.right.frame': 'body',

@@ -48,7 +48,7 @@ MEDIAN_GAP_STEPS = 200
 def world_params(record_path, real_time_factor):
     """Return the params of resting boxes on a floor (a grid), recorded, at the given factor."""
     names = [f'b{i}' for i in range(BODIES)]
-    params = {'gravity': [0.0, 0.0, -9.81], 'ground.enabled': True, 'bodies': names,
+    params = {'gravity': [0.0, 0.0, -9.81], 'ground.enabled': True, 'body_names': names,
               'publish_rate_hz': 50.0, 'timestep_s': STEP_NS * 1e-9,
               'real_time_factor': real_time_factor, 'record_path': record_path}
     for i, name in enumerate(names):

@@ -64,7 +64,7 @@ def set_double(probe, name, value):
     return call(probe, SetParameters, 'set_parameters', request).results[0]
 
 
-EMPTY_ARRAYS = {'inertia': [], 'dimensions_m': [], 'wrench_inputs': []}
+EMPTY_ARRAYS = {'inertia': [], 'dimensions_m': [], 'wrench_input_names': []}
 
 
 @pytest.mark.parametrize('how', ['defaults', 'params_file', 'command_line'])
@@ -76,7 +76,7 @@ def test_param_dump_returns_a_value_for_every_parameter_and_accepts_empty_arrays
         node = start_node(params_file=write_params(tmp_path / 'empty.yaml', EMPTY_ARRAYS),
                           namespace=True)
     elif how == 'command_line':
-        node = start_node(extra_args=['-p', 'inertia:=[]', '-p', 'wrench_inputs:=[]'],
+        node = start_node(extra_args=['-p', 'inertia:=[]', '-p', 'wrench_input_names:=[]'],
                           namespace=True)
     else:
         node = start_node(namespace=True)
@@ -90,8 +90,8 @@ def test_param_dump_returns_a_value_for_every_parameter_and_accepts_empty_arrays
         assert types['inertia'] == 'PARAMETER_DOUBLE_ARRAY'
         assert list(by_name['inertia'].double_array_value) == []
         assert types['dimensions_m'] == 'PARAMETER_DOUBLE_ARRAY'
-        assert types['wrench_inputs'] == 'PARAMETER_STRING_ARRAY'
-        assert list(by_name['wrench_inputs'].string_array_value) == []
+        assert types['wrench_input_names'] == 'PARAMETER_STRING_ARRAY'
+        assert list(by_name['wrench_input_names'].string_array_value) == []
         assert list(by_name['initial_orientation'].double_array_value) == [0.0, 0.0, 0.0, 1.0]
         # ros2 param get <node> inertia: one name.
         single = call(probe, GetParameters, 'get_parameters',
@@ -151,15 +151,15 @@ BAD_ARGS = [  # (--ros-args, or a params dict; what the one line must contain)
      ['mixed.yaml', 'decimal point']),
     (lambda tmp: ['-p', 'mass_kg:='], ['mass_kg:=', 'no value']),
     ({'publish_rate_hz': 1e-300}, ['parameter publish_rate_hz = 1e-300 Hz']),
-    ({'wrench_inputs': ['a'], 'wrench_inputs.a.topic': 'bad topic!'},
+    ({'wrench_input_names': ['a'], 'wrench_inputs.a.topic': 'bad topic!'},
      ["wrench_inputs.a.topic = 'bad topic!'", 'not a valid topic name']),
-    ({'wrench_inputs': ['a'], 'wrench_inputs.a.topic': '{x}'},
+    ({'wrench_input_names': ['a'], 'wrench_inputs.a.topic': '{x}'},
      ["wrench_inputs.a.topic = '{x}'", 'unknown substitution']),
-    ({'wrench_inputs': ['a'], 'wrench_inputs.a.topic': 'pose'},
+    ({'wrench_input_names': ['a'], 'wrench_inputs.a.topic': 'pose'},
      ["wrench_inputs.a.topic = 'pose'", 'an output']),
-    ({'wrench_inputs': ['a'], 'wrench_inputs.a.topic': '/wrench'},  # item 12
+    ({'wrench_input_names': ['a'], 'wrench_inputs.a.topic': '/wrench'},  # item 12
      ["wrench_inputs.a.topic = '/wrench'", "wrench input 'wrench'"]),
-    ({'wrench_inputs': ['a', 'b'], 'wrench_inputs.a.topic': 'w',
+    ({'wrench_input_names': ['a', 'b'], 'wrench_inputs.a.topic': 'w',
       'wrench_inputs.b.topic': '/w'}, ["wrench_inputs.b.topic = '/w'", "input 'a'"]),
     ({'wrench_timeout_s': 1e-13}, ['parameter wrench_timeout_s = 1e-13 s', 'rounds to 0 ns']),
     ({'timestep_s': 1e-13}, ['parameter timestep_s = 1e-13 s', 'rounds to 0 ns']),

@@ -36,8 +36,8 @@ ISSUE_NAMES = (
     'initial_linear_velocity', 'initial_angular_velocity', 'gravity', 'linear_damping',
     'angular_damping', 'integrator', 'timestep_s', 'publish_rate_hz', 'real_time_factor',
     'duration_s', 'start_paused', 'world_frame', 'body_frame', 'twist_frame',
-    'default_wrench_frame', 'wrench_timeout_s', 'max_force_n', 'max_torque_nm', 'wrench_inputs',
-    'publish_clock', 'record_path')
+    'default_wrench_frame', 'wrench_timeout_s', 'max_force_n', 'max_torque_nm',
+    'wrench_input_names', 'publish_clock', 'record_path')
 
 
 def test_the_table_holds_every_public_name_with_description_and_a_valid_default():
@@ -69,7 +69,7 @@ def test_defaults_are_the_issue_defaults():
 def test_round_trip_through_a_plain_dict_and_yaml():
     params = {'mass_kg': 2.0, 'inertia': [0.1, 0.2, 0.25, 0.01, 0.0, -0.02],
               'initial_orientation': [0.0, 0.0, math.sqrt(0.5), math.sqrt(0.5)],
-              'wrench_inputs': ['left'], 'wrench_inputs.left.point_b': [0.0, 0.3, 0.0],
+              'wrench_input_names': ['left'], 'wrench_inputs.left.point_b': [0.0, 0.3, 0.0],
               'integrator': 'rk4', 'timestep_s': 0.002, 'twist_frame': 'body'}
     c = NodeConfig.from_parameters(params)
     plain = c.to_parameters()
@@ -141,12 +141,12 @@ def test_integer_values_are_accepted_for_doubles():
     ({'initial_orientation': [0.0, 0.0, 0.0, 0.0]}, ConfigError, 'norm 0'),
     ({'mas_kg': 1.0}, ConfigError, 'parameter mas_kg = 1.0: unknown parameter name'),
     ({'wrench_inputs.x.topic': 'a'}, ConfigError, 'unknown parameter name'),
-    ({'wrench_inputs': ['a', 'a']}, ConfigError, 'distinct'),
-    ({'wrench_inputs': ['wrench']}, ConfigError, 'main input'),
-    ({'wrench_inputs': ['a b']}, ConfigError, 'letters, digits'),
-    ({'wrench_inputs': ['a'], 'wrench_inputs.a.frame': 'odom'}, ConfigError,
+    ({'wrench_input_names': ['a', 'a']}, ConfigError, 'distinct'),
+    ({'wrench_input_names': ['wrench']}, ConfigError, 'main input'),
+    ({'wrench_input_names': ['a b']}, ConfigError, 'letters, digits'),
+    ({'wrench_input_names': ['a'], 'wrench_inputs.a.frame': 'odom'}, ConfigError,
      "wrench_inputs.a.frame = 'odom': must be 'world' or 'body'"),
-    ({'wrench_inputs': ['a'], 'wrench_inputs.a.topic': 'wrench'}, ConfigError,
+    ({'wrench_input_names': ['a'], 'wrench_inputs.a.topic': 'wrench'}, ConfigError,
      'already used'),
     ({'max_force_n': 0.0}, ConfigError, 'max_force_n = 0.0 N: must be > 0'),
     ({'start_paused': 'yes'}, ConfigError, 'must be true or false'),
@@ -163,9 +163,10 @@ def test_invalid_values_raise_one_line_naming_parameter_value_and_rule(params, e
 def test_an_empty_array_that_arrives_as_not_set_means_the_empty_default():
     # ROS YAML cannot type [] ('inertia: []' in a params file, '-p inertia:=[]'): rclpy hands
     # the node a NOT_SET value, None. For an array parameter that is the documented [].
-    c = NodeConfig.from_parameters({'inertia': None, 'dimensions_m': None, 'wrench_inputs': None})
+    c = NodeConfig.from_parameters({'inertia': None, 'dimensions_m': None,
+                                    'wrench_input_names': None})
     assert c == NodeConfig.from_parameters({})
-    assert c.parameters['inertia'] == () and c.parameters['wrench_inputs'] == ()
+    assert c.parameters['inertia'] == () and c.parameters['wrench_input_names'] == ()
 
 
 def test_real_time_factor_check_for_live_changes():

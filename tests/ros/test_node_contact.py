@@ -158,7 +158,7 @@ def test_a_relative_mesh_path_resolves_against_the_params_file(tmp_path, start_n
      'parameter inertia = [0.1, 0.1, 0.1, 0.0, 0.0, 0.0] kg·m²: a body given only by its '
      'inertia has no collision shape'),
     ({'mesh_path': 'missing.stl'}, "missing.stl' does not exist or is not a file"),
-    ({'obstacles': ['ramp'], 'obstacles.ramp.dimensions_m': [1.0, 0.0, 1.0]},
+    ({'obstacle_names': ['ramp'], 'obstacles.ramp.dimensions_m': [1.0, 0.0, 1.0]},
      "parameter obstacles.ramp.dimensions_m: [1.0, 0.0, 1.0] m for shape 'box'"),
     ({'ground.enabled': True, 'ground.restitution': 1.5},
      'parameter ground.restitution = 1.5'),
@@ -175,7 +175,7 @@ def test_bad_contact_parameters_give_one_line_and_exit_2(tmp_path, start_node, p
 
 
 def test_contact_wrench_is_refused_as_an_input_topic(start_node):
-    node = start_node({'wrench_inputs': ['x'], 'wrench_inputs.x.topic': 'contact_wrench'})
+    node = start_node({'wrench_input_names': ['x'], 'wrench_inputs.x.topic': 'contact_wrench'})
     assert node.wait(120) == 2, node.stderr
     assert 'contact_wrench' in node.stderr
 
@@ -332,7 +332,7 @@ def test_a_late_subscriber_gets_the_static_markers(start_node, probe_for):
     assert [m.id for m in by_ns['ground']] == [0]
     walls = by_ns['obstacles']
     assert [m.id for m in walls] == [0, 1, 2, 3]
-    for marker, name in zip(walls, params['obstacles']):
+    for marker, name in zip(walls, params['obstacle_names']):
         assert marker.type == Marker.CUBE and marker.header.frame_id == 'world'
         assert (marker.scale.x, marker.scale.y, marker.scale.z) == tuple(
             params[f'obstacles.{name}.dimensions_m'])

@@ -43,7 +43,7 @@ PARAMS = {
     'initial_orientation': [0.0, 0.0, S45, S45],  # 90° about world z: body x = world y
     'timestep_s': 0.01, 'publish_rate_hz': 100.0, 'start_paused': True,
     'real_time_factor': 0.0, 'twist_frame': 'world',
-    'wrench_inputs': ['thruster'], 'wrench_inputs.thruster.topic': 'thruster',
+    'wrench_input_names': ['thruster'], 'wrench_inputs.thruster.topic': 'thruster',
     'wrench_inputs.thruster.frame': 'body', 'wrench_inputs.thruster.point_b': [0.0, 0.1, 0.0],
 }
 I_ZZ = MASS_KG * (0.2 ** 2 + 0.1 ** 2) / 12.0  # box about its z axis, kg·m²

@@ -206,15 +206,15 @@ def test_the_world_bag_replays_bit_for_bit(world_run):
 
 
 @pytest.mark.parametrize('params, text', [
-    ({'bodies': ['a', 'a']}, "parameter bodies = ['a', 'a']: names must be distinct"),
-    ({'bodies': ['a'], 'bodies.b.mass_kg': 2.0}, 'parameter bodies.b.mass_kg = 2.0'),
-    ({'bodies': ['a'], 'mass_kg': 2.0}, 'parameter mass_kg = 2.0 kg: with bodies'),
-    ({'bodies': ['a', 'b'], 'bodies.b.initial_position': [0.0, 0.0, 0.01]},
+    ({'body_names': ['a', 'a']}, "parameter body_names = ['a', 'a']: names must be distinct"),
+    ({'body_names': ['a'], 'bodies.b.mass_kg': 2.0}, 'parameter bodies.b.mass_kg = 2.0'),
+    ({'body_names': ['a'], 'mass_kg': 2.0}, 'parameter mass_kg = 2.0 kg: with body_names'),
+    ({'body_names': ['a', 'b'], 'bodies.b.initial_position': [0.0, 0.0, 0.01]},
      'parameter bodies.a.initial_position = [0.0, 0.0, 0.0] m puts the body'),
-    ({'bodies': ['a'], 'bodies.a.mesh_path': 'nowhere.stl'}, 'parameter bodies.a.mesh_path'),
-    ({'bodies': ['a'], 'ground.enabled': True},
+    ({'body_names': ['a'], 'bodies.a.mesh_path': 'nowhere.stl'}, 'parameter bodies.a.mesh_path'),
+    ({'body_names': ['a'], 'ground.enabled': True},
      'parameter bodies.a.initial_position = [0.0, 0.0, 0.0] m puts the body'),
-    ({'bodies': ['a'], 'bodies.a.wrench_inputs': ['x'],
+    ({'body_names': ['a'], 'bodies.a.wrench_input_names': ['x'],
       'bodies.a.wrench_inputs.x.topic': '/poses'}, '/poses'),
 ])
 def test_bad_world_files_give_one_line_and_exit_2(start_node, params, text):

@@ -122,7 +122,7 @@ def test_a_later_wrench_before_the_step_replaces_the_pending_one():
 
 
 def test_zero_order_hold_until_replaced_and_inputs_add_up():
-    s = session(wrench_inputs=['left'], **{'wrench_inputs.left.point_b': [0.0, 0.5, 0.0]})
+    s = session(wrench_input_names=['left'], **{'wrench_inputs.left.point_b': [0.0, 0.5, 0.0]})
     s.submit('wrench', 'world', (1.0, 0.0, 0.0), (0.0, 0.0, 0.0))
     s.submit('left', '', (1.0, 0.0, 0.0), (0.0, 0.0, 0.0))  # body frame, at (0, 0.5, 0)
     run_until(s, 100 * H_NS)
@@ -199,7 +199,7 @@ def test_same_wrenches_at_the_same_steps_give_bit_identical_states_whatever_the_
                      tuple(rng.normal(size=3) * 0.01), str(rng.choice(['world', 'base_link'])))
                     for _ in range(30))
     params = dict(initial_angular_velocity=[0.3, 5.0, 0.1], wrench_timeout_s=0.05,
-                  wrench_inputs=['t'], **{'wrench_inputs.t.point_b': [0.1, 0.0, 0.0]})
+                  wrench_input_names=['t'], **{'wrench_inputs.t.point_b': [0.1, 0.0, 0.0]})
 
     def run(max_steps):
         s = session(**params)
