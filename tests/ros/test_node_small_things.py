@@ -112,7 +112,7 @@ def test_a_huge_quaternion_is_reported_by_its_norm_not_inf():
 
 
 def test_world_diagnostics_name_the_node_not_base_link(start_node):
-    node = start_node({'bodies': ['a']}, namespace='/rbd_small_world')
+    node = start_node({'body_names': ['a']}, namespace='/rbd_small_world')
     probe = Probe(node.namespace, outputs=('diagnostics',))
     try:
         probe.diagnostic_values(timeout_s=120.0)
@@ -124,7 +124,7 @@ def test_world_diagnostics_name_the_node_not_base_link(start_node):
 
 
 def test_two_identical_bodies_at_the_same_pose_are_refused(start_node):
-    node = start_node({'bodies': ['a', 'b']})  # both at the origin, the same default box
+    node = start_node({'body_names': ['a', 'b']})  # both at the origin, the same default box
     assert node.wait(120) == 2, node.stderr
     lines = node.stderr.strip().splitlines()
     assert len(lines) == 1, lines
