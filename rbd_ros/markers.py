@@ -63,8 +63,8 @@ if TYPE_CHECKING:  # pragma: no cover - annotations only
     from rbd_ros.core.contact.simulator import Contacts
 
 __all__ = [
-    'BODIES_NS', 'BODY_CAPS_NS', 'BodyMarkers', 'CONTACT_NORMALS_ID', 'CONTACT_POINTS_ID', 'CONTACTS_NS',
-    'DEFAULT_ARROW_SCALE_M_PER_N_S', 'GROUND_NS', 'GROUND_THICKNESS_M', 'OBSTACLES_NS',
+    'BODIES_NS', 'BODY_CAPS_NS', 'BodyMarkers', 'CONTACT_NORMALS_ID', 'CONTACT_POINTS_ID',
+    'CONTACTS_NS', 'DEFAULT_ARROW_SCALE_M_PER_N_S', 'GROUND_NS', 'GROUND_THICKNESS_M', 'OBSTACLES_NS',
     'body_color', 'body_markers', 'contact_markers', 'mesh_uri', 'shape_marker',
     'static_markers',
 ]
@@ -391,8 +391,9 @@ class BodyMarkers:
     def array(self, positions_w: np.ndarray, quats_wxyz: np.ndarray,
               stamp_ns: int, normalise: bool = True) -> MarkerArray:
         """
-        Return the ``MarkerArray`` at these poses: ns ``bodies``, id = body index (then the
-        capsules' caps in ``body_caps``).
+        Return the ``MarkerArray`` at these poses: ns ``bodies``, id = body index.
+
+        The capsules' caps (ns ``body_caps``) follow the ``bodies`` markers.
 
         :param positions_w: (N, 3) COM positions, m.
         :param quats_wxyz: (N, 4) ``q_wb`` (w, x, y, z); normalised here unless ``normalise``

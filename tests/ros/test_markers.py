@@ -25,7 +25,7 @@ import math
 import numpy as np
 import pytest
 from rbd_ros import markers
-from rbd_ros.core.contact import (ground_plane, Material, mesh_shape, obstacle,
+from rbd_ros.core.contact import (ground_plane, load_mesh, Material, mesh_shape, obstacle,
                                   primitive_shape, StaticWorld)
 from rbd_ros.core.contact.simulator import Contacts, WorldBody, WorldSimulator
 from rbd_ros.core.errors import InputError
@@ -225,16 +225,19 @@ def test_body_markers_one_per_body_distinct_colours_stable_ids():
     positions = np.arange(36, dtype=np.float64).reshape(12, 3) * 0.1
     quats = np.array([quat_from_axis_angle([0.0, 1.0, 1.0], 0.1 * i) for i in range(12)])
     array = markers.body_markers(names, shapes, positions, quats, 'world', STAMP_NS)
+    # The 12 bodies first, then the two caps of each of the 4 capsules (bodies 2, 5, 8, 11).
+    capsules = [i for i in range(12) if i % 3 == 2]
     assert [(m.ns, m.id, m.text) for m in array.markers] == [
-        ('bodies', i, name) for i, name in enumerate(names)]
-    for i, marker in enumerate(array.markers):
+        ('bodies', i, name) for i, name in enumerate(names)] + [
+        ('body_caps', 2 * i + k, names[i]) for i in capsules for k in (0, 1)]
+    for i, marker in enumerate(array.markers[:12]):
         assert np.array_equal(xyz(marker.pose.position), positions[i])
         assert np.allclose(wxyz(marker.pose.orientation), quats[i], rtol=0.0, atol=1e-15)
-    colours = {(m.color.r, m.color.g, m.color.b) for m in array.markers}
+    colours = {(m.color.r, m.color.g, m.color.b) for m in array.markers[:12]}
     assert len(colours) == len(names)
     again = markers.body_markers(names[:3], shapes[:3], positions[:3] + 1.0, quats[:3],
                                  'world', STAMP_NS + 1)
-    assert [m.color for m in again.markers] == [m.color for m in array.markers[:3]]
+    assert [m.color for m in again.markers[:3]] == [m.color for m in array.markers[:3]]
     round_trip(array)
     with pytest.raises(InputError, match=r'positions_w: shape \(11, 3\) for 12 bodies'):
         markers.body_markers(names, shapes, positions[:11], quats, 'world', 0)
@@ -266,6 +269,65 @@ def test_reused_body_markers_equal_fresh_ones():
         round_trip(reused)
     with pytest.raises(InputError, match='bodies.floor.shape: a plane is static'):
         markers.BodyMarkers(['floor'], [ground_plane().shape], 'world')
+
+
+def test_capsule_body_is_a_cylinder_and_two_sphere_caps():
+    # A capsule of radius r and cylindrical length L along body z is the union of the
+    # cylinder (2r, 2r, L) and two balls of radius r centred on the axis at z = +-L/2.
+    radius, length = 0.05, 0.3
+    shape = primitive_shape('capsule', [radius, length])
+    array = markers.body_markers(['cap'], [shape], POSITION_W[None], Q_WB[None], 'world',
+                                 STAMP_NS)
+    body, top, bottom = array.markers
+    assert (body.ns, body.id, body.type) == ('bodies', 0, Marker.CYLINDER)
+    assert np.array_equal(xyz(body.scale), [2 * radius, 2 * radius, length])
+    assert np.array_equal(xyz(body.pose.position), POSITION_W)
+    assert body.points == []
+    for cap, marker_id, sign in ((top, 0, 1.0), (bottom, 1, -1.0)):
+        assert (cap.ns, cap.id, cap.type, cap.text) == ('body_caps', marker_id, Marker.SPHERE,
+                                                        'cap')
+        assert np.array_equal(xyz(cap.scale), [2 * radius] * 3)
+        assert cap.color == body.color
+        centre = POSITION_W + R_WB @ np.array([0.0, 0.0, sign * 0.5 * length])
+        assert np.allclose(xyz(cap.pose.position), centre, rtol=0.0, atol=TOL_M)
+        # The pole of the cap is on the capsule's surface: phi = 0 there.
+        pole_b = np.array([0.0, 0.0, sign * (0.5 * length + radius)])
+        assert abs(shape.signed_distance(pole_b)[0]) <= TOL_M
+    round_trip(array)
+
+
+def test_mesh_body_with_a_file_is_a_mesh_resource_drawn_where_the_body_is(tmp_path):
+    # The viewer draws the file's vertices v as R(q_m) (s * v) + p_m (scale, then pose).
+    # They must land on the body's own vertices at the body pose, R(q_wb) x_b + p_w.
+    ring = trimesh.creation.annulus(r_min=0.2, r_max=0.5, height=0.3, sections=24)
+    ring.apply_translation([1.0, 2.0, 3.0])  # the COM is off the file's origin
+    path = tmp_path / 'ring.stl'
+    ring.export(path)
+    scale = (2.0, 0.5, 1.5)
+    shape = load_mesh(str(path), scale, cache_dir=False)
+    uri = markers.mesh_uri(str(path), str(path))
+    assert uri == path.as_uri()
+    assert markers.mesh_uri('package://rbd_ros/m.stl', '/x/m.stl') == 'package://rbd_ros/m.stl'
+    array = markers.body_markers(['ring'], [shape], POSITION_W[None], Q_WB[None], 'world',
+                                 STAMP_NS, meshes=[(uri, scale)])
+    (marker,) = array.markers
+    assert (marker.ns, marker.id, marker.type) == ('bodies', 0, Marker.MESH_RESOURCE)
+    assert marker.mesh_resource == uri and marker.mesh_use_embedded_materials is False
+    assert np.array_equal(xyz(marker.scale), scale)
+    assert marker.points == []
+    drawn = trimesh.load(str(path), force='mesh').vertices * np.array(scale)
+    drawn_w = drawn @ quat_to_matrix(wxyz(marker.pose.orientation)).T + xyz(marker.pose.position)
+    # Same vertices, same order (the loader merges duplicates the same way both times).
+    body_w = np.asarray(shape.vertices_b) @ R_WB.T + POSITION_W
+    assert np.allclose(drawn_w, body_w, rtol=0.0, atol=COM_TOL_M + TOL_M)
+    round_trip(array)
+    with pytest.raises(InputError, match=r"bodies.ring.mesh_scale: \(1.0, -1.0, 1.0\)"):
+        markers.BodyMarkers(['ring'], [shape], 'world', [(uri, (1.0, -1.0, 1.0))])
+    with pytest.raises(InputError, match="bodies.ring.mesh_path: 'ring.stl' must be"):
+        markers.BodyMarkers(['ring'], [shape], 'world', [('ring.stl', scale)])
+    with pytest.raises(InputError, match="bodies.box.shape: 'box' with a mesh URI"):
+        markers.BodyMarkers(['box'], [primitive_shape('box', [0.1, 0.1, 0.1])], 'world',
+                            [(uri, scale)])
 
 
 @pytest.fixture(scope='module')
