@@ -15,16 +15,23 @@
 """
 World markers: type, scale and pose per shape, triangle lists, ids, contacts, CDR round trips.
 
+The last tests start the node and read its ``markers`` through real DDS: a mesh body is sent
+as the URI of its file, so a sample's size does not depend on the mesh's triangles.
+
 The references are computed here from the shapes' definitions (closed-form surfaces, the
 source mesh and its analytic centre of mass, the plane's normal and offset) and the poses are
 read back by message field name, never through rbd_ros's own conversion.
 """
 
 import math
+import os
+from urllib.parse import unquote, urlparse
 
+from conftest import FIRST_START_S, REPO
 import numpy as np
 import pytest
 from rbd_ros import markers
+from rbd_ros.config import resolve_mesh_path
 from rbd_ros.core.contact import (ground_plane, load_mesh, Material, mesh_shape, obstacle,
                                   primitive_shape, StaticWorld)
 from rbd_ros.core.contact.simulator import Contacts, WorldBody, WorldSimulator
@@ -33,8 +40,9 @@ from rbd_ros.core.model import BodyModel
 from rbd_ros.core.rotations import quat_from_axis_angle, quat_to_matrix
 from rbd_ros.core.state import BodyState
 from rclpy.serialization import deserialize_message, serialize_message
+from ros_probe import Probe
 import trimesh
-from visualization_msgs.msg import Marker
+from visualization_msgs.msg import Marker, MarkerArray
 
 POSITION_W = np.array([0.5, -1.25, 2.0])
 Q_WB = quat_from_axis_angle([1.0, -2.0, 0.5], 0.9)
@@ -383,3 +391,70 @@ def test_bad_inputs_name_the_field():
         markers.shape_marker(shape, 'x', 0, 'w', (0, math.nan, 0), (1, 0, 0, 0), COLOR, 0)
     with pytest.raises(InputError, match='marker_id: 4294967296'):
         markers.shape_marker(shape, 'x', 2 ** 32, 'w', (0, 0, 0), (1, 0, 0, 0), COLOR, 0)
+
+
+def _markers_received(start_node, params):
+    """Start a node on ``params``; return the first ``markers`` message's CDR bytes over DDS."""
+    node = start_node(params, namespace=True)
+    probe = Probe(node.namespace, inputs=(), outputs=())
+    try:
+        got = []
+        probe.node.create_subscription(MarkerArray, 'markers', got.append, 10, raw=True)
+        # A first start may compile the contact step (FIRST_START_S); it is warm otherwise.
+        probe.wait(lambda: got, FIRST_START_S, 'a markers message')
+    finally:
+        probe.close()
+    assert node.stop() == 0, node.stderr
+    return got[0]
+
+
+def _mesh_world(path, count=3):
+    """``count`` bodies of the mesh at ``path`` floating 1 m above a floor (no gravity)."""
+    names = [f'm{i}' for i in range(count)]
+    params = {'ground.enabled': True, 'gravity': [0.0, 0.0, 0.0], 'bodies': names,
+              'publish_rate_hz': 20.0, 'real_time_factor': 1.0}
+    for i, name in enumerate(names):
+        params[f'bodies.{name}.mesh_path'] = str(path)
+        params[f'bodies.{name}.initial_position'] = [1.0 * i, 0.0, 1.0]
+    return params
+
+
+def test_a_mesh_world_markers_size_does_not_depend_on_the_triangle_count(tmp_path, start_node):
+    # A cube (12 faces) and an icosphere (1,280 faces), in files whose names have the same
+    # length, so the two URIs have the same length: the messages must be the same size to the
+    # byte. Sending the triangles made them differ by (1280 - 12) faces x 3 points x 24 bytes
+    # x 3 bodies = 274 kB.
+    meshes = {12: trimesh.creation.box(extents=(0.2, 0.2, 0.2)),
+              1280: trimesh.creation.icosphere(subdivisions=3, radius=0.1)}
+    sizes = {}
+    for faces, mesh in meshes.items():
+        assert len(mesh.faces) == faces
+        path = tmp_path / f'mesh_{faces:04d}.stl'
+        mesh.export(path)
+        data = _markers_received(start_node, _mesh_world(path))
+        sizes[faces] = len(data)
+        array = deserialize_message(data, MarkerArray)
+        bodies = [m for m in array.markers if m.ns == 'bodies']
+        assert [m.text for m in bodies] == ['m0', 'm1', 'm2']
+        for marker in bodies:
+            assert marker.type == Marker.MESH_RESOURCE and marker.points == []
+            uri = urlparse(marker.mesh_resource)
+            assert uri.scheme == 'file'
+            assert os.path.samefile(unquote(uri.path), path)  # the URI resolves to the file
+    assert sizes[12] == sizes[1280], sizes
+    # Bodies, not triangles: a few hundred bytes a body (the URI and the pose), where one
+    # body's 12 cube triangles alone were 36 points x 24 bytes = 864 bytes.
+    assert sizes[1280] < 3 * 600, sizes
+
+
+def test_a_package_mesh_path_is_sent_as_that_package_uri(start_node):
+    uri = 'package://rbd_ros/msg_config/meshes/l_block.stl'
+    params = {'mesh_path': uri, 'ground.enabled': True, 'gravity': [0.0, 0.0, 0.0],
+              'initial_position': [0.0, 0.0, 1.0], 'publish_rate_hz': 20.0}
+    array = deserialize_message(_markers_received(start_node, params), MarkerArray)
+    (body,) = [m for m in array.markers if m.ns == 'bodies']
+    assert body.type == Marker.MESH_RESOURCE and body.mesh_resource == uri
+    # RViz and Foxglove resolve package://rbd_ros/ against the package share; from the
+    # source tree that is the repository root, which holds the same msg_config/.
+    resolved = resolve_mesh_path(uri, 'mesh_path')
+    assert os.path.samefile(resolved, REPO / 'msg_config' / 'meshes' / 'l_block.stl')
