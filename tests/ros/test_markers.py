@@ -401,9 +401,11 @@ def _markers_received(start_node, params):
         got = []
         probe.node.create_subscription(MarkerArray, 'markers', got.append, 10, raw=True)
         # A first start may compile the contact step (FIRST_START_S); it is warm otherwise.
-        probe.wait(lambda: got, FIRST_START_S, 'a markers message')
+        probe.wait(lambda: got or node.process.poll() is not None, FIRST_START_S,
+                   'a markers message')
     finally:
         probe.close()
+    assert got, f'the node exited without a markers message: {node.stderr}'
     assert node.stop() == 0, node.stderr
     return got[0]
 
@@ -426,14 +428,19 @@ def test_a_mesh_world_markers_size_does_not_depend_on_the_triangle_count(tmp_pat
     # x 3 bodies = 274 kB.
     meshes = {12: trimesh.creation.box(extents=(0.2, 0.2, 0.2)),
               1280: trimesh.creation.icosphere(subdivisions=3, radius=0.1)}
-    sizes = {}
+    sizes, received = {}, {}
     for faces, mesh in meshes.items():
         assert len(mesh.faces) == faces
         path = tmp_path / f'mesh_{faces:04d}.stl'
         mesh.export(path)
         data = _markers_received(start_node, _mesh_world(path))
         sizes[faces] = len(data)
-        array = deserialize_message(data, MarkerArray)
+        received[path] = deserialize_message(data, MarkerArray)
+    assert sizes[12] == sizes[1280], sizes
+    # Bodies, not triangles: a few hundred bytes a body (the URI and the pose), where one
+    # body's 12 cube triangles alone were 36 points x 24 bytes = 864 bytes.
+    assert sizes[1280] < 3 * 600, sizes
+    for path, array in received.items():
         bodies = [m for m in array.markers if m.ns == 'bodies']
         assert [m.text for m in bodies] == ['m0', 'm1', 'm2']
         for marker in bodies:
@@ -441,10 +448,6 @@ def test_a_mesh_world_markers_size_does_not_depend_on_the_triangle_count(tmp_pat
             uri = urlparse(marker.mesh_resource)
             assert uri.scheme == 'file'
             assert os.path.samefile(unquote(uri.path), path)  # the URI resolves to the file
-    assert sizes[12] == sizes[1280], sizes
-    # Bodies, not triangles: a few hundred bytes a body (the URI and the pose), where one
-    # body's 12 cube triangles alone were 36 points x 24 bytes = 864 bytes.
-    assert sizes[1280] < 3 * 600, sizes
 
 
 def test_a_package_mesh_path_is_sent_as_that_package_uri(start_node):
