@@ -15,7 +15,8 @@
 """
 Benchmark of the ``markers`` topic of a meshed world (issue 31 item 7; not collected by pytest).
 
-``.venv/bin/python tests/benchmarks/bench_markers.py [--bodies 200] [--runs 3] [--repo DIR]``
+``.venv/bin/python tests/benchmarks/bench_markers.py [--bodies 200] [--runs 3] [--repo DIR]
+[--spheres]``
 
 N bodies of one 1,280-face mesh (a trimesh icosphere, subdivisions 3, radius 0.05 m, written
 to a temporary STL), 0.2 m apart in a square grid 1 m above a floor, no gravity (so no contacts:
@@ -29,6 +30,9 @@ through real DDS (raw CDR, so our own deserialisation costs nothing) and reports
 - the serialized size of one ``markers`` message (``rclpy.serialization.serialize_message`` of
   the received message; equal to the CDR bytes received);
 - the rate the messages arrive at over ``--window-s`` wall seconds, after the first one.
+
+``--spheres`` puts SPHERE primitives of the same radius in place of the mesh: the reference of
+what the rest of the node (physics, the per-body topics) leaves for the markers.
 """
 
 import argparse
@@ -46,13 +50,17 @@ sys.path.insert(0, REPO)
 
 
 def world_params(count, mesh_path):
-    """Return the params of ``count`` bodies of the mesh at ``mesh_path`` above a floor."""
+    """Return the params of ``count`` bodies of the mesh at ``mesh_path`` (or balls) in a grid."""
     side = int(count ** 0.5 + 0.999)
     names = [f'b{i}' for i in range(count)]
     params = {'gravity': [0.0, 0.0, 0.0], 'ground.enabled': True, 'bodies': names,
               'publish_rate_hz': 100.0, 'timestep_s': 0.005, 'real_time_factor': 1.0}
     for i, name in enumerate(names):
-        params[f'bodies.{name}.mesh_path'] = mesh_path
+        if mesh_path:
+            params[f'bodies.{name}.mesh_path'] = mesh_path
+        else:
+            params[f'bodies.{name}.shape'] = 'sphere'
+            params[f'bodies.{name}.dimensions_m'] = [0.05]
         params[f'bodies.{name}.initial_position'] = [0.2 * (i % side), 0.2 * (i // side), 1.0]
     return params
 
@@ -110,6 +118,9 @@ def main(argv=None):
     parser.add_argument('--window-s', type=float, default=10.0)
     parser.add_argument('--start-timeout-s', type=float, default=900.0)
     parser.add_argument('--repo', default=REPO, help='the checkout whose node to run')
+    parser.add_argument('--spheres', action='store_true',
+                        help='SPHERE primitives of the same radius instead of the mesh (the '
+                        'reference: what the rest of the node costs)')
     args = parser.parse_args(argv)
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     os.environ.setdefault('ROS_DOMAIN_ID', str(90 + os.getpid() % 10))
@@ -122,8 +133,8 @@ def main(argv=None):
         mesh.export(mesh_path)
         params_file = os.path.join(tmp, 'params.yaml')
         with open(params_file, 'w') as f:
-            yaml.safe_dump({'/**': {'ros__parameters': world_params(args.bodies, mesh_path)}},
-                           f)
+            params = world_params(args.bodies, None if args.spheres else mesh_path)
+            yaml.safe_dump({'/**': {'ros__parameters': params}}, f)
         sizes, rates = [], []
         for k in range(args.runs):
             size, rate = run(repo, params_file, f'/bench_markers_{os.getpid()}_{k}',
@@ -131,7 +142,8 @@ def main(argv=None):
             sizes.append(size)
             rates.append(rate)
             print(f'run {k}: {size} bytes, {rate:.2f} Hz', flush=True)
-    print(f'bodies {args.bodies}, mesh faces {len(mesh.faces)}: markers message '
+    shape = 'spheres' if args.spheres else f'mesh faces {len(mesh.faces)}'
+    print(f'bodies {args.bodies}, {shape}: markers message '
           f'{statistics.median(sizes)} bytes ({statistics.median(sizes) / 1e6:.3f} MB), '
           f'received {statistics.median(rates):.2f} Hz (publish_rate_hz 100; medians of '
           f'{args.runs})')
