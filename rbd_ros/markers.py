@@ -64,8 +64,8 @@ if TYPE_CHECKING:  # pragma: no cover - annotations only
 
 __all__ = [
     'BODIES_NS', 'BODY_CAPS_NS', 'BodyMarkers', 'CONTACT_NORMALS_ID', 'CONTACT_POINTS_ID',
-    'CONTACTS_NS', 'DEFAULT_ARROW_SCALE_M_PER_N_S', 'GROUND_NS', 'GROUND_THICKNESS_M', 'OBSTACLES_NS',
-    'body_color', 'body_markers', 'contact_markers', 'mesh_uri', 'shape_marker',
+    'CONTACTS_NS', 'DEFAULT_ARROW_SCALE_M_PER_N_S', 'GROUND_NS', 'GROUND_THICKNESS_M',
+    'OBSTACLES_NS', 'body_color', 'body_markers', 'contact_markers', 'mesh_uri', 'shape_marker',
     'static_markers',
 ]
 

@@ -329,7 +329,7 @@ def test_mesh_body_with_a_file_is_a_mesh_resource_drawn_where_the_body_is(tmp_pa
     body_w = np.asarray(shape.vertices_b) @ R_WB.T + POSITION_W
     assert np.allclose(drawn_w, body_w, rtol=0.0, atol=COM_TOL_M + TOL_M)
     round_trip(array)
-    with pytest.raises(InputError, match=r"bodies.ring.mesh_scale: \(1.0, -1.0, 1.0\)"):
+    with pytest.raises(InputError, match=r'bodies.ring.mesh_scale: \(1.0, -1.0, 1.0\)'):
         markers.BodyMarkers(['ring'], [shape], 'world', [(uri, (1.0, -1.0, 1.0))])
     with pytest.raises(InputError, match="bodies.ring.mesh_path: 'ring.stl' must be"):
         markers.BodyMarkers(['ring'], [shape], 'world', [('ring.stl', scale)])
