@@ -796,7 +796,7 @@ def resolve_mesh_path(path, field):
     try:
         from ament_index_python.packages import get_package_share_directory
         return os.path.join(get_package_share_directory(package), rest)
-    except (ImportError, LookupError, ValueError):
+    except (ImportError, LookupError, ValueError, OSError):  # OSError: no AMENT_PREFIX_PATH
         if package == 'rbd_ros':
             return os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
                                 rest)

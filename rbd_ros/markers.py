@@ -24,7 +24,11 @@ Namespaces and ids (stable, so a marker is replaced in place sample after sample
 * ``ground`` id 0: the ground plane, a thin CUBE (see :func:`shape_marker`).
 * ``obstacles`` id ``i``: obstacle ``i`` of ``StaticWorld.obstacles`` (``text`` = its name).
 * ``bodies`` id ``i``: body ``i`` (``text`` = its name), colour
-  :func:`rbd_ros.tessellation.body_color` (shared with :mod:`rbd_ros.animate`).
+  :func:`rbd_ros.tessellation.body_color` (shared with :mod:`rbd_ros.animate`).  A mesh
+  body whose mesh file is known is a MESH_RESOURCE (the viewer loads the file once and the
+  message carries its URI, not its triangles); a capsule body is a CYLINDER here and two
+  SPHERE caps in ``body_caps`` (ids ``2 i`` and ``2 i + 1``), so a body's marker costs the
+  same few hundred bytes a sample whatever its shape (see :class:`BodyMarkers`).
 * ``contacts`` id 0: the contact points (SPHERE_LIST); id 1: the normals (LINE_LIST).
 
 The ``text`` field is ignored by viewers for these types; it lets a bag reader tell the
@@ -39,13 +43,16 @@ w`` fields are written by :func:`rbd_ros.conversions.quaternion_to_msg`.
 """
 
 import math
-from typing import List, Optional, Sequence, TYPE_CHECKING
+import os
+from pathlib import Path
+from typing import List, Optional, Sequence, Tuple, TYPE_CHECKING
 
 from geometry_msgs.msg import Point
 import numpy as np
 from rbd_ros import conversions as conv
 from rbd_ros.core.errors import finite_vector, InputError
-from rbd_ros.core.rotations import quat_multiply, quat_normalize, quat_to_matrix
+from rbd_ros.core.rotations import (quat_multiply, quat_normalize, quat_rotate,
+                                    quat_to_matrix)
 from rbd_ros.tessellation import (body_color, DEFAULT_PLANE_SIZE_M, DEFAULT_RINGS,
                                   DEFAULT_SEGMENTS, plane_frame, shape_triangles)
 from std_msgs.msg import ColorRGBA
@@ -56,14 +63,17 @@ if TYPE_CHECKING:  # pragma: no cover - annotations only
     from rbd_ros.core.contact.simulator import Contacts
 
 __all__ = [
-    'BODIES_NS', 'BodyMarkers', 'CONTACT_NORMALS_ID', 'CONTACT_POINTS_ID', 'CONTACTS_NS',
-    'DEFAULT_ARROW_SCALE_M_PER_N_S', 'GROUND_NS', 'GROUND_THICKNESS_M', 'OBSTACLES_NS',
-    'body_color', 'body_markers', 'contact_markers', 'shape_marker', 'static_markers',
+    'BODIES_NS', 'BODY_CAPS_NS', 'BodyMarkers', 'CONTACT_NORMALS_ID', 'CONTACT_POINTS_ID',
+    'CONTACTS_NS', 'DEFAULT_ARROW_SCALE_M_PER_N_S', 'GROUND_NS', 'GROUND_THICKNESS_M',
+    'OBSTACLES_NS', 'body_color', 'body_markers', 'contact_markers', 'mesh_uri', 'shape_marker',
+    'static_markers',
 ]
 
 GROUND_NS = 'ground'
 OBSTACLES_NS = 'obstacles'
 BODIES_NS = 'bodies'
+#: The two end caps of capsule bodies (SPHERE markers beside the body's CYLINDER).
+BODY_CAPS_NS = 'body_caps'
 CONTACTS_NS = 'contacts'
 #: Ids in ``contacts``: the points and the normals.
 CONTACT_POINTS_ID = 0
@@ -130,6 +140,21 @@ def _triangle_points(shape, segments, rings):
 def _header(marker, frame_id, stamp_ns):
     marker.header.frame_id = str(frame_id)
     marker.header.stamp = conv.time_to_msg(stamp_ns)
+
+
+def _body_marker(ns, marker_id, frame_id, marker_type, color_rgba, scale):
+    """Return an ADD marker at the identity pose, stamp 0 (:class:`BodyMarkers` poses it)."""
+    marker = Marker()
+    _header(marker, frame_id, 0)
+    marker.ns = ns
+    marker.id = _marker_id(marker_id)
+    marker.type = marker_type
+    marker.action = Marker.ADD
+    marker.color = _color(color_rgba)
+    marker.frame_locked = False
+    marker.scale.x, marker.scale.y, marker.scale.z = (float(v) for v in scale)
+    marker.pose.orientation.w = 1.0
+    return marker
 
 
 def shape_marker(shape: 'CollisionShape', ns: str, marker_id: int, frame_id: str,
@@ -228,37 +253,135 @@ def static_markers(static_world: Optional['StaticWorld'], frame_id: str, stamp_n
     return out
 
 
+def mesh_uri(mesh_path: str, file_path: str) -> str:
+    """
+    Return the URI a viewer loads a mesh marker from (``Marker.mesh_resource``).
+
+    ``mesh_path`` is the parameter as given: a ``package://`` URI is kept, since RViz and
+    Foxglove resolve it against the package's share directory as
+    :func:`rbd_ros.config.resolve_mesh_path` does; any other path becomes the ``file://`` URI
+    of ``file_path`` (the file the node loaded), made absolute against the working directory.
+
+    :raises InputError: naming ``mesh_path`` when it is empty or not a string.
+    """
+    if not isinstance(mesh_path, str) or not mesh_path:
+        raise InputError(f'mesh_path: {mesh_path!r} is not a mesh file path or package:// URI')
+    if mesh_path.startswith('package://'):
+        return mesh_path
+    return Path(os.path.abspath(file_path)).as_uri()
+
+
+def _mesh_resource(name, entry):
+    """Check one ``meshes`` entry ``(uri, scale)``; return ``(uri, scale tuple)``."""
+    try:
+        uri, scale = entry
+    except (TypeError, ValueError):
+        raise InputError(f'bodies.{name}.mesh_path: {entry!r} is not a (uri, mesh_scale) '
+                         'pair') from None
+    if not isinstance(uri, str) or not uri.startswith(('package://', 'file://')):
+        raise InputError(f'bodies.{name}.mesh_path: {uri!r} must be a package:// or file:// '
+                         'URI')
+    try:
+        factors = np.array(scale, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        factors = np.zeros(0)
+    if factors.size != 3 or not np.all(np.isfinite(factors) & (factors > 0.0)):
+        raise InputError(f'bodies.{name}.mesh_scale: {scale!r} must be 3 finite factors > 0 '
+                         '(x, y, z)')
+    return uri, tuple(float(f) for f in factors)
+
+
 class BodyMarkers:
     """
     The bodies' markers, built once and re-posed every sample (the publishing fast path).
 
     Everything but the header stamp and the pose is fixed per body (type, scale, colour,
-    triangles), so :meth:`array` only writes those: about 1 µs a body where building a marker
+    mesh URI), so :meth:`array` only writes those: about 1 µs a marker where building one
     takes about 100 µs.  The returned array and its markers are reused by the next call:
     publish or serialise it first.
+
+    Per shape, body ``i`` is (all in ns ``bodies``, id ``i``, unless said):
+
+    * a mesh with an entry in ``meshes``: a MESH_RESOURCE marker, ``mesh_resource`` the URI,
+      ``mesh_use_embedded_materials`` false (the body colour), scale the ``mesh_scale``.  The
+      viewer draws the file's coordinates ``v`` scaled, ``x_w = R(q) (s ∘ v) + p_m``; the body
+      frame is at the centre of mass, ``x_b = s ∘ v - mesh_offset_m``, so the marker position
+      is ``p_m = p_w - R(q_wb) mesh_offset_m`` (the orientation is the body's).  The message
+      carries the URI, not the triangles: its size does not depend on the mesh's face count.
+    * a capsule: a CYLINDER (2 r, 2 r, length) at the body pose and two SPHERE caps of
+      diameter 2 r at ``p_w ± R(q_wb) (0, 0, length / 2)``, ns :data:`BODY_CAPS_NS`, ids
+      ``2 i`` (+z) and ``2 i + 1`` (-z), after every ``bodies`` marker: the exact capsule in
+      three primitives, where its tessellation would be some 800 points a sample.
+    * any other shape: :func:`shape_marker` at the body pose (a primitive type; a mesh
+      without a file, given as arrays, stays a TRIANGLE_LIST of its faces).
 
     :param names: the body names (``text`` of each marker), in index order.
     :param shapes: their :class:`CollisionShape` values.
     :param frame_id: the world frame.
-    :raises InputError: naming ``shapes`` when its length differs from ``names``, or
-        ``bodies.<name>.shape`` for a plane.
+    :param meshes: None, or one entry per body: None, or ``(uri, mesh_scale)`` of its mesh
+        file (:func:`mesh_uri`; 3 factors > 0).
+    :raises InputError: naming ``shapes`` or ``meshes`` when its length differs from
+        ``names``, ``bodies.<name>.shape`` for a plane or for a URI given to a shape that is
+        not a mesh, ``bodies.<name>.mesh_path`` / ``mesh_scale`` for a bad entry.
     """
 
     def __init__(self, names: Sequence[str], shapes: Sequence['CollisionShape'],
-                 frame_id: str):
+                 frame_id: str,
+                 meshes: Optional[Sequence[Optional[Tuple[str, Sequence[float]]]]] = None):
         self._names = [str(name) for name in names]
         shapes = list(shapes)
-        if len(shapes) != len(self._names):
-            raise InputError(f'shapes: {len(shapes)} entries for {len(self._names)} bodies')
+        count = len(self._names)
+        if len(shapes) != count:
+            raise InputError(f'shapes: {len(shapes)} entries for {count} bodies')
+        meshes = [None] * count if meshes is None else list(meshes)
+        if len(meshes) != count:
+            raise InputError(f'meshes: {len(meshes)} entries for {count} bodies')
         self._array = MarkerArray()
+        caps = []
+        # Per marker: the body it follows and the body-frame vector from the body origin to
+        # the marker origin (None: the body origin itself, so the pose is copied unchanged).
+        sources, offsets = [], []
         for index, name in enumerate(self._names):
-            if shapes[index].shape == 'plane':  # its marker pose is not the body pose
+            shape = shapes[index]
+            if shape.shape == 'plane':  # its marker pose is not the body pose
                 raise InputError(
                     f'bodies.{name}.shape: a plane is static; a body needs a solid shape')
-            marker = shape_marker(shapes[index], BODIES_NS, index, frame_id, (0.0, 0.0, 0.0),
-                                  (1.0, 0.0, 0.0, 0.0), body_color(index), 0)
+            if meshes[index] is not None and shape.shape != 'mesh':
+                raise InputError(f'bodies.{name}.shape: {shape.shape!r} with a mesh URI; '
+                                 'only a mesh shape has a mesh file')
+            color = body_color(index)
+            offset = None
+            if meshes[index] is not None:
+                uri, scale = _mesh_resource(name, meshes[index])
+                marker = _body_marker(BODIES_NS, index, frame_id, Marker.MESH_RESOURCE, color,
+                                      scale)
+                marker.mesh_resource = uri
+                marker.mesh_use_embedded_materials = False
+                offset = -np.asarray(shape.mesh_offset_m, dtype=np.float64)
+            elif shape.shape == 'capsule':
+                radius, length = (float(d) for d in shape.dimensions_m)
+                marker = _body_marker(BODIES_NS, index, frame_id, Marker.CYLINDER, color,
+                                      (2.0 * radius, 2.0 * radius, length))
+                for k, sign in enumerate((1.0, -1.0)):
+                    cap = _body_marker(BODY_CAPS_NS, 2 * index + k, frame_id, Marker.SPHERE,
+                                       color, (2.0 * radius,) * 3)
+                    cap.text = name
+                    caps.append((cap, index, np.array([0.0, 0.0, sign * 0.5 * length])))
+            else:
+                marker = shape_marker(shape, BODIES_NS, index, frame_id, (0.0, 0.0, 0.0),
+                                      (1.0, 0.0, 0.0, 0.0), color, 0)
             marker.text = name
             self._array.markers.append(marker)
+            sources.append(index)
+            offsets.append(offset)
+        for cap, index, offset in caps:
+            self._array.markers.append(cap)
+            sources.append(index)
+            offsets.append(offset)
+        self._sources = np.array(sources, dtype=np.int64)
+        self._shifted = np.array([o is not None for o in offsets], dtype=bool)
+        self._offsets_b = np.array([o for o in offsets if o is not None],
+                                   dtype=np.float64).reshape(-1, 3)
 
     @property
     def names(self) -> List[str]:
@@ -269,6 +392,8 @@ class BodyMarkers:
               stamp_ns: int, normalise: bool = True) -> MarkerArray:
         """
         Return the ``MarkerArray`` at these poses: ns ``bodies``, id = body index.
+
+        The capsules' caps (ns ``body_caps``) follow the ``bodies`` markers.
 
         :param positions_w: (N, 3) COM positions, m.
         :param quats_wxyz: (N, 4) ``q_wb`` (w, x, y, z); normalised here unless ``normalise``
@@ -297,6 +422,12 @@ class BodyMarkers:
         if normalise:
             quats = quats / norm[:, None]
         stamp = conv.time_to_msg(stamp_ns)
+        positions = positions[self._sources]
+        quats = quats[self._sources]
+        if self._offsets_b.size:
+            # x_w = R(q_wb) x_b + p_w at the marker origin x_b (the unshifted rows stay bit
+            # for bit the body pose).
+            positions[self._shifted] += quat_rotate(quats[self._shifted], self._offsets_b)
         for marker, position, quat in zip(self._array.markers, positions.tolist(),
                                           quats.tolist()):
             marker.header.stamp = stamp
@@ -308,7 +439,9 @@ class BodyMarkers:
 
 def body_markers(names: Sequence[str], shapes: Sequence['CollisionShape'],
                  positions_w: np.ndarray, quats_wxyz: np.ndarray, frame_id: str,
-                 stamp_ns: int) -> MarkerArray:
+                 stamp_ns: int,
+                 meshes: Optional[Sequence[Optional[Tuple[str, Sequence[float]]]]] = None
+                 ) -> MarkerArray:
     """
     Return the ``MarkerArray`` of the bodies at their poses: ns ``bodies``, id = body index.
 
@@ -319,9 +452,11 @@ def body_markers(names: Sequence[str], shapes: Sequence['CollisionShape'],
     :param shapes: their :class:`CollisionShape` values.
     :param positions_w: (N, 3) COM positions, m.
     :param quats_wxyz: (N, 4) ``q_wb`` (w, x, y, z).
+    :param meshes: the mesh files' ``(uri, mesh_scale)`` per body, as :class:`BodyMarkers`.
     :raises InputError: as :class:`BodyMarkers` and :meth:`BodyMarkers.array`.
     """
-    return BodyMarkers(names, shapes, frame_id).array(positions_w, quats_wxyz, stamp_ns)
+    return BodyMarkers(names, shapes, frame_id, meshes).array(positions_w, quats_wxyz,
+                                                              stamp_ns)
 
 
 def _contact_list(frame_id, stamp_ns, marker_id, marker_type, color_rgba, points):

@@ -100,13 +100,26 @@ OUTPUT_TOPICS = ('pose', 'twist', 'odom', 'contact_wrench', 'markers', 'static_m
 
 
 def _world_markers(config):
-    """Return the :class:`markers.BodyMarkers` of the body (bodies) of ``config``."""
+    """
+    Return the :class:`markers.BodyMarkers` of the body (bodies) of ``config``.
+
+    A body read from a mesh file is drawn from that file (``mesh_resource``: the
+    ``package://`` URI as given, else the ``file://`` URI of the file loaded), so each sample
+    carries its URI and pose, not its triangles.
+    """
     if config.world:
-        return markers.BodyMarkers([b.name for b in config.bodies],
-                                   [b.collision_shape for b in config.bodies],
-                                   config.world_frame)
-    return markers.BodyMarkers([config.body_frame], [config.collision_shape],
-                               config.world_frame)
+        prefixes = [f'bodies.{b.name}.' for b in config.bodies]
+        names = [b.name for b in config.bodies]
+        shapes = [b.collision_shape for b in config.bodies]
+    else:
+        prefixes, names, shapes = [''], [config.body_frame], [config.collision_shape]
+    meshes = []
+    for prefix in prefixes:
+        path = config.parameters.get(prefix + 'mesh_path', '')
+        meshes.append((markers.mesh_uri(path, cfg.resolve_mesh_path(path, prefix + 'mesh_path')),
+                       config.parameters.get(prefix + 'mesh_scale', (1.0, 1.0, 1.0)))
+                      if path else None)
+    return markers.BodyMarkers(names, shapes, config.world_frame, meshes)
 
 
 def _rcl_text(exc):

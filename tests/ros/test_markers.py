@@ -15,17 +15,24 @@
 """
 World markers: type, scale and pose per shape, triangle lists, ids, contacts, CDR round trips.
 
+The last tests start the node and read its ``markers`` through real DDS: a mesh body is sent
+as the URI of its file, so a sample's size does not depend on the mesh's triangles.
+
 The references are computed here from the shapes' definitions (closed-form surfaces, the
 source mesh and its analytic centre of mass, the plane's normal and offset) and the poses are
 read back by message field name, never through rbd_ros's own conversion.
 """
 
 import math
+import os
+from urllib.parse import unquote, urlparse
 
+from conftest import FIRST_START_S, REPO
 import numpy as np
 import pytest
 from rbd_ros import markers
-from rbd_ros.core.contact import (ground_plane, Material, mesh_shape, obstacle,
+from rbd_ros.config import resolve_mesh_path
+from rbd_ros.core.contact import (ground_plane, load_mesh, Material, mesh_shape, obstacle,
                                   primitive_shape, StaticWorld)
 from rbd_ros.core.contact.simulator import Contacts, WorldBody, WorldSimulator
 from rbd_ros.core.errors import InputError
@@ -33,8 +40,9 @@ from rbd_ros.core.model import BodyModel
 from rbd_ros.core.rotations import quat_from_axis_angle, quat_to_matrix
 from rbd_ros.core.state import BodyState
 from rclpy.serialization import deserialize_message, serialize_message
+from ros_probe import Probe
 import trimesh
-from visualization_msgs.msg import Marker
+from visualization_msgs.msg import Marker, MarkerArray
 
 POSITION_W = np.array([0.5, -1.25, 2.0])
 Q_WB = quat_from_axis_angle([1.0, -2.0, 0.5], 0.9)
@@ -225,16 +233,19 @@ def test_body_markers_one_per_body_distinct_colours_stable_ids():
     positions = np.arange(36, dtype=np.float64).reshape(12, 3) * 0.1
     quats = np.array([quat_from_axis_angle([0.0, 1.0, 1.0], 0.1 * i) for i in range(12)])
     array = markers.body_markers(names, shapes, positions, quats, 'world', STAMP_NS)
+    # The 12 bodies first, then the two caps of each of the 4 capsules (bodies 2, 5, 8, 11).
+    capsules = [i for i in range(12) if i % 3 == 2]
     assert [(m.ns, m.id, m.text) for m in array.markers] == [
-        ('bodies', i, name) for i, name in enumerate(names)]
-    for i, marker in enumerate(array.markers):
+        ('bodies', i, name) for i, name in enumerate(names)] + [
+        ('body_caps', 2 * i + k, names[i]) for i in capsules for k in (0, 1)]
+    for i, marker in enumerate(array.markers[:12]):
         assert np.array_equal(xyz(marker.pose.position), positions[i])
         assert np.allclose(wxyz(marker.pose.orientation), quats[i], rtol=0.0, atol=1e-15)
-    colours = {(m.color.r, m.color.g, m.color.b) for m in array.markers}
+    colours = {(m.color.r, m.color.g, m.color.b) for m in array.markers[:12]}
     assert len(colours) == len(names)
     again = markers.body_markers(names[:3], shapes[:3], positions[:3] + 1.0, quats[:3],
                                  'world', STAMP_NS + 1)
-    assert [m.color for m in again.markers] == [m.color for m in array.markers[:3]]
+    assert [m.color for m in again.markers[:3]] == [m.color for m in array.markers[:3]]
     round_trip(array)
     with pytest.raises(InputError, match=r'positions_w: shape \(11, 3\) for 12 bodies'):
         markers.body_markers(names, shapes, positions[:11], quats, 'world', 0)
@@ -266,6 +277,65 @@ def test_reused_body_markers_equal_fresh_ones():
         round_trip(reused)
     with pytest.raises(InputError, match='bodies.floor.shape: a plane is static'):
         markers.BodyMarkers(['floor'], [ground_plane().shape], 'world')
+
+
+def test_capsule_body_is_a_cylinder_and_two_sphere_caps():
+    # A capsule of radius r and cylindrical length L along body z is the union of the
+    # cylinder (2r, 2r, L) and two balls of radius r centred on the axis at z = +-L/2.
+    radius, length = 0.05, 0.3
+    shape = primitive_shape('capsule', [radius, length])
+    array = markers.body_markers(['cap'], [shape], POSITION_W[None], Q_WB[None], 'world',
+                                 STAMP_NS)
+    body, top, bottom = array.markers
+    assert (body.ns, body.id, body.type) == ('bodies', 0, Marker.CYLINDER)
+    assert np.array_equal(xyz(body.scale), [2 * radius, 2 * radius, length])
+    assert np.array_equal(xyz(body.pose.position), POSITION_W)
+    assert body.points == []
+    for cap, marker_id, sign in ((top, 0, 1.0), (bottom, 1, -1.0)):
+        assert (cap.ns, cap.id, cap.type, cap.text) == ('body_caps', marker_id, Marker.SPHERE,
+                                                        'cap')
+        assert np.array_equal(xyz(cap.scale), [2 * radius] * 3)
+        assert cap.color == body.color
+        centre = POSITION_W + R_WB @ np.array([0.0, 0.0, sign * 0.5 * length])
+        assert np.allclose(xyz(cap.pose.position), centre, rtol=0.0, atol=TOL_M)
+        # The pole of the cap is on the capsule's surface: phi = 0 there.
+        pole_b = np.array([0.0, 0.0, sign * (0.5 * length + radius)])
+        assert abs(shape.signed_distance(pole_b)[0]) <= TOL_M
+    round_trip(array)
+
+
+def test_mesh_body_with_a_file_is_a_mesh_resource_drawn_where_the_body_is(tmp_path):
+    # The viewer draws the file's vertices v as R(q_m) (s * v) + p_m (scale, then pose).
+    # They must land on the body's own vertices at the body pose, R(q_wb) x_b + p_w.
+    ring = trimesh.creation.annulus(r_min=0.2, r_max=0.5, height=0.3, sections=24)
+    ring.apply_translation([1.0, 2.0, 3.0])  # the COM is off the file's origin
+    path = tmp_path / 'ring.stl'
+    ring.export(path)
+    scale = (2.0, 0.5, 1.5)
+    shape = load_mesh(str(path), scale, cache_dir=False)
+    uri = markers.mesh_uri(str(path), str(path))
+    assert uri == path.as_uri()
+    assert markers.mesh_uri('package://rbd_ros/m.stl', '/x/m.stl') == 'package://rbd_ros/m.stl'
+    array = markers.body_markers(['ring'], [shape], POSITION_W[None], Q_WB[None], 'world',
+                                 STAMP_NS, meshes=[(uri, scale)])
+    (marker,) = array.markers
+    assert (marker.ns, marker.id, marker.type) == ('bodies', 0, Marker.MESH_RESOURCE)
+    assert marker.mesh_resource == uri and marker.mesh_use_embedded_materials is False
+    assert np.array_equal(xyz(marker.scale), scale)
+    assert marker.points == []
+    drawn = trimesh.load(str(path), force='mesh').vertices * np.array(scale)
+    drawn_w = drawn @ quat_to_matrix(wxyz(marker.pose.orientation)).T + xyz(marker.pose.position)
+    # Same vertices, same order (the loader merges duplicates the same way both times).
+    body_w = np.asarray(shape.vertices_b) @ R_WB.T + POSITION_W
+    assert np.allclose(drawn_w, body_w, rtol=0.0, atol=COM_TOL_M + TOL_M)
+    round_trip(array)
+    with pytest.raises(InputError, match=r'bodies.ring.mesh_scale: \(1.0, -1.0, 1.0\)'):
+        markers.BodyMarkers(['ring'], [shape], 'world', [(uri, (1.0, -1.0, 1.0))])
+    with pytest.raises(InputError, match="bodies.ring.mesh_path: 'ring.stl' must be"):
+        markers.BodyMarkers(['ring'], [shape], 'world', [('ring.stl', scale)])
+    with pytest.raises(InputError, match="bodies.box.shape: 'box' with a mesh URI"):
+        markers.BodyMarkers(['box'], [primitive_shape('box', [0.1, 0.1, 0.1])], 'world',
+                            [(uri, scale)])
 
 
 @pytest.fixture(scope='module')
@@ -321,3 +391,73 @@ def test_bad_inputs_name_the_field():
         markers.shape_marker(shape, 'x', 0, 'w', (0, math.nan, 0), (1, 0, 0, 0), COLOR, 0)
     with pytest.raises(InputError, match='marker_id: 4294967296'):
         markers.shape_marker(shape, 'x', 2 ** 32, 'w', (0, 0, 0), (1, 0, 0, 0), COLOR, 0)
+
+
+def _markers_received(start_node, params):
+    """Start a node on ``params``; return the first ``markers`` message's CDR bytes over DDS."""
+    node = start_node(params, namespace=True)
+    probe = Probe(node.namespace, inputs=(), outputs=())
+    try:
+        got = []
+        probe.node.create_subscription(MarkerArray, 'markers', got.append, 10, raw=True)
+        # A first start may compile the contact step (FIRST_START_S); it is warm otherwise.
+        probe.wait(lambda: got or node.process.poll() is not None, FIRST_START_S,
+                   'a markers message')
+    finally:
+        probe.close()
+    assert got, f'the node exited without a markers message: {node.stderr}'
+    assert node.stop() == 0, node.stderr
+    return got[0]
+
+
+def _mesh_world(path, count=3):
+    """``count`` bodies of the mesh at ``path`` floating 1 m above a floor (no gravity)."""
+    names = [f'm{i}' for i in range(count)]
+    params = {'ground.enabled': True, 'gravity': [0.0, 0.0, 0.0], 'bodies': names,
+              'publish_rate_hz': 20.0, 'real_time_factor': 1.0}
+    for i, name in enumerate(names):
+        params[f'bodies.{name}.mesh_path'] = str(path)
+        params[f'bodies.{name}.initial_position'] = [1.0 * i, 0.0, 1.0]
+    return params
+
+
+def test_a_mesh_world_markers_size_does_not_depend_on_the_triangle_count(tmp_path, start_node):
+    # A cube (12 faces) and an icosphere (1,280 faces), in files whose names have the same
+    # length, so the two URIs have the same length: the messages must be the same size to the
+    # byte. Sending the triangles made them differ by (1280 - 12) faces x 3 points x 24 bytes
+    # x 3 bodies = 274 kB.
+    meshes = {12: trimesh.creation.box(extents=(0.2, 0.2, 0.2)),
+              1280: trimesh.creation.icosphere(subdivisions=3, radius=0.1)}
+    sizes, received = {}, {}
+    for faces, mesh in meshes.items():
+        assert len(mesh.faces) == faces
+        path = tmp_path / f'mesh_{faces:04d}.stl'
+        mesh.export(path)
+        data = _markers_received(start_node, _mesh_world(path))
+        sizes[faces] = len(data)
+        received[path] = deserialize_message(data, MarkerArray)
+    assert sizes[12] == sizes[1280], sizes
+    # Bodies, not triangles: a few hundred bytes a body (the URI and the pose), where one
+    # body's 12 cube triangles alone were 36 points x 24 bytes = 864 bytes.
+    assert sizes[1280] < 3 * 600, sizes
+    for path, array in received.items():
+        bodies = [m for m in array.markers if m.ns == 'bodies']
+        assert [m.text for m in bodies] == ['m0', 'm1', 'm2']
+        for marker in bodies:
+            assert marker.type == Marker.MESH_RESOURCE and marker.points == []
+            uri = urlparse(marker.mesh_resource)
+            assert uri.scheme == 'file'
+            assert os.path.samefile(unquote(uri.path), path)  # the URI resolves to the file
+
+
+def test_a_package_mesh_path_is_sent_as_that_package_uri(start_node):
+    uri = 'package://rbd_ros/msg_config/meshes/l_block.stl'
+    params = {'mesh_path': uri, 'ground.enabled': True, 'gravity': [0.0, 0.0, 0.0],
+              'initial_position': [0.0, 0.0, 1.0], 'publish_rate_hz': 20.0}
+    array = deserialize_message(_markers_received(start_node, params), MarkerArray)
+    (body,) = [m for m in array.markers if m.ns == 'bodies']
+    assert body.type == Marker.MESH_RESOURCE and body.mesh_resource == uri
+    # RViz and Foxglove resolve package://rbd_ros/ against the package share; from the
+    # source tree that is the repository root, which holds the same msg_config/.
+    resolved = resolve_mesh_path(uri, 'mesh_path')
+    assert os.path.samefile(resolved, REPO / 'msg_config' / 'meshes' / 'l_block.stl')
