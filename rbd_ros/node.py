@@ -140,6 +140,10 @@ class RigidBodyNode(Node):
         self.session = SimSession(config)
         self.done = False
         self.exit_status = 0
+        #: How the run ended, for the rbd_ros.run record: 'duration_s', 'SIGINT', 'SIGTERM',
+        #: 'non-finite step', 'exception', 'recording error' ('' while it runs).
+        self.ended_by = ''
+        self._crash = None  # (sim time ns, 'Type: message') of an exception out of the loop
         self._rtf = config.real_time_factor
         self._dropped_ns = 0
         self._lag_max_ns = 0  # largest wall-minus-sim lag seen at a tick, since the last diag
@@ -199,6 +203,15 @@ class RigidBodyNode(Node):
         self.create_service(Trigger, '~/step', self._on_step)
         if config.record_path:
             self._open_recording()
+        try:
+            self._start()
+        except BaseException:  # a signal or an error after the recording opened: finalise it
+            self.ended_by = self.ended_by or 'start-up interrupted'
+            self._close_recording()
+            raise
+
+    def _start(self):
+        config = self.config
         # Physics ticks come from the spin loop in main() (seconds_to_next_step, then tick);
         # the diagnostics timer runs on a steady clock, whatever use_sim_time says.
         steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -330,9 +343,12 @@ class RigidBodyNode(Node):
         self._recorder = recorder
         self._digest = AppliedDigest()  # what the run applied, for replay to compare
         self._failure = None  # (sim time ns, message) of a non-finite step
+        # Every input that takes effect is recorded at its step start, before that step runs.
+        self.session.on_applied = self._record_events
         self.get_logger().info(f'recording to {recorder.path}')
 
     def _record_events(self, events):
+        """Record the inputs that take effect at a step start (called before that step)."""
         for event in events:
             if self._recorder is not None:
                 self._digest.update(event)
@@ -349,6 +365,7 @@ class RigidBodyNode(Node):
                 then = 'stopping the node (record_on_error: stop)' if stop else 'simulating on'
                 self.get_logger().error(f'recording stopped: {exc}; {then}')
                 self.exit_status = 1
+                self.ended_by = self.ended_by or 'recording error'
                 self._close_recording()
                 self.done = self.done or stop
 
@@ -412,18 +429,25 @@ class RigidBodyNode(Node):
             try:
                 report = self.session.step() if manual else self.session.advance(ask)
             except NonFiniteError as exc:
-                self._record_events(getattr(exc, 'events', ()))  # incl. the one that caused it
-                if self._recorder is not None:
-                    self._failure = (self.session.time_ns, str(exc))
-                self.get_logger().error(f'{exc}; paused (call ~/reset)')
+                # The inputs of the failing step, the one that caused it included, are in the
+                # bag already (session.on_applied).
+                self._failure = (self.session.time_ns, str(exc))
+                if self.config.duration_ns and not manual:
+                    # A run with an end: it cannot reach it, so it ends now, with status 1.
+                    self.get_logger().error(f'{exc}; stopping (duration_s is set): exit 1')
+                    self.ended_by = 'non-finite step'
+                    self.exit_status = 1
+                    self.done = True
+                else:
+                    self.get_logger().error(f'{exc}; paused (call ~/reset)')
                 return
             if deadline_ns is not None and report.steps:
                 self._step_wall_ns = max(1, (time.monotonic_ns() - start_ns) // report.steps)
-            self._record_events(report.events)
             if report.sample_due:
                 self._publish_sample()
             if self.session.finished and not manual:
                 self.get_logger().info(f'duration_s reached at t = {self.session.time_ns} ns')
+                self.ended_by = 'duration_s'
                 self.done = True
             if report.steps == 0 or manual:
                 return
@@ -593,9 +617,12 @@ class RigidBodyNode(Node):
             recorder.close()
             return
         failure_ns, failure = self._failure or ('', '')
+        crash_ns, crash = self._crash or ('', '')
         try:
             recorder.close(run_metadata={
                 'failure_time_ns': failure_ns, 'failure': failure,
+                'ended_by': self.ended_by or 'unknown', 'ended_at_ns': self.session.time_ns,
+                'exception_time_ns': crash_ns, 'exception': crash,
                 'wrenches_applied': self._digest.count,
                 'wrench_digest': self._digest.hexdigest()})
             self.get_logger().info(f'recording closed: {recorder.path}')
@@ -603,8 +630,18 @@ class RigidBodyNode(Node):
             self.get_logger().error(f'recording not finalised: {exc}')
             self.exit_status = 1
 
-    def finish(self):
+    def crashed(self, exc):
+        """Note an exception out of the step loop: logged, recorded at close, exit status 1."""
+        self._crash = (self.session.time_ns, f'{type(exc).__name__}: {exc}')
+        self.ended_by = 'exception'
+        self.exit_status = 1
+        self.get_logger().error(
+            f'stopping on an exception at t = {self.session.time_ns} ns: {self._crash[1]}')
+
+    def finish(self, ended_by=None):
         """Finalise the recording (idempotent) and return the exit status."""
+        if ended_by and not self.ended_by:
+            self.ended_by = ended_by
         self._close_recording()
         return self.exit_status
 
@@ -640,23 +677,47 @@ def _init_rclpy(args):
     return f'bad --ros-args: {text}'
 
 
+class _StartUpInterrupted(BaseException):
+    """A signal during start-up (mesh loading, compiling): raised out of the constructor."""
+
+
 def main(args=None):
-    """Run the node until ``duration_s`` passes or SIGINT/SIGTERM; exit 0, or 2 on bad input."""
-    # Our own signal handlers, from the start: stop between callbacks, then finalise. (rclpy's
-    # would shut the context down under a running callback, whose next publish then fails.)
+    """
+    Run the node until ``duration_s`` passes or SIGINT/SIGTERM; return the exit status.
+
+    0: ended by ``duration_s`` or a signal (also during start-up); 1: a non-finite step with
+    ``duration_s`` set, an exception out of the step loop, or a recording error; 2: bad input
+    at start-up. Every ending that the process survives writes the ``rbd_ros.run`` record.
+    """
+    # Our own signal handlers, from the start. During start-up a signal raises out of whatever
+    # Python code runs (mesh loading); once the node runs, it stops between callbacks, then
+    # finalises (rclpy's handlers would shut the context down under a running callback, whose
+    # next publish then fails); once the recording is finalised, it exits at once.
     stop = []
+
+    def during_start_up(signum, _frame):
+        stop.append(signal.Signals(signum).name)
+        raise _StartUpInterrupted()
+
     for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, lambda *_: stop.append(True))
-    error = _init_rclpy(args)
-    if error is not None:
-        print(f'rigid_body_node: {error}', file=sys.stderr, flush=True)
-        sys.exit(2)
+        signal.signal(signum, during_start_up)
     try:
-        node = RigidBodyNode(args)
-    except RbdError as exc:
-        print(f'rigid_body_node: {exc}', file=sys.stderr, flush=True)
-        rclpy.try_shutdown()
-        sys.exit(2)
+        error = _init_rclpy(args)
+        if error is not None:
+            print(f'rigid_body_node: {error}', file=sys.stderr, flush=True)
+            sys.exit(2)
+        try:
+            node = RigidBodyNode(args)
+        except RbdError as exc:
+            print(f'rigid_body_node: {exc}', file=sys.stderr, flush=True)
+            rclpy.try_shutdown()
+            sys.exit(2)
+    except _StartUpInterrupted:
+        print(f'rigid_body_node: {stop[0]} during start-up: stopped', file=sys.stderr,
+              flush=True)
+        os._exit(0)  # nothing runs yet; rclpy's teardown of a half-built node is not needed
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda signum, _: stop.append(signal.Signals(signum).name))
     # Not rclpy's experimental EventsExecutor: its event queue is unbounded, so a wrench flood
     # faster than the node grew memory without limit. This one takes at most one message per
     # subscription per wait; what it cannot take, DDS keep-last drops. It rebuilds its wait set
@@ -670,8 +731,13 @@ def main(args=None):
             node.tick()
     except ExternalShutdownException:
         pass
+    except Exception as exc:  # out of a callback or a step: recorded, then exit 1
+        node.crashed(exc)
     finally:
-        status = node.finish()
+        status = node.finish(stop[0] if stop else 'shutdown')
+        # The recording is final: a signal during the teardown below ends the process at once.
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(signum, lambda *_: os._exit(status))
         executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown()
