@@ -38,6 +38,7 @@ import re
 import signal
 import sys
 import tempfile
+import threading
 import time
 
 # Ctrl-C while the imports below load (~1 s) in `python -m rbd_ros.node` or the installed
@@ -49,6 +50,7 @@ if __name__ == '__main__' or os.path.basename(sys.argv[0]) == 'rigid_body_node':
 from geometry_msgs.msg import PointStamped
 from rbd_ros import config as cfg
 from rbd_ros import conversions as conv
+from rbd_ros import limits
 from rbd_ros import markers
 from rbd_ros import outputs
 from rbd_ros import ros_args
@@ -73,6 +75,7 @@ from visualization_msgs.msg import MarkerArray
 
 MAX_BACKLOG_STEPS = 1000  # the catch-up cap: a longer backlog of due steps is dropped
 TICK_BUDGET_NS = 10_000_000  # wall time a tick may step for (then serve callbacks)
+START_UP_POLL_S = 0.05  # how often the main thread looks for a signal during start-up
 _TYPES = {cfg.BOOL: ParameterType.PARAMETER_BOOL, cfg.INTEGER: ParameterType.PARAMETER_INTEGER,
           cfg.DOUBLE: ParameterType.PARAMETER_DOUBLE, cfg.STRING: ParameterType.PARAMETER_STRING,
           cfg.DOUBLE_ARRAY: ParameterType.PARAMETER_DOUBLE_ARRAY,
@@ -630,6 +633,11 @@ class RigidBodyNode(Node):
             self.get_logger().error(f'recording not finalised: {exc}')
             self.exit_status = 1
 
+    def endpoint_count(self):
+        """Return the number of publishers, subscriptions and services of this node."""
+        return sum(1 for group in (self.publishers, self.subscriptions, self.services)
+                   for _ in group)
+
     def crashed(self, exc):
         """Note an exception out of the step loop: logged, recorded at close, exit status 1."""
         self._crash = (self.session.time_ns, f'{type(exc).__name__}: {exc}')
@@ -677,10 +685,6 @@ def _init_rclpy(args):
     return f'bad --ros-args: {text}'
 
 
-class _StartUpInterrupted(BaseException):
-    """A signal during start-up (mesh loading, compiling): raised out of the constructor."""
-
-
 def main(args=None):
     """
     Run the node until ``duration_s`` passes or SIGINT/SIGTERM; return the exit status.
@@ -689,35 +693,42 @@ def main(args=None):
     ``duration_s`` set, an exception out of the step loop, or a recording error; 2: bad input
     at start-up. Every ending that the process survives writes the ``rbd_ros.run`` record.
     """
-    # Our own signal handlers, from the start. During start-up a signal raises out of whatever
-    # Python code runs (mesh loading); once the node runs, it stops between callbacks, then
-    # finalises (rclpy's handlers would shut the context down under a running callback, whose
-    # next publish then fails); once the recording is finalised, it exits at once.
+    # Our own signal handlers, from the start: they only note the signal. (rclpy's would shut
+    # the context down under a running callback, whose next publish then fails.) The node is
+    # built in a worker thread (mesh loading and the first-step check run compiled kernels that
+    # release the GIL), so the main thread sees a signal within the wait below and leaves at
+    # once; once the node runs, a signal stops it between callbacks, then the recording is
+    # finalised; once it is final, a signal ends the teardown at once.
     stop = []
-
-    def during_start_up(signum, _frame):
-        stop.append(signal.Signals(signum).name)
-        raise _StartUpInterrupted()
-
-    for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, during_start_up)
-    try:
-        error = _init_rclpy(args)
-        if error is not None:
-            print(f'rigid_body_node: {error}', file=sys.stderr, flush=True)
-            sys.exit(2)
-        try:
-            node = RigidBodyNode(args)
-        except RbdError as exc:
-            print(f'rigid_body_node: {exc}', file=sys.stderr, flush=True)
-            rclpy.try_shutdown()
-            sys.exit(2)
-    except _StartUpInterrupted:
-        print(f'rigid_body_node: {stop[0]} during start-up: stopped', file=sys.stderr,
-              flush=True)
-        os._exit(0)  # nothing runs yet; rclpy's teardown of a half-built node is not needed
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda signum, _: stop.append(signal.Signals(signum).name))
+    error = _init_rclpy(args)
+    if error is not None:
+        print(f'rigid_body_node: {error}', file=sys.stderr, flush=True)
+        sys.exit(2)
+    built = []
+
+    def build():
+        try:
+            built.append(RigidBodyNode(args))
+        except BaseException as exc:  # handed to the main thread
+            built.append(exc)
+
+    worker = threading.Thread(target=build, name='rigid_body_node start-up', daemon=True)
+    worker.start()
+    while worker.is_alive() and not stop:
+        worker.join(START_UP_POLL_S)
+    if stop and not built:
+        print(f'rigid_body_node: {stop[0]} during start-up: stopped', file=sys.stderr,
+              flush=True)
+        os._exit(0)  # nothing recorded yet; a half-built node needs no teardown
+    node = built[0]
+    if isinstance(node, RbdError):
+        print(f'rigid_body_node: {node}', file=sys.stderr, flush=True)
+        rclpy.try_shutdown()
+        sys.exit(2)
+    if isinstance(node, BaseException):
+        raise node
     # Not rclpy's experimental EventsExecutor: its event queue is unbounded, so a wrench flood
     # faster than the node grew memory without limit. This one takes at most one message per
     # subscription per wait; what it cannot take, DDS keep-last drops. It rebuilds its wait set
@@ -739,6 +750,14 @@ def main(args=None):
         for signum in (signal.SIGINT, signal.SIGTERM):
             signal.signal(signum, lambda *_: os._exit(status))
         executor.shutdown()
+        if node.endpoint_count() > limits.TEARDOWN_ENDPOINTS:
+            # Fast DDS deletes endpoints in superlinear time (6,000 publishers: 3.6 s; a world
+            # of 1,000 bodies: 18 s): with the recording final there is nothing left to lose,
+            # so a big node leaves without deleting them one by one (the OS reclaims them).
+            rclpy.try_shutdown()
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(status)
         node.destroy_node()
         rclpy.try_shutdown()
     sys.exit(status)
