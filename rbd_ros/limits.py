@@ -80,25 +80,30 @@ def check_mcap_chunks(path):
     for name in mcap_files(path):
         try:
             size = os.path.getsize(name)
-            with open(name, 'rb') as f:
-                if f.read(len(_MAGIC)) != _MAGIC:
-                    continue  # not MCAP: the reader says so in its own words
-                offset = len(_MAGIC)
-                while offset + _RECORD.size <= size:
-                    f.seek(offset)
-                    opcode, length = _RECORD.unpack(f.read(_RECORD.size))
-                    if opcode == _CHUNK and length >= _CHUNK_HEAD.size:
-                        _, _, uncompressed = _CHUNK_HEAD.unpack(f.read(_CHUNK_HEAD.size))
-                        if uncompressed > MAX_CHUNK_BYTES:
-                            raise RecordingError(
-                                f'{name}: the chunk at byte {offset} declares an uncompressed '
-                                f'size of {uncompressed} bytes, more than the limit of '
-                                f'{MAX_CHUNK_BYTES} bytes (rbd_ros.limits.MAX_CHUNK_BYTES)')
-                    if opcode == 0x02 or length > size:  # footer, or a length past the end
-                        break
-                    offset += _RECORD.size + length
+            stream = open(name, 'rb')
         except OSError:
             continue  # the reader reports an unreadable file in its own words
+        with stream:
+            _check_chunks(stream, name, size)
+
+
+def _check_chunks(f, name, size):
+    if f.read(len(_MAGIC)) != _MAGIC:
+        return  # not MCAP: the reader says so in its own words
+    offset = len(_MAGIC)
+    while offset + _RECORD.size <= size:
+        f.seek(offset)
+        opcode, length = _RECORD.unpack(f.read(_RECORD.size))
+        if opcode == _CHUNK and length >= _CHUNK_HEAD.size:
+            _, _, uncompressed = _CHUNK_HEAD.unpack(f.read(_CHUNK_HEAD.size))
+            if uncompressed > MAX_CHUNK_BYTES:
+                raise RecordingError(
+                    f'{name}: the chunk at byte {offset} declares an uncompressed size of '
+                    f'{uncompressed} bytes, more than the limit of {MAX_CHUNK_BYTES} bytes '
+                    '(rbd_ros.limits.MAX_CHUNK_BYTES)')
+        if opcode == 0x02 or length > size:  # the footer, or a length past the end
+            return
+        offset += _RECORD.size + length
 
 
 def stl_triangles(data):
