@@ -26,6 +26,7 @@ the declared chunk cannot take the machine's memory) and must refuse each bag wi
 import os
 from pathlib import Path
 import resource
+import signal
 import struct
 import subprocess
 import sys
@@ -145,3 +146,42 @@ def test_limits_are_the_documented_constants():
     assert limits.MAX_MESH_TRIANGLES == 200_000
     assert limits.step_chunk(1) == limits.STEP_CHUNK_BODY_STEPS
     assert limits.step_chunk(10 ** 9) == 1
+
+
+def _cpu_s(pid):
+    """Return the CPU time (user + system, s) process ``pid`` has used."""
+    with open(f'/proc/{pid}/stat') as f:
+        fields = f.read().rsplit(')', 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+
+
+def test_sigint_during_compiled_stepping_ends_replay_within_a_second(tmp_path):
+    """A bag within the limits whose replay steps 1e8 times between two samples."""
+    # Step 1e-7 s, a sample every 10 s: exactly MAX_REPLAY_STEPS steps, all between the two
+    # samples, that is one compiled call of a minute or more without the step chunks.
+    bag = _write_bag(tmp_path / 'long.mcap', _config(timestep_s=1e-7, publish_rate_hz=0.1),
+                     [0, 10_000_000_000])
+    proc = subprocess.Popen(
+        [sys.executable, '-m', 'rbd_ros.replay', str(bag), '--no-progress'],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=str(tmp_path),
+        env=dict(os.environ, PYTHONPATH=str(REPO)))
+    try:
+        # Imports and the first sample take ~2 s of CPU; 4 s is inside the stepping.
+        deadline = time.monotonic() + 120.0
+        while _cpu_s(proc.pid) < 4.0 and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert proc.poll() is None, proc.communicate()
+        start = time.monotonic()
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=120.0)
+        took = time.monotonic() - start
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    print(f'SIGINT during replay stepping: exit {proc.returncode} after {took:.2f} s')
+    assert proc.returncode == 130, (out, err)
+    assert 'replay: interrupted' in err
+    # One second, plus the same slack as the node's signal tests (a loaded 2-core machine:
+    # scheduler slices and the interpreter's exit).
+    assert took < 2.0
