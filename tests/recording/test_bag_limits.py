@@ -85,7 +85,7 @@ def _tiny_step_bag(tmp_path):
 
 
 def _big_chunk_bag(tmp_path):
-    """An unfinalised file: header, then one chunk of 1 MiB of zstd zeros declaring 2 GiB."""
+    """Write an unfinalised file: a header, then one chunk of 1 MiB of zstd zeros said 2 GiB."""
     path = tmp_path / 'big_chunk.mcap'
     _write_bag(path, _config(), [0])
     head = path.read_bytes()

@@ -54,7 +54,7 @@ def _stop_and_time(proc, sig):
 
 
 def _unique_sphere_stl(path):
-    """An icosphere of 20,480 faces, radius jittered so no SDF cache entry matches it."""
+    """Write an icosphere of 20,480 faces, radius jittered so no SDF cache entry matches."""
     import trimesh
     rng = np.random.default_rng(os.getpid() ^ time.monotonic_ns())
     mesh = trimesh.creation.icosphere(subdivisions=5, radius=0.2 + 1e-6 * rng.random())
