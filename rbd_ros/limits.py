@@ -114,15 +114,14 @@ def stl_triangles(data):
     return declared
 
 
-def check_bag(bag):
+def check_steps(bag):
     """
-    Refuse a recording that asks for more work than the limits allow, before doing any.
+    Refuse a recording whose replay would take more steps than the limits allow.
 
-    Checks the steps to replay (last log time over the recorded step, times the bodies), the
-    attached meshes' sizes and triangle counts.
+    The steps: the last log time over the recorded step, times the bodies.
 
     :param bag: an opened :class:`rbd_ros.recording.Bag`.
-    :raises RecordingError: naming the field, its value and unit, and the limit.
+    :raises RecordingError: naming ``timestep_s``, its value, the steps and the limits.
     """
     config = bag.config or {}
     timestep_s = config.get('timestep_s')
@@ -135,6 +134,21 @@ def check_bag(bag):
                 f'{bag.end_ns} ns is {steps:.3g} steps of {bodies} bodies, more than the limit '
                 f'of {MAX_REPLAY_STEPS} steps and {MAX_REPLAY_BODY_STEPS} body-steps '
                 '(rbd_ros.limits.MAX_REPLAY_STEPS, MAX_REPLAY_BODY_STEPS)')
+
+
+def check_bag(bag, steps=True):
+    """
+    Refuse a recording that asks for more work than the limits allow, before doing any.
+
+    Checks the attached meshes' sizes and triangle counts and, with ``steps``, the steps to
+    replay (:func:`check_steps`; replay checks them after its own time checks, which say more
+    precisely what is wrong with a log time).
+
+    :param bag: an opened :class:`rbd_ros.recording.Bag`.
+    :raises RecordingError: naming the field, its value and unit, and the limit.
+    """
+    if steps:
+        check_steps(bag)
     for name, data in bag.attachments().items():
         if len(data) > MAX_MESH_BYTES:
             raise RecordingError(

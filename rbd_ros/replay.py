@@ -440,7 +440,7 @@ def replay_bag(bag: Union[str, os.PathLike, Bag], *, tolerance: Optional[float] 
     if not isinstance(bag, Bag):
         limits.check_mcap_chunks(bag)
         bag = open_bag(bag)
-        limits.check_bag(bag)
+        limits.check_bag(bag, steps=False)
     replayer = Replayer(bag, tolerance=tolerance, integrator=integrator, timestep_s=timestep_s)
     messages = replayer.recorded_messages()
     if messages is not None:
@@ -513,6 +513,8 @@ class Replayer:
 
         :raises ReplayError: no output sample, or log times (or the recorded failure time) that
             cannot come from one run of the recorded configuration (:func:`check_times`).
+        :raises RecordingError: more steps to replay than :func:`rbd_ros.limits.check_steps`
+            allows.
         """
         bag, result = self.bag, self.result
         wanted = list(self.kinds) + list(self.inputs)
@@ -532,6 +534,7 @@ class Replayer:
             raise ReplayError(f'{bag.mcap_path}: no recorded output samples to compare '
                               f'({len(messages)} messages on the replayed topics)')
         check_times(bag, self.recorded, messages, self.kinds)
+        limits.check_steps(bag)  # after the time checks: they say more about a log time
         last = messages[-1].log_time_ns
         if self.failure is not None and self.failure[0] > (
                 last + self.recorded.timestep_ns + self.recorded.publish_period_ns):
@@ -833,7 +836,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     def run():
         if args.tolerance is not None and not args.tolerance >= 0.0:
             raise ReplayError(f'--tolerance {args.tolerance}: must be >= 0')
-        bag = open_bag_with_notes('replay', args.bag)
+        bag = open_bag_with_notes('replay', args.bag, steps=False)
         return replay_bag(bag, tolerance=args.tolerance, integrator=args.integrator,
                           timestep_s=args.timestep, progress=progress)
 
