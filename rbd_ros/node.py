@@ -76,6 +76,8 @@ from visualization_msgs.msg import MarkerArray
 MAX_BACKLOG_STEPS = 1000  # the catch-up cap: a longer backlog of due steps is dropped
 TICK_BUDGET_NS = 10_000_000  # wall time a tick may step for (then serve callbacks)
 START_UP_POLL_S = 0.05  # how often the main thread looks for a signal during start-up
+#: Set once the node has loaded its meshes and run its first step (see RigidBodyNode).
+PAST_SLOW_START_UP = threading.Event()
 _TYPES = {cfg.BOOL: ParameterType.PARAMETER_BOOL, cfg.INTEGER: ParameterType.PARAMETER_INTEGER,
           cfg.DOUBLE: ParameterType.PARAMETER_DOUBLE, cfg.STRING: ParameterType.PARAMETER_STRING,
           cfg.DOUBLE_ARRAY: ParameterType.PARAMETER_DOUBLE_ARRAY,
@@ -137,6 +139,10 @@ class RigidBodyNode(Node):
         self.config = config = cfg.NodeConfig.from_parameters(params)
         self._check_input_topics()
         self._warm_up()
+        # The slow part of start-up is over (meshes loaded, kernels compiled and run once): from
+        # here on a signal lets the node finish starting (linear in the bodies) and then stops
+        # it as usual, so that a node seen on the graph always leaves a finalised recording.
+        PAST_SLOW_START_UP.set()
         for spec in config.all_specs():
             self._declare(spec, config.parameters[spec.name])
         self.add_on_set_parameters_callback(self._on_set_parameters)
@@ -697,7 +703,7 @@ def main(args=None):
     # the context down under a running callback, whose next publish then fails.) The node is
     # built in a worker thread (mesh loading and the first-step check run compiled kernels that
     # release the GIL), so the main thread sees a signal within the wait below and leaves at
-    # once; once the node runs, a signal stops it between callbacks, then the recording is
+    # once during the slow part of start-up (meshes, the first step); once the node runs, a signal stops it between callbacks, then the recording is
     # finalised; once it is final, a signal ends the teardown at once.
     stop = []
     for signum in (signal.SIGINT, signal.SIGTERM):
@@ -716,7 +722,7 @@ def main(args=None):
 
     worker = threading.Thread(target=build, name='rigid_body_node start-up', daemon=True)
     worker.start()
-    while worker.is_alive() and not stop:
+    while worker.is_alive() and not (stop and not PAST_SLOW_START_UP.is_set()):
         worker.join(START_UP_POLL_S)
     if stop and not built:
         print(f'rigid_body_node: {stop[0]} during start-up: stopped', file=sys.stderr,

@@ -799,7 +799,7 @@ def format_summary(result: ReplayResult) -> str:
     if not result.match:
         lines.append('MISMATCH')
     elif result.run_failed:
-        lines.append('RUN FAILED (reproduced: the recording matches a run that failed)')
+        lines.append('RUN FAILED (the replay matches the recording of a run that failed)')
     else:
         lines.append('MATCH')
     return '\n'.join(lines)

@@ -30,6 +30,7 @@ from geometry_msgs.msg import PointStamped
 from rbd_ros.recording import open_bag
 from rbd_ros.replay import EXIT_RUN_FAILED, main
 from ros_context import ros_fixture  # noqa: F401 - the fixture ros
+from sim_recorder import record_scripted_run
 
 REPO = Path(__file__).resolve().parents[2]
 STACK = REPO / 'msg_config' / 'stack.yaml'
@@ -90,3 +91,16 @@ def test_non_finite_step_with_duration_exits_1_and_says_why(start_node, ros, tmp
     assert proc.process.returncode == 1, proc.stderr
     assert 'stopping (duration_s is set): exit 1' in proc.stderr
     _check_bag_and_replay(bag_path, proc.namespace, 'non-finite step', capsys)
+
+
+def test_replay_reports_a_run_that_ended_with_an_exception(tmp_path, capsys):
+    """The node records an exception out of its step loop; replay must not call that MATCH."""
+    bag_path = tmp_path / 'crashed'
+    record_scripted_run(str(bag_path), {}, [], 100_000_000, run_extra={
+        'ended_by': 'exception', 'exception_time_ns': '100000000',
+        'exception': 'RuntimeError: publisher destroyed'})
+    assert main([str(bag_path), '--no-progress']) == EXIT_RUN_FAILED
+    out = capsys.readouterr().out.strip()
+    assert 'run crashed: the node stopped on an exception at t = 100000000 ns: RuntimeError: ' \
+        'publisher destroyed' in out, out
+    assert out.splitlines()[-1].startswith('RUN FAILED'), out
