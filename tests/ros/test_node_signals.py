@@ -18,8 +18,9 @@ SIGINT and SIGTERM end the node within a second in every phase (issue 31, item 5
 Start-up: a mesh body whose signed-distance grid takes tens of seconds to build (a compiled
 kernel that releases the GIL; the node is built in a worker thread, the main thread sees the
 signal). Shut-down: a world of 1,000 bodies, whose endpoints Fast DDS deletes in superlinear
-time. Compiled stepping is covered for replay in ``tests/recording/test_bag_limits.py``; the
-node's own stepping returns to the spin loop every 10 ms (``TICK_BUDGET_NS``).
+time. Stepping: a world stepped flat out (real_time_factor 0; the node returns to the spin
+loop every 10 ms, ``TICK_BUDGET_NS``); replay's compiled stepping is covered in
+``tests/recording/test_bag_limits.py``.
 
 Each test prints how long the node took from the signal to its exit.
 """
@@ -32,6 +33,7 @@ from conftest import wait_until
 from mcap.reader import make_reader
 import numpy as np
 import pytest
+from rbd_ros.recording import open_bag
 
 #: The promise is one second. The slack: this 2-core machine runs five test sessions at once
 #: (load ~6), so a woken process may wait a few scheduler slices of up to ~100 ms each, and
@@ -107,3 +109,21 @@ def test_signal_during_shut_down_of_1000_bodies_ends_the_node_at_once(start_node
     with open(mcap_path, 'rb') as stream:
         run = {m.name: m.metadata for m in make_reader(stream).iter_metadata()}['rbd_ros.run']
     assert run['ended_by'] == 'duration_s'
+
+
+@pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM], ids=['SIGINT', 'SIGTERM'])
+def test_signal_while_stepping_flat_out_ends_the_node_and_says_so(start_node, tmp_path, sig):
+    """At real_time_factor 0 the node steps all the time; the run record names the signal."""
+    bag = tmp_path / f'flat_out_{sig.name}'
+    proc = start_node({**_world_of(50), 'duration_s': 0.0, 'real_time_factor': 0.0,
+                       'record_path': str(bag)})
+    wait_until(lambda: 'recording to' in proc.stderr or proc.process.poll() is not None,
+               120.0, what='the node to start stepping')
+    time.sleep(1.0)  # stepping flat out by now
+    status, took = _stop_and_time(proc, sig)
+    print(f'{sig.name} while stepping: exit {status} after {took:.2f} s')
+    assert status == 0, proc.stderr
+    assert took < WITHIN_S
+    run = open_bag(bag).run_metadata
+    assert run['ended_by'] == sig.name
+    assert int(run['ended_at_ns']) > 0
