@@ -703,8 +703,9 @@ def main(args=None):
     # the context down under a running callback, whose next publish then fails.) The node is
     # built in a worker thread (mesh loading and the first-step check run compiled kernels that
     # release the GIL), so the main thread sees a signal within the wait below and leaves at
-    # once during the slow part of start-up (meshes, the first step); once the node runs, a signal stops it between callbacks, then the recording is
-    # finalised; once it is final, a signal ends the teardown at once.
+    # once during the slow part of start-up (meshes, the first step); once the node runs, a
+    # signal stops it between callbacks, then the recording is finalised; once it is final, a
+    # signal ends the teardown at once.
     stop = []
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda signum, _: stop.append(signal.Signals(signum).name))
