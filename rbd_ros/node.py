@@ -150,7 +150,8 @@ class RigidBodyNode(Node):
         self.done = False
         self.exit_status = 0
         #: How the run ended, for the rbd_ros.run record: 'duration_s', 'SIGINT', 'SIGTERM',
-        #: 'non-finite step', 'exception', 'recording error' ('' while it runs).
+        #: 'non-finite step', 'exception', 'recording error', 'start-up interrupted' or
+        #: 'shutdown' (the ROS context shut down); '' while it runs.
         self.ended_by = ''
         self._crash = None  # (sim time ns, 'Type: message') of an exception out of the loop
         self._rtf = config.real_time_factor
