@@ -23,6 +23,7 @@ traceback.
 import sys
 from typing import Callable, Optional, Tuple, TypeVar
 
+from rbd_ros import limits
 from rbd_ros.core.errors import RbdError
 from rbd_ros.recording import Bag, open_bag
 
@@ -34,9 +35,17 @@ EXIT_UNREADABLE = 2
 EXIT_INTERRUPTED = 130
 
 
-def open_bag_with_notes(prog: str, path: str) -> Bag:
-    """Open the recording ``path`` and print each of its notes as ``<prog>: note: ...``."""
+def open_bag_with_notes(prog: str, path: str, steps: bool = True) -> Bag:
+    """
+    Open the recording ``path`` and print each of its notes as ``<prog>: note: ...``.
+
+    :param steps: also check the steps a replay would take (replay checks them itself).
+    :raises RecordingError: also for a recording over the limits of :mod:`rbd_ros.limits`,
+        refused before it is parsed or replayed.
+    """
+    limits.check_mcap_chunks(path)  # before the reader decompresses anything
     bag = open_bag(path)
+    limits.check_bag(bag, steps)  # before replay or plot does the work
     for note in bag.notes:
         print(f'{prog}: note: {note}', file=sys.stderr)
     return bag

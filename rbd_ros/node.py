@@ -50,6 +50,7 @@ if __name__ == '__main__' or os.path.basename(sys.argv[0]) == 'rigid_body_node':
 from geometry_msgs.msg import PointStamped
 from rbd_ros import config as cfg
 from rbd_ros import conversions as conv
+from rbd_ros import limits
 from rbd_ros import markers
 from rbd_ros import outputs
 from rbd_ros import ros_args
@@ -74,6 +75,9 @@ from visualization_msgs.msg import MarkerArray
 
 MAX_BACKLOG_STEPS = 1000  # the catch-up cap: a longer backlog of due steps is dropped
 TICK_BUDGET_NS = 10_000_000  # wall time a tick may step for (then serve callbacks)
+START_UP_POLL_S = 0.05  # how often the main thread looks for a signal during start-up
+#: Set once the node has loaded its meshes and run its first step (see RigidBodyNode).
+PAST_SLOW_START_UP = threading.Event()
 _TYPES = {cfg.BOOL: ParameterType.PARAMETER_BOOL, cfg.INTEGER: ParameterType.PARAMETER_INTEGER,
           cfg.DOUBLE: ParameterType.PARAMETER_DOUBLE, cfg.STRING: ParameterType.PARAMETER_STRING,
           cfg.DOUBLE_ARRAY: ParameterType.PARAMETER_DOUBLE_ARRAY,
@@ -92,9 +96,6 @@ STATE_QOS = {'depth': 1, 'reliability': ReliabilityPolicy.RELIABLE,
 QOS_OVERRIDES = QoSOverridingOptions(policy_kinds=(
     QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH, QoSPolicyKind.RELIABILITY,
     QoSPolicyKind.DURABILITY))
-#: Set while the first step runs (a compile, or a load from numba's cache): main()'s SIGINT and
-#: SIGTERM handlers then exit 0 at once (nothing to finalise yet; a compile cannot be cancelled).
-WARMING_UP = threading.Event()
 OUTPUT_TOPICS = ('pose', 'twist', 'odom', 'contact_wrench', 'markers', 'static_markers', '/clock',
                  '/diagnostics', '/tf')
 
@@ -153,6 +154,10 @@ class RigidBodyNode(Node):
         self.config = config = cfg.NodeConfig.from_parameters(params)
         self._check_input_topics()
         self._warm_up()
+        # The slow part of start-up is over (meshes loaded, kernels compiled and run once): from
+        # here on a signal lets the node finish starting (linear in the bodies) and then stops
+        # it as usual, so that a node seen on the graph always leaves a finalised recording.
+        PAST_SLOW_START_UP.set()
         for spec in config.all_specs():
             self._declare(spec, config.parameters[spec.name])
         self.add_pre_set_parameters_callback(self._coerce_parameters)
@@ -160,6 +165,11 @@ class RigidBodyNode(Node):
         self.session = SimSession(config)
         self.done = False
         self.exit_status = 0
+        #: How the run ended, for the rbd_ros.run record: 'duration_s', 'SIGINT', 'SIGTERM',
+        #: 'non-finite step', 'exception', 'recording error', 'start-up interrupted' or
+        #: 'shutdown' (the ROS context shut down); '' while it runs.
+        self.ended_by = ''
+        self._crash = None  # (sim time ns, 'Type: message') of an exception out of the loop
         self._rtf = config.real_time_factor
         self._dropped_ns = 0
         self._lag_max_ns = 0  # largest wall-minus-sim lag seen at a tick, since the last diag
@@ -221,6 +231,15 @@ class RigidBodyNode(Node):
         self.create_service(Trigger, '~/step', self._on_step)
         if config.record_path:
             self._open_recording()
+        try:
+            self._start()
+        except BaseException:  # a signal or an error after the recording opened: finalise it
+            self.ended_by = self.ended_by or 'start-up interrupted'
+            self._close_recording()
+            raise
+
+    def _start(self):
+        config = self.config
         # Physics ticks come from the spin loop in main() (seconds_to_next_step, then tick);
         # the diagnostics timer runs on a steady clock, whatever use_sim_time says.
         steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -374,9 +393,12 @@ class RigidBodyNode(Node):
         self._recorder = recorder
         self._digest = AppliedDigest()  # what the run applied, for replay to compare
         self._failure = None  # (sim time ns, message) of a non-finite step
+        # Every input that takes effect is recorded at its step start, before that step runs.
+        self.session.on_applied = self._record_events
         self.get_logger().info(f'recording to {recorder.path}')
 
     def _record_events(self, events):
+        """Record the inputs that take effect at a step start (called before that step)."""
         for event in events:
             if self._recorder is not None:
                 self._digest.update(event)
@@ -393,6 +415,7 @@ class RigidBodyNode(Node):
                 then = 'stopping the node (record_on_error: stop)' if stop else 'simulating on'
                 self.get_logger().error(f'recording stopped: {exc}; {then}')
                 self.exit_status = 1
+                self.ended_by = self.ended_by or 'recording error'
                 self._close_recording()
                 self.done = self.done or stop
 
@@ -456,18 +479,25 @@ class RigidBodyNode(Node):
             try:
                 report = self.session.step() if manual else self.session.advance(ask)
             except NonFiniteError as exc:
-                self._record_events(getattr(exc, 'events', ()))  # incl. the one that caused it
-                if self._recorder is not None:
-                    self._failure = (self.session.time_ns, str(exc))
-                self.get_logger().error(f'{exc}; paused (call ~/reset)')
+                # The inputs of the failing step, the one that caused it included, are in the
+                # bag already (session.on_applied).
+                self._failure = (self.session.time_ns, str(exc))
+                if self.config.duration_ns and not manual:
+                    # A run with an end: it cannot reach it, so it ends now, with status 1.
+                    self.get_logger().error(f'{exc}; stopping (duration_s is set): exit 1')
+                    self.ended_by = 'non-finite step'
+                    self.exit_status = 1
+                    self.done = True
+                else:
+                    self.get_logger().error(f'{exc}; paused (call ~/reset)')
                 return
             if deadline_ns is not None and report.steps:
                 self._step_wall_ns = max(1, (time.monotonic_ns() - start_ns) // report.steps)
-            self._record_events(report.events)
             if report.sample_due:
                 self._publish_sample()
             if self.session.finished and not manual:
                 self.get_logger().info(f'duration_s reached at t = {self.session.time_ns} ns')
+                self.ended_by = 'duration_s'
                 self.done = True
             if report.steps == 0 or manual:
                 return
@@ -566,7 +596,7 @@ class RigidBodyNode(Node):
         if not on_disk:
             self.get_logger().info(jitcache.compile_notice(contact))
         start = time.monotonic()
-        _first_step_in_a_thread(self.config)
+        cfg.check_first_step(self.config)  # in main()'s start-up thread: a signal is seen
         if not on_disk:
             jitcache.mark_compiled(contact)
             self.get_logger().info(
@@ -638,9 +668,12 @@ class RigidBodyNode(Node):
             recorder.close()
             return
         failure_ns, failure = self._failure or ('', '')
+        crash_ns, crash = self._crash or ('', '')
         try:
             recorder.close(run_metadata={
                 'failure_time_ns': failure_ns, 'failure': failure,
+                'ended_by': self.ended_by or 'unknown', 'ended_at_ns': self.session.time_ns,
+                'exception_time_ns': crash_ns, 'exception': crash,
                 'wrenches_applied': self._digest.count,
                 'wrench_digest': self._digest.hexdigest()})
             self.get_logger().info(f'recording closed: {recorder.path}')
@@ -648,46 +681,25 @@ class RigidBodyNode(Node):
             self.get_logger().error(f'recording not finalised: {exc}')
             self.exit_status = 1
 
-    def finish(self):
+    def endpoint_count(self):
+        """Return the number of publishers, subscriptions and services of this node."""
+        return sum(1 for group in (self.publishers, self.subscriptions, self.services)
+                   for _ in group)
+
+    def crashed(self, exc):
+        """Note an exception out of the step loop: logged, recorded at close, exit status 1."""
+        self._crash = (self.session.time_ns, f'{type(exc).__name__}: {exc}')
+        self.ended_by = 'exception'
+        self.exit_status = 1
+        self.get_logger().error(
+            f'stopping on an exception at t = {self.session.time_ns} ns: {self._crash[1]}')
+
+    def finish(self, ended_by=None):
         """Finalise the recording (idempotent) and return the exit status."""
+        if ended_by and not self.ended_by:
+            self.ended_by = ended_by
         self._close_recording()
         return self.exit_status
-
-
-def _first_step_in_a_thread(config):
-    """
-    :func:`cfg.check_first_step` in a worker thread, the main thread waiting with a timeout.
-
-    numba compiles holding the GIL in long stretches; Python runs signal handlers in the main
-    thread only, between its bytecodes, so a compile in the main thread delayed Ctrl-C until
-    it ended. Waiting on the worker with a timeout lets the handlers run within ~50 ms.
-    """
-    outcome = []
-
-    def run():
-        try:
-            cfg.check_first_step(config)
-        except BaseException as exc:  # re-raised in the caller's thread
-            outcome.append(exc)
-    worker = threading.Thread(target=run, name='rbd_ros first step', daemon=True)
-    WARMING_UP.set()
-    try:
-        worker.start()
-        while worker.is_alive():
-            worker.join(0.05)
-    finally:
-        WARMING_UP.clear()
-    if outcome:
-        raise outcome[0]
-
-
-def _on_stop_signal(stop):
-    """Return a SIGINT/SIGTERM handler: exit 0 at once while warming up, else ask to stop."""
-    def handler(*_):
-        if WARMING_UP.is_set():
-            os._exit(0)
-        stop.append(True)
-    return handler
 
 
 def _init_rclpy(args):
@@ -722,22 +734,50 @@ def _init_rclpy(args):
 
 
 def main(args=None):
-    """Run the node until ``duration_s`` passes or SIGINT/SIGTERM; exit 0, or 2 on bad input."""
-    # Our own signal handlers, from the start: stop between callbacks, then finalise. (rclpy's
-    # would shut the context down under a running callback, whose next publish then fails.)
+    """
+    Run the node until ``duration_s`` passes or SIGINT/SIGTERM; return the exit status.
+
+    0: ended by ``duration_s`` or a signal (also during start-up); 1: a non-finite step with
+    ``duration_s`` set, an exception out of the step loop, or a recording error; 2: bad input
+    at start-up. Every ending that the process survives writes the ``rbd_ros.run`` record.
+    """
+    # Our own signal handlers, from the start: they only note the signal. (rclpy's would shut
+    # the context down under a running callback, whose next publish then fails.) The node is
+    # built in a worker thread (mesh loading and the first-step check run compiled kernels that
+    # release the GIL), so the main thread sees a signal within the wait below and leaves at
+    # once during the slow part of start-up (meshes, the first step); once the node runs, a
+    # signal stops it between callbacks, then the recording is finalised; once it is final, a
+    # signal ends the teardown at once.
     stop = []
     for signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(signum, _on_stop_signal(stop))
+        signal.signal(signum, lambda signum, _: stop.append(signal.Signals(signum).name))
     error = _init_rclpy(args)
     if error is not None:
         print(f'rigid_body_node: {error}', file=sys.stderr, flush=True)
         sys.exit(2)
-    try:
-        node = RigidBodyNode(args)
-    except RbdError as exc:
-        print(f'rigid_body_node: {exc}', file=sys.stderr, flush=True)
+    built = []
+
+    def build():
+        try:
+            built.append(RigidBodyNode(args))
+        except BaseException as exc:  # handed to the main thread
+            built.append(exc)
+
+    worker = threading.Thread(target=build, name='rigid_body_node start-up', daemon=True)
+    worker.start()
+    while worker.is_alive() and not (stop and not PAST_SLOW_START_UP.is_set()):
+        worker.join(START_UP_POLL_S)
+    if stop and not built:
+        print(f'rigid_body_node: {stop[0]} during start-up: stopped', file=sys.stderr,
+              flush=True)
+        os._exit(0)  # nothing recorded yet; a half-built node needs no teardown
+    node = built[0]
+    if isinstance(node, RbdError):
+        print(f'rigid_body_node: {node}', file=sys.stderr, flush=True)
         rclpy.try_shutdown()
         sys.exit(2)
+    if isinstance(node, BaseException):
+        raise node
     # Not rclpy's experimental EventsExecutor: its event queue is unbounded, so a wrench flood
     # faster than the node grew memory without limit. This one takes at most one message per
     # subscription per wait; what it cannot take, DDS keep-last drops. It rebuilds its wait set
@@ -751,9 +791,22 @@ def main(args=None):
             node.tick()
     except ExternalShutdownException:
         pass
+    except Exception as exc:  # out of a callback or a step: recorded, then exit 1
+        node.crashed(exc)
     finally:
-        status = node.finish()
+        status = node.finish(stop[0] if stop else 'shutdown')
+        # The recording is final: a signal during the teardown below ends the process at once.
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(signum, lambda *_: os._exit(status))
         executor.shutdown()
+        if node.endpoint_count() > limits.TEARDOWN_ENDPOINTS:
+            # Fast DDS deletes endpoints in superlinear time (6,000 publishers: 3.6 s; a world
+            # of 1,000 bodies: 18 s): with the recording final there is nothing left to lose,
+            # so a big node leaves without deleting them one by one (the OS reclaims them).
+            rclpy.try_shutdown()
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(status)
         node.destroy_node()
         rclpy.try_shutdown()
     sys.exit(status)

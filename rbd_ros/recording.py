@@ -143,7 +143,7 @@ def normalize_qos(qos: Optional[Mapping[str, Any]]) -> Dict[str, Any]:
     return {key: out[key] for key in _QOS_KEYS}
 
 
-class _Dumper(yaml.SafeDumper):
+class _Dumper(getattr(yaml, 'CSafeDumper', yaml.SafeDumper)):
     """A YAML dumper that never writes anchors or aliases (rosbag2 writes none)."""
 
     def ignore_aliases(self, data):

@@ -41,8 +41,11 @@ recorded time.
 
 Messages are decoded with the schemas stored in the file (``mcap-ros2-support``); rclpy is not
 imported.  Exit status: 0 match, 1 mismatch, 2 the bag cannot be replayed (missing, empty,
-truncated before any data, corrupt, foreign: one line on stderr, never a traceback), 141
-the reader closed the pipe (``replay --json bag | head``: no traceback).
+truncated before any data, corrupt, foreign, over the limits of :mod:`rbd_ros.limits`: one line
+on stderr, never a traceback), 3 the replay matches a recorded run that failed (a non-finite
+step reproduced, or the node's process ended with an exception): never ``MATCH`` for a run
+that did not end as it should; 141 the reader closed the pipe (``replay --json bag | head``:
+no traceback).
 """
 
 import argparse
@@ -57,6 +60,7 @@ from typing import Collection, Dict, Iterable, List, Optional, Tuple, Union
 
 import numpy as np
 from rbd_ros import conversions
+from rbd_ros import limits
 from rbd_ros import outputs
 from rbd_ros.cli import open_bag_with_notes, run_on_bag
 from rbd_ros.config import NodeConfig, recorded_parameters
@@ -76,6 +80,12 @@ OUTPUT_KINDS = {
     'nav_msgs/msg/Odometry': 'odom',
     'rosgraph_msgs/msg/Clock': 'clock',
 }
+#: Exit status: every sample and wrench matched.
+EXIT_MATCH = 0
+#: Exit status: something differs (:attr:`ReplayResult.problems`).
+EXIT_MISMATCH = 1
+#: Exit status: the replay matches, but the recorded run failed (:attr:`ReplayResult.run_failed`).
+EXIT_RUN_FAILED = 3
 _BIG_STEPS = 1 << 62  # "as many steps as needed": SimSession.advance stops at until_ns
 
 
@@ -132,8 +142,14 @@ class ReplayResult:
     wrench_mismatches: int = 0
     wrench_digest_checked: bool = False
     failure_reproduced: Optional[str] = None
+    run_crashed: Optional[str] = None
     remarks: List[str] = dataclasses.field(default_factory=list)
     problems: List[str] = dataclasses.field(default_factory=list)
+
+    @property
+    def run_failed(self) -> Optional[str]:
+        """Return why the recorded run failed (non-finite step, exception), or None."""
+        return self.failure_reproduced or self.run_crashed
 
     @property
     def compared(self) -> int:
@@ -163,6 +179,8 @@ class ReplayResult:
             'wrench_mismatches': self.wrench_mismatches,
             'wrench_digest_checked': self.wrench_digest_checked,
             'failure_reproduced': self.failure_reproduced,
+            'run_crashed': self.run_crashed,
+            'run_failed': self.run_failed is not None,
             'remarks': list(self.remarks),
             'problems': list(self.problems),
             'topics': {name: dataclasses.asdict(t) for name, t in self.topics.items()},
@@ -421,7 +439,9 @@ def replay_bag(bag: Union[str, os.PathLike, Bag], *, tolerance: Optional[float] 
         (:class:`ReplayError`, or the stored configuration is invalid).
     """
     if not isinstance(bag, Bag):
+        limits.check_mcap_chunks(bag)
         bag = open_bag(bag)
+        limits.check_bag(bag, steps=False)
     replayer = Replayer(bag, tolerance=tolerance, integrator=integrator, timestep_s=timestep_s)
     messages = replayer.recorded_messages()
     if messages is not None:
@@ -494,6 +514,8 @@ class Replayer:
 
         :raises ReplayError: no output sample, or log times (or the recorded failure time) that
             cannot come from one run of the recorded configuration (:func:`check_times`).
+        :raises RecordingError: more steps to replay than :func:`rbd_ros.limits.check_steps`
+            allows.
         """
         bag, result = self.bag, self.result
         wanted = list(self.kinds) + list(self.inputs)
@@ -513,6 +535,7 @@ class Replayer:
             raise ReplayError(f'{bag.mcap_path}: no recorded output samples to compare '
                               f'({len(messages)} messages on the replayed topics)')
         check_times(bag, self.recorded, messages, self.kinds)
+        limits.check_steps(bag)  # after the time checks: they say more about a log time
         last = messages[-1].log_time_ns
         if self.failure is not None and self.failure[0] > (
                 last + self.recorded.timestep_ns + self.recorded.publish_period_ns):
@@ -562,6 +585,10 @@ class Replayer:
             bar.close()
         _judge_failure(result, self.failure, replay_failure, self.study)
         _judge_digest(result, self.bag, self.digest, self.study)
+        run = self.bag.run_metadata or {}
+        if run.get('exception'):
+            result.run_crashed = (f'the node stopped on an exception at t = '
+                                  f'{run.get("exception_time_ns", "?")} ns: {run["exception"]}')
         return result
 
     def took_effect(self, events: Iterable[AppliedEvent]) -> None:
@@ -768,7 +795,14 @@ def format_summary(result: ReplayResult) -> str:
         lines.append(f'  note: {remark}')
     for problem in result.problems:
         lines.append(f'  problem: {problem}')
-    lines.append('MATCH' if result.match else 'MISMATCH')
+    if result.run_crashed:
+        lines.append(f'  run crashed: {result.run_crashed}')
+    if not result.match:
+        lines.append('MISMATCH')
+    elif result.run_failed:
+        lines.append('RUN FAILED (the replay matches the recording of a run that failed)')
+    else:
+        lines.append('MATCH')
     return '\n'.join(lines)
 
 
@@ -777,7 +811,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog='replay',
         description='Replay an rbd_ros recording and compare the recomputed outputs with the '
-                    'recorded ones (exit 0 match, 1 mismatch, 2 unreadable bag).')
+                    'recorded ones (exit 0 match, 1 mismatch, 2 unreadable bag or over the limits '
+                    'of rbd_ros.limits, 3 the replay matches but the recorded run failed: a '
+                    'non-finite step or an exception).')
     parser.add_argument('bag', help='bag directory or .mcap file')
     parser.add_argument('--tolerance', type=float, default=None,
                         help='accept errors up to this (m, rad, m/s, rad/s); default bit-exact')
@@ -801,7 +837,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     def run():
         if args.tolerance is not None and not args.tolerance >= 0.0:
             raise ReplayError(f'--tolerance {args.tolerance}: must be >= 0')
-        bag = open_bag_with_notes('replay', args.bag)
+        bag = open_bag_with_notes('replay', args.bag, steps=False)
         return replay_bag(bag, tolerance=args.tolerance, integrator=args.integrator,
                           timestep_s=args.timestep, progress=progress)
 
@@ -817,7 +853,9 @@ def main(argv: Optional[List[str]] = None) -> int:
         # C tool the closed pipe ended (what `set -o pipefail` users see from `cat`).
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 141
-    return 0 if result.match else 1
+    if not result.match:
+        return EXIT_MISMATCH
+    return EXIT_RUN_FAILED if result.run_failed else EXIT_MATCH
 
 
 def entry_point() -> None:

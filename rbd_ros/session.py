@@ -42,6 +42,8 @@ Rules (all in sim time, integer ns):
 - A step that turns the state non-finite raises :class:`rbd_ros.core.NonFiniteError` whose
   ``events`` attribute lists the wrenches applied in that call, the one that caused it
   included, so a caller records every wrench that took effect, also on a failing run.
+- The simulator is stepped at most :func:`rbd_ros.limits.step_chunk` steps per compiled call,
+  so Python signal handlers run between calls (about every 0.1 s).
 - Determinism: the simulator is stepped in chunks between events; the core guarantees that the
   chunking does not change the result, so the same config and the same wrenches submitted at
   the same sim times give bit-identical states.
@@ -57,6 +59,7 @@ from rbd_ros.config import make_simulator
 from rbd_ros.core import NonFiniteError
 from rbd_ros.drag import DragInputs
 from rbd_ros.inputs import WorldInputs, WrenchInputs
+from rbd_ros.limits import step_chunk
 
 
 @dataclass(frozen=True)
@@ -145,9 +148,15 @@ class SimSession:
                 max_force_n=config.max_force_n, max_torque_nm=config.max_torque_nm)
         self.drags = _drag_inputs(config)
         self.paused = config.start_paused
+        # Steps per compiled call: a signal is seen between calls (rbd_ros.limits.step_chunk).
+        self._chunk_max = step_chunk(len(config.bodies) if config.world else 1)
         self.steps_total = 0  # physics steps taken since start, over resets
         self.resets = 0
         self.error = None  # message of the last NonFiniteError, if any
+        #: Called with the events of a step start (a list, non-empty) before that step runs:
+        #: the node records every input that took effect before the step that uses it, so a
+        #: step that never returns (a crash, a signal) cannot lose it.
+        self.on_applied = None
 
     @property
     def time_ns(self):
@@ -292,7 +301,9 @@ class SimSession:
                 self._set_loads()
                 events.extend(applied)
                 events.extend(dragged)
-            chunk = min(max_steps - done, self._steps_to_next_sample(t))
+                if self.on_applied is not None and (applied or dragged):
+                    self.on_applied(list(applied) + list(dragged))
+            chunk = min(max_steps - done, self._steps_to_next_sample(t), self._chunk_max)
             expiry = self.inputs.next_expiry_ns()
             if expiry is not None:
                 chunk = min(chunk, max(1, _ceil_div(expiry - t, h)))

@@ -31,13 +31,14 @@ from rbd_ros.session import AppliedDigest, SimSession
 from rclpy.serialization import serialize_message
 
 
-def record_scripted_run(path, params, script, duration_ns, **writer_options):
+def record_scripted_run(path, params, script, duration_ns, run_extra=None, **writer_options):
     """
     Run ``params`` for ``duration_ns`` of sim time, submitting ``script`` wrenches; record.
 
     :param script: ``(time_ns, input_name, frame_id, force, torque)`` tuples in time order;
         each is submitted when sim time has reached ``time_ns`` (so it takes effect at the
         first step starting at or after it).
+    :param run_extra: more ``rbd_ros.run`` fields (how the run ended, e.g. an exception).
     :returns: the closed :class:`BagWriter`.
     """
     config = NodeConfig.from_parameters(params)
@@ -77,7 +78,7 @@ def record_scripted_run(path, params, script, duration_ns, **writer_options):
             publish(session.state)
     writer.close(run_metadata={'failure_time_ns': '', 'failure': '',
                                'wrenches_applied': digest.count,
-                               'wrench_digest': digest.hexdigest()})
+                               'wrench_digest': digest.hexdigest(), **(run_extra or {})})
     return writer
 
 

@@ -32,7 +32,7 @@ from conftest import wait_until, write_params
 import pytest
 from rbd_ros import conversions
 from rbd_ros.recording import open_bag
-from rbd_ros.replay import main, replay_bag
+from rbd_ros.replay import EXIT_RUN_FAILED, main, replay_bag
 from ros_context import ros_fixture  # noqa: F401 - the fixture ros
 from sim_recorder import rewrite_bag
 
@@ -69,9 +69,11 @@ def test_non_finite_step_is_recorded_and_replay_reproduces_it(
     assert 'would be non-finite' in run['failure']
     assert run['wrenches_applied'] == '1'
 
-    assert main([str(bag_path), '--no-progress']) == 0
+    # Reproduced, but a failed run: exit 3, never MATCH (issue 31).
+    assert main([str(bag_path), '--no-progress']) == EXIT_RUN_FAILED
     out = capsys.readouterr().out
-    assert 'failure reproduced' in out and out.strip().endswith('MATCH')
+    assert 'failure reproduced' in out and out.strip().splitlines()[-1].startswith('RUN FAILED')
+    assert bag.run_metadata['ended_by'] == 'SIGINT'
     # Without that wrench the replay runs on undisturbed: a failure on one side only.
     dropped = rewrite_bag(str(bag_path), str(tmp_path / 'dropped'),
                           drop=lambda i, raw: raw.topic == '/wrench')

@@ -1,0 +1,163 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The documented limits of a run and of a recording, in one place, and the checks against them.
+
+A recording is data from outside: a crafted or damaged bag must not make ``replay`` or
+``plot`` work for hours or grow to gigabytes before saying anything.  Both tools check a bag
+against these limits before doing the work (:func:`check_mcap_chunks` on the raw file before it
+is parsed, :func:`check_bag` once its header and summary are read) and refuse it with one line
+naming the field, its value and the limit (exit status 2).
+
+The node steps its world in chunks of at most :func:`step_chunk` steps, so a signal is seen
+between chunks (numba's compiled step does not run Python signal handlers).
+"""
+
+import os
+import struct
+
+from rbd_ros.core.errors import RecordingError
+
+#: Largest number of physics steps a recording may ask ``replay`` to take (its last log time
+#: over its step): 1e8 steps of one body take about 2 min here.
+MAX_REPLAY_STEPS = 100_000_000
+#: Largest number of body-steps (steps x bodies) a recording may ask ``replay`` to take.
+MAX_REPLAY_BODY_STEPS = 1_000_000_000
+#: Largest uncompressed size a chunk of a recording may declare, bytes (the node writes chunks
+#: of 1 MiB of message data; 64 MiB leaves room for big worlds' samples).
+MAX_CHUNK_BYTES = 64 << 20
+#: Largest attached mesh, bytes (a binary STL of 200,000 triangles is 10 MB).
+MAX_MESH_BYTES = 16 << 20
+#: Largest number of triangles of an attached STL mesh (loading costs ~0.5 ms a face).
+MAX_MESH_TRIANGLES = 200_000
+#: A node with more endpoints (publishers, subscriptions, services) than this leaves without
+#: deleting them one by one once its recording is final (Fast DDS deletes them in superlinear
+#: time: 1,500 publishers 0.4 s, 6,000 publishers 3.6 s).
+TEARDOWN_ENDPOINTS = 1000
+#: Body-steps per compiled call of the node and of replay (~0.1 s at 1 us per body-step).
+STEP_CHUNK_BODY_STEPS = 100_000
+
+_MAGIC = b'\x89MCAP0\r\n'
+_CHUNK = 0x06
+_RECORD = struct.Struct('<BQ')
+_CHUNK_HEAD = struct.Struct('<QQQ')  # message start, message end, uncompressed size
+
+
+def step_chunk(n_bodies):
+    """Return the most steps one compiled call may take for a world of ``n_bodies`` bodies."""
+    return max(1, STEP_CHUNK_BODY_STEPS // max(1, int(n_bodies)))
+
+
+def mcap_files(path):
+    """Return the ``.mcap`` files of a bag directory or the file itself."""
+    if os.path.isdir(path):
+        return sorted(os.path.join(path, name) for name in os.listdir(path)
+                      if name.endswith('.mcap'))
+    return [path]
+
+
+def check_mcap_chunks(path):
+    """
+    Refuse an MCAP file with a chunk that declares more than :data:`MAX_CHUNK_BYTES`.
+
+    Reads only the record headers (opcode, length and a chunk's first 24 bytes), seeking over
+    the contents, so it costs a few reads per chunk whatever the chunks declare.
+
+    :raises RecordingError: naming the file, the chunk's offset and its declared size.
+    """
+    for name in mcap_files(path):
+        try:
+            size = os.path.getsize(name)
+            stream = open(name, 'rb')
+        except OSError:
+            continue  # the reader reports an unreadable file in its own words
+        with stream:
+            _check_chunks(stream, name, size)
+
+
+def _check_chunks(f, name, size):
+    if f.read(len(_MAGIC)) != _MAGIC:
+        return  # not MCAP: the reader says so in its own words
+    offset = len(_MAGIC)
+    while offset + _RECORD.size <= size:
+        f.seek(offset)
+        opcode, length = _RECORD.unpack(f.read(_RECORD.size))
+        if opcode == _CHUNK and length >= _CHUNK_HEAD.size:
+            _, _, uncompressed = _CHUNK_HEAD.unpack(f.read(_CHUNK_HEAD.size))
+            if uncompressed > MAX_CHUNK_BYTES:
+                raise RecordingError(
+                    f'{name}: the chunk at byte {offset} declares an uncompressed size of '
+                    f'{uncompressed} bytes, more than the limit of {MAX_CHUNK_BYTES} bytes '
+                    '(rbd_ros.limits.MAX_CHUNK_BYTES)')
+        if opcode == 0x02 or length > size:  # the footer, or a length past the end
+            return
+        offset += _RECORD.size + length
+
+
+def stl_triangles(data):
+    """Return the triangles of STL bytes: a binary file's declared count, an ASCII's facets."""
+    declared = struct.unpack_from('<I', data, 80)[0] if len(data) >= 84 else 0
+    if data[:5].lower() == b'solid' and 84 + 50 * declared != len(data):
+        return data.count(b'facet normal')
+    return declared
+
+
+def check_steps(bag):
+    """
+    Refuse a recording whose replay would take more steps than the limits allow.
+
+    The steps: the last log time over the recorded step, times the bodies.
+
+    :param bag: an opened :class:`rbd_ros.recording.Bag`.
+    :raises RecordingError: naming ``timestep_s``, its value, the steps and the limits.
+    """
+    config = bag.config or {}
+    timestep_s = config.get('timestep_s')
+    if isinstance(timestep_s, (int, float)) and timestep_s > 0 and bag.end_ns:
+        steps = bag.end_ns / (timestep_s * 1e9)
+        bodies = max(1, len(config.get('bodies') or ()))
+        if steps > MAX_REPLAY_STEPS or steps * bodies > MAX_REPLAY_BODY_STEPS:
+            raise RecordingError(
+                f'{bag.mcap_path}: timestep_s = {timestep_s:g} s up to the last message at '
+                f'{bag.end_ns} ns is {steps:.3g} steps of {bodies} bodies, more than the limit '
+                f'of {MAX_REPLAY_STEPS} steps and {MAX_REPLAY_BODY_STEPS} body-steps '
+                '(rbd_ros.limits.MAX_REPLAY_STEPS, MAX_REPLAY_BODY_STEPS)')
+
+
+def check_bag(bag, steps=True):
+    """
+    Refuse a recording that asks for more work than the limits allow, before doing any.
+
+    Checks the attached meshes' sizes and triangle counts and, with ``steps``, the steps to
+    replay (:func:`check_steps`; replay checks them after its own time checks, which say more
+    precisely what is wrong with a log time).
+
+    :param bag: an opened :class:`rbd_ros.recording.Bag`.
+    :raises RecordingError: naming the field, its value and unit, and the limit.
+    """
+    if steps:
+        check_steps(bag)
+    for name, data in bag.attachments().items():
+        if len(data) > MAX_MESH_BYTES:
+            raise RecordingError(
+                f'{bag.mcap_path}: attached mesh {name!r} is {len(data)} bytes, more than the '
+                f'limit of {MAX_MESH_BYTES} bytes (rbd_ros.limits.MAX_MESH_BYTES)')
+        if name.lower().endswith('.stl'):
+            triangles = stl_triangles(data)
+            if triangles > MAX_MESH_TRIANGLES:
+                raise RecordingError(
+                    f'{bag.mcap_path}: attached mesh {name!r} has {triangles} triangles, more '
+                    f'than the limit of {MAX_MESH_TRIANGLES} '
+                    '(rbd_ros.limits.MAX_MESH_TRIANGLES)')
