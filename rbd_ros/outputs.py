@@ -274,8 +274,8 @@ class WorldSampleBuilder:
 
     Per body ``<name>/pose``, ``<name>/twist``, ``<name>/odom`` and ``<name>/contact_wrench``
     (each body's :class:`SampleBuilder`, its frame its ``body_frame``); then ``poses``
-    (``geometry_msgs/PoseArray``: every body's pose in ``body_names`` order, world frame), ``clock``
-    and one ``tf`` message holding world → body for every body.
+    (``geometry_msgs/PoseArray``: every body's pose in ``body_names`` order, world frame),
+    ``clock`` and one ``tf`` message holding world → body for every body.
 
     :param config: a world :class:`rbd_ros.config.NodeConfig`.
     :param tf: False leaves ``/tf`` out (tf2_msgs missing).

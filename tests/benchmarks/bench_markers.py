@@ -53,7 +53,7 @@ def world_params(count, mesh_path):
     """Return the params of ``count`` bodies of the mesh at ``mesh_path`` (or balls) in a grid."""
     side = int(count ** 0.5 + 0.999)
     names = [f'b{i}' for i in range(count)]
-    params = {'gravity': [0.0, 0.0, 0.0], 'ground.enabled': True, 'bodies': names,
+    params = {'gravity': [0.0, 0.0, 0.0], 'ground.enabled': True, 'body_names': names,
               'publish_rate_hz': 100.0, 'timestep_s': 0.005, 'real_time_factor': 1.0}
     for i, name in enumerate(names):
         if mesh_path:

@@ -413,7 +413,7 @@ def _markers_received(start_node, params):
 def _mesh_world(path, count=3):
     """``count`` bodies of the mesh at ``path`` floating 1 m above a floor (no gravity)."""
     names = [f'm{i}' for i in range(count)]
-    params = {'ground.enabled': True, 'gravity': [0.0, 0.0, 0.0], 'bodies': names,
+    params = {'ground.enabled': True, 'gravity': [0.0, 0.0, 0.0], 'body_names': names,
               'publish_rate_hz': 20.0, 'real_time_factor': 1.0}
     for i, name in enumerate(names):
         params[f'bodies.{name}.mesh_path'] = str(path)

@@ -83,7 +83,7 @@ def test_signal_during_mesh_loading_ends_the_node_at_once(start_node, tmp_path, 
 
 
 def _world_of(n):
-    params = {'bodies': [f'b{i}' for i in range(n)], 'gravity': [0.0, 0.0, 0.0],
+    params = {'body_names': [f'b{i}' for i in range(n)], 'gravity': [0.0, 0.0, 0.0],
               'duration_s': 0.01}
     for i in range(n):
         params[f'bodies.b{i}.shape'] = 'sphere'
