@@ -171,6 +171,10 @@ PARAMETERS = (
     ParamSpec('max_torque_nm', DOUBLE, 1e6, 'N·m',
               'Wrenches with a larger |torque| are rejected and counted.', (0.0, _BIG),
               rule='> 0'),
+    ParamSpec('max_drag_point_m', DOUBLE, 1e3, 'm',
+              'Drag and /clicked_point points with a larger |point| (world frame) are rejected '
+              'and counted; drag springs obey max_force_n and max_torque_nm too.', (0.0, _BIG),
+              rule='> 0'),
     ParamSpec('wrench_inputs', STRING_ARRAY, (), '',
               'Names of extra wrench inputs, each with wrench_inputs.<name>.topic, .frame and '
               '.point_b.', rule='distinct names of letters, digits and _'),
@@ -978,7 +982,7 @@ def _limits_and_recording(values):
     p = PARAMETERS_BY_NAME
     if values['record_on_error'] not in ('continue', 'stop'):
         _fail(p['record_on_error'], values['record_on_error'], "must be 'continue' or 'stop'")
-    for name in ('max_force_n', 'max_torque_nm'):
+    for name in ('max_force_n', 'max_torque_nm', 'max_drag_point_m'):
         if not values[name] > 0.0:
             _fail(p[name], values[name], 'must be > 0')
     _vector3(p['drag_point_b'], values['drag_point_b'])
