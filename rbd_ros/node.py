@@ -243,6 +243,9 @@ class RigidBodyNode(Node):
         """Refuse an invalid input topic or one that resolves to an output or another input."""
         kinds = self._world_output_kinds() if self.config.world else OUTPUT_TOPICS
         outputs = {self.resolve_topic_name(topic) for topic in kinds}
+        names = [f'{b.name}/drag' for b in self.config.bodies] if self.config.world else ['drag']
+        drags = {self.resolve_topic_name(name): name for name in names}
+        drags['/clicked_point'] = CLICKED_POINT
         seen = {}
         for spec in self.config.wrench_inputs:
             body, _, name = spec.name.rpartition('/')
@@ -255,6 +258,9 @@ class RigidBodyNode(Node):
                 raise ConfigError(f'{what}: not a valid topic name ({_rcl_text(exc)})') from None
             if resolved in outputs:
                 raise ConfigError(f'{what}: resolves to {resolved}, an output of this node')
+            if resolved in drags:
+                raise ConfigError(f'{what}: resolves to {resolved}, the drag input '
+                                  f'{drags[resolved]!r} (PointStamped, not WrenchStamped)')
             if resolved in seen:
                 raise ConfigError(f'{what}: resolves to {resolved}, the topic of wrench input '
                                   f'{seen[resolved]!r} (it would count every wrench twice)')
@@ -320,11 +326,12 @@ class RigidBodyNode(Node):
                     'durability': qos.durability.name.lower()})
             for name, value in sorted(self.config.parameters.items()):
                 if name.endswith('mesh_path') and value:  # the meshes, so replay needs no files
-                    with open(cfg.resolve_mesh_path(value, name), 'rb') as mesh:
-                        recorder.add_file(value, mesh.read(), 'model/stl' if value.lower()
-                                          .endswith('.stl') else 'application/octet-stream')
+                    # a regular file within cfg.MAX_MESH_FILE_BYTES, as config checked it
+                    recorder.add_file(value, cfg.read_mesh_file(value, name), 'model/stl' if
+                                      value.lower().endswith('.stl') else
+                                      'application/octet-stream')
             recorder.flush()  # a full disk fails here, at start (exit 2), not mid-run
-        except RecordingError:
+        except RbdError:
             recorder.close()
             raise
         self._recorder = recorder
