@@ -798,13 +798,18 @@ def resolve_mesh_path(path, field):
                      f'the ament index (source its workspace) nor in {share}')
 
 
-def _open_mesh_file(path, field):
-    """Open ``path`` (a resolved ``field``) without blocking; return ``(fd, size in bytes)``."""
+def _open_mesh_file(value, field):
+    """
+    Open the file of ``field = value`` without blocking; return ``(fd, size in bytes)``.
+
+    :raises ModelError: it does not exist, is not a regular file or is too big.
+    """
+    path = resolve_mesh_path(value, field)
+    where = f'parameter {field} = {value!r}: {path!r}'
     try:
         fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, 'O_CLOEXEC', 0))
     except OSError as exc:
-        raise ModelError(f'parameter {field} = {path!r}: cannot open it '
-                         f'({exc.strerror})') from None
+        raise ModelError(f'{where} does not exist or is not a file ({exc.strerror})') from None
     info = os.fstat(fd)
     problem = None
     if not stat.S_ISREG(info.st_mode):
@@ -814,33 +819,31 @@ def _open_mesh_file(path, field):
                    'bytes')
     if problem:
         os.close(fd)
-        raise ModelError(f'parameter {field} = {path!r}: {problem}')
-    return fd, info.st_size
+        raise ModelError(f'{where} {problem}')
+    return path, fd
 
 
-def mesh_file(path, field):
+def mesh_file(value, field):
     """
-    Return the resolved file of the ``*mesh_path`` parameter ``field`` after checking it.
+    Return the resolved file of the ``*mesh_path`` parameter ``field = value`` after checking it.
 
     It must be a regular file (never a FIFO, a device such as ``/dev/zero``, a directory) of at
     most :data:`MAX_MESH_FILE_BYTES` bytes.
 
     :raises ModelError: one line naming ``field``, its value and the reason.
     """
-    file_path = resolve_mesh_path(path, field)
-    fd, _ = _open_mesh_file(file_path, field)
+    path, fd = _open_mesh_file(value, field)
     os.close(fd)
-    return file_path
+    return path
 
 
-def read_mesh_file(path, field):
+def read_mesh_file(value, field):
     """Return the bytes of the ``*mesh_path`` parameter ``field`` (checked as by mesh_file)."""
-    file_path = resolve_mesh_path(path, field)
-    fd, _ = _open_mesh_file(file_path, field)
+    _, fd = _open_mesh_file(value, field)
     with os.fdopen(fd, 'rb') as stream:
         data = stream.read(MAX_MESH_FILE_BYTES + 1)
     if len(data) > MAX_MESH_FILE_BYTES:
-        raise ModelError(f'parameter {field} = {path!r}: more than the limit of '
+        raise ModelError(f'parameter {field} = {value!r}: more than the limit of '
                          f'{MAX_MESH_FILE_BYTES} bytes')
     return data
 

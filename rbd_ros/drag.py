@@ -93,7 +93,7 @@ class DragInputs:
         self.received = 0
         self.rejected = dict.fromkeys(DRAG_REJECT_REASONS, 0)
         self._pending = {}  # input_name -> (frame_id, point, tag): the latest, arrival order
-        self.last_rejection = None  # message of the last point rejected when taking effect
+        self.last_rejection = None  # the last WrenchRejected raised when a point took effect
         self._held = {}  # body index -> Spring
         self._click = ('idle', None)  # ('grabbed', i) after a grab, ('moved', i) after a move
 
@@ -148,7 +148,7 @@ class DragInputs:
         At the start of the step beginning at ``time_ns``, apply the queued points in order.
 
         A point whose spring would exceed the load limits is rejected here and counted
-        (:attr:`last_rejection` holds its message); it is not an event.
+        (:attr:`last_rejection` holds the :class:`WrenchRejected`); it is not an event.
 
         :param states: a callable ``i -> (position_w, orientation_wb, velocity_w, omega_b)`` of
             body ``i`` now (m, ``(w, x, y, z)``, m/s, rad/s in body coordinates).
@@ -172,7 +172,7 @@ class DragInputs:
                     changed.add(index)
             except WrenchRejected as exc:
                 self.rejected[exc.reason] += 1
-                self.last_rejection = str(exc)
+                self.last_rejection = exc
                 continue
             events.append(AppliedEvent(time_ns, input_name, frame_id, point, (0.0, 0.0, 0.0),
                                        None, tag))

@@ -427,6 +427,9 @@ class RigidBodyNode(Node):
             if deadline_ns is not None and report.steps:
                 self._step_wall_ns = max(1, (time.monotonic_ns() - start_ns) // report.steps)
             self._record_events(report.events)
+            rejected, self.session.drags.last_rejection = self.session.drags.last_rejection, None
+            if rejected is not None:  # a point over max_force_n / max_torque_nm at its step
+                self._warn_rejected('drag point', rejected)
             if report.sample_due:
                 self._publish_sample()
             if self.session.finished and not manual:
@@ -552,22 +555,25 @@ class RigidBodyNode(Node):
         try:
             submit()
         except WrenchRejected as exc:
-            # Counted by the session; warned at most once a second, throttled here with one
-            # clock read: rclpy's own throttle inspects the caller's frame and reads its source
-            # file on every call, even when it drops the message, so a flood of bad wrenches
-            # used to stall the node.
-            now = time.monotonic_ns()
-            if now < self._warn_after_ns:
-                self._unwarned += 1
-                return
-            self._warn_after_ns = now + self.REJECT_WARN_PERIOD_NS
-            more = f' ({self._unwarned} more since the last warning, see /diagnostics)' \
-                if self._unwarned else ''
-            self._unwarned = 0
-            self.get_logger().warning(f'{what} rejected ({exc.reason}): {exc}{more}')
+            self._warn_rejected(what, exc)
             return
         if self._rtf > 0:  # run a step that became due since the last tick now: less latency
             self.tick()
+
+    def _warn_rejected(self, what, exc):
+        """Warn of a rejected input (already counted by the session), at most once a second."""
+        # Throttled here with one clock read: rclpy's own throttle inspects the caller's frame
+        # and reads its source file on every call, even when it drops the message, so a flood
+        # of bad wrenches used to stall the node.
+        now = time.monotonic_ns()
+        if now < self._warn_after_ns:
+            self._unwarned += 1
+            return
+        self._warn_after_ns = now + self.REJECT_WARN_PERIOD_NS
+        more = f' ({self._unwarned} more since the last warning, see /diagnostics)' \
+            if self._unwarned else ''
+        self._unwarned = 0
+        self.get_logger().warning(f'{what} rejected ({exc.reason}): {exc}{more}')
 
     def _on_reset(self, request, response):
         self.session.reset()

@@ -89,6 +89,7 @@ def test_far_points_and_over_limit_springs_are_rejected_and_counted(start_node, 
     # so c ẋ = 0): rejected when it takes effect, at the next step start.
     drag.publish(_point(0.5, 0.0, 0.3))
     assert _counters(probe, 3) == (3, 2)
+    time.sleep(1.1)  # the node warns of rejections at most once a second: let this one through
     probe.step()
     assert probe.diagnostic_values(lambda v: int(v['drags_rejected']) == 3, 60.0)
     t = probe.step(10)
@@ -100,6 +101,9 @@ def test_far_points_and_over_limit_springs_are_rejected_and_counted(start_node, 
     t = probe.step(20)
     assert conversions.vector_from_msg(probe.samples['pose'][t].pose.position)[0] > 0.0
     assert node.stop() == 0, node.stderr
+    assert 'drag point rejected (distance): drag: |point| = 1e+09 m exceeds max_drag_point_m' \
+        in node.stderr
+    assert 'drag point rejected (force_limit): drag: |force| = 28.5' in node.stderr
 
 
 def test_a_paused_node_keeps_only_the_latest_point_per_input(tmp_path, start_node, probe_for):
