@@ -106,6 +106,22 @@ def test_far_points_and_over_limit_springs_are_rejected_and_counted(start_node, 
     assert 'drag point rejected (force_limit): drag: |force| = 28.5' in node.stderr
 
 
+def test_a_click_whose_spring_torque_exceeds_max_torque_nm_is_rejected(start_node, probe_for):
+    node, probe, drag, click = _start(start_node, probe_for, {'max_torque_nm': 0.01})
+    click.publish(_point(0.0, 0.0, 0.05))  # on the top face: grabbed there, at r = 0.025 m z
+    assert _counters(probe, 1) == (1, 0)
+    probe.step()  # a zero-length spring on a body at rest: f = 0, accepted
+    # The move: f = k (0.5, 0, 0) m = (25, 0, 0) N at r = (0, 0, 0.025) m, |r × f| = 0.625 N·m
+    # > max_torque_nm = 0.01 N·m (|f| = 25 N is within max_force_n = 1e6 N).
+    click.publish(_point(0.5, 0.0, 0.05))
+    assert _counters(probe, 2) == (2, 0)
+    probe.step()
+    assert probe.diagnostic_values(lambda v: int(v['drags_rejected']) == 1, 60.0)
+    assert node.stop() == 0, node.stderr
+    assert 'drag point rejected (torque_limit): clicked_point: |torque| = 0.625 N·m' \
+        in node.stderr
+
+
 def test_a_paused_node_keeps_only_the_latest_point_per_input(tmp_path, start_node, probe_for):
     node, probe, drag, click = _start(start_node, probe_for,
                                       {'record_path': str(tmp_path / 'flood')})
