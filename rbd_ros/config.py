@@ -41,6 +41,8 @@ array parameters.
 from dataclasses import dataclass, replace as dataclass_replace
 import math
 import os
+import stat
+import sys
 
 import numpy as np
 
@@ -65,6 +67,20 @@ FRAME_KEYWORDS = ('world', 'body')
 
 #: Name of the main wrench input (topic ``wrench``) in :class:`rbd_ros.inputs.WrenchInputs`.
 MAIN_INPUT = 'wrench'
+
+#: Most bodies a world may have (``bodies``): start-up checks and the contact step are measured
+#: up to 1000 bodies; far more makes start-up take minutes.
+MAX_BODIES = 5000
+
+#: Largest ``dimensions_m`` value and ``mesh_scale`` factor accepted (m, and 1): beyond it the
+#: inertia (``m d²``) and contact tolerances leave double precision's useful range.
+MAX_SIZE = 1e6
+
+_FMT_ITEMS = 8  # a listed value longer than this is cut in messages (one bounded line)
+_FMT_CHARS = 200
+
+#: Largest ``*mesh_path`` file accepted (read to build the shape, and embedded in a recording).
+MAX_MESH_FILE_BYTES = 64 * 1024 * 1024
 
 #: The box used when neither ``inertia`` nor ``shape`` is given (same as msg_config/default.yaml).
 DEFAULT_SHAPE = 'box'
@@ -170,6 +186,10 @@ PARAMETERS = (
               rule='> 0'),
     ParamSpec('max_torque_nm', DOUBLE, 1e6, 'N·m',
               'Wrenches with a larger |torque| are rejected and counted.', (0.0, _BIG),
+              rule='> 0'),
+    ParamSpec('max_drag_point_m', DOUBLE, 1e3, 'm',
+              'Drag and /clicked_point points with a larger |point| (world frame) are rejected '
+              'and counted; drag springs obey max_force_n and max_torque_nm too.', (0.0, _BIG),
               rule='> 0'),
     ParamSpec('wrench_input_names', STRING_ARRAY, (), '',
               'Names of extra wrench inputs, each with wrench_inputs.<name>.topic, .frame and '
@@ -403,8 +423,14 @@ class WrenchInputSpec:
 
 
 def _fmt(value):
+    """Format a parameter value for a one-line message; a list longer than 8 is cut."""
     if isinstance(value, (list, tuple, np.ndarray)):
+        if len(value) > _FMT_ITEMS:
+            return ('[' + ', '.join(_fmt(v) for v in value[:3])
+                    + f', ... ({len(value)} values)]')
         return '[' + ', '.join(_fmt(v) for v in value) + ']'
+    if isinstance(value, str) and len(value) > _FMT_CHARS:
+        return repr(value[:_FMT_CHARS]) + f'... ({len(value)} characters)'
     if isinstance(value, float):
         return repr(value)
     return repr(value)
@@ -698,6 +724,9 @@ def _body_values(values, params):
     Returns ``{body: its extra input names}`` (empty without ``body_names``).
     """
     names = values['body_names']
+    if len(names) > MAX_BODIES:
+        _fail(PARAMETERS_BY_NAME['body_names'], list(names),
+              f'{len(names)} bodies exceed the limit of {MAX_BODIES}')
     _check_names(PARAMETERS_BY_NAME['body_names'], names, 'body')
     out = {}
     for name in names:
@@ -784,10 +813,14 @@ def resolve_mesh_path(path, field):
     """
     Return ``path`` as a file path: ``package://<pkg>/rest`` against ``<pkg>``'s share.
 
-    The share directory comes from the ament index (an installed or sourced workspace); for
-    ``rbd_ros`` itself run from a source tree (no ament index entry), the source tree's root,
-    which holds the same ``msg_config/`` files.  Relative paths stay relative (to the working
-    directory; a params file's relative paths were made absolute when it was read).
+    The share directory is, in this order: the ament index's (an installed or sourced
+    workspace); the installed share of this Python environment, ``<sys.prefix>/share/<pkg>``
+    (where ``pip install`` puts this package's data files); for ``rbd_ros`` itself run from a
+    source tree, the source tree's root, which holds the same ``msg_config/`` files.  Relative
+    paths stay relative (to the working directory; a params file's relative paths were made
+    absolute when it was read).
+
+    :raises ModelError: one line naming the parameter ``field`` when no share has the package.
     """
     prefix = 'package://'
     if not path.startswith(prefix):
@@ -797,16 +830,70 @@ def resolve_mesh_path(path, field):
         from ament_index_python.packages import get_package_share_directory
         return os.path.join(get_package_share_directory(package), rest)
     except (ImportError, LookupError, ValueError, OSError):  # OSError: no AMENT_PREFIX_PATH
-        if package == 'rbd_ros':
-            return os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
-                                rest)
-    raise ModelError(f'parameter {field} = {path!r}: package {package!r} is not found in the '
-                     'ament index (source its workspace)')
+        pass
+    share = os.path.join(sys.prefix, 'share', package)
+    if package and os.path.isfile(os.path.join(share, 'package.xml')):
+        return os.path.join(share, rest)
+    source = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    if package == 'rbd_ros' and os.path.isfile(os.path.join(source, 'package.xml')):
+        return os.path.join(source, rest)
+    raise ModelError(f'parameter {field} = {path!r}: package {package!r} is found neither in '
+                     f'the ament index (source its workspace) nor in {share}')
+
+
+def _open_mesh_file(value, field):
+    """
+    Open the file of ``field = value`` without blocking; return ``(fd, size in bytes)``.
+
+    :raises ModelError: it does not exist, is not a regular file or is too big.
+    """
+    path = resolve_mesh_path(value, field)
+    where = f'parameter {field} = {value!r}: {path!r}'
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, 'O_CLOEXEC', 0))
+    except OSError as exc:
+        raise ModelError(f'{where} does not exist or is not a file ({exc.strerror})') from None
+    info = os.fstat(fd)
+    problem = None
+    if not stat.S_ISREG(info.st_mode):
+        problem = 'is not a regular file (a mesh file is read whole)'
+    elif info.st_size > MAX_MESH_FILE_BYTES:
+        problem = (f'is {info.st_size} bytes, more than the limit of {MAX_MESH_FILE_BYTES} '
+                   'bytes')
+    if problem:
+        os.close(fd)
+        raise ModelError(f'{where} {problem}')
+    return path, fd
+
+
+def mesh_file(value, field):
+    """
+    Return the resolved file of the ``*mesh_path`` parameter ``field = value`` after checking it.
+
+    It must be a regular file (never a FIFO, a device such as ``/dev/zero``, a directory) of at
+    most :data:`MAX_MESH_FILE_BYTES` bytes.
+
+    :raises ModelError: one line naming ``field``, its value and the reason.
+    """
+    path, fd = _open_mesh_file(value, field)
+    os.close(fd)
+    return path
+
+
+def read_mesh_file(value, field):
+    """Return the bytes of the ``*mesh_path`` parameter ``field`` (checked as by mesh_file)."""
+    _, fd = _open_mesh_file(value, field)
+    with os.fdopen(fd, 'rb') as stream:
+        data = stream.read(MAX_MESH_FILE_BYTES + 1)
+    if len(data) > MAX_MESH_FILE_BYTES:
+        raise ModelError(f'parameter {field} = {value!r}: more than the limit of '
+                         f'{MAX_MESH_FILE_BYTES} bytes')
+    return data
 
 
 def _mesh(spec_path, spec_scale, path, scale):
     """Load the mesh of a ``*mesh_path`` parameter, errors naming the parameter."""
-    file_path = resolve_mesh_path(path, spec_path.name)
+    file_path = mesh_file(path, spec_path.name)
     field = spec_path.name[:-len('mesh_path')]
     try:
         return load_mesh(file_path, scale, field=field)
@@ -817,10 +904,21 @@ def _mesh(spec_path, spec_scale, path, scale):
         _fail(blamed, value, message.split(': ', 1)[-1] if ': ' in message else message)
 
 
+def _check_sizes(dims_spec, dims, scale_spec, scale):
+    """Refuse a ``dimensions_m`` or ``mesh_scale`` value that is not finite or above MAX_SIZE."""
+    if any(not math.isfinite(v) or abs(v) > MAX_SIZE for v in dims):
+        _fail(dims_spec, dims, f'every size must be finite and at most {MAX_SIZE:g} m',
+              ModelError)
+    if len(scale) != 3 or any(not (0.0 < v <= MAX_SIZE) for v in scale):
+        _fail(scale_spec, scale, f'must be 3 factors in (0, {MAX_SIZE:g}]', ModelError)
+
+
 def _collision_shape(values):
     """Return the body's collision shape: the mesh, the (default) primitive, or None."""
     p = PARAMETERS_BY_NAME
     shape, path = values['shape'], values['mesh_path']
+    _check_sizes(p['dimensions_m'], values['dimensions_m'], p['mesh_scale'],
+                 values['mesh_scale'])
     if path:
         if values['inertia']:
             raise ModelError(
@@ -896,15 +994,29 @@ def _static_world(values, obstacle_names):
         specs = {spec.name.rsplit('.', 1)[1]: spec for spec in obstacle_parameter_specs(name)}
         get = {key: values[spec.name] for key, spec in specs.items()}
         q_wxyz = _unit_quaternion(specs['orientation'], get['orientation'])
+        _check_sizes(specs['dimensions_m'], get['dimensions_m'], specs['mesh_scale'],
+                     get['mesh_scale'])
         _vector3(specs['position'], get['position'])
         if get['shape'] == 'mesh':
             if not get['mesh_path']:
                 _fail(specs['mesh_path'], '', "must be a mesh file when shape is 'mesh'")
-            resolved = resolve_mesh_path(get['mesh_path'], specs['mesh_path'].name)
+            if get['dimensions_m']:
+                _fail(specs['dimensions_m'], get['dimensions_m'],
+                      "is not used by shape 'mesh' (its size is the file's times mesh_scale)",
+                      ModelError)
+            resolved = mesh_file(get['mesh_path'], specs['mesh_path'].name)
         elif get['shape'] not in PRIMITIVES:
             _fail(specs['shape'], get['shape'],
                   'must be one of ' + ', '.join(PRIMITIVES) + ' or mesh', ModelError)
         else:
+            if get['mesh_path']:
+                _fail(specs['mesh_path'], get['mesh_path'],
+                      f"is not used by shape {get['shape']!r}: only shape 'mesh' takes a file",
+                      ModelError)
+            if tuple(get['mesh_scale']) != tuple(specs['mesh_scale'].default):
+                _fail(specs['mesh_scale'], get['mesh_scale'],
+                      f"is not used by shape {get['shape']!r}: only shape 'mesh' is scaled",
+                      ModelError)
             resolved = None
         try:
             obstacles.append(obstacle(
@@ -1021,7 +1133,7 @@ def _limits_and_recording(values):
     p = PARAMETERS_BY_NAME
     if values['record_on_error'] not in ('continue', 'stop'):
         _fail(p['record_on_error'], values['record_on_error'], "must be 'continue' or 'stop'")
-    for name in ('max_force_n', 'max_torque_nm'):
+    for name in ('max_force_n', 'max_torque_nm', 'max_drag_point_m'):
         if not values[name] > 0.0:
             _fail(p[name], values[name], 'must be > 0')
     _vector3(p['drag_point_b'], values['drag_point_b'])
@@ -1092,6 +1204,38 @@ def _step_once(config):
     make_simulator(config).step(1)
 
 
+def _finite_with(params, overrides):
+    """Return whether the first step is finite with ``overrides`` applied to ``params``."""
+    try:
+        _step_once(NodeConfig.from_parameters({**params, **overrides}))
+    except (ModelError, ConfigError, NonFiniteError):
+        return False
+    return True
+
+
+def _blame_world_body(params, reason):
+    """
+    Raise naming the ``bodies.<name>.<suspect>`` whose default makes the first step finite.
+
+    For each suspect, all bodies' values go back to the default at once; if that helps, halving
+    finds the body (``S + S log2 N`` trial steps at most). Returns if no single one is to blame.
+    """
+    for suspect in _FIRST_STEP_SUSPECTS:
+        spec = PARAMETERS_BY_NAME[suspect]
+        default = list(spec.default) if isinstance(spec.default, tuple) else spec.default
+        names = [f'bodies.{body}.{suspect}' for body in params.get('body_names', ())
+                 if params.get(f'bodies.{body}.{suspect}', default) != default]
+        if not names or not _finite_with(params, dict.fromkeys(names, default)):
+            continue
+        while len(names) > 1:
+            half = names[:len(names) // 2]
+            names = half if _finite_with(params, dict.fromkeys(half, default)) else \
+                names[len(names) // 2:]
+        unit = f' {spec.unit}' if spec.unit else ''
+        raise ConfigError(f'parameter {names[0]} = {_fmt(params[names[0]])}{unit}: the first '
+                          f'physics step is not finite ({reason})')
+
+
 def check_first_step(config):
     """
     Take one physics step from the initial state on a throw-away simulator.
@@ -1109,6 +1253,8 @@ def check_first_step(config):
     except NonFiniteError as exc:
         reason = str(exc)
     params = config.to_parameters()
+    if config.world:
+        _blame_world_body(params, reason)
     for name in _FIRST_STEP_SUSPECTS:
         spec = PARAMETERS_BY_NAME[name]
         default = list(spec.default) if isinstance(spec.default, tuple) else spec.default

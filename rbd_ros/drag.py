@@ -21,7 +21,8 @@ world frame id or empty; anything else is rejected and counted, reason ``'frame'
 - ``drag`` (``<body>/drag`` in a world) moves the anchor of the body's drag spring to the
   point; a body not yet held is grabbed at its ``drag_point_b`` (body frame, from the COM). A
   point with NaN coordinates releases it; other non-finite values are rejected
-  (``'non_finite'``).
+  (``'non_finite'``), and a point farther than ``max_drag_point_m`` from the world origin
+  (``|point| > max_drag_point_m``) is rejected (``'distance'``).
 - ``/clicked_point``, what the Publish Point tools of RViz and Foxglove send. Clicks alternate:
   a click on or near a body (its surface within ``drag_click_radius_m``) grabs it exactly
   there (the spring starts at zero length); the next click, anywhere, moves the anchor there;
@@ -34,6 +35,16 @@ wrenches, drags are events: queued when received, applied at the start of the ne
 (where a click is resolved against the state at that time), and reported as
 :class:`rbd_ros.inputs.AppliedEvent` (the point in ``force``, ``torque`` zero) so the node
 records them and replay re-drives them bit for bit.
+
+Between two step starts only the latest point of each input is kept (a later one replaces it,
+as a later wrench replaces a pending one), so a paused node holds at most one point per input.
+
+A drag obeys the wrench limits (:func:`rbd_ros.inputs.check_limits`): when a point takes effect,
+the spring force it would exert at that step start, ``f = −k d − c ẋ``, and its torque about the
+COM, ``r × f``, must satisfy ``|f| <= max_force_n`` and ``|r × f| <= max_torque_nm``; otherwise
+the point is rejected and counted (``'force_limit'``, ``'torque_limit'``) and the drag stays as it
+was. Like a wrench, it is checked once, when it takes effect; the spring then pulls the body
+towards the anchor, so its force falls.
 """
 
 import math
@@ -41,12 +52,13 @@ import math
 import numpy as np
 from rbd_ros.core import Spring
 from rbd_ros.core.rotations import quat_to_matrix
-from rbd_ros.inputs import AppliedEvent, WrenchRejected
+from rbd_ros.inputs import AppliedEvent, check_limits, WrenchRejected
 
 #: The input name of ``/clicked_point``.
 CLICKED_POINT = 'clicked_point'
 #: Rejection reasons of drag inputs.
-DRAG_REJECT_REASONS = ('unknown_input', 'frame', 'non_finite')
+DRAG_REJECT_REASONS = ('unknown_input', 'frame', 'non_finite', 'distance', 'force_limit',
+                       'torque_limit')
 
 
 class DragInputs:
@@ -60,10 +72,14 @@ class DragInputs:
     :param stiffness_n_per_m: ``k`` >= 0, N/m.
     :param damping_n_s_per_m: ``c`` >= 0, N·s/m.
     :param click_radius_m: how near a body's surface a click must be to grab it, m.
+    :param max_point_m: largest accepted ``|point|``, m (world frame, from the origin).
+    :param max_force_n: largest accepted spring force ``|f|``, N.
+    :param max_torque_nm: largest accepted spring torque ``|r × f|`` about the COM, N·m.
     """
 
     def __init__(self, bodies, *, world_frame, stiffness_n_per_m, damping_n_s_per_m,
-                 click_radius_m):
+                 click_radius_m, max_point_m=math.inf, max_force_n=math.inf,
+                 max_torque_nm=math.inf):
         self._inputs = {name: i for i, (name, _, _) in enumerate(bodies)}
         self._points = [tuple(float(v) for v in point_b) for _, point_b, _ in bodies]
         self._shapes = [shape for _, _, shape in bodies]
@@ -71,9 +87,13 @@ class DragInputs:
         self._k = float(stiffness_n_per_m)
         self._c = float(damping_n_s_per_m)
         self._radius = float(click_radius_m)
+        self._max_point_m = float(max_point_m)
+        self._max_force_n = float(max_force_n)
+        self._max_torque_nm = float(max_torque_nm)
         self.received = 0
         self.rejected = dict.fromkeys(DRAG_REJECT_REASONS, 0)
-        self._pending = []  # (input_name, frame_id, point, tag), in arrival order
+        self._pending = {}  # input_name -> (frame_id, point, tag): the latest, arrival order
+        self.last_rejection = None  # the last WrenchRejected raised when a point took effect
         self._held = {}  # body index -> Spring
         self._click = ('idle', None)  # ('grabbed', i) after a grab, ('moved', i) after a move
 
@@ -112,34 +132,50 @@ class DragInputs:
                 raise WrenchRejected(
                     'non_finite', f'{input_name}: point {list(point)} m is not three finite '
                     'numbers (all NaN releases a drag)')
+            distance_m = 0.0 if release else math.sqrt(sum(v * v for v in point))
+            if distance_m > self._max_point_m:
+                raise WrenchRejected(
+                    'distance', f'{input_name}: |point| = {distance_m:g} m exceeds '
+                    f'max_drag_point_m = {self._max_point_m:g} m')
         except WrenchRejected as exc:
             self.rejected[exc.reason] += 1
             raise
-        self._pending.append((input_name, frame_id, point, tag))
+        self._pending.pop(input_name, None)  # the latest point of an input replaces a queued one
+        self._pending[input_name] = (frame_id, point, tag)
 
     def apply_pending(self, time_ns, states):
         """
         At the start of the step beginning at ``time_ns``, apply the queued points in order.
 
-        :param states: a callable ``i -> (position_w, orientation_wb)`` of body ``i`` now.
+        A point whose spring would exceed the load limits is rejected here and counted
+        (:attr:`last_rejection` holds the :class:`WrenchRejected`); it is not an event.
+
+        :param states: a callable ``i -> (position_w, orientation_wb, velocity_w, omega_b)`` of
+            body ``i`` now (m, ``(w, x, y, z)``, m/s, rad/s in body coordinates).
         :returns: ``(events, changed body indices)``.
         """
         events, changed = [], set()
-        for input_name, frame_id, point, tag in self._pending:
-            if input_name == CLICKED_POINT:
-                changed |= self._on_click(np.array(point), states)
-            else:
-                index = self._inputs[input_name]
-                changed.add(index)
-                if math.isnan(point[0]):
-                    self._held.pop(index, None)
+        pending, self._pending = self._pending, {}
+        for input_name, (frame_id, point, tag) in pending.items():
+            try:
+                if input_name == CLICKED_POINT:
+                    changed |= self._on_click(input_name, np.array(point), states)
                 else:
-                    spring = self._held.get(index)
-                    point_b = self._points[index] if spring is None else spring.point_b
-                    self._held[index] = self._spring(point_b, point)
+                    index = self._inputs[input_name]
+                    if math.isnan(point[0]):
+                        self._held.pop(index, None)
+                    else:
+                        spring = self._held.get(index)
+                        point_b = self._points[index] if spring is None else spring.point_b
+                        self._held[index] = self._checked(input_name, index, point_b, point,
+                                                          states)
+                    changed.add(index)
+            except WrenchRejected as exc:
+                self.rejected[exc.reason] += 1
+                self.last_rejection = exc
+                continue
             events.append(AppliedEvent(time_ns, input_name, frame_id, point, (0.0, 0.0, 0.0),
                                        None, tag))
-        self._pending.clear()
         return events, changed
 
     def springs(self, index):
@@ -156,11 +192,30 @@ class DragInputs:
     def _spring(self, point_b, anchor_w):
         return Spring(point_b, anchor_w, self._k, self._c)
 
+    def _checked(self, input_name, index, point_b, anchor_w, states):
+        """
+        Return the spring of body ``index`` from ``point_b`` to ``anchor_w``, within the limits.
+
+        Its force now is ``f = −k (x − anchor) − c ẋ`` with ``x = p + r``, ``r = R point_b``,
+        ``ẋ = v + R (ω_b × point_b)``; its torque about the COM is ``r × f``.
+
+        :raises WrenchRejected: ``'force_limit'`` or ``'torque_limit'`` (not counted here).
+        """
+        position, orientation, velocity_w, omega_b = states(index)
+        rotation = quat_to_matrix(np.asarray(orientation))
+        point_b = np.asarray(point_b, dtype=float)
+        r_w = rotation @ point_b
+        x_dot = np.asarray(velocity_w) + rotation @ np.cross(np.asarray(omega_b), point_b)
+        force = -self._k * (np.asarray(position) + r_w - np.asarray(anchor_w)) - self._c * x_dot
+        check_limits(input_name, force, np.cross(r_w, force), self._max_force_n,
+                     self._max_torque_nm)
+        return self._spring(point_b, anchor_w)
+
     def _nearest(self, point_w, states):
         """Return ``(body index, point in its body frame)`` of the body nearest the click."""
         best, best_phi, best_b = None, math.inf, None
         for i in range(len(self._points)):
-            position, orientation = states(i)
+            position, orientation = states(i)[:2]
             point_b = quat_to_matrix(np.asarray(orientation)).T @ (point_w
                                                                    - np.asarray(position))
             shape = self._shapes[i]
@@ -170,22 +225,26 @@ class DragInputs:
                 best, best_phi, best_b = i, phi, point_b
         return best, best_b
 
-    def _on_click(self, point_w, states):
+    def _on_click(self, input_name, point_w, states):
+        """Apply one click; a rejected one (limits) changes nothing and raises."""
         state, held = self._click
         if held is not None and held not in self._held:  # released on its drag topic
             state, held = 'idle', None
         changed = set()
         if state == 'grabbed':  # the click after a grab moves the anchor, wherever it is
-            self._held[held] = self._spring(self._held[held].point_b, point_w)
+            self._held[held] = self._checked(input_name, held, self._held[held].point_b,
+                                             point_w, states)
             self._click = ('moved', held)
             return {held}
         index, point_b = self._nearest(point_w, states)
+        grab = None if index is None else self._checked(input_name, index, point_b, point_w,
+                                                        states)
         if state == 'moved':
             self._held.pop(held, None)
             changed.add(held)
             self._click = ('idle', None)
-        if index is not None:
-            self._held[index] = self._spring(point_b, point_w)
+        if grab is not None:
+            self._held[index] = grab
             self._click = ('grabbed', index)
             changed.add(index)
         return changed

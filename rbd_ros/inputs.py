@@ -52,6 +52,30 @@ class WrenchRejected(InputError):
         self.reason = reason
 
 
+def check_limits(topic, force, torque, max_force_n, max_torque_nm):
+    """
+    Raise unless ``|force| <= max_force_n`` and ``|torque| <= max_torque_nm``.
+
+    The one load limit of every input: wrenches, drags and clicks (see :mod:`rbd_ros.drag`).
+
+    :param topic: the input, named in the message.
+    :param force: 3 finite numbers, N.
+    :param torque: 3 finite numbers, N·m (for a drag: ``r × f`` about the COM).
+    :raises WrenchRejected: reason ``'force_limit'`` or ``'torque_limit'``.
+    """
+    # math.hypot scales: |(1e300, 1e300, 0)| is 1.41e300, where a sum of squares is inf.
+    force_n = math.hypot(*(float(v) for v in force))
+    if force_n > max_force_n:
+        raise WrenchRejected(
+            'force_limit', f'{topic}: |force| = {force_n:g} N exceeds max_force_n = '
+            f'{max_force_n:g} N')
+    torque_nm = math.hypot(*(float(v) for v in torque))
+    if torque_nm > max_torque_nm:
+        raise WrenchRejected(
+            'torque_limit', f'{topic}: |torque| = {torque_nm:g} N·m exceeds '
+            f'max_torque_nm = {max_torque_nm:g} N·m')
+
+
 @dataclass(frozen=True)
 class AppliedEvent:
     """
@@ -159,17 +183,7 @@ class WrenchInputs:
             raise WrenchRejected(
                 'non_finite', f'{spec.topic}: force {force} N / torque {torque} N·m is not '
                 'three finite numbers each')
-        # math.hypot scales: |(1e300, 1e300, 0)| is 1.41e300, where a sum of squares is inf.
-        force_n = math.hypot(*force)
-        if force_n > self._max_force_n:
-            raise WrenchRejected(
-                'force_limit', f'{spec.topic}: |force| = {force_n:g} N exceeds max_force_n = '
-                f'{self._max_force_n:g} N')
-        torque_nm = math.hypot(*torque)
-        if torque_nm > self._max_torque_nm:
-            raise WrenchRejected(
-                'torque_limit', f'{spec.topic}: |torque| = {torque_nm:g} N·m exceeds '
-                f'max_torque_nm = {self._max_torque_nm:g} N·m')
+        check_limits(spec.topic, force, torque, self._max_force_n, self._max_torque_nm)
         return AppliedWrench(force=force, torque=torque, frame=frame, point_b=spec.point_b)
 
     def submit(self, input_name, frame_id, force, torque, tag=None):

@@ -123,11 +123,12 @@ def check_steps(bag):
     :param bag: an opened :class:`rbd_ros.recording.Bag`.
     :raises RecordingError: naming ``timestep_s``, its value, the steps and the limits.
     """
-    config = bag.config or {}
+    from rbd_ros.config import recorded_parameters  # today's names, also for an old bag
+    config = recorded_parameters(bag.config or {})
     timestep_s = config.get('timestep_s')
     if isinstance(timestep_s, (int, float)) and timestep_s > 0 and bag.end_ns:
         steps = bag.end_ns / (timestep_s * 1e9)
-        bodies = max(1, len(config.get('bodies') or ()))
+        bodies = max(1, len(config.get('body_names') or ()))
         if steps > MAX_REPLAY_STEPS or steps * bodies > MAX_REPLAY_BODY_STEPS:
             raise RecordingError(
                 f'{bag.mcap_path}: timestep_s = {timestep_s:g} s up to the last message at '

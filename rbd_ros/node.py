@@ -284,6 +284,9 @@ class RigidBodyNode(Node):
         """Refuse an invalid input topic or one that resolves to an output or another input."""
         kinds = self._world_output_kinds() if self.config.world else OUTPUT_TOPICS
         outputs = {self.resolve_topic_name(topic) for topic in kinds}
+        names = [f'{b.name}/drag' for b in self.config.bodies] if self.config.world else ['drag']
+        drags = {self.resolve_topic_name(name): name for name in names}
+        drags['/clicked_point'] = CLICKED_POINT
         seen = {}
         for spec in self.config.wrench_inputs:
             body, _, name = spec.name.rpartition('/')
@@ -296,6 +299,9 @@ class RigidBodyNode(Node):
                 raise ConfigError(f'{what}: not a valid topic name ({_rcl_text(exc)})') from None
             if resolved in outputs:
                 raise ConfigError(f'{what}: resolves to {resolved}, an output of this node')
+            if resolved in drags:
+                raise ConfigError(f'{what}: resolves to {resolved}, the drag input '
+                                  f'{drags[resolved]!r} (PointStamped, not WrenchStamped)')
             if resolved in seen:
                 raise ConfigError(f'{what}: resolves to {resolved}, the topic of wrench input '
                                   f'{seen[resolved]!r} (it would count every wrench twice)')
@@ -383,11 +389,12 @@ class RigidBodyNode(Node):
                     'durability': qos.durability.name.lower()})
             for name, value in sorted(self.config.parameters.items()):
                 if name.endswith('mesh_path') and value:  # the meshes, so replay needs no files
-                    with open(cfg.resolve_mesh_path(value, name), 'rb') as mesh:
-                        recorder.add_file(value, mesh.read(), 'model/stl' if value.lower()
-                                          .endswith('.stl') else 'application/octet-stream')
+                    # a regular file within cfg.MAX_MESH_FILE_BYTES, as config checked it
+                    recorder.add_file(value, cfg.read_mesh_file(value, name), 'model/stl' if
+                                      value.lower().endswith('.stl') else
+                                      'application/octet-stream')
             recorder.flush()  # a full disk fails here, at start (exit 2), not mid-run
-        except RecordingError:
+        except RbdError:
             recorder.close()
             raise
         self._recorder = recorder
@@ -493,6 +500,9 @@ class RigidBodyNode(Node):
                 return
             if deadline_ns is not None and report.steps:
                 self._step_wall_ns = max(1, (time.monotonic_ns() - start_ns) // report.steps)
+            rejected, self.session.drags.last_rejection = self.session.drags.last_rejection, None
+            if rejected is not None:  # a point over max_force_n / max_torque_nm at its step
+                self._warn_rejected('drag point', rejected)
             if report.sample_due:
                 self._publish_sample()
             if self.session.finished and not manual:
@@ -620,22 +630,25 @@ class RigidBodyNode(Node):
         try:
             submit()
         except WrenchRejected as exc:
-            # Counted by the session; warned at most once a second, throttled here with one
-            # clock read: rclpy's own throttle inspects the caller's frame and reads its source
-            # file on every call, even when it drops the message, so a flood of bad wrenches
-            # used to stall the node.
-            now = time.monotonic_ns()
-            if now < self._warn_after_ns:
-                self._unwarned += 1
-                return
-            self._warn_after_ns = now + self.REJECT_WARN_PERIOD_NS
-            more = f' ({self._unwarned} more since the last warning, see /diagnostics)' \
-                if self._unwarned else ''
-            self._unwarned = 0
-            self.get_logger().warning(f'{what} rejected ({exc.reason}): {exc}{more}')
+            self._warn_rejected(what, exc)
             return
         if self._rtf > 0:  # run a step that became due since the last tick now: less latency
             self.tick()
+
+    def _warn_rejected(self, what, exc):
+        """Warn of a rejected input (already counted by the session), at most once a second."""
+        # Throttled here with one clock read: rclpy's own throttle inspects the caller's frame
+        # and reads its source file on every call, even when it drops the message, so a flood
+        # of bad wrenches used to stall the node.
+        now = time.monotonic_ns()
+        if now < self._warn_after_ns:
+            self._unwarned += 1
+            return
+        self._warn_after_ns = now + self.REJECT_WARN_PERIOD_NS
+        more = f' ({self._unwarned} more since the last warning, see /diagnostics)' \
+            if self._unwarned else ''
+        self._unwarned = 0
+        self.get_logger().warning(f'{what} rejected ({exc.reason}): {exc}{more}')
 
     def _on_reset(self, request, response):
         self.session.reset()

@@ -118,7 +118,9 @@ def _drag_inputs(config):
     return DragInputs(bodies, world_frame=config.world_frame,
                       stiffness_n_per_m=p['drag_stiffness_n_per_m'],
                       damping_n_s_per_m=p['drag_damping_n_s_per_m'],
-                      click_radius_m=p['drag_click_radius_m'])
+                      click_radius_m=p['drag_click_radius_m'],
+                      max_point_m=p['max_drag_point_m'], max_force_n=config.max_force_n,
+                      max_torque_nm=config.max_torque_nm)
 
 
 def _ceil_div(a, b):
@@ -276,7 +278,7 @@ class SimSession:
 
     def _pose_of(self, index):
         x = self.simulator.arrays[0]
-        return x[0:3, index], x[3:7, index]
+        return x[0:3, index], x[3:7, index], x[7:10, index], x[10:13, index]
 
     def _steps_to_next_sample(self, time_ns):
         period = self.config.publish_period_ns
