@@ -80,8 +80,10 @@ RUN_METADATA_NAME = 'rbd_ros.run'
 ROSBAG2_METADATA_VERSION = 9
 #: rosbag2 writes this ``starting_time`` (int64 max ns) in the record it makes at open.
 INT64_MAX = (1 << 63) - 1
-#: Largest YAML text read from a bag (config record, rosbag2 record, metadata.yaml, QoS), bytes.
-MAX_YAML_BYTES = 1 << 20
+#: Largest YAML text read from a bag (config record, rosbag2 record, metadata.yaml, QoS), bytes:
+#: a world of ``config.MAX_BODIES`` bodies writes a metadata.yaml of ~1 kB a topic, five topics a
+#: body (~25 MB); without anchors or aliases, parsing is linear in the size.
+MAX_YAML_BYTES = 32 << 20
 
 MCAP_MAGIC = b'\x89MCAP0\r\n'
 

@@ -153,6 +153,21 @@ def start_node(tmp_path):
         node.stop()
 
 
+@pytest.fixture
+def probe_for():
+    """Return ``make(node, **options)``: a :class:`ros_probe.Probe` on the node, closed after."""
+    from ros_probe import Probe  # rclpy: only for the tests that talk to a node
+    made = []
+
+    def make(node, **options):
+        probe = Probe(node.namespace, **options)
+        made.append(probe)
+        return probe
+    yield make
+    for probe in made:
+        probe.close()
+
+
 @pytest.fixture(scope='module')
 def module_tmp(tmp_path_factory):
     """Return a temporary directory shared by one test module (for module-scoped nodes)."""
@@ -182,8 +197,15 @@ NO_KERNEL_TESTS = tuple(
         'test_install_requires_lower_bounds_are_the_tested_pins',
         'test_one_version_in_package_xml_read_by_setup_py_and_rbd_ros',
         'test_colcon_files_are_right'))
-#: Test files that need the free-body step only (run once the warm-up compiled it).
+#: Test files that need the free-body step only (run once the warm-up compiled it): the core's
+#: tests outside contact/ and the batch kernel, and these (no contact, no timing that a
+#: compile on the other core would disturb).
 FREE_KERNEL_DIR = 'core/'
+FREE_KERNEL_FILES = ('ros/test_sim_session.py', 'ros/test_node_physics.py',
+                     'ros/test_node_inputs.py', 'ros/test_node_outputs.py',
+                     'recording/test_recording.py', 'recording/test_public_api.py',
+                     'recording/test_replay.py', 'recording/test_replay_integrity.py',
+                     'recording/test_bag_limits.py')
 _WARM_UP = {}
 
 
@@ -191,8 +213,8 @@ def _tier(item):
     path = item.path.relative_to(REPO / 'tests').as_posix()
     if path in NO_KERNEL_FILES or f'{path}::{item.name}' in NO_KERNEL_TESTS:
         return 0
-    if path.startswith(FREE_KERNEL_DIR) and not path.startswith('core/contact/') \
-            and path != 'core/test_batch.py':
+    if path in FREE_KERNEL_FILES or path.startswith(FREE_KERNEL_DIR) and not path.startswith(
+            'core/contact/') and path != 'core/test_batch.py':
         return 1
     return 2
 

@@ -25,7 +25,7 @@ import time
 
 from conftest import wait_until
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import PoseStamped, TwistStamped, WrenchStamped
+from geometry_msgs.msg import PointStamped, PoseStamped, TwistStamped, WrenchStamped
 from nav_msgs.msg import Odometry
 from rbd_ros import conversions
 import rclpy
@@ -208,3 +208,20 @@ def step_until_moving(probe, max_steps=100):
             return previous, now
         previous = now
     raise AssertionError(f'no motion after {max_steps} steps')
+
+
+def point(x, y, z, frame='world'):
+    """Return a ``geometry_msgs/PointStamped`` at ``(x, y, z)`` m in ``frame`` (drag, click)."""
+    msg = PointStamped()
+    msg.header.frame_id = frame
+    msg.point.x, msg.point.y, msg.point.z = x, y, z
+    return msg
+
+
+def call(probe, srv_type, service, request):
+    """Call ``<node>/<service>`` like ros2cli does and return the response."""
+    client = probe.node.create_client(srv_type, f'{probe.node_name}/{service}')
+    probe.wait(client.service_is_ready, 60.0, f'the {service} service')
+    future = client.call_async(request)
+    probe.wait(future.done, 20.0, f'the {service} response')
+    return future.result()

@@ -35,19 +35,10 @@ from rbd_ros.recording import open_bag
 from rcl_interfaces.msg import Parameter as ParameterMsg, ParameterType, ParameterValue
 from rcl_interfaces.srv import DescribeParameters, GetParameters, ListParameters, SetParameters
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from ros_probe import Probe
+from ros_probe import call, Probe
 
 PARAMETER_TYPES = {value: name for name, value in vars(ParameterType).items()
                    if name.startswith('PARAMETER_')}
-
-
-def call(probe, srv_type, service, request):
-    """Call ``<node>/<service>`` like ros2cli does and return the response."""
-    client = probe.node.create_client(srv_type, f'{probe.node_name}/{service}')
-    probe.wait(client.service_is_ready, 60.0, f'the {service} service')
-    future = client.call_async(request)
-    probe.wait(future.done, 20.0, f'the {service} response')
-    return future.result()
 
 
 def dump(probe):

@@ -31,7 +31,7 @@ from rbd_ros.core import rotations
 from rbd_ros.recording import open_bag
 from rbd_ros.replay import main as replay_main
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from ros_probe import Probe
+from ros_probe import point
 from std_srvs.srv import SetBool
 import trimesh
 from visualization_msgs.msg import Marker, MarkerArray
@@ -58,19 +58,6 @@ def _connect_and_run(probe):
     probe.wait(lambda: probe.node.count_publishers('contact_wrench') >= 1, 60.0,
                'the contact_wrench publisher')
     assert probe.call('pause', SetBool.Request(data=False), timeout_s=120.0).success
-
-
-@pytest.fixture
-def probe_for():
-    made = []
-
-    def make(node):
-        probe = Probe(node.namespace)
-        made.append(probe)
-        return probe
-    yield make
-    for probe in made:
-        probe.close()
 
 
 def test_a_box_slides_to_a_stop_where_the_formula_says(tmp_path, start_node, probe_for):
@@ -252,13 +239,6 @@ def test_the_msg_config_l_block_comes_to_rest_inside_the_bin(start_node, probe_f
     assert speed < 1e-9 and spin < 1e-9  # at rest (round-off)
 
 
-def _point(x, y, z, frame='world'):
-    msg = PointStamped()
-    msg.header.frame_id = frame
-    msg.point.x, msg.point.y, msg.point.z = x, y, z
-    return msg
-
-
 def test_drag_and_clicks_move_the_box_and_the_bag_replays(tmp_path, start_node, probe_for):
     # The default box on the floor (1 kg, 0.2 x 0.1 x 0.05 m), drag spring k = 50 N/m,
     # c = 5 N·s/m (ζ = c / (2 sqrt(k m)) = 0.35: settled to e^(-ζ ω t) < 1e-4 within 3.5 s).
@@ -292,17 +272,17 @@ def test_drag_and_clicks_move_the_box_and_the_bag_replays(tmp_path, start_node, 
         return np.array(conversions.vector_from_msg(probe.samples['pose'][end].pose.position))
 
     # Drag the COM (drag_point_b = [0, 0, 0]) to (0.5, 0, 0.3): it hangs m g / k below.
-    p = send_then_wait(drag, _point(0.5, 0.0, 0.3), 4.0)
+    p = send_then_wait(drag, point(0.5, 0.0, 0.3), 4.0)
     np.testing.assert_allclose(p, [0.5, 0.0, 0.3 - g / k], atol=1e-3)  # settled (see above)
     # Release (NaN): it falls back to the floor.
-    p = send_then_wait(drag, _point(math.nan, math.nan, math.nan), 2.0)
+    p = send_then_wait(drag, point(math.nan, math.nan, math.nan), 2.0)
     assert p[2] == pytest.approx(0.025, abs=1e-6)
     # Click on the top face centre: grabbed there; the next click lifts that point to 0.5 m.
-    send_then_wait(click, _point(p[0], p[1], 0.05), 0.05)
-    q = send_then_wait(click, _point(p[0], p[1], 0.5), 4.0)
+    send_then_wait(click, point(p[0], p[1], 0.05), 0.05)
+    q = send_then_wait(click, point(p[0], p[1], 0.5), 4.0)
     # Held 0.025 m above its COM: the COM hangs at 0.5 − 0.025 − m g / k, straight below.
     np.testing.assert_allclose(q, [p[0], p[1], 0.5 - 0.025 - g / k], atol=1e-3)
-    r = send_then_wait(click, _point(5.0, 5.0, 0.0), 2.0)  # far from the box: released
+    r = send_then_wait(click, point(5.0, 5.0, 0.0), 2.0)  # far from the box: released
     assert r[2] == pytest.approx(0.025, abs=1e-6)
     assert node.stop() == 0, node.stderr
     bag = open_bag(str(tmp_path / 'drag'))

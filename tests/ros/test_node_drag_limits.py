@@ -27,34 +27,14 @@ from geometry_msgs.msg import PointStamped
 import pytest
 from rbd_ros import conversions
 from rbd_ros.recording import open_bag
-from ros_probe import Probe
-
-
-@pytest.fixture
-def probe_for():
-    made = []
-
-    def make(node):
-        probe = Probe(node.namespace, inputs=())
-        made.append(probe)
-        return probe
-    yield make
-    for probe in made:
-        probe.close()
-
-
-def _point(x, y, z, frame='world'):
-    msg = PointStamped()
-    msg.header.frame_id = frame
-    msg.point.x, msg.point.y, msg.point.z = x, y, z
-    return msg
+from ros_probe import point
 
 
 def _start(start_node, probe_for, params):
     # publish_rate_hz = 1 / timestep_s: every ~/step publishes a pose (probe.step waits for it)
     node = start_node({'start_paused': True, 'publish_rate_hz': 1000.0, **params},
                       params_file=REPO / 'msg_config' / 'default.yaml', namespace=True)
-    probe = probe_for(node)
+    probe = probe_for(node, inputs=())
     drag = probe.node.create_publisher(PointStamped, 'drag', 1000)
     click = probe.node.create_publisher(PointStamped, '/clicked_point', 1000)
     probe.wait_connected(FIRST_START_S)
@@ -83,11 +63,11 @@ def _settled(probe):
 def test_far_points_and_over_limit_springs_are_rejected_and_counted(start_node, probe_for):
     # The default box rests on the floor, COM at z = 0.025 m; k = 50 N/m, c = 5 N·s/m.
     node, probe, drag, click = _start(start_node, probe_for, {'max_force_n': 10.0})
-    drag.publish(_point(1e9, 0.0, 0.1))  # |point| 1e9 m > max_drag_point_m = 1e3 m
-    click.publish(_point(1e300, 0.0, 0.3))  # the click that stopped a world for good
+    drag.publish(point(1e9, 0.0, 0.1))  # |point| 1e9 m > max_drag_point_m = 1e3 m
+    click.publish(point(1e300, 0.0, 0.3))  # the click that stopped a world for good
     # k |d| = 50 N/m × |(0.5, 0, 0.275)| m = 28.5 N > max_force_n = 10 N (the box is at rest,
     # so c ẋ = 0): rejected when it takes effect, at the next step start.
-    drag.publish(_point(0.5, 0.0, 0.3))
+    drag.publish(point(0.5, 0.0, 0.3))
     assert _counters(probe, 3) == (3, 2)
     time.sleep(1.1)  # the node warns of rejections at most once a second: let this one through
     probe.step()
@@ -96,7 +76,7 @@ def test_far_points_and_over_limit_springs_are_rejected_and_counted(start_node, 
     z = conversions.vector_from_msg(probe.samples['pose'][t].pose.position)
     assert z[0] == 0.0 and z[2] == pytest.approx(0.025, abs=1e-9)  # not dragged (round-off)
     # Within the limit: k |d| = 50 × 0.1 = 5 N <= 10 N is accepted and pulls the box along x.
-    drag.publish(_point(0.1, 0.0, 0.025))
+    drag.publish(point(0.1, 0.0, 0.025))
     assert _counters(probe, 4) == (4, 3)
     t = probe.step(20)
     assert conversions.vector_from_msg(probe.samples['pose'][t].pose.position)[0] > 0.0
@@ -108,12 +88,12 @@ def test_far_points_and_over_limit_springs_are_rejected_and_counted(start_node, 
 
 def test_a_click_whose_spring_torque_exceeds_max_torque_nm_is_rejected(start_node, probe_for):
     node, probe, drag, click = _start(start_node, probe_for, {'max_torque_nm': 0.01})
-    click.publish(_point(0.0, 0.0, 0.05))  # on the top face: grabbed there, at r = 0.025 m z
+    click.publish(point(0.0, 0.0, 0.05))  # on the top face: grabbed there, at r = 0.025 m z
     assert _counters(probe, 1) == (1, 0)
     probe.step()  # a zero-length spring on a body at rest: f = 0, accepted
     # The move: f = k (0.5, 0, 0) m = (25, 0, 0) N at r = (0, 0, 0.025) m, |r × f| = 0.625 N·m
     # > max_torque_nm = 0.01 N·m (|f| = 25 N is within max_force_n = 1e6 N).
-    click.publish(_point(0.5, 0.0, 0.05))
+    click.publish(point(0.5, 0.0, 0.05))
     assert _counters(probe, 2) == (2, 0)
     probe.step()
     assert probe.diagnostic_values(lambda v: int(v['drags_rejected']) == 1, 60.0)
@@ -127,8 +107,8 @@ def test_a_paused_node_keeps_only_the_latest_point_per_input(tmp_path, start_nod
                                       {'record_path': str(tmp_path / 'flood')})
     n = 200
     for i in range(n):
-        drag.publish(_point(0.0, 0.0, 0.1 + 1e-3 * i))
-        click.publish(_point(5.0, 5.0, 0.1 + 1e-3 * i))  # far from the box: does nothing
+        drag.publish(point(0.0, 0.0, 0.1 + 1e-3 * i))
+        click.publish(point(5.0, 5.0, 0.1 + 1e-3 * i))  # far from the box: does nothing
         time.sleep(0.002)  # a flood, paced so the node's depth-10 queues rarely drop one
     received = _settled(probe)
     assert received >= 20  # a flood (a loaded machine may drop some; most arrive)

@@ -33,16 +33,7 @@ from rbd_ros.core import ConfigError, jitcache
 from rcl_interfaces.msg import Parameter as ParameterMsg, ParameterType, ParameterValue
 from rcl_interfaces.srv import DescribeParameters, GetParameters, SetParameters
 from rclpy.qos import ReliabilityPolicy
-from ros_probe import Probe
-
-
-def call(probe, srv_type, service, request):
-    """Call ``<node>/<service>`` like ros2cli does and return the response."""
-    client = probe.node.create_client(srv_type, f'{probe.node_name}/{service}')
-    probe.wait(client.service_is_ready, 60.0, f'the {service} service')
-    future = client.call_async(request)
-    probe.wait(future.done, 20.0, f'the {service} response')
-    return future.result()
+from ros_probe import call, Probe
 
 
 def set_parameter(probe, name, value):
