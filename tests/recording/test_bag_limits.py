@@ -158,8 +158,11 @@ def _cpu_s(pid):
 def test_sigint_during_compiled_stepping_ends_replay_within_a_second(tmp_path):
     """A bag within the limits whose replay steps 1e8 times between two samples."""
     # Step 1e-7 s, a sample every 10 s: exactly MAX_REPLAY_STEPS steps, all between the two
-    # samples, that is one compiled call of a minute or more without the step chunks.
-    bag = _write_bag(tmp_path / 'long.mcap', _config(timestep_s=1e-7, publish_rate_hz=0.1),
+    # samples, that is one compiled call of many seconds without the step chunks. rk4 (four
+    # force evaluations a step): with midpoint_cayley a warm replay could finish all 1e8 steps
+    # (~3 s) before the 4 s of CPU the test waits for, imports included.
+    bag = _write_bag(tmp_path / 'long.mcap', _config(timestep_s=1e-7, publish_rate_hz=0.1,
+                                                     integrator='rk4'),
                      [0, 10_000_000_000])
     proc = subprocess.Popen(
         [sys.executable, '-m', 'rbd_ros.replay', str(bag), '--no-progress'],
