@@ -132,7 +132,7 @@ class DragInputs:
                 raise WrenchRejected(
                     'non_finite', f'{input_name}: point {list(point)} m is not three finite '
                     'numbers (all NaN releases a drag)')
-            distance_m = 0.0 if release else math.sqrt(sum(v * v for v in point))
+            distance_m = 0.0 if release else math.hypot(*point)  # no overflow at 1e300
             if distance_m > self._max_point_m:
                 raise WrenchRejected(
                     'distance', f'{input_name}: |point| = {distance_m:g} m exceeds '

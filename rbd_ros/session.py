@@ -276,7 +276,8 @@ class SimSession:
         else:
             self.simulator.set_loads(self.inputs.loads(), self.drags.springs(0))
 
-    def _pose_of(self, index):
+    def _state_of(self, index):
+        """Return body ``index``'s position, orientation, velocity and ω_b (views, no copy)."""
         x = self.simulator.arrays[0]
         return x[0:3, index], x[3:7, index], x[7:10, index], x[10:13, index]
 
@@ -298,7 +299,7 @@ class SimSession:
                 break
             expired = self.inputs.expire(t)
             applied = self.inputs.apply_pending(t)
-            dragged, _ = self.drags.apply_pending(t, self._pose_of)
+            dragged, _ = self.drags.apply_pending(t, self._state_of)
             if applied or expired or dragged:
                 self._set_loads()
                 events.extend(applied)
