@@ -843,7 +843,7 @@ def resolve_mesh_path(path, field):
 
 def _open_mesh_file(value, field):
     """
-    Open the file of ``field = value`` without blocking; return ``(fd, size in bytes)``.
+    Open the file of ``field = value`` without blocking; return ``(resolved path, fd)``.
 
     :raises ModelError: it does not exist, is not a regular file or is too big.
     """
