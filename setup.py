@@ -61,8 +61,8 @@ setup(
     entry_points={
         'console_scripts': [
             'rigid_body_node = rbd_ros.node:main',
-            'replay = rbd_ros.replay:main',
-            'plot = rbd_ros.plot:main',
+            'replay = rbd_ros.bag.replay:main',
+            'plot = rbd_ros.bag.plot:main',
         ],
     },
 )

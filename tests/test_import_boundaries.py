@@ -49,9 +49,9 @@ def imported(modules, packages):
 @pytest.mark.parametrize('modules', [
     ('rbd_ros.core',),
     ('rbd_ros.core.contact',),
-    ('rbd_ros.config', 'rbd_ros.inputs', 'rbd_ros.session'),
-    ('rbd_ros.schemas', 'rbd_ros.recording'),
-    ('rbd_ros.tessellation', 'rbd_ros.animate'),
+    ('rbd_ros.sim.config', 'rbd_ros.sim.inputs', 'rbd_ros.sim.session'),
+    ('rbd_ros.msgs.schemas', 'rbd_ros.bag.recording'),
+    ('rbd_ros.sim.tessellation', 'rbd_ros.bag.animate'),
 ])
 def test_no_rclpy_and_no_messages_below_the_message_modules(modules):
     found = imported(modules, RCLPY + MESSAGE_PACKAGES)
@@ -59,10 +59,10 @@ def test_no_rclpy_and_no_messages_below_the_message_modules(modules):
 
 
 @pytest.mark.parametrize('modules', [
-    ('rbd_ros.conversions', 'rbd_ros.outputs'),
-    ('rbd_ros.core', 'rbd_ros.recording', 'rbd_ros.replay'),
-    ('rbd_ros.plot',),
-    ('rbd_ros.markers',),
+    ('rbd_ros.msgs.conversions', 'rbd_ros.msgs.outputs'),
+    ('rbd_ros.core', 'rbd_ros.bag.recording', 'rbd_ros.bag.replay'),
+    ('rbd_ros.bag.plot',),
+    ('rbd_ros.msgs.markers',),
 ])
 def test_no_rclpy_in_the_message_modules_and_tools(modules):
     found = imported(modules, RCLPY)

@@ -36,10 +36,12 @@ from xml.etree import ElementTree
 
 from conftest import FIRST_START_S
 import pytest
-from rbd_ros import drag, node, outputs
-from rbd_ros.config import PARAMETERS_BY_NAME
 from rbd_ros.core.contact.shapes import load_mesh
 from rbd_ros.core.errors import ModelError
+from rbd_ros.msgs import outputs
+from rbd_ros.ros import node
+from rbd_ros.sim import drag
+from rbd_ros.sim.config import PARAMETERS_BY_NAME
 import rclpy
 from rclpy.context import Context
 from rclpy.qos import DurabilityPolicy

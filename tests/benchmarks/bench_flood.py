@@ -167,7 +167,7 @@ def main():
           flush=True)
     kinds = {'valid': ('valid', 'world'), 'bad': ('bad frame', 'not_a_frame')}
     with tempfile.TemporaryDirectory() as tmp:
-        subprocess.run([sys.executable, '-c', 'import rbd_ros.node'], cwd=REPO, check=True)
+        subprocess.run([sys.executable, '-c', 'import rbd_ros.ros.node'], cwd=REPO, check=True)
         for key in args.kind or ('valid', 'bad'):
             kind, frame_id = kinds[key]
             report(kind, [flood_run(tmp, frame_id, args.rate, args.duration, args.publishers)

@@ -185,7 +185,7 @@ def bench_outside(tmp, long_s, short_s=1.0):
             node + ['-p', f'duration_s:={duration}', '-p', f'record_path:={bag}', '-p',
                     'record_overwrite:=true'], env)
         walls['replay', duration] = _wall(
-            [sys.executable, '-m', 'rbd_ros.replay', '--no-progress', bag], env)
+            [sys.executable, '-m', 'rbd_ros.bag.replay', '--no-progress', bag], env)
     return walls
 
 
@@ -220,10 +220,10 @@ def report_outside(runs, long_s, short_s=1.0):
 
 def breakdown(sim_seconds=20):
     """Time per sim second of each part of the node's work, in-process (rclpy, no DDS peer)."""
-    from rbd_ros import outputs
-    from rbd_ros.config import check_first_step, NodeConfig
-    from rbd_ros.recording import BagWriter
-    from rbd_ros.session import SimSession
+    from rbd_ros.bag.recording import BagWriter
+    from rbd_ros.msgs import outputs
+    from rbd_ros.sim.config import check_first_step, NodeConfig
+    from rbd_ros.sim.session import SimSession
     import rclpy
     c = NodeConfig.from_parameters({'publish_rate_hz': 100.0, 'real_time_factor': 0.0,
                                     'publish_clock': True})
@@ -290,7 +290,7 @@ def main():
     args = parser.parse_args()
     parts = set(args.only or ('latency', 'pacing', 'fast', 'breakdown'))
     with tempfile.TemporaryDirectory() as tmp:
-        subprocess.run([sys.executable, '-c', 'import rbd_ros.node'], cwd=REPO, check=True)
+        subprocess.run([sys.executable, '-c', 'import rbd_ros.ros.node'], cwd=REPO, check=True)
         if 'latency' in parts:
             report_latency([bench_latency(tmp, args.trials) for _ in range(args.runs)])
             floor = [bench_floor(args.trials) for _ in range(args.runs)]

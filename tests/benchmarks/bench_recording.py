@@ -17,7 +17,7 @@ Recording overhead (not a test; prints only): ``python tests/benchmarks/bench_re
 
 Target (recording issue): recording must not cut the node's as-fast-as-possible rate by more
 than 2x. Measured on the node's own loop without DDS: SimSession stepping at 1 kHz with
-100 Hz samples serialised by the node's :class:`rbd_ros.outputs.SampleBuilder`, with and
+100 Hz samples serialised by the node's :class:`rbd_ros.msgs.outputs.SampleBuilder`, with and
 without writing the bytes (what recording adds per sample). Leaving out the DDS publish
 makes the un-recorded loop cheaper than the node's, so the ratio here is an upper bound on
 the node's slowdown. Also
@@ -35,10 +35,10 @@ import time
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2]))
 
 from nav_msgs.msg import Odometry  # noqa: E402
-from rbd_ros.config import check_first_step, NodeConfig  # noqa: E402
-from rbd_ros.outputs import SampleBuilder, TYPE_NAMES  # noqa: E402
-from rbd_ros.recording import BagWriter  # noqa: E402
-from rbd_ros.session import SimSession  # noqa: E402
+from rbd_ros.bag.recording import BagWriter  # noqa: E402
+from rbd_ros.msgs.outputs import SampleBuilder, TYPE_NAMES  # noqa: E402
+from rbd_ros.sim.config import check_first_step, NodeConfig  # noqa: E402
+from rbd_ros.sim.session import SimSession  # noqa: E402
 from rclpy.serialization import serialize_message  # noqa: E402
 
 SIM_NS = 20_000_000_000  # 20 s of sim time: 20000 steps, 2001 samples

@@ -71,7 +71,7 @@ def node_wall_s(params_file, sim_s):
 
 def core_step_us(params, steps):
     """Return µs per step of the core world of ``params`` (no node, no publishing)."""
-    from rbd_ros.config import make_simulator, NodeConfig
+    from rbd_ros.sim.config import make_simulator, NodeConfig
     sim = make_simulator(NodeConfig.from_parameters(params))
     sim.step(10)
     start = time.perf_counter()

@@ -107,7 +107,7 @@ def record(name, workdir):
     """Record ``bags/<name>`` with the node and the scripted wrenches; return the bag path."""
     from geometry_msgs.msg import PoseArray, PoseStamped
     import rclpy
-    from rbd_ros import conversions
+    from rbd_ros.msgs import conversions
     from std_srvs.srv import SetBool
 
     config_file, overrides, script = REFERENCE_BAGS[name]
@@ -157,7 +157,7 @@ def main(argv=None):
     parser.add_argument('--force', action='store_true', help='replace existing bags')
     parser.add_argument('--only', action='append', choices=sorted(REFERENCE_BAGS))
     args = parser.parse_args(argv)
-    from rbd_ros.replay import replay_bag
+    from rbd_ros.bag.replay import replay_bag
 
     workdir = pathlib.Path(os.environ.get('TMPDIR', '/tmp')) / f'rbd_bags_{os.getpid()}'
     workdir.mkdir(parents=True, exist_ok=True)

@@ -19,15 +19,15 @@ It records what the node records: each wrench as it took effect (``WrenchStamped
 input's absolute topic, log time = start of the step it was applied at), the outputs
 ``/pose``, ``/twist``, ``/odom`` (and ``/clock`` when ``publish_clock``; no ``/tf``) at every
 sample the session reports, as the CDR bytes of the node's own
-:class:`rbd_ros.outputs.SampleBuilder`, and at close the ``rbd_ros.run`` record (digest of the
+:class:`rbd_ros.msgs.outputs.SampleBuilder`, and at close the ``rbd_ros.run`` record (digest of the
 applied wrenches; no failure).
 """
 
-from rbd_ros import conversions
-from rbd_ros.config import NodeConfig
-from rbd_ros.outputs import SampleBuilder, TYPE_NAMES
-from rbd_ros.recording import BagWriter, open_bag
-from rbd_ros.session import AppliedDigest, SimSession
+from rbd_ros.bag.recording import BagWriter, open_bag
+from rbd_ros.msgs import conversions
+from rbd_ros.msgs.outputs import SampleBuilder, TYPE_NAMES
+from rbd_ros.sim.config import NodeConfig
+from rbd_ros.sim.session import AppliedDigest, SimSession
 from rclpy.serialization import serialize_message
 
 

@@ -18,7 +18,7 @@ from matplotlib import animation
 import numpy as np
 from PIL import Image, ImageChops
 import pytest
-from rbd_ros.animate import write_animation
+from rbd_ros.bag.animate import write_animation
 from rbd_ros.core.contact import ground_plane, mesh_shape, obstacle, primitive_shape, StaticWorld
 from rbd_ros.core.errors import ConfigError, InputError
 from rbd_ros.core.rotations import quat_from_axis_angle

@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-``replay`` and ``plot`` refuse a crafted recording over the limits of :mod:`rbd_ros.limits`.
+``replay`` and ``plot`` refuse a crafted recording over the limits of :mod:`rbd_ros.sim.limits`.
 
 Each bag is written here with the ``mcap`` writer (or, for the unfinalised one, byte by byte):
 a step of 1e-9 s up to a sample at 30 s (3e10 steps, ~30 h of replay), an unfinalised file
@@ -35,10 +35,10 @@ import time
 from geometry_msgs.msg import PoseStamped
 from mcap.writer import Writer
 import pytest
-from rbd_ros import conversions
-from rbd_ros import limits
-from rbd_ros.recording import CONFIG_FORMAT, CONFIG_METADATA_NAME, MCAP_MAGIC
-from rbd_ros.schemas import message_definition
+from rbd_ros.bag.recording import CONFIG_FORMAT, CONFIG_METADATA_NAME, MCAP_MAGIC
+from rbd_ros.msgs import conversions
+from rbd_ros.msgs.schemas import message_definition
+from rbd_ros.sim import limits
 from rclpy.serialization import serialize_message
 import yaml
 import zstandard
@@ -126,7 +126,7 @@ def test_tools_refuse_a_bag_over_the_limits_before_the_work(tmp_path, tool, make
     bag = make(tmp_path)
     start = time.monotonic()
     proc = subprocess.run(
-        [sys.executable, '-m', f'rbd_ros.{tool}', str(bag)]
+        [sys.executable, '-m', f'rbd_ros.bag.{tool}', str(bag)]
         + (['--no-progress'] if tool == 'replay' else ['-o', str(tmp_path / 'out.png')]),
         capture_output=True, text=True, timeout=60, preexec_fn=_limited, cwd=str(tmp_path),
         env=dict(os.environ, PYTHONPATH=str(REPO)))
@@ -165,7 +165,7 @@ def test_sigint_during_compiled_stepping_ends_replay_within_a_second(tmp_path):
                                                      integrator='rk4'),
                      [0, 10_000_000_000])
     proc = subprocess.Popen(
-        [sys.executable, '-m', 'rbd_ros.replay', str(bag), '--no-progress'],
+        [sys.executable, '-m', 'rbd_ros.bag.replay', str(bag), '--no-progress'],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=str(tmp_path),
         env=dict(os.environ, PYTHONPATH=str(REPO)))
     try:

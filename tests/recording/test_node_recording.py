@@ -25,9 +25,9 @@ import signal
 
 from conftest import wait_until
 import pytest
-from rbd_ros import conversions
-from rbd_ros.recording import open_bag
-from rbd_ros.replay import main, replay_bag
+from rbd_ros.bag.recording import open_bag
+from rbd_ros.bag.replay import main, replay_bag
+from rbd_ros.msgs import conversions
 from ros_context import ros_fixture  # noqa: F401 - the fixture ros
 from rosbags.rosbag2 import Reader as RosbagsReader
 from std_srvs.srv import SetBool

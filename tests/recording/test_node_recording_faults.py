@@ -30,9 +30,9 @@ import sys
 
 from conftest import wait_until, write_params
 import pytest
-from rbd_ros import conversions
-from rbd_ros.recording import open_bag
-from rbd_ros.replay import EXIT_RUN_FAILED, main, replay_bag
+from rbd_ros.bag.recording import open_bag
+from rbd_ros.bag.replay import EXIT_RUN_FAILED, main, replay_bag
+from rbd_ros.msgs import conversions
 from ros_context import ros_fixture  # noqa: F401 - the fixture ros
 from sim_recorder import rewrite_bag
 

@@ -17,7 +17,7 @@ The ``plot`` executable draws what is in the committed reference bags.
 
 Two independent checks per bag: the PNG that ``plot`` writes is read back with matplotlib and
 each of its eight panels must show curves (coloured pixels) or the text saying why not; and the
-curves ``plot`` drew (:func:`rbd_ros.plot.draw`) must be the recorded values, decoded here with
+curves ``plot`` drew (:func:`rbd_ros.bag.plot.draw`) must be the recorded values, decoded here with
 ``mcap`` + ``mcap_ros2`` (not with rbd_ros's own reader) and transformed with numpy.
 """
 
@@ -28,9 +28,9 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 import numpy as np
 import pytest
-from rbd_ros.config import NodeConfig, recorded_parameters
-from rbd_ros.plot import draw, load_series, load_world, main, render, SAVE_DPI
-from rbd_ros.recording import open_bag
+from rbd_ros.bag.plot import draw, load_series, load_world, main, render, SAVE_DPI
+from rbd_ros.bag.recording import open_bag
+from rbd_ros.sim.config import NodeConfig, recorded_parameters
 import yaml
 
 REPO = Path(__file__).resolve().parents[2]

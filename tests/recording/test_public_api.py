@@ -19,7 +19,9 @@ import inspect
 import typing
 
 import pytest
-from rbd_ros import animate, cli, markers, plot, recording, replay, schemas, tessellation
+from rbd_ros.bag import animate, cli, plot, recording, replay
+from rbd_ros.msgs import markers, schemas
+from rbd_ros.sim import tessellation
 
 MODULES = (cli, plot, recording, replay, schemas, markers, tessellation, animate)
 # replay.expected_message is being rewritten on another branch (how replay rebuilds messages).

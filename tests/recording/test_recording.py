@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-Round trips of :class:`rbd_ros.recording.BagWriter` through independent readers.
+Round trips of :class:`rbd_ros.bag.recording.BagWriter` through independent readers.
 
 Messages are serialised with rclpy (as the node does) and read back with our reader, with the
 ``mcap`` reader plus ``mcap-ros2-support`` decoding, and with ``rosbags``.
@@ -32,10 +32,10 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 from nav_msgs.msg import Odometry
 import pytest
-from rbd_ros import recording
+from rbd_ros.bag import recording
+from rbd_ros.bag.recording import BagWriter, open_bag
 from rbd_ros.core.errors import RecordingError
-from rbd_ros.recording import BagWriter, open_bag
-from rbd_ros.schemas import SEPARATOR
+from rbd_ros.msgs.schemas import SEPARATOR
 from rclpy.serialization import serialize_message
 from rosbag2_decode import decode_bag_metadata, read_rosbag2_records, Rosbag2DecodeError
 from rosbags.highlevel import AnyReader
@@ -282,7 +282,7 @@ def test_rosbag2_records_decode_the_way_rosbag2_reads_them(recorded):
 
 
 def test_schema_dependency_order_matches_rosbag2():
-    from rbd_ros.schemas import message_definition
+    from rbd_ros.msgs.schemas import message_definition
     deps = [line[5:] for line in message_definition('nav_msgs/msg/Odometry').decode().splitlines()
             if line.startswith('MSG: ')]
     # Depth-first pre-order, children sorted: the order in the rosbag2 reference, section 2.2.
@@ -513,7 +513,7 @@ def test_bad_arguments(tmp_path):
 @pytest.mark.parametrize('type_name', ['no_such_msgs/msg/Nothing', 'not/a/msg/type'])
 def test_schema_errors_are_recording_errors(type_name):
     """A type we cannot record is a RecordingError naming it, never a bare ValueError."""
-    from rbd_ros.schemas import message_definition, SchemaError
+    from rbd_ros.msgs.schemas import message_definition, SchemaError
     with pytest.raises(SchemaError, match=type_name) as info:
         message_definition(type_name)
     assert isinstance(info.value, RecordingError)

@@ -19,8 +19,8 @@ from pathlib import Path
 
 from geometry_msgs.msg import WrenchStamped
 import pytest
-from rbd_ros.recording import open_bag
-from rbd_ros.replay import main, replay_bag
+from rbd_ros.bag.recording import open_bag
+from rbd_ros.bag.replay import main, replay_bag
 from rclpy.serialization import deserialize_message, serialize_message
 from rosbag2_decode import read_rosbag2_records
 from sim_recorder import rewrite_bag

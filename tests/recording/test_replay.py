@@ -22,8 +22,8 @@ import subprocess
 import sys
 
 import pytest
-from rbd_ros.recording import BagWriter, open_bag
-from rbd_ros.replay import main, replay_bag
+from rbd_ros.bag.recording import BagWriter, open_bag
+from rbd_ros.bag.replay import main, replay_bag
 from rosbags.rosbag2 import StoragePlugin, Writer as RosbagsWriter
 from rosbags.typesys import get_typestore, Stores
 from sim_recorder import record_scripted_run, rewrite_bag
@@ -231,7 +231,7 @@ def test_console_entry_point_no_traceback(bad_inputs):
     """The real executable (python -m) on a missing and a random file: one line, status 2."""
     for key in ('missing', 'random bytes'):
         path = bad_inputs[key][0]
-        proc = subprocess.run([sys.executable, '-m', 'rbd_ros.replay', str(path)],
+        proc = subprocess.run([sys.executable, '-m', 'rbd_ros.bag.replay', str(path)],
                               capture_output=True, text=True, cwd=REPO, timeout=120)
         assert proc.returncode == 2, proc.stderr
         assert len(proc.stderr.strip().splitlines()) == 1, proc.stderr
@@ -242,8 +242,8 @@ def test_replay_error_is_an_rbd_error_not_an_os_error():
     """A bag whose content cannot be replayed is not an I/O failure: ReplayError is an RbdError."""
     from types import SimpleNamespace
 
+    from rbd_ros.bag.replay import recorded_failure, ReplayError
     from rbd_ros.core.errors import RbdError
-    from rbd_ros.replay import recorded_failure, ReplayError
     bag = SimpleNamespace(mcap_path='b_0.mcap', run_metadata={'failure_time_ns': '1.5'})
     with pytest.raises(ReplayError, match="failure_time_ns '1.5', not an integer") as info:
         recorded_failure(bag)
@@ -253,7 +253,7 @@ def test_replay_error_is_an_rbd_error_not_an_os_error():
 
 def test_replayer_steps_in_named_parts():
     """The Replayer's steps, driven one by one, replay a reference bag to the same MATCH."""
-    from rbd_ros.replay import Replayer, TopicResult
+    from rbd_ros.bag.replay import Replayer, TopicResult
     bag = open_bag(str(REPO / 'bags' / 'box_pushed'))
     replayer = Replayer(bag)
     messages = replayer.recorded_messages()

@@ -16,7 +16,7 @@
 Replay checks the recorded inputs bit for bit and refuses crafted bags quickly, in one line.
 
 Crafted bags are written with our BagWriter (message by message, :func:`rewrite_bag`) or with
-the ``mcap`` writer directly; ``replay`` runs as a subprocess (``python -m rbd_ros.replay``)
+the ``mcap`` writer directly; ``replay`` runs as a subprocess (``python -m rbd_ros.bag.replay``)
 with a timeout, so a hang fails the test instead of stalling it.
 """
 
@@ -30,9 +30,9 @@ import sys
 from geometry_msgs.msg import PoseStamped, WrenchStamped
 from mcap.writer import Writer
 import pytest
+from rbd_ros.bag.recording import load_yaml, MAX_YAML_BYTES, open_bag
+from rbd_ros.bag.replay import main
 from rbd_ros.core.errors import RecordingError
-from rbd_ros.recording import load_yaml, MAX_YAML_BYTES, open_bag
-from rbd_ros.replay import main
 from rclpy.serialization import deserialize_message, serialize_message
 from sim_recorder import record_scripted_run, rewrite_bag
 
@@ -61,7 +61,7 @@ def bag(tmp_path_factory):
 
 def run_replay(path, *args):
     """Run the replay executable; return ``(status, stdout, stderr lines)``."""
-    proc = subprocess.run([sys.executable, '-m', 'rbd_ros.replay', str(path), '--no-progress',
+    proc = subprocess.run([sys.executable, '-m', 'rbd_ros.bag.replay', str(path), '--no-progress',
                            *args], capture_output=True, text=True, cwd=REPO,
                           timeout=HANG_TIMEOUT_S)
     lines = [line for line in proc.stderr.splitlines() if not line.startswith('replay: note:')]

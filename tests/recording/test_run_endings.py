@@ -26,8 +26,8 @@ from pathlib import Path
 import signal
 
 from conftest import wait_until
-from rbd_ros.recording import open_bag
-from rbd_ros.replay import EXIT_RUN_FAILED, main
+from rbd_ros.bag.recording import open_bag
+from rbd_ros.bag.replay import EXIT_RUN_FAILED, main
 from sim_recorder import record_scripted_run
 
 REPO = Path(__file__).resolve().parents[2]

@@ -27,7 +27,7 @@ from conftest import wait_until
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import PointStamped, PoseStamped, TwistStamped, WrenchStamped
 from nav_msgs.msg import Odometry
-from rbd_ros import conversions
+from rbd_ros.msgs import conversions
 import rclpy
 from rclpy.context import Context
 from rclpy.executors import SingleThreadedExecutor

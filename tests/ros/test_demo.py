@@ -21,8 +21,8 @@ import sys
 from conftest import REPO
 from geometry_msgs.msg import PoseStamped
 import pytest
-from rbd_ros.recording import open_bag
-from rbd_ros.replay import main as replay_main
+from rbd_ros.bag.recording import open_bag
+from rbd_ros.bag.replay import main as replay_main
 from rclpy.serialization import deserialize_message
 
 G, MU, MASS_KG, PUSH_N = 9.81, 0.5, 1.0, 10.0  # msg_config/default.yaml and the demo's script

@@ -30,8 +30,6 @@ from urllib.parse import unquote, urlparse
 from conftest import FIRST_START_S, REPO
 import numpy as np
 import pytest
-from rbd_ros import markers
-from rbd_ros.config import resolve_mesh_path
 from rbd_ros.core.contact import (ground_plane, load_mesh, Material, mesh_shape, obstacle,
                                   primitive_shape, StaticWorld)
 from rbd_ros.core.contact.simulator import Contacts, WorldBody, WorldSimulator
@@ -39,6 +37,8 @@ from rbd_ros.core.errors import InputError
 from rbd_ros.core.model import BodyModel
 from rbd_ros.core.rotations import quat_from_axis_angle, quat_to_matrix
 from rbd_ros.core.state import BodyState
+from rbd_ros.msgs import markers
+from rbd_ros.sim.config import resolve_mesh_path
 from rclpy.serialization import deserialize_message, serialize_message
 from ros_probe import Probe
 import trimesh
@@ -80,7 +80,7 @@ def round_trip(msg):
     Serialise, deserialise and serialise again: the message must survive both trips.
 
     The bytes are compared by length and by what they decode to, not byte for byte: rclpy's
-    serialiser leaves CDR padding bytes uninitialised (see :mod:`rbd_ros.outputs`).
+    serialiser leaves CDR padding bytes uninitialised (see :mod:`rbd_ros.msgs.outputs`).
     """
     data = serialize_message(msg)
     back = deserialize_message(data, type(msg))

@@ -18,10 +18,10 @@ import types
 
 import numpy as np
 import pytest
-from rbd_ros import conversions as conv
-from rbd_ros import outputs
-from rbd_ros.config import NodeConfig, xyzw_to_wxyz
 from rbd_ros.core import BodyState, rotations
+from rbd_ros.msgs import conversions as conv
+from rbd_ros.msgs import outputs
+from rbd_ros.sim.config import NodeConfig, xyzw_to_wxyz
 from rclpy.serialization import deserialize_message, serialize_message
 
 # A generic state: rotated about a skew axis, moving and spinning.

@@ -24,9 +24,9 @@ import os
 
 from conftest import REPO
 import pytest
-from rbd_ros import config as cfg
-from rbd_ros.config import NodeConfig
-from rbd_ros.recording import open_bag
+from rbd_ros.bag.recording import open_bag
+from rbd_ros.sim import config as cfg
+from rbd_ros.sim.config import NodeConfig
 import yaml
 
 L_BLOCK = 'package://rbd_ros/msg_config/meshes/l_block.stl'

@@ -30,7 +30,7 @@ from conftest import FIRST_START_S, NodeProcess, wait_until
 from geometry_msgs.msg import PoseStamped
 from mcap.reader import make_reader
 import pytest
-from rbd_ros import conversions
+from rbd_ros.msgs import conversions
 from ros_context import ros_fixture  # noqa: F401 - the fixture ros
 
 BODIES = 150

@@ -31,7 +31,7 @@ from conftest import wait_until, write_params
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from nav_msgs.msg import Odometry
 import pytest
-from rbd_ros.recording import open_bag
+from rbd_ros.bag.recording import open_bag
 from rcl_interfaces.msg import Parameter as ParameterMsg, ParameterType, ParameterValue
 from rcl_interfaces.srv import DescribeParameters, GetParameters, ListParameters, SetParameters
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -193,7 +193,7 @@ def _loaded(pid, library):
 
 
 # What setuptools' console_scripts wrapper for rigid_body_node does (ros2 run executes it).
-CONSOLE_SCRIPT = 'import sys\nfrom rbd_ros.node import main\nsys.exit(main())\n'
+CONSOLE_SCRIPT = 'import sys\nfrom rbd_ros.ros.node import main\nsys.exit(main())\n'
 
 
 @pytest.mark.parametrize('how', ['module', 'executable'])
@@ -201,8 +201,8 @@ CONSOLE_SCRIPT = 'import sys\nfrom rbd_ros.node import main\nsys.exit(main())\n'
 def test_an_early_sigint_exits_quietly(tmp_path, delay_s, how):
     # Item 10: Ctrl-C at any moment of the start-up (imports, rclpy.init, kernel load) exits 0
     # without a traceback. The delays count from the moment numpy's core library is mapped,
-    # i.e. while rbd_ros.node imports its dependencies (the interpreter's own start-up before
-    # it runs rbd_ros.node, ~0.1 s, is out of the package's reach). The delay is the moment
+    # i.e. while rbd_ros.ros.node imports its dependencies (the interpreter's own start-up before
+    # it runs rbd_ros.ros.node, ~0.1 s, is out of the package's reach). The delay is the moment
     # under test, not a wait for something.
     command = [sys.executable, '-m', 'rbd_ros.node']
     if how == 'executable':

@@ -23,11 +23,11 @@ import sys
 
 import numpy as np
 import pytest
-from rbd_ros import config as cfg
-from rbd_ros import ros_args
-from rbd_ros.config import NodeConfig
 from rbd_ros.core import ConfigError, ModelError
 from rbd_ros.core import inertia as inertia_mod
+from rbd_ros.ros import ros_args
+from rbd_ros.sim import config as cfg
+from rbd_ros.sim.config import NodeConfig
 import yaml
 
 REPO = pathlib.Path(__file__).resolve().parents[2]
@@ -206,8 +206,9 @@ def test_msg_config_files_are_valid_configs():
 
 
 def test_config_and_session_do_not_import_rclpy():
-    code = ('import sys; import rbd_ros.config, rbd_ros.inputs, rbd_ros.session, '
-            'rbd_ros.conversions; print(sorted(m for m in sys.modules if m.startswith("rclpy")))')
+    code = ('import sys; import rbd_ros.sim.config, rbd_ros.sim.inputs, rbd_ros.sim.session, '
+            'rbd_ros.msgs.conversions; '
+            'print(sorted(m for m in sys.modules if m.startswith("rclpy")))')
     out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
                          cwd=REPO, timeout=120)
     assert out.returncode == 0, out.stderr

@@ -26,10 +26,10 @@ from conftest import FIRST_START_S, REPO, wait_until, write_params
 from geometry_msgs.msg import PointStamped, PoseStamped, WrenchStamped
 import numpy as np
 import pytest
-from rbd_ros import conversions
+from rbd_ros.bag.recording import open_bag
+from rbd_ros.bag.replay import main as replay_main
 from rbd_ros.core import rotations
-from rbd_ros.recording import open_bag
-from rbd_ros.replay import main as replay_main
+from rbd_ros.msgs import conversions
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from ros_probe import point
 from std_srvs.srv import SetBool

@@ -25,8 +25,8 @@ import time
 from conftest import FIRST_START_S, REPO
 from geometry_msgs.msg import PointStamped
 import pytest
-from rbd_ros import conversions
-from rbd_ros.recording import open_bag
+from rbd_ros.bag.recording import open_bag
+from rbd_ros.msgs import conversions
 from ros_probe import point
 
 

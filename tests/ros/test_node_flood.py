@@ -27,7 +27,7 @@ import time
 
 from conftest import wait_until
 from geometry_msgs.msg import WrenchStamped
-from rbd_ros.node import RigidBodyNode
+from rbd_ros.ros.node import RigidBodyNode
 import rclpy
 from rclpy.context import Context
 from ros_probe import Probe, rss_mb

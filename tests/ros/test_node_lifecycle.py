@@ -25,7 +25,7 @@ import time
 
 from conftest import REPO, wait_until
 import pytest
-from rbd_ros.recording import open_bag
+from rbd_ros.bag.recording import open_bag
 from ros_probe import Probe
 
 INVALID = [

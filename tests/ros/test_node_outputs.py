@@ -20,10 +20,10 @@ byte for byte, what the recording holds for that topic and sim time, and replay 
 recording must rebuild the samples bit for bit.
 """
 
-from rbd_ros import outputs
-from rbd_ros.config import NS_PER_S
-from rbd_ros.recording import open_bag
-from rbd_ros.replay import replay_bag
+from rbd_ros.bag.recording import open_bag
+from rbd_ros.bag.replay import replay_bag
+from rbd_ros.msgs import outputs
+from rbd_ros.sim.config import NS_PER_S
 from rclpy.serialization import deserialize_message
 from ros_probe import Probe
 

@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-The node reads its parameter overrides from its ROS arguments itself (:mod:`rbd_ros.ros_args`).
+The node reads its parameter overrides from its ROS arguments itself (:mod:`rbd_ros.ros.ros_args`).
 
 rclpy has no public accessor for them, so the node no longer reads rclpy's private
 ``Node._parameter_overrides``; it must still see exactly what rclpy sees: which params-file
@@ -33,9 +33,9 @@ import subprocess
 import sys
 
 import pytest
-from rbd_ros import ros_args
 from rbd_ros.core import ConfigError
-from rbd_ros.node import RigidBodyNode
+from rbd_ros.ros import ros_args
+from rbd_ros.ros.node import RigidBodyNode
 from rcl_interfaces.srv import GetParameters
 import rclpy
 from rclpy.context import Context
@@ -353,7 +353,7 @@ def test_no_private_rclpy_attribute_is_read_for_the_overrides():
 
 
 def test_the_overrides_module_does_not_import_rclpy():
-    code = ('import sys\nimport rbd_ros.ros_args\n'
+    code = ('import sys\nimport rbd_ros.ros.ros_args\n'
             'print(sorted(m for m in sys.modules if m.split(".")[0] == "rclpy"))\n')
     proc = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
                           cwd=REPO, timeout=120)

@@ -29,9 +29,9 @@ import math
 from conftest import NodeProcess
 import numpy as np
 import pytest
-from rbd_ros.config import NodeConfig
 from rbd_ros.core import rotations
-from rbd_ros.session import SimSession
+from rbd_ros.sim.config import NodeConfig
+from rbd_ros.sim.session import SimSession
 from ros_probe import Probe, step_until_moving
 from std_srvs.srv import SetBool
 

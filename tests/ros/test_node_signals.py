@@ -32,7 +32,7 @@ import time
 from conftest import wait_until
 import numpy as np
 import pytest
-from rbd_ros.recording import open_bag
+from rbd_ros.bag.recording import open_bag
 
 #: The promise is one second. The slack: this 2-core machine runs five test sessions at once
 #: (load ~6), so a woken process may wait a few scheduler slices of up to ~100 ms each, and

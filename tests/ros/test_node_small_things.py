@@ -28,8 +28,8 @@ import time
 
 from conftest import NodeProcess, REPO, wait_until
 import pytest
-from rbd_ros.config import NodeConfig
 from rbd_ros.core import ConfigError, jitcache
+from rbd_ros.sim.config import NodeConfig
 from rcl_interfaces.msg import Parameter as ParameterMsg, ParameterType, ParameterValue
 from rcl_interfaces.srv import DescribeParameters, GetParameters, SetParameters
 from rclpy.qos import ReliabilityPolicy
@@ -126,7 +126,7 @@ def test_two_identical_bodies_at_the_same_pose_are_refused(start_node):
 def test_replay_json_into_a_closed_pipe_exits_141_without_a_traceback(tmp_path):
     # `replay --json bag | head -1`: the reader is gone before the result is written.
     replay = subprocess.Popen(
-        [sys.executable, '-m', 'rbd_ros.replay', str(REPO / 'bags' / 'box_pushed'), '--json',
+        [sys.executable, '-m', 'rbd_ros.bag.replay', str(REPO / 'bags' / 'box_pushed'), '--json',
          '--no-progress'], stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=str(tmp_path))
     replay.stdout.close()
     _, stderr = replay.communicate(timeout=300)

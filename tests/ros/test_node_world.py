@@ -29,9 +29,9 @@ from conftest import FIRST_START_S, NodeProcess, REPO, wait_until
 from geometry_msgs.msg import PoseArray, PoseStamped, TwistStamped
 import numpy as np
 import pytest
-from rbd_ros import conversions
-from rbd_ros.recording import open_bag
-from rbd_ros.replay import main as replay_main
+from rbd_ros.bag.recording import open_bag
+from rbd_ros.bag.replay import main as replay_main
+from rbd_ros.msgs import conversions
 import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.serialization import deserialize_message

@@ -27,10 +27,10 @@ node as a params file, declares the same values.
 from pathlib import Path
 
 import pytest
-from rbd_ros import config as cfg
+from rbd_ros.bag.recording import open_bag
+from rbd_ros.bag.replay import config_from_bag
 from rbd_ros.core import ConfigError
-from rbd_ros.recording import open_bag
-from rbd_ros.replay import config_from_bag
+from rbd_ros.sim import config as cfg
 from rclpy.parameter import parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 from ros_probe import Probe

@@ -28,7 +28,7 @@ import sys
 
 from conftest import FIRST_START_S, REPO
 from geometry_msgs.msg import PoseArray
-from rbd_ros.recording import open_bag
+from rbd_ros.bag.recording import open_bag
 from ros_probe import call
 from std_srvs.srv import SetBool
 import yaml
@@ -91,12 +91,13 @@ def test_the_tour_pushes_the_striker_drags_the_top_box_and_the_bag_replays(
     assert end[2] - start[2] > 0.05, (start, end)
     assert node.stop() == 0, node.stderr
     assert open_bag(bag).finalised
-    replay = subprocess.run([sys.executable, '-m', 'rbd_ros.replay', str(bag), '--no-progress'],
+    replay = subprocess.run([sys.executable, '-m', 'rbd_ros.bag.replay', str(bag),
+                             '--no-progress'],
                             capture_output=True, text=True, timeout=600, cwd=tmp_path)
     assert replay.returncode == 0 and replay.stdout.strip().splitlines()[-1].startswith('MATCH'), \
         replay.stdout + replay.stderr
     gif = tmp_path / 'stack.gif'
-    plot = subprocess.run([sys.executable, '-m', 'rbd_ros.plot', str(bag), '-o',
+    plot = subprocess.run([sys.executable, '-m', 'rbd_ros.bag.plot', str(bag), '-o',
                            str(tmp_path / 'stack.png'), '--animate', str(gif)],
                           capture_output=True, text=True, timeout=600, cwd=tmp_path)
     assert plot.returncode == 0, plot.stdout + plot.stderr

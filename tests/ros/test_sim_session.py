@@ -18,10 +18,10 @@ import math
 
 import numpy as np
 import pytest
-from rbd_ros.config import NodeConfig
 from rbd_ros.core import AppliedWrench, BodyState, ConvergenceError, Simulator
-from rbd_ros.inputs import WrenchRejected
-from rbd_ros.session import SimSession
+from rbd_ros.sim.config import NodeConfig
+from rbd_ros.sim.inputs import WrenchRejected
+from rbd_ros.sim.session import SimSession
 
 H_NS = 1_000_000
 

@@ -29,9 +29,9 @@ import signal
 import sys
 
 from conftest import wait_until
-from rbd_ros import conversions
-from rbd_ros.recording import open_bag
-from rbd_ros.replay import replay_bag
+from rbd_ros.bag.recording import open_bag
+from rbd_ros.bag.replay import replay_bag
+from rbd_ros.msgs import conversions
 from ros_probe import Probe
 
 TF2_MSGS_MISSING = (

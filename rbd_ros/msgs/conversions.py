@@ -17,14 +17,14 @@ Plain values <-> ROS messages, by field name (no rclpy; the message classes are 
 
 Inside rbd_ros a quaternion is ``(w, x, y, z)`` with ``v_w = R(q) v_b``; geometry_msgs writes
 ``x, y, z, w`` fields. Every conversion here goes by field name, never by position. The
-output samples (pose, twist, odometry, clock, tf) are built in :mod:`rbd_ros.outputs`; this
+output samples (pose, twist, odometry, clock, tf) are built in :mod:`rbd_ros.msgs.outputs`; this
 module has the time stamps, the wrench input and the diagnostics.
 """
 
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Quaternion, WrenchStamped
-from rbd_ros.config import NS_PER_S
+from rbd_ros.sim.config import NS_PER_S
 
 
 def time_to_msg(time_ns):
@@ -71,7 +71,7 @@ def wrench_from_msg(msg):
     ``geometry_msgs/WrenchStamped`` → ``(frame_id, force, torque)`` plain values.
 
     ``force`` and ``torque`` are 3-tuples of floats in the coordinates ``frame_id`` names (N,
-    N·m); they are not validated here (see :class:`rbd_ros.inputs.WrenchInputs`).
+    N·m); they are not validated here (see :class:`rbd_ros.sim.inputs.WrenchInputs`).
     """
     return (msg.header.frame_id, vector_from_msg(msg.wrench.force),
             vector_from_msg(msg.wrench.torque))

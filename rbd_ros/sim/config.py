@@ -65,7 +65,7 @@ STRING_ARRAY = 'string_array'
 #: Frame keywords accepted by ``twist_frame``, ``default_wrench_frame`` and ``.frame``.
 FRAME_KEYWORDS = ('world', 'body')
 
-#: Name of the main wrench input (topic ``wrench``) in :class:`rbd_ros.inputs.WrenchInputs`.
+#: Name of the main wrench input (topic ``wrench``) in :class:`rbd_ros.sim.inputs.WrenchInputs`.
 MAIN_INPUT = 'wrench'
 
 #: Most bodies a world may have (``bodies``): start-up checks and the contact step are measured
@@ -834,7 +834,7 @@ def resolve_mesh_path(path, field):
     share = os.path.join(sys.prefix, 'share', package)
     if package and os.path.isfile(os.path.join(share, 'package.xml')):
         return os.path.join(share, rest)
-    source = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    source = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     if package == 'rbd_ros' and os.path.isfile(os.path.join(source, 'package.xml')):
         return os.path.join(source, rest)
     raise ModelError(f'parameter {field} = {path!r}: package {package!r} is found neither in '

@@ -57,9 +57,9 @@ from geometry_msgs.msg import (PoseArray, PoseStamped, TransformStamped, TwistSt
                                WrenchStamped)
 from nav_msgs.msg import Odometry
 import numpy as np
-from rbd_ros import conversions as conv
-from rbd_ros.config import NS_PER_S
 from rbd_ros.core import BodyState
+from rbd_ros.msgs import conversions as conv
+from rbd_ros.sim.config import NS_PER_S
 from rosgraph_msgs.msg import Clock
 
 try:  # tf2_msgs is on every Jazzy install but not in the PyPI wheels.
@@ -120,7 +120,7 @@ class SampleBuilder:
 
     Built once per configuration.
 
-    :param config: a :class:`rbd_ros.config.NodeConfig` (frames, ``twist_frame``,
+    :param config: a :class:`rbd_ros.sim.config.NodeConfig` (frames, ``twist_frame``,
         ``publish_clock``, ``publish_tf``, ``contact``).
     :param tf: False leaves ``/tf`` out whatever ``publish_tf`` says (tf2_msgs missing, or a
         caller that does not output it).
@@ -177,7 +177,7 @@ class SampleBuilder:
         Return ``[(kind, CDR bytes)]`` of one sample, in :data:`KINDS` order.
 
         :param contact_wrench: ``(force_w, torque_w)`` (N, N·m about the COM, world frame) for
-            the ``contact_wrench`` kind (:attr:`rbd_ros.session.SimSession.contact_wrench_w`).
+            the ``contact_wrench`` kind (:attr:`rbd_ros.sim.session.SimSession.contact_wrench_w`).
         """
         (px, py, pz), (qw, qx, qy, qz), twist, twist_b = values
         sec, nanosec = divmod(time_ns, NS_PER_S)
@@ -277,7 +277,7 @@ class WorldSampleBuilder:
     (``geometry_msgs/PoseArray``: every body's pose in ``body_names`` order, world frame),
     ``clock`` and one ``tf`` message holding world → body for every body.
 
-    :param config: a world :class:`rbd_ros.config.NodeConfig`.
+    :param config: a world :class:`rbd_ros.sim.config.NodeConfig`.
     :param tf: False leaves ``/tf`` out (tf2_msgs missing).
     """
 
@@ -311,7 +311,7 @@ class WorldSampleBuilder:
         """
         Return ``[(kind, CDR bytes)]`` of one sample, in :attr:`kinds` order.
 
-        :param columns: (13, N) packed states (:attr:`rbd_ros.session.SimSession.columns`).
+        :param columns: (13, N) packed states (:attr:`rbd_ros.sim.session.SimSession.columns`).
         :param wrenches: (N, 6) contact force and torque per body (N, N·m; world, about COMs).
         """
         out = []

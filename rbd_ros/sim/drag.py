@@ -33,18 +33,18 @@ The spring is :class:`rbd_ros.core.Spring` with rest length 0: ``f = −k d − 
 attachment point (``k = drag_stiffness_n_per_m``, ``c = drag_damping_n_s_per_m``). Like
 wrenches, drags are events: queued when received, applied at the start of the next physics step
 (where a click is resolved against the state at that time), and reported as
-:class:`rbd_ros.inputs.AppliedEvent` (the point in ``force``, ``torque`` zero) so the node
+:class:`rbd_ros.sim.inputs.AppliedEvent` (the point in ``force``, ``torque`` zero) so the node
 records them and replay re-drives them bit for bit.
 
 Between two step starts only the latest point of each input is kept (a later one replaces it,
 as a later wrench replaces a pending one), so a paused node holds at most one point per input.
 
-A drag obeys the wrench limits (:func:`rbd_ros.inputs.check_limits`): when a point takes effect,
-the spring force it would exert at that step start, ``f = −k d − c ẋ``, and its torque about the
-COM, ``r × f``, must satisfy ``|f| <= max_force_n`` and ``|r × f| <= max_torque_nm``; otherwise
-the point is rejected and counted (``'force_limit'``, ``'torque_limit'``) and the drag stays as it
-was. Like a wrench, it is checked once, when it takes effect; the spring then pulls the body
-towards the anchor, so its force falls.
+A drag obeys the wrench limits (:func:`rbd_ros.sim.inputs.check_limits`): when a point takes
+effect, the spring force it would exert at that step start, ``f = −k d − c ẋ``, and its torque
+about the COM, ``r × f``, must satisfy ``|f| <= max_force_n`` and ``|r × f| <= max_torque_nm``;
+otherwise the point is rejected and counted (``'force_limit'``, ``'torque_limit'``) and the drag
+stays as it was. Like a wrench, it is checked once, when it takes effect; the spring then pulls
+the body towards the anchor, so its force falls.
 """
 
 import math
@@ -52,7 +52,7 @@ import math
 import numpy as np
 from rbd_ros.core import Spring
 from rbd_ros.core.rotations import quat_to_matrix
-from rbd_ros.inputs import AppliedEvent, check_limits, WrenchRejected
+from rbd_ros.sim.inputs import AppliedEvent, check_limits, WrenchRejected
 
 #: The input name of ``/clicked_point``.
 CLICKED_POINT = 'clicked_point'

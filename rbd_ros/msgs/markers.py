@@ -24,7 +24,7 @@ Namespaces and ids (stable, so a marker is replaced in place sample after sample
 * ``ground`` id 0: the ground plane, a thin CUBE (see :func:`shape_marker`).
 * ``obstacles`` id ``i``: obstacle ``i`` of ``StaticWorld.obstacles`` (``text`` = its name).
 * ``bodies`` id ``i``: body ``i`` (``text`` = its name), colour
-  :func:`rbd_ros.tessellation.body_color` (shared with :mod:`rbd_ros.animate`).  A mesh
+  :func:`rbd_ros.sim.tessellation.body_color` (shared with :mod:`rbd_ros.bag.animate`).  A mesh
   body whose mesh file is known is a MESH_RESOURCE (the viewer loads the file once and the
   message carries its URI, not its triangles); a capsule body is a CYLINDER here and two
   SPHERE caps in ``body_caps`` (ids ``2 i`` and ``2 i + 1``), so a body's marker costs the
@@ -39,7 +39,7 @@ so the static and moving markers may share one topic: nothing here ever deletes 
 ``contacts`` namespace.
 
 Quaternions are ``(w, x, y, z)`` here as everywhere inside rbd_ros; the messages' ``x, y, z,
-w`` fields are written by :func:`rbd_ros.conversions.quaternion_to_msg`.
+w`` fields are written by :func:`rbd_ros.msgs.conversions.quaternion_to_msg`.
 """
 
 import math
@@ -49,12 +49,12 @@ from typing import List, Optional, Sequence, Tuple, TYPE_CHECKING
 
 from geometry_msgs.msg import Point
 import numpy as np
-from rbd_ros import conversions as conv
 from rbd_ros.core.errors import finite_vector, InputError
 from rbd_ros.core.rotations import (quat_multiply, quat_normalize, quat_rotate,
                                     quat_to_matrix)
-from rbd_ros.tessellation import (body_color, DEFAULT_PLANE_SIZE_M, DEFAULT_RINGS,
-                                  DEFAULT_SEGMENTS, plane_frame, shape_triangles)
+from rbd_ros.msgs import conversions as conv
+from rbd_ros.sim.tessellation import (body_color, DEFAULT_PLANE_SIZE_M, DEFAULT_RINGS,
+                                      DEFAULT_SEGMENTS, plane_frame, shape_triangles)
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -174,7 +174,7 @@ def shape_marker(shape: 'CollisionShape', ns: str, marker_id: int, frame_id: str
     * ``cylinder``: CYLINDER, scale = (2 r, 2 r, length).  RViz and Foxglove cylinders run
       along their z axis, as ours do (``from_shape``: cylinders and capsules along body z),
       so the pose is the body's.
-    * ``capsule``: TRIANGLE_LIST of its tessellation (:func:`rbd_ros.tessellation.
+    * ``capsule``: TRIANGLE_LIST of its tessellation (:func:`rbd_ros.sim.tessellation.
       shape_triangles`: ``segments`` per ring, ``rings`` over both caps), scale 1.
     * ``mesh``: TRIANGLE_LIST of its faces, in the body frame (the vertices are already moved
       by ``mesh_offset_m`` so the COM is the body origin), scale 1.
@@ -259,7 +259,7 @@ def mesh_uri(mesh_path: str, file_path: str) -> str:
 
     ``mesh_path`` is the parameter as given: a ``package://`` URI is kept, since RViz and
     Foxglove resolve it against the package's share directory as
-    :func:`rbd_ros.config.resolve_mesh_path` does; any other path becomes the ``file://`` URI
+    :func:`rbd_ros.sim.config.resolve_mesh_path` does; any other path becomes the ``file://`` URI
     of ``file_path`` (the file the node loaded), made absolute against the working directory.
 
     :raises InputError: naming ``mesh_path`` when it is empty or not a string.

@@ -100,7 +100,7 @@ def _check_chunks(f, name, size):
                 raise RecordingError(
                     f'{name}: the chunk at byte {offset} declares an uncompressed size of '
                     f'{uncompressed} bytes, more than the limit of {MAX_CHUNK_BYTES} bytes '
-                    '(rbd_ros.limits.MAX_CHUNK_BYTES)')
+                    '(rbd_ros.sim.limits.MAX_CHUNK_BYTES)')
         if opcode == 0x02 or length > size:  # the footer, or a length past the end
             return
         offset += _RECORD.size + length
@@ -120,10 +120,10 @@ def check_steps(bag):
 
     The steps: the last log time over the recorded step, times the bodies.
 
-    :param bag: an opened :class:`rbd_ros.recording.Bag`.
+    :param bag: an opened :class:`rbd_ros.bag.recording.Bag`.
     :raises RecordingError: naming ``timestep_s``, its value, the steps and the limits.
     """
-    from rbd_ros.config import recorded_parameters  # today's names, also for an old bag
+    from rbd_ros.sim.config import recorded_parameters  # today's names, also for an old bag
     config = recorded_parameters(bag.config or {})
     timestep_s = config.get('timestep_s')
     if isinstance(timestep_s, (int, float)) and timestep_s > 0 and bag.end_ns:
@@ -134,7 +134,7 @@ def check_steps(bag):
                 f'{bag.mcap_path}: timestep_s = {timestep_s:g} s up to the last message at '
                 f'{bag.end_ns} ns is {steps:.3g} steps of {bodies} bodies, more than the limit '
                 f'of {MAX_REPLAY_STEPS} steps and {MAX_REPLAY_BODY_STEPS} body-steps '
-                '(rbd_ros.limits.MAX_REPLAY_STEPS, MAX_REPLAY_BODY_STEPS)')
+                '(rbd_ros.sim.limits.MAX_REPLAY_STEPS, MAX_REPLAY_BODY_STEPS)')
 
 
 def check_bag(bag, steps=True):
@@ -145,7 +145,7 @@ def check_bag(bag, steps=True):
     replay (:func:`check_steps`; replay checks them after its own time checks, which say more
     precisely what is wrong with a log time).
 
-    :param bag: an opened :class:`rbd_ros.recording.Bag`.
+    :param bag: an opened :class:`rbd_ros.bag.recording.Bag`.
     :raises RecordingError: naming the field, its value and unit, and the limit.
     """
     if steps:
@@ -154,11 +154,11 @@ def check_bag(bag, steps=True):
         if len(data) > MAX_MESH_BYTES:
             raise RecordingError(
                 f'{bag.mcap_path}: attached mesh {name!r} is {len(data)} bytes, more than the '
-                f'limit of {MAX_MESH_BYTES} bytes (rbd_ros.limits.MAX_MESH_BYTES)')
+                f'limit of {MAX_MESH_BYTES} bytes (rbd_ros.sim.limits.MAX_MESH_BYTES)')
         if name.lower().endswith('.stl'):
             triangles = stl_triangles(data)
             if triangles > MAX_MESH_TRIANGLES:
                 raise RecordingError(
                     f'{bag.mcap_path}: attached mesh {name!r} has {triangles} triangles, more '
                     f'than the limit of {MAX_MESH_TRIANGLES} '
-                    '(rbd_ros.limits.MAX_MESH_TRIANGLES)')
+                    '(rbd_ros.sim.limits.MAX_MESH_TRIANGLES)')

@@ -17,8 +17,8 @@ Animate a world from arrays: a GIF, or an MP4 when ffmpeg is installed.
 
 For people without RViz or Foxglove: :func:`write_animation` draws one frame per sample with
 matplotlib's 3-D axes (Agg, no window): every body's surface
-(:func:`rbd_ros.tessellation.shape_triangles`) as a shaded ``Poly3DCollection`` in its colour
-(:func:`rbd_ros.tessellation.body_color`, as its marker), the obstacles in brown and the
+(:func:`rbd_ros.sim.tessellation.shape_triangles`) as a shaded ``Poly3DCollection`` in its colour
+(:func:`rbd_ros.sim.tessellation.body_color`, as its marker), the obstacles in brown and the
 ground plane as a grey square under the scene.  No ROS and no
 messages here: the caller reads poses from wherever (a bag, a simulator) into arrays.
 """
@@ -29,10 +29,10 @@ from pathlib import Path
 from typing import Optional, Sequence, Tuple, TYPE_CHECKING, Union
 
 import numpy as np
-from rbd_ros.config import NS_PER_S
 from rbd_ros.core.errors import ConfigError, InputError
 from rbd_ros.core.rotations import quat_to_matrix
-from rbd_ros.tessellation import body_color, plane_frame, shape_triangles
+from rbd_ros.sim.config import NS_PER_S
+from rbd_ros.sim.tessellation import body_color, plane_frame, shape_triangles
 
 if TYPE_CHECKING:  # pragma: no cover - annotations only
     from rbd_ros.core.contact import CollisionShape, StaticWorld

@@ -56,7 +56,7 @@ def check_limits(topic, force, torque, max_force_n, max_torque_nm):
     """
     Raise unless ``|force| <= max_force_n`` and ``|torque| <= max_torque_nm``.
 
-    The one load limit of every input: wrenches, drags and clicks (see :mod:`rbd_ros.drag`).
+    The one load limit of every input: wrenches, drags and clicks (see :mod:`rbd_ros.sim.drag`).
 
     :param topic: the input, named in the message.
     :param force: 3 finite numbers, N.
@@ -111,7 +111,7 @@ class WrenchInputs:
     """
     The wrench inputs of one body: pending and held wrenches and their counters.
 
-    :param specs: :class:`rbd_ros.config.WrenchInputSpec` sequence (name, topic, frame,
+    :param specs: :class:`rbd_ros.sim.config.WrenchInputSpec` sequence (name, topic, frame,
         point_b).
     :param world_frame: the world frame id.
     :param body_frame: the body frame id.
@@ -261,10 +261,10 @@ class WorldInputs:
     The wrench inputs of a world: one :class:`WrenchInputs` per body, routed by input name.
 
     Input names are ``<body>/wrench`` and ``<body>/<input>``
-    (:attr:`rbd_ros.config.BodyConfig.wrench_inputs`); the interface is that of
+    (:attr:`rbd_ros.sim.config.BodyConfig.wrench_inputs`); the interface is that of
     :class:`WrenchInputs`, with :meth:`body_loads` for each body's held wrenches.
 
-    :param bodies: the :class:`rbd_ros.config.BodyConfig` sequence, in world order.
+    :param bodies: the :class:`rbd_ros.sim.config.BodyConfig` sequence, in world order.
     :param world_frame: the world frame id. The other keywords are :class:`WrenchInputs`'s.
     """
 

@@ -23,9 +23,9 @@ traceback.
 import sys
 from typing import Callable, Optional, Tuple, TypeVar
 
-from rbd_ros import limits
+from rbd_ros.bag.recording import Bag, open_bag
 from rbd_ros.core.errors import RbdError
-from rbd_ros.recording import Bag, open_bag
+from rbd_ros.sim import limits
 
 T = TypeVar('T')
 
@@ -40,7 +40,7 @@ def open_bag_with_notes(prog: str, path: str, steps: bool = True) -> Bag:
     Open the recording ``path`` and print each of its notes as ``<prog>: note: ...``.
 
     :param steps: also check the steps a replay would take (replay checks them itself).
-    :raises RecordingError: also for a recording over the limits of :mod:`rbd_ros.limits`,
+    :raises RecordingError: also for a recording over the limits of :mod:`rbd_ros.sim.limits`,
         refused before it is parsed or replayed.
     """
     limits.check_mcap_chunks(path)  # before the reader decompresses anything

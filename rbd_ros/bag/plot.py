@@ -1,0 +1,500 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Plot a recording to one PNG (``ros2 run rbd_ros plot <bag> [-o out.png]``), headless.
+
+Panels over sim time (s): COM position (m, world); orientation as the rotation vector
+``quat_log(q_wb)`` (rad, world); linear velocity ``v_w`` (m/s, world); angular velocity ``ω_b``
+(rad/s, body); the applied wrenches (force N and torque N·m of each input, as received, held
+from the step they took effect at until replaced or until ``wrench_timeout_s``); the kinetic
+energy (J; and the total mechanical energy when there is gravity) and ``|L|`` about the COM
+(kg·m²/s, ``|I_b ω_b|``).
+
+The state comes from ``odom`` (pose in world, twist in body coordinates, REP 105), or from
+``pose`` + ``twist`` when there is no odometry.  Energy and momentum need the body model, which
+is rebuilt from the configuration stored in the recording.  Messages are decoded with the
+schemas stored in the file; rclpy is not imported.
+"""
+
+import argparse
+import os
+import sys
+from typing import Any, Dict, List, Optional, Tuple, Union
+
+import numpy as np
+from rbd_ros.bag.cli import open_bag_with_notes, run_on_bag
+from rbd_ros.bag.recording import Bag, open_bag
+from rbd_ros.core import BodyState, RbdError
+from rbd_ros.core.model import BodyModel
+from rbd_ros.core.rotations import quat_log, quat_to_matrix
+from rbd_ros.msgs.conversions import quaternion_from_msg as _quat, vector_from_msg as _vec
+from rbd_ros.sim.config import NS_PER_S, recorded_parameters
+
+SAVE_DPI = 90
+
+
+_ODOM = 'nav_msgs/msg/Odometry'
+_POSE = 'geometry_msgs/msg/PoseStamped'
+_TWIST = 'geometry_msgs/msg/TwistStamped'
+_WRENCH = 'geometry_msgs/msg/WrenchStamped'
+_AXES = ('x', 'y', 'z')
+_NAN3 = (np.nan,) * 3
+
+#: One input's wrenches as recorded: ``(t_s, force (3,), torque (3,))`` per message.
+WrenchSamples = List[Tuple[float, Tuple[float, ...], Tuple[float, ...]]]
+
+
+def load_series(bag: Bag) -> Dict[str, Any]:
+    """
+    Return the time series of a recording as numpy arrays.
+
+    Keys: ``t_s`` (N,), ``position_w`` (N, 3), ``orientation_wb`` (N, 4) w-first,
+    ``velocity_w`` (N, 3), ``omega_b`` (N, 3) (NaN when not recorded), ``wrenches``
+    (topic -> list of ``(t_s, force(3), torque(3))``), ``model`` (BodyModel or None),
+    ``timeout_s``.
+
+    :raises RbdError: the recording has no odom, pose or twist topic.
+    """
+    state_topics, wrench_topics = _plotted_topics(bag)
+    twist_frame = (bag.config or {}).get('twist_frame', 'world')
+    rows, wrenches = _read_samples(bag, state_topics, wrench_topics, twist_frame)
+    times = sorted(rows)
+    series = _state_series(rows, times)
+    model, timeout_s = _body_model(bag)
+    return {'t_s': np.array(times, dtype=float) / NS_PER_S, **series,
+            'wrenches': wrenches, 'model': model, 'timeout_s': timeout_s}
+
+
+def _plotted_topics(bag: Bag) -> Tuple[List[str], List[str]]:
+    """Return the state topics (``odom``, else ``pose`` + ``twist``) and the wrench topics."""
+    by_type = {}
+    for topic, info in bag.topics.items():
+        by_type.setdefault(info.type_name, []).append(topic)
+    state_topics = by_type.get(_ODOM, [])[:1] or (
+        by_type.get(_POSE, [])[:1] + by_type.get(_TWIST, [])[:1])
+    if not state_topics:
+        raise RbdError(f'{bag.mcap_path}: no odom, pose or twist topic to plot '
+                       f'(topics: {sorted(bag.topics)})')
+    # contact_wrench is an output (the node's contact force), not an applied wrench.
+    inputs = [t for t in by_type.get(_WRENCH, []) if t.rsplit('/', 1)[-1] != 'contact_wrench']
+    return state_topics, inputs
+
+
+def _read_samples(bag: Bag, state_topics: List[str], wrench_topics: List[str],
+                  twist_frame: str) -> Tuple[Dict[int, dict], Dict[str, WrenchSamples]]:
+    """
+    Decode the recording into state rows by log time and wrench samples by topic.
+
+    A row holds what was recorded at that time: ``p``, ``q`` (w-first) and velocities keyed by
+    their frame, ``v_w``/``w_w`` (world) or ``v_b``/``w_b`` (body).
+    """
+    rows = {}
+    wrenches = {topic: [] for topic in wrench_topics}
+    velocity_frame = 'b' if twist_frame == 'body' else 'w'
+    for raw, msg in bag.decoded_messages(state_topics + wrench_topics):
+        t = raw.log_time_ns
+        if raw.topic in wrenches:
+            wrenches[raw.topic].append(
+                (t / NS_PER_S, _vec(msg.wrench.force), _vec(msg.wrench.torque)))
+            continue
+        row = rows.setdefault(t, {})
+        type_name = bag.topics[raw.topic].type_name
+        if type_name == _ODOM:
+            row['p'] = _vec(msg.pose.pose.position)
+            row['q'] = _quat(msg.pose.pose.orientation)
+            row['v_b'] = _vec(msg.twist.twist.linear)
+            row['w_b'] = _vec(msg.twist.twist.angular)
+        elif type_name == _POSE:
+            row['p'] = _vec(msg.pose.position)
+            row['q'] = _quat(msg.pose.orientation)
+        else:
+            row['v_' + velocity_frame] = _vec(msg.twist.linear)
+            row['w_' + velocity_frame] = _vec(msg.twist.angular)
+    return rows, wrenches
+
+
+def _state_series(rows: Dict[int, dict], times: List[int]) -> Dict[str, np.ndarray]:
+    """Return position, orientation, ``v_w`` and ``ω_b`` arrays, each velocity in its frame."""
+    p = np.array([rows[t].get('p', _NAN3) for t in times], dtype=float).reshape(-1, 3)
+    q = np.array([rows[t].get('q', (1.0, 0.0, 0.0, 0.0)) for t in times],
+                 dtype=float).reshape(-1, 4)
+    rot = quat_to_matrix(q) if len(q) else np.zeros((0, 3, 3))
+    rot_t = np.swapaxes(rot, -1, -2)
+
+    def world_and_body(prefix):
+        # v_w = R v_b and v_b = R^T v_w fill whichever frame was not recorded.
+        world = np.array([rows[t].get(prefix + '_w', _NAN3) for t in times],
+                         float).reshape(-1, 3)
+        body = np.array([rows[t].get(prefix + '_b', _NAN3) for t in times], float).reshape(-1, 3)
+        from_body = np.einsum('nij,nj->ni', rot, body)
+        from_world = np.einsum('nij,nj->ni', rot_t, world)
+        return (np.where(np.isnan(world), from_body, world),
+                np.where(np.isnan(body), from_world, body))
+
+    velocity_w, _ = world_and_body('v')
+    _, omega_b = world_and_body('w')
+    return {'position_w': p, 'orientation_wb': q, 'velocity_w': velocity_w, 'omega_b': omega_b}
+
+
+def _body_model(bag: Bag) -> Tuple[Optional[BodyModel], float]:
+    """Return the body model and the wrench timeout (s) of the stored configuration."""
+    if bag.config is None:
+        return None, 0.0
+    from rbd_ros.bag.replay import config_from_bag  # the stored config, its meshes attached
+    try:
+        config = config_from_bag(bag)
+    except RbdError:
+        return None, 0.0
+    return config.model, config.wrench_timeout_ns / NS_PER_S
+
+
+def _held(samples: WrenchSamples, timeout_s: float,
+          t_end: float) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Zero-order-hold step lines of one input's wrenches: (t, force (n,3), torque (n,3))."""
+    ts, forces, torques = [], [], []
+    for index, (t, force, torque) in enumerate(samples):
+        next_t = samples[index + 1][0] if index + 1 < len(samples) else t_end
+        end = min(next_t, t + timeout_s) if timeout_s > 0 else next_t
+        ts += [t, end]
+        forces += [force, force]
+        torques += [torque, torque]
+        if end < next_t:
+            ts += [end, next_t]
+            forces += [(0.0,) * 3] * 2
+            torques += [(0.0,) * 3] * 2
+    return np.array(ts), np.array(forces).reshape(-1, 3), np.array(torques).reshape(-1, 3)
+
+
+def _conserved_scale(ax) -> None:
+    """Show a quantity constant to round-off as flat, and say how constant it is."""
+    ax.ticklabel_format(axis='y', useOffset=False)
+    values = np.concatenate([line.get_ydata() for line in ax.get_lines()] or [np.zeros(0)])
+    values = values[np.isfinite(values)]
+    if not len(values):
+        return
+    scale = max(abs(float(values.mean())), 1e-300)
+    spread = float(values.max() - values.min()) / scale
+    if spread <= 1e-9:
+        mean = float(values.mean())
+        ax.set_ylim(mean - 0.05 * scale - 1e-12, mean + 0.05 * scale + 1e-12)
+        ax.text(0.02, 0.06, f'constant to {spread:.1e} (relative)', transform=ax.transAxes,
+                fontsize=8)
+
+
+def _note(ax, text: str) -> str:
+    """Write ``text`` in the middle of an empty panel; return it."""
+    ax.text(0.5, 0.5, text, ha='center', va='center', transform=ax.transAxes)
+    return text
+
+
+def _draw_vectors(ax, t: np.ndarray, values: np.ndarray, title: str, unit: str) -> None:
+    """Draw the x, y, z components of ``values`` (N, 3) over sim time ``t``."""
+    for k, name in enumerate(_AXES):
+        ax.plot(t, values[:, k], label=name, linewidth=1.0)
+    ax.set_title(title, fontsize=10)
+    ax.set_ylabel(unit)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, loc='best')
+
+
+def _draw_state(axes, data: Dict[str, Any]) -> None:
+    """Panels 0-3: position, orientation (rotation vector), ``v_w`` and ``ω_b``."""
+    t = data['t_s']
+    _draw_vectors(axes[0], t, data['position_w'], 'COM position (world)', 'm')
+    rotvec = quat_log(data['orientation_wb']) if len(t) else np.zeros((0, 3))
+    _draw_vectors(axes[1], t, rotvec, 'orientation: rotation vector log(q_wb) (world)', 'rad')
+    _draw_vectors(axes[2], t, data['velocity_w'], 'linear velocity v_w (world)', 'm/s')
+    _draw_vectors(axes[3], t, data['omega_b'], 'angular velocity ω_b (body)', 'rad/s')
+
+
+def _draw_wrenches(axes, data: Dict[str, Any], notes: List[Optional[str]]) -> None:
+    """Panels 4-5: each input's force and torque, held as the node held them."""
+    t = data['t_s']
+    t_end = float(t[-1]) if len(t) else 0.0
+    for panel, index, what, unit in ((4, 1, 'force', 'N'), (5, 2, 'torque', 'N·m')):
+        ax = axes[panel]
+        drawn = False
+        for topic, samples in sorted(data['wrenches'].items()):
+            if not samples:
+                continue
+            held = _held(samples, data['timeout_s'], t_end)
+            for k, name in enumerate(_AXES):
+                ax.plot(held[0], held[index][:, k], label=f'{topic} {name}', linewidth=1.0)
+            drawn = True
+        ax.set_title(f'applied wrenches: {what} (as received, in its frame_id)', fontsize=10)
+        ax.set_ylabel(unit)
+        ax.grid(True, alpha=0.3)
+        if drawn:
+            ax.legend(fontsize=7, loc='best', ncol=2)
+        else:
+            notes[panel] = _note(ax, 'no wrench recorded')
+
+
+def _body_states(data: Dict[str, Any]) -> List[Optional[BodyState]]:
+    """Return the recorded samples as :class:`BodyState` (None where a field is missing)."""
+    states = []
+    for p, q, v, w in zip(data['position_w'], data['orientation_wb'], data['velocity_w'],
+                          data['omega_b']):
+        finite = all(np.all(np.isfinite(x)) for x in (p, q, v, w))
+        states.append(BodyState(position_w=p, orientation_wb=q, linear_velocity_w=v,
+                                angular_velocity_b=w) if finite else None)
+    return states
+
+
+def _draw_invariants(axes, data: Dict[str, Any], notes: List[Optional[str]]) -> None:
+    """
+    Panels 6-7: energy and ``|L|`` about the COM, flat when constant to round-off.
+
+    Asked of :class:`BodyState` per sample: ``kinetic_energy`` (plus ``potential_energy`` under
+    gravity) and ``|angular_momentum_w|``.
+    """
+    t, model = data['t_s'], data['model']
+    if model is not None and len(t):
+        states = _body_states(data)
+        kinetic = np.array([s.kinetic_energy(model) if s else np.nan for s in states])
+        axes[6].plot(t, kinetic, label='kinetic', linewidth=1.2)
+        if np.any(np.asarray(model.gravity_w) != 0.0):
+            potential = np.array([s.potential_energy(model) if s else np.nan for s in states])
+            axes[6].plot(t, kinetic + potential, label='kinetic + potential', linewidth=1.2)
+        axes[6].legend(fontsize=8, loc='best')
+        momentum = np.array([np.linalg.norm(s.angular_momentum_w(model)) if s else np.nan
+                             for s in states])
+        axes[7].plot(t, momentum, color='tab:purple', linewidth=1.2, label='|L|')
+    else:
+        for k, ax in enumerate(axes[6:], 6):
+            notes[k] = _note(ax, 'no body model in the recording')
+    for ax in axes[6:]:
+        _conserved_scale(ax)
+    axes[6].set_title('energy', fontsize=10)
+    axes[6].set_ylabel('J')
+    axes[7].set_title('|angular momentum| about the COM, |I_b ω_b|', fontsize=10)
+    axes[7].set_ylabel('kg·m²/s')
+    for ax in axes[6:]:
+        ax.grid(True, alpha=0.3)
+        ax.set_xlabel('sim time (s)')
+
+
+def _panel_summaries(axes, notes: List[Optional[str]]) -> List[Dict[str, Any]]:
+    """Describe each laid-out panel: title, box, every curve's data, note."""
+    return [{'title': ax.get_title(), 'box': tuple(ax.get_position().extents),
+             'lines': {line.get_label(): (np.asarray(line.get_xdata(), dtype=float),
+                                          np.asarray(line.get_ydata(), dtype=float))
+                       for line in ax.get_lines()},
+             'note': note} for ax, note in zip(axes, notes)]
+
+
+def draw(bag: Union[str, os.PathLike, Bag],
+         title: Optional[str] = None) -> Tuple[Any, List[Dict[str, Any]]]:
+    """
+    Draw the recording ``bag`` (opened or a path) into a new matplotlib figure.
+
+    :returns: ``(figure, panels)``; ``panels`` lists the eight panels in reading order, each a
+        dict with ``title``, ``box`` (its axes as figure fractions ``(x0, y0, x1, y1)``, origin
+        bottom left, as laid out for saving), ``lines`` (label -> ``(x, y)`` arrays of every
+        curve drawn, x in sim seconds) and ``note`` (the text drawn instead of curves, or None).
+        The caller closes the figure (``matplotlib.pyplot.close``).
+    """
+    import matplotlib
+    matplotlib.use('Agg')
+    from matplotlib import pyplot as plt
+
+    if not isinstance(bag, Bag):
+        bag = open_bag(bag)
+    data = load_series(bag)
+    fig, axes = plt.subplots(4, 2, figsize=(13, 12), sharex=True)
+    axes = axes.ravel()
+    notes = [None] * len(axes)
+    _draw_state(axes, data)
+    _draw_wrenches(axes, data, notes)
+    _draw_invariants(axes, data, notes)
+    status = '' if bag.finalised else '  [not finalised]'
+    fig.suptitle(title or f'{os.path.basename(os.path.normpath(bag.path))}{status}')
+    fig.tight_layout()
+    return fig, _panel_summaries(axes, notes)
+
+
+def load_world(bag: Bag) -> Dict[str, Any]:
+    """
+    Return a world recording's per-body series, from the recorded samples only.
+
+    ``{'names', 't_s' (N,), 'position_w' {name: (N, 3)}, 'kinetic_j' {name: (N,)},
+    'in_contact' (N,) number of bodies with a non-zero contact wrench}``; the kinetic energy
+    ``m v²/2 + ω_bᵀ I_b ω_b / 2`` from each body's odometry (twist in its body frame) and its
+    stored mass model.
+    """
+    from rbd_ros.bag.replay import config_from_bag  # the stored config, its meshes attached
+    config = config_from_bag(bag)
+    names = [body.name for body in config.bodies]
+    topics = {}
+    for topic in bag.topics:
+        head, _, kind = topic.rpartition('/')
+        body = head.rpartition('/')[2]
+        if body in names and kind in ('odom', 'contact_wrench'):
+            topics[topic] = (body, kind)
+    odom = {name: {} for name in names}
+    contact = {name: {} for name in names}
+    for raw, msg in bag.decoded_messages(list(topics)):
+        body, kind = topics[raw.topic]
+        if kind == 'odom':
+            odom[body][raw.log_time_ns] = (_vec(msg.pose.pose.position),
+                                           _vec(msg.twist.twist.linear),
+                                           _vec(msg.twist.twist.angular))
+        else:
+            contact[body][raw.log_time_ns] = np.linalg.norm(
+                _vec(msg.wrench.force) + _vec(msg.wrench.torque))
+    times = sorted(set.intersection(*(set(v) for v in odom.values()))) if names else []
+    out = {'names': names, 't_s': np.array(times) / NS_PER_S, 'position_w': {},
+           'kinetic_j': {}, 'in_contact': np.zeros(len(times))}
+    for body in config.bodies:
+        rows = [odom[body.name][t] for t in times]
+        out['position_w'][body.name] = np.array([r[0] for r in rows]).reshape(-1, 3)
+        v = np.array([r[1] for r in rows]).reshape(-1, 3)
+        w = np.array([r[2] for r in rows]).reshape(-1, 3)
+        inertia = body.model.inertia_b
+        out['kinetic_j'][body.name] = 0.5 * body.model.mass_kg * (v * v).sum(axis=1) \
+            + 0.5 * np.einsum('ni,ij,nj->n', w, inertia, w)
+        out['in_contact'] += np.array([contact[body.name].get(t, 0.0) > 0.0 for t in times])
+    return out
+
+
+def draw_world(bag: Bag, title: Optional[str] = None) -> Tuple[Any, Dict[str, Any]]:
+    """Draw a world recording: top view, heights, kinetic energy, bodies in contact."""
+    import matplotlib
+    matplotlib.use('Agg')
+    from matplotlib import pyplot as plt
+
+    data = load_world(bag)
+    fig, axes = plt.subplots(2, 2, figsize=(13, 9))
+    top, height, energy, contact = axes.ravel()
+    t = data['t_s']
+    for name in data['names']:
+        p = data['position_w'][name]
+        top.plot(p[:, 0], p[:, 1], label=name)
+        if len(p):
+            top.plot(p[-1:, 0], p[-1:, 1], 'o', color=top.get_lines()[-1].get_color())
+        height.plot(t, p[:, 2], label=name)
+        energy.plot(t, data['kinetic_j'][name], label=name)
+    energy.plot(t, sum(data['kinetic_j'].values()), 'k--', label='total')
+    contact.step(t, data['in_contact'], where='post', label='bodies touching')
+    top.set_title('top view: COM paths (m), dot = last sample', fontsize=10)
+    top.set_aspect('equal', adjustable='datalim')
+    height.set_title('COM height z (m)', fontsize=10)
+    energy.set_title('kinetic energy (J)', fontsize=10)
+    contact.set_title('bodies with a non-zero contact wrench', fontsize=10)
+    for ax in (height, energy, contact):
+        ax.set_xlabel('sim time (s)')
+    for ax in axes.ravel():
+        ax.grid(True, alpha=0.3)
+        if len(data['names']) <= 12:
+            ax.legend(fontsize=8)
+    status = '' if bag.finalised else '  [not finalised]'
+    fig.suptitle(title or f'{os.path.basename(os.path.normpath(bag.path))}{status}')
+    fig.tight_layout()
+    return fig, data
+
+
+#: Frames per second of an animation from a bag (every k-th recorded sample, real time).
+ANIMATION_FPS = 20
+
+
+def animate_bag(bag: Union[str, os.PathLike, Bag], out_path: str) -> int:
+    """
+    Write an animation (GIF; MP4 with ffmpeg) of a recording with contact; return its frames.
+
+    Every body at its recorded poses (``<body>/pose`` of a world, or ``pose``), drawn with its
+    collision shape from the stored configuration (meshes from the bag's attachments), with
+    the ground and obstacles; one frame per recorded sample, subsampled to about
+    :data:`ANIMATION_FPS` frames per sim second, played in real time.
+    """
+    from rbd_ros.bag.animate import write_animation
+    from rbd_ros.bag.replay import config_from_bag
+    if not isinstance(bag, Bag):
+        bag = open_bag(bag)
+    config = config_from_bag(bag)
+    if config.world:
+        names = [b.name for b in config.bodies]
+        shapes = [b.collision_shape for b in config.bodies]
+        topics = {t: names.index(t.rsplit('/', 2)[-2]) for t in bag.topics
+                  if t.endswith('/pose') and t.count('/') >= 2
+                  and t.rsplit('/', 2)[-2] in names}
+    else:
+        if config.collision_shape is None:
+            raise RbdError(f'{bag.mcap_path}: the body has no collision shape to draw (given '
+                           'by inertia only)')
+        shapes = [config.collision_shape]
+        topics = {t: 0 for t, info in bag.topics.items()
+                  if info.type_name == _POSE and t.rsplit('/', 1)[-1] == 'pose'}
+    poses = {}
+    for raw, msg in bag.decoded_messages(list(topics)):
+        row = poses.setdefault(raw.log_time_ns, [None] * len(shapes))
+        row[topics[raw.topic]] = (_vec(msg.pose.position), _quat(msg.pose.orientation))
+    times = [t for t in sorted(poses) if all(v is not None for v in poses[t])]
+    if not times:
+        raise RbdError(f'{bag.mcap_path}: no recorded poses to animate')
+    step = max(1, round(NS_PER_S / ANIMATION_FPS / max(config.publish_period_ns, 1)))
+    times = times[::step]
+    positions = np.array([[p for p, _ in poses[t]] for t in times])
+    quats = np.array([[q for _, q in poses[t]] for t in times])
+    return write_animation(out_path, times, positions, quats, shapes, config.static_world)
+
+
+def render(bag: Union[str, os.PathLike, Bag], out_path: str,
+           title: Optional[str] = None) -> str:
+    """Render the recording ``bag`` (opened or a path) to the PNG ``out_path``; return it."""
+    if not isinstance(bag, Bag):
+        bag = open_bag(bag)
+    if bag.config and recorded_parameters(bag.config).get('body_names'):
+        fig, _ = draw_world(bag, title)
+    else:
+        fig, _ = draw(bag, title)
+    from matplotlib import pyplot as plt   # after draw() selected the Agg backend
+    try:
+        fig.savefig(out_path, dpi=SAVE_DPI)
+    finally:
+        plt.close(fig)
+    return out_path
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    """Run the ``plot`` executable; return the exit status."""
+    parser = argparse.ArgumentParser(
+        prog='plot', description='Plot an rbd_ros recording to one PNG.')
+    parser.add_argument('bag', help='bag directory or .mcap file')
+    parser.add_argument('-o', '--output', default=None,
+                        help='output PNG (default: <bag name>.png in the current directory)')
+    parser.add_argument('--title', default=None, help='figure title')
+    parser.add_argument('--animate', default=None, metavar='OUT.gif',
+                        help='also write an animation of the run (.gif, or .mp4 with ffmpeg)')
+    args = parser.parse_args(argv)
+    out = args.output or os.path.basename(os.path.normpath(args.bag)).split('.')[0] + '.png'
+
+    def run():
+        bag = open_bag_with_notes('plot', args.bag)
+        render(bag, out, args.title)
+        if args.animate:
+            return animate_bag(bag, args.animate)
+        return None
+
+    status, frames = run_on_bag('plot', args.bag, 'plotted', run)
+    if status:
+        return status
+    print(f'plot: wrote {out}')
+    if args.animate:
+        print(f'plot: wrote {args.animate} ({frames} frames)')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,829 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+``rigid_body_node``: the simulator's rclpy node. Parameters in, wrenches in, state out.
+
+Time is sim time. (:mod:`rbd_ros.ros.demo` is the other rclpy code: a client of this node.)
+Everything else lives in rclpy-free modules: :mod:`rbd_ros.sim.config` (parameters),
+:mod:`rbd_ros.sim.session` (stepping, wrench hold and expiry, publish schedule),
+:mod:`rbd_ros.msgs.outputs` (a sample's messages as CDR bytes, published and recorded alike),
+:mod:`rbd_ros.msgs.conversions` (the other messages) and :mod:`rbd_ros.ros.ros_args` (the parameter
+overrides in the ROS arguments). The wall clock only paces the fixed physics
+step: the sim time due is ``sim_anchor + (wall_now - wall_anchor) * real_time_factor`` against
+an absolute wall anchor (re-anchored on pause, reset and a change of the factor), so pacing
+error does not accumulate. A tick steps for at most :data:`TICK_BUDGET_NS` of wall time and then
+returns to the spin loop, so a node behind the wall clock (a slow world, a high factor) still
+takes wrenches and service calls within about that time; the steps left due run in the next
+tick. A backlog of more than :data:`MAX_BACKLOG_STEPS` steps is dropped (counted in
+``/diagnostics`` as ``wall_time_dropped_s``). Timers run on a
+steady clock, so ``use_sim_time`` (which launch files set on every node) cannot freeze the
+node: its stamps are always its own sim time.
+"""
+
+import math
+import os
+import re
+import signal
+import sys
+import tempfile
+import threading
+import time
+
+# Ctrl-C while the imports below load (~1 s) in `python -m rbd_ros.node` or the installed
+# rigid_body_node executable: nothing to finalise yet, exit 0 quietly (main() takes over).
+if __name__ == '__main__' or os.path.basename(sys.argv[0]) == 'rigid_body_node':
+    for _signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(_signum, lambda *_: os._exit(0))
+
+from geometry_msgs.msg import PointStamped
+from rbd_ros.core import ConfigError, jitcache, NonFiniteError, RbdError, RecordingError
+from rbd_ros.msgs import conversions as conv
+from rbd_ros.msgs import markers
+from rbd_ros.msgs import outputs
+from rbd_ros.ros import ros_args
+from rbd_ros.sim import config as cfg
+from rbd_ros.sim import limits
+from rbd_ros.sim.drag import CLICKED_POINT
+from rbd_ros.sim.inputs import WrenchRejected
+from rbd_ros.sim.session import SimSession
+from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
+                                ParameterType, SetParametersResult)
+import rclpy
+from rclpy.clock import Clock, ClockType
+from rclpy.exceptions import NameValidationException, ParameterException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, QoSPolicyKind, QoSProfile, ReliabilityPolicy
+from rclpy.qos_overriding_options import QoSOverridingOptions
+from rclpy.serialization import serialize_message
+from rclpy.signals import SignalHandlerOptions
+from std_srvs.srv import SetBool, Trigger
+from visualization_msgs.msg import MarkerArray
+
+MAX_BACKLOG_STEPS = 1000  # the catch-up cap: a longer backlog of due steps is dropped
+TICK_BUDGET_NS = 10_000_000  # wall time a tick may step for (then serve callbacks)
+START_UP_POLL_S = 0.05  # how often the main thread looks for a signal during start-up
+#: Set once the node has loaded its meshes and run its first step (see RigidBodyNode).
+PAST_SLOW_START_UP = threading.Event()
+_TYPES = {cfg.BOOL: ParameterType.PARAMETER_BOOL, cfg.INTEGER: ParameterType.PARAMETER_INTEGER,
+          cfg.DOUBLE: ParameterType.PARAMETER_DOUBLE, cfg.STRING: ParameterType.PARAMETER_STRING,
+          cfg.DOUBLE_ARRAY: ParameterType.PARAMETER_DOUBLE_ARRAY,
+          cfg.STRING_ARRAY: ParameterType.PARAMETER_STRING_ARRAY}
+_ARRAY_TYPES = {cfg.DOUBLE_ARRAY: Parameter.Type.DOUBLE_ARRAY,
+                cfg.STRING_ARRAY: Parameter.Type.STRING_ARRAY}
+_IGNORED = ('use_sim_time', 'start_type_description_service')
+# Parameters whose names depend on a list (wrench_input_names, obstacle_names, body_names):
+# wrench_inputs.<name>.*, obstacles.<name>.*, bodies.<name>.*
+_DYNAMIC_PREFIXES = ('wrench_inputs.', 'obstacles.', 'bodies.')
+# pose, twist and odom: reliable, transient local, keep last 1: a subscriber that arrives while the
+# node is paused (ros2 topic echo pose --once) gets the latest sample. The other topics: depth 10,
+# reliable, volatile (rclpy's default). Every endpoint takes qos_overrides.<topic>.<kind>.<policy>.
+STATE_QOS = {'depth': 1, 'reliability': ReliabilityPolicy.RELIABLE,
+             'durability': DurabilityPolicy.TRANSIENT_LOCAL}
+QOS_OVERRIDES = QoSOverridingOptions(policy_kinds=(
+    QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH, QoSPolicyKind.RELIABILITY,
+    QoSPolicyKind.DURABILITY))
+OUTPUT_TOPICS = ('pose', 'twist', 'odom', 'contact_wrench', 'markers', 'static_markers', '/clock',
+                 '/diagnostics', '/tf')
+
+
+def _world_markers(config):
+    """
+    Return the :class:`markers.BodyMarkers` of the body (bodies) of ``config``.
+
+    A body read from a mesh file is drawn from that file (``mesh_resource``: the
+    ``package://`` URI as given, else the ``file://`` URI of the file loaded), so each sample
+    carries its URI and pose, not its triangles.
+    """
+    if config.world:
+        prefixes = [f'bodies.{b.name}.' for b in config.bodies]
+        names = [b.name for b in config.bodies]
+        shapes = [b.collision_shape for b in config.bodies]
+    else:
+        prefixes, names, shapes = [''], [config.body_frame], [config.collision_shape]
+    meshes = []
+    for prefix in prefixes:
+        path = config.parameters.get(prefix + 'mesh_path', '')
+        meshes.append((markers.mesh_uri(path, cfg.resolve_mesh_path(path, prefix + 'mesh_path')),
+                       config.parameters.get(prefix + 'mesh_scale', (1.0, 1.0, 1.0)))
+                      if path else None)
+    return markers.BodyMarkers(names, shapes, config.world_frame, meshes)
+
+
+def _rcl_text(exc):
+    """Return an rcl error message without its source locations (``, at file.c:123``)."""
+    text = re.sub(r', at [^,]*:\d+', '', str(exc)).strip()
+    return re.sub(r'^failed to (initialize rcl|resolve name): ', '', text)
+
+
+class RigidBodyNode(Node):
+    """Simulate one rigid body; see doc/ for parameters, topics and services."""
+
+    def __init__(self, global_args=None, **kwargs):
+        """
+        Create the node; ``global_args`` are the arguments given to ``rclpy.init`` (None: argv).
+
+        The other keyword arguments are :class:`rclpy.node.Node`'s.
+        """
+        super().__init__('rigid_body_node', **kwargs)
+        # Validate the overrides ourselves first so that a bad value gives our one-line message
+        # (rclpy would reject an out-of-range value with its own), then declare the validated
+        # values. rclpy has no public accessor for the overrides before declaration: they are
+        # read from the same arguments, as rcl and rclpy read them (rbd_ros.ros.ros_args).
+        self._overrides = overrides = self._read_overrides(global_args, kwargs)
+        params = {}
+        for name, value in overrides.items():
+            if name in cfg.PARAMETERS_BY_NAME or name.startswith(_DYNAMIC_PREFIXES) \
+                    or name in cfg.RENAMED_PARAMETERS:  # refused by name by from_parameters
+                params[name] = value
+            elif name not in _IGNORED and not name.startswith('qos_overrides.'):
+                self.get_logger().warning(f'ignoring unknown parameter {name} = {value!r}')
+        self.config = config = cfg.NodeConfig.from_parameters(params)
+        self._check_input_topics()
+        self._warm_up()
+        # The slow part of start-up is over (meshes loaded, kernels compiled and run once): from
+        # here on a signal lets the node finish starting (linear in the bodies) and then stops
+        # it as usual, so that a node seen on the graph always leaves a finalised recording.
+        PAST_SLOW_START_UP.set()
+        for spec in config.all_specs():
+            self._declare(spec, config.parameters[spec.name])
+        self.add_pre_set_parameters_callback(self._coerce_parameters)
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        self.session = SimSession(config)
+        self.done = False
+        self.exit_status = 0
+        #: How the run ended, for the rbd_ros.run record: 'duration_s', 'SIGINT', 'SIGTERM',
+        #: 'non-finite step', 'exception', 'recording error', 'start-up interrupted' or
+        #: 'shutdown' (the ROS context shut down); '' while it runs.
+        self.ended_by = ''
+        self._crash = None  # (sim time ns, 'Type: message') of an exception out of the loop
+        self._rtf = config.real_time_factor
+        self._dropped_ns = 0
+        self._lag_max_ns = 0  # largest wall-minus-sim lag seen at a tick, since the last diag
+        self._step_wall_ns = 1_000_000  # wall time per step of the last run (1 ms until measured)
+
+        self._recorder = None
+        if config.world:
+            self._builder = outputs.WorldSampleBuilder(config)
+            self._columns = self.session.columns
+        else:
+            self._builder = outputs.SampleBuilder(config)
+            self._state_column = self.session.state_column
+        # One publisher per output kind: pose, twist, odom (per body in a world: <body>/pose,
+        # ...), contact_wrench with contact, poses in a world, /clock and /tf when on.
+        depth = {'clock': 10, 'tf': 100}
+        self._pubs = {kind: self._publisher(outputs.type_of(kind), outputs.topic_of(kind),
+                                            depth.get(kind, STATE_QOS))
+                      for kind in self._builder.kinds}
+        self._pubs['diagnostics'] = self._publisher(conv.DiagnosticArray, '/diagnostics', 10)
+        self._markers = None
+        if config.contact and config.publish_markers:
+            # Shapes for RViz and Foxglove: bodies and the last step's contacts at every sample
+            # on markers; the static world once on static_markers (transient local, so a late
+            # subscriber gets it).
+            self._markers = _world_markers(config)
+            self._pubs['markers'] = self._publisher(MarkerArray, 'markers', 10)
+            self._pubs['static_markers'] = self._publisher(MarkerArray, 'static_markers',
+                                                           STATE_QOS)
+        self._sample_pubs = [(kind, self._pubs[kind].publish, self._pubs[kind].topic_name)
+                             for kind in self._builder.kinds]
+        self._input_subs = [self._qos_checked(
+            spec.topic, 'subscription', self.create_subscription, conv.WrenchStamped, spec.topic,
+            lambda msg, name=spec.name: self._on_wrench(name, msg), 10,
+            qos_overriding_options=QOS_OVERRIDES) for spec in config.wrench_inputs]
+        if config.publish_tf and 'tf' not in self._builder.kinds:
+            self.get_logger().info('tf2_msgs is not importable: not broadcasting /tf')
+        # Drags: drag (<body>/drag in a world) and /clicked_point (RViz, Foxglove).
+        drag_topics = {name: name for name in self.session.drags.input_names}
+        drag_topics[CLICKED_POINT] = '/clicked_point'
+        point_subs = [self._qos_checked(
+            topic, 'subscription', self.create_subscription, PointStamped, topic,
+            lambda msg, name=name: self._on_point(name, msg), 10,
+            qos_overriding_options=QOS_OVERRIDES) for name, topic in drag_topics.items()]
+        self._input_topics = {spec.name: sub.topic_name
+                              for spec, sub in zip(config.wrench_inputs, self._input_subs)}
+        self._input_topics.update({name: sub.topic_name
+                                   for name, sub in zip(drag_topics, point_subs)})
+        self._input_subs += point_subs
+        # After every endpoint (the drag and /clicked_point subscriptions included): an
+        # override that rclpy declared as a parameter was applied to one of them.
+        for name in overrides:
+            if name.startswith('qos_overrides.') and not self.has_parameter(name):
+                self.get_logger().warning(
+                    f'ignoring {name}: no endpoint of this node has that topic and policy '
+                    '(qos_overrides.<absolute topic>.publisher|subscription.history|depth|'
+                    'reliability|durability)')
+        self.create_service(Trigger, '~/reset', self._on_reset)
+        self.create_service(SetBool, '~/pause', self._on_pause)
+        self.create_service(Trigger, '~/step', self._on_step)
+        if config.record_path:
+            self._open_recording()
+        try:
+            self._start()
+        except BaseException:  # a signal or an error after the recording opened: finalise it
+            self.ended_by = self.ended_by or 'start-up interrupted'
+            self._close_recording()
+            raise
+
+    def _start(self):
+        config = self.config
+        # Physics ticks come from the spin loop in main() (seconds_to_next_step, then tick);
+        # the diagnostics timer runs on a steady clock, whatever use_sim_time says.
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.create_timer(1.0, self._publish_diagnostics, clock=steady)
+        if self._markers is not None:
+            self._publish('static_markers', markers.static_markers(
+                config.static_world, config.world_frame, 0), 0)
+        self._publish_sample()
+        self._anchor()  # sim time 0 = now: pacing starts when the node is ready
+        self._diag_last = (time.monotonic_ns(), 0, 0)
+
+    def _read_overrides(self, global_args, kwargs):
+        """Return name → value of this node's parameter overrides (rclpy's precedence)."""
+        try:
+            return ros_args.node_overrides(
+                self.get_fully_qualified_name(), global_args, kwargs.get('cli_args'),
+                kwargs.get('use_global_arguments', True),
+                {p.name: p.value for p in kwargs.get('parameter_overrides') or ()})
+        except ros_args.RosArgsError as exc:  # rcl read the same moments ago
+            raise ConfigError(str(exc)) from None
+
+    def _publisher(self, msg_type, topic, qos):
+        # A profile of its own for each publisher: rclpy writes the overrides into it.
+        qos = QoSProfile(**qos) if isinstance(qos, dict) else qos
+        return self._qos_checked(topic, 'publisher', self.create_publisher, msg_type, topic, qos,
+                                 qos_overriding_options=QOS_OVERRIDES)
+
+    def _qos_checked(self, topic, kind, create, *args, **kwargs):
+        """Create an endpoint; a bad ``qos_overrides.<topic>.<kind>.*`` value is a ConfigError."""
+        prefix = f'qos_overrides.{self.resolve_topic_name(topic)}.{kind}.'
+        depth = self._overrides.get(prefix + 'depth')
+        if isinstance(depth, int) and depth < 0:
+            raise ConfigError(f'parameter {prefix}depth = {depth}: must be >= 0')
+        try:
+            return create(*args, **kwargs)
+        except (RuntimeError, ParameterException) as exc:  # rclpy's RCLError among them
+            given = {name[len(prefix):]: value for name, value in self._overrides.items()
+                     if name.startswith(prefix)}
+            raise ConfigError(f'parameters {prefix}* = {given}: {_rcl_text(exc)}') from None
+
+    def _check_input_topics(self):
+        """Refuse an invalid input topic or one that resolves to an output or another input."""
+        kinds = self._world_output_kinds() if self.config.world else OUTPUT_TOPICS
+        outputs = {self.resolve_topic_name(topic) for topic in kinds}
+        names = [f'{b.name}/drag' for b in self.config.bodies] if self.config.world else ['drag']
+        drags = {self.resolve_topic_name(name): name for name in names}
+        drags['/clicked_point'] = CLICKED_POINT
+        seen = {}
+        for spec in self.config.wrench_inputs:
+            body, _, name = spec.name.rpartition('/')
+            field = f'bodies.{body}.wrench_inputs.{name}' if body else f'wrench_inputs.{name}'
+            what = f'topic {spec.topic!r} of the main wrench input' if name == \
+                cfg.MAIN_INPUT else f'parameter {field}.topic = {spec.topic!r}'
+            try:
+                resolved = self.resolve_topic_name(spec.topic)
+            except (RuntimeError, NameValidationException) as exc:  # rclpy raises RCLError
+                raise ConfigError(f'{what}: not a valid topic name ({_rcl_text(exc)})') from None
+            if resolved in outputs:
+                raise ConfigError(f'{what}: resolves to {resolved}, an output of this node')
+            if resolved in drags:
+                raise ConfigError(f'{what}: resolves to {resolved}, the drag input '
+                                  f'{drags[resolved]!r} (PointStamped, not WrenchStamped)')
+            if resolved in seen:
+                raise ConfigError(f'{what}: resolves to {resolved}, the topic of wrench input '
+                                  f'{seen[resolved]!r} (it would count every wrench twice)')
+            seen[resolved] = spec.name
+
+    def _world_output_kinds(self):
+        return [outputs.topic_of(kind) for kind in outputs.WorldSampleBuilder(
+            self.config, tf=False).kinds] + ['markers', 'static_markers', '/clock',
+                                             '/diagnostics', '/tf']
+
+    def _declare(self, spec, value):
+        descriptor = ParameterDescriptor(
+            name=spec.name, type=_TYPES[spec.kind], read_only=spec.read_only,
+            description=spec.description + (f' [{spec.unit}]' if spec.unit else ''),
+            additional_constraints=spec.rule)
+        if spec.bounds is not None and spec.kind == cfg.DOUBLE and not (
+                spec.rule.startswith('> 0') and spec.bounds[0] == 0.0):
+            # A '> 0' rule has no closed range that excludes 0 but admits every positive
+            # double: the range is left out (the rule is in additional_constraints).
+            descriptor.floating_point_range = [FloatingPointRange(
+                from_value=float(spec.bounds[0]), to_value=float(spec.bounds[1]))]
+        elif spec.bounds is not None and spec.kind == cfg.INTEGER:
+            descriptor.integer_range = [IntegerRange(
+                from_value=int(spec.bounds[0]), to_value=int(spec.bounds[1]))]
+        if isinstance(value, tuple) and not value:
+            # rclpy cannot infer the type of []: declare it writable by type, give it the typed
+            # value [] (so that get_parameters, hence ros2 param dump/get, returns a value for
+            # every name), then make it read-only.
+            writable = ParameterDescriptor()
+            writable.type = descriptor.type
+            self.declare_parameter(spec.name, _ARRAY_TYPES[spec.kind], writable,
+                                   ignore_override=True)
+            self.set_parameters([Parameter(spec.name, _ARRAY_TYPES[spec.kind], [])])
+            self.set_descriptor(spec.name, descriptor)
+            return
+        if isinstance(value, tuple):
+            value = list(value)
+        self.declare_parameter(spec.name, value, descriptor, ignore_override=True)
+
+    @staticmethod
+    def _coerce_parameters(params):
+        """
+        Return ``params`` with an integer ``real_time_factor`` as a double.
+
+        ``ros2 param set <node> real_time_factor 2`` sends an INTEGER, which rclpy would refuse
+        against the DOUBLE descriptor; a params file's ``real_time_factor: 2`` is accepted.
+        """
+        return [Parameter(p.name, Parameter.Type.DOUBLE, float(p.value))
+                if p.name == 'real_time_factor' and p.type_ == Parameter.Type.INTEGER else p
+                for p in params]
+
+    def _on_set_parameters(self, params):
+        for param in params:
+            if param.name == 'use_sim_time':
+                # The node's stamps are its own sim time and its timers run on a steady clock:
+                # use_sim_time changes nothing, so a live change that claims to is refused.
+                return SetParametersResult(successful=False, reason=(
+                    f'parameter use_sim_time = {param.value!r}: read-only at run time (the '
+                    'node stamps everything with its own sim time whatever it says; set it '
+                    'at start, as launch files do)'))
+            if param.name == 'real_time_factor':
+                try:
+                    cfg.check_real_time_factor(param.value)
+                except RbdError as exc:
+                    return SetParametersResult(successful=False, reason=str(exc))
+        for param in params:
+            if param.name == 'real_time_factor':
+                self._rtf = float(param.value)
+                self._anchor()
+        return SetParametersResult(successful=True)
+
+    def _open_recording(self):
+        from rbd_ros.bag.recording import BagWriter
+        from rbd_ros.sim.session import AppliedDigest
+        recorder = BagWriter(self.config.record_path, config=self.config.to_parameters(),
+                             overwrite=self.config.record_overwrite)
+        try:
+            for pub in list(self._pubs.values()) + self._input_subs:
+                msg_type = pub.msg_type
+                type_name = f'{msg_type.__module__.split(".")[0]}/msg/{msg_type.__name__}'
+                qos = pub.qos_profile  # what the endpoint really offers (qos_overrides included)
+                recorder.add_topic(pub.topic_name, type_name, {
+                    'history': qos.history.name.lower(), 'depth': qos.depth,
+                    'reliability': qos.reliability.name.lower(),
+                    'durability': qos.durability.name.lower()})
+            for name, value in sorted(self.config.parameters.items()):
+                if name.endswith('mesh_path') and value:  # the meshes, so replay needs no files
+                    # a regular file within cfg.MAX_MESH_FILE_BYTES, as config checked it
+                    recorder.add_file(value, cfg.read_mesh_file(value, name), 'model/stl' if
+                                      value.lower().endswith('.stl') else
+                                      'application/octet-stream')
+            recorder.flush()  # a full disk fails here, at start (exit 2), not mid-run
+        except RbdError:
+            recorder.close()
+            raise
+        self._recorder = recorder
+        self._digest = AppliedDigest()  # what the run applied, for replay to compare
+        self._failure = None  # (sim time ns, message) of a non-finite step
+        # Every input that takes effect is recorded at its step start, before that step runs.
+        self.session.on_applied = self._record_events
+        self.get_logger().info(f'recording to {recorder.path}')
+
+    def _record_events(self, events):
+        """Record the inputs that take effect at a step start (called before that step)."""
+        for event in events:
+            if self._recorder is not None:
+                self._digest.update(event)
+            self._record(self._input_topics[event.input_name], event.tag, event.time_ns)
+
+    def _record(self, topic, msg, time_ns):
+        """Record ``msg`` (a message, or its CDR bytes) if recording."""
+        if self._recorder is not None:
+            try:
+                self._recorder.write(
+                    topic, msg if isinstance(msg, bytes) else serialize_message(msg), time_ns)
+            except RecordingError as exc:
+                stop = self.config.record_on_error == 'stop'
+                then = 'stopping the node (record_on_error: stop)' if stop else 'simulating on'
+                self.get_logger().error(f'recording stopped: {exc}; {then}')
+                self.exit_status = 1
+                self.ended_by = self.ended_by or 'recording error'
+                self._close_recording()
+                self.done = self.done or stop
+
+    def _publish(self, key, msg, time_ns):
+        pub = self._pubs[key]
+        pub.publish(msg)
+        self._record(pub.topic_name, msg, time_ns)
+
+    def _anchor(self):
+        self._wall_anchor_ns = time.monotonic_ns()
+        self._sim_anchor_ns = self.session.time_ns
+
+    def seconds_to_next_step(self, longest_s=0.1):
+        """Wall seconds until the next physics step is due (0 at RTF 0, ``longest_s`` cap)."""
+        session, rtf = self.session, self._rtf
+        if session.paused or self.done:
+            return longest_s
+        if rtf == 0:
+            return 0.0
+        due_ns = self._wall_anchor_ns + (
+            session.time_ns + session.timestep_ns - self._sim_anchor_ns) / rtf
+        return min(longest_s, max(0.0, (due_ns - time.monotonic_ns()) * 1e-9))
+
+    def tick(self):
+        """Run the steps due by the wall clock (at RTF 0: steps) for at most the tick budget."""
+        session = self.session
+        if session.paused or self.done:
+            return
+        deadline_ns = time.monotonic_ns() + TICK_BUDGET_NS
+        if self._rtf == 0:
+            self._run(sys.maxsize, deadline_ns=deadline_ns)
+            return
+        elapsed_ns = time.monotonic_ns() - self._wall_anchor_ns
+        target_ns = self._sim_anchor_ns + (
+            elapsed_ns if self._rtf == 1.0 else int(elapsed_ns * self._rtf))
+        self._lag_max_ns = max(self._lag_max_ns, target_ns - session.time_ns)
+        due = (target_ns - session.time_ns) // session.timestep_ns
+        if due > MAX_BACKLOG_STEPS:  # too far behind: keep the cap, drop the rest
+            self._dropped_ns += (due - MAX_BACKLOG_STEPS) * session.timestep_ns
+            self._sim_anchor_ns -= (due - MAX_BACKLOG_STEPS) * session.timestep_ns
+            self.get_logger().warning('falling behind the wall clock: dropping wall time',
+                                      throttle_duration_sec=5.0)
+            due = MAX_BACKLOG_STEPS
+        if due > 0:
+            self._run(due, deadline_ns=deadline_ns)
+
+    def _run(self, n_steps, manual=False, deadline_ns=None):
+        """
+        Take ``n_steps`` (one when ``manual``), publishing the samples that fall due.
+
+        With ``deadline_ns`` (monotonic), stop once it has passed; each call into the session
+        asks for as many steps as the last call's wall time per step says still fit.
+        """
+        while n_steps > 0 and not self.done:
+            ask = n_steps
+            if deadline_ns is not None:
+                start_ns = time.monotonic_ns()
+                if start_ns >= deadline_ns:
+                    return
+                ask = min(n_steps, max(1, (deadline_ns - start_ns) // self._step_wall_ns))
+            try:
+                report = self.session.step() if manual else self.session.advance(ask)
+            except NonFiniteError as exc:
+                # The inputs of the failing step, the one that caused it included, are in the
+                # bag already (session.on_applied).
+                self._failure = (self.session.time_ns, str(exc))
+                if self.config.duration_ns and not manual:
+                    # A run with an end: it cannot reach it, so it ends now, with status 1.
+                    self.get_logger().error(f'{exc}; stopping (duration_s is set): exit 1')
+                    self.ended_by = 'non-finite step'
+                    self.exit_status = 1
+                    self.done = True
+                else:
+                    self.get_logger().error(f'{exc}; paused (call ~/reset)')
+                return
+            if deadline_ns is not None and report.steps:
+                self._step_wall_ns = max(1, (time.monotonic_ns() - start_ns) // report.steps)
+            rejected, self.session.drags.last_rejection = self.session.drags.last_rejection, None
+            if rejected is not None:  # a point over max_force_n / max_torque_nm at its step
+                self._warn_rejected('drag point', rejected)
+            if report.sample_due:
+                self._publish_sample()
+            if self.session.finished and not manual:
+                self.get_logger().info(f'duration_s reached at t = {self.session.time_ns} ns')
+                self.ended_by = 'duration_s'
+                self.done = True
+            if report.steps == 0 or manual:
+                return
+            n_steps -= report.steps
+
+    def _publish_sample(self):
+        """Publish the current sample; record the same CDR bytes."""
+        builder, t = self._builder, self.session.time_ns
+        if self.config.world:
+            samples = builder.serialize(t, self._columns,
+                                        self.session.simulator.contact_wrench_w)
+        else:
+            samples = builder.serialize(t, builder.column_values(self._state_column),
+                                        self.session.contact_wrench_w)
+        for (_, publish, topic), (_, data) in zip(self._sample_pubs, samples):
+            publish(data)
+            if self._recorder is not None:
+                self._record(topic, data, t)
+        if self._markers is not None:
+            self._publish('markers', self._marker_array(t), t)
+
+    def _marker_array(self, t):
+        """Every body at its pose, then the contacts of the last stage of the last step."""
+        # The poses exactly as the pose topics carry them (the sample builders' values).
+        x = self.session.columns
+        if self.config.world:
+            values = [b.column_values(x[:, i]) for i, b in enumerate(self._builder.bodies)]
+        else:
+            values = [self._builder.column_values(self._state_column)]
+        bodies = self._markers.array([v[0] for v in values], [v[1] for v in values], t,
+                                     normalise=False)
+        contacts = self.session.simulator.contacts
+        if len(contacts):
+            last = contacts.stage == contacts.stage.max()
+            contacts = type(contacts)(*(getattr(contacts, f)[last]
+                                        for f in contacts.__dataclass_fields__))
+        # Lines of 1 cm per N: the last stage's impulse over the step.
+        shown = markers.contact_markers(contacts, self.config.world_frame, t,
+                                        0.01 / (self.config.timestep_ns * 1e-9))
+        return MarkerArray(markers=list(bodies.markers) + list(shown.markers))
+
+    def _publish_diagnostics(self):
+        s, now = self.session, time.monotonic_ns()
+        wall0, sim0, steps0 = self._diag_last
+        self._diag_last = (now, s.time_ns, s.steps_total)
+        energy, momentum = self._energy_and_momentum()
+        values = {
+            'sim_time_s': s.time_ns * 1e-9,
+            'real_time_factor': (s.time_ns - sim0) / max(1, now - wall0),
+            'real_time_factor_target': self._rtf, 'steps_taken': s.steps_total,
+            'paused': s.paused, 'wrenches_received': s.inputs.received_total,
+            'wrenches_rejected': s.inputs.rejected_total,
+            'drags_received': s.drags.received, 'drags_rejected': s.drags.rejected_total,
+            **{f'wrenches_rejected_{k}': v for k, v in s.inputs.rejected.items()},
+            'kinetic_energy_j': energy,
+            'angular_momentum_norm_nms': math.hypot(*momentum),
+            'wall_time_dropped_s': self._dropped_ns * 1e-9, 'resets': s.resets,
+            'pacing_lag_max_ms': self._lag_max_ns * 1e-6}
+        self._lag_max_ns = 0
+        non_finite = [key for key, value in values.items()
+                      if isinstance(value, float) and not math.isfinite(value)]
+        level = 'error' if s.error else (
+            'warn' if s.inputs.rejected_total or s.drags.rejected_total or non_finite
+            else 'ok')
+        message = s.error or ('paused' if s.paused else 'running')
+        if non_finite:
+            message += '; not finite: ' + ', '.join(non_finite)
+        self._publish('diagnostics', conv.diagnostics_to_msg(
+            s.time_ns, f'{self.get_fully_qualified_name()}: rigid body',
+            self.get_fully_qualified_name() if self.config.world else self.config.body_frame,
+            level, message, values), s.time_ns)
+
+    def _energy_and_momentum(self):
+        """Return the kinetic energy (J) and angular momentum (N·m·s, world) of all bodies."""
+        s = self.session
+        if not self.config.world:
+            state, model = s.state, s.config.model
+            return float(state.kinetic_energy(model)), state.angular_momentum_w(model)
+        energy, momentum = 0.0, [0.0, 0.0, 0.0]
+        for i, body in enumerate(self.config.bodies):
+            state = s.simulator.body_state(i)
+            energy += float(state.kinetic_energy(body.model))
+            momentum = [a + float(b)
+                        for a, b in zip(momentum, state.angular_momentum_w(body.model))]
+        return energy, momentum
+
+    def _warm_up(self):
+        """
+        Take the first physics step on a throw-away simulator (:func:`cfg.check_first_step`).
+
+        That compiles the physics kernels (or loads them from numba's cache): logged when it
+        compiles, so the check comes after the look into the cache.
+        """
+        contact = self.config.contact
+        on_disk = jitcache.kernels_on_disk(contact)
+        if not on_disk:
+            self.get_logger().info(jitcache.compile_notice(contact))
+        start = time.monotonic()
+        cfg.check_first_step(self.config)  # in main()'s start-up thread: a signal is seen
+        if not on_disk:
+            jitcache.mark_compiled(contact)
+            self.get_logger().info(
+                f'physics kernels compiled in {time.monotonic() - start:.1f} s')
+
+    REJECT_WARN_PERIOD_NS = 1_000_000_000  # at most one 'wrench rejected' warning per second
+    _warn_after_ns = 0  # no rejection warning before this monotonic time
+    _unwarned = 0  # rejections since the last warning
+
+    def _on_point(self, name, msg):
+        point = (msg.point.x, msg.point.y, msg.point.z)
+        self._on_input(name, msg, lambda: self.session.submit_point(
+            name, msg.header.frame_id, point, tag=msg), 'drag point')
+
+    def _on_wrench(self, name, msg):
+        frame_id, force, torque = conv.wrench_from_msg(msg)
+        self._on_input(name, msg, lambda: self.session.submit(
+            name, frame_id, force, torque, tag=msg), 'wrench')
+
+    def _on_input(self, name, msg, submit, what):
+        try:
+            submit()
+        except WrenchRejected as exc:
+            self._warn_rejected(what, exc)
+            return
+        if self._rtf > 0:  # run a step that became due since the last tick now: less latency
+            self.tick()
+
+    def _warn_rejected(self, what, exc):
+        """Warn of a rejected input (already counted by the session), at most once a second."""
+        # Throttled here with one clock read: rclpy's own throttle inspects the caller's frame
+        # and reads its source file on every call, even when it drops the message, so a flood
+        # of bad wrenches used to stall the node.
+        now = time.monotonic_ns()
+        if now < self._warn_after_ns:
+            self._unwarned += 1
+            return
+        self._warn_after_ns = now + self.REJECT_WARN_PERIOD_NS
+        more = f' ({self._unwarned} more since the last warning, see /diagnostics)' \
+            if self._unwarned else ''
+        self._unwarned = 0
+        self.get_logger().warning(f'{what} rejected ({exc.reason}): {exc}{more}')
+
+    def _on_reset(self, request, response):
+        self.session.reset()
+        self._anchor()
+        self._publish_sample()
+        response.success, response.message = True, 'reset to the initial state at t = 0'
+        return response
+
+    def _on_pause(self, request, response):
+        self.session.paused = bool(request.data)
+        self._anchor()
+        response.success = True
+        response.message = f'{"paused" if request.data else "running"} at t = ' \
+                           f'{self.session.time_ns} ns'
+        return response
+
+    def _on_step(self, request, response):
+        if not self.session.paused:
+            response.success, response.message = False, 'not paused: call ~/pause first'
+            return response
+        self._run(1, manual=True)
+        response.success, response.message = True, f't = {self.session.time_ns} ns'
+        return response
+
+    def _close_recording(self):
+        recorder, self._recorder = self._recorder, None
+        if recorder is None:
+            return
+        if recorder.failed is not None:  # already reported where it failed
+            recorder.close()
+            return
+        failure_ns, failure = self._failure or ('', '')
+        crash_ns, crash = self._crash or ('', '')
+        try:
+            recorder.close(run_metadata={
+                'failure_time_ns': failure_ns, 'failure': failure,
+                'ended_by': self.ended_by or 'unknown', 'ended_at_ns': self.session.time_ns,
+                'exception_time_ns': crash_ns, 'exception': crash,
+                'wrenches_applied': self._digest.count,
+                'wrench_digest': self._digest.hexdigest()})
+            self.get_logger().info(f'recording closed: {recorder.path}')
+        except RecordingError as exc:
+            self.get_logger().error(f'recording not finalised: {exc}')
+            self.exit_status = 1
+
+    def endpoint_count(self):
+        """Return the number of publishers, subscriptions and services of this node."""
+        return sum(1 for group in (self.publishers, self.subscriptions, self.services)
+                   for _ in group)
+
+    def crashed(self, exc):
+        """Note an exception out of the step loop: logged, recorded at close, exit status 1."""
+        self._crash = (self.session.time_ns, f'{type(exc).__name__}: {exc}')
+        self.ended_by = 'exception'
+        self.exit_status = 1
+        self.get_logger().error(
+            f'stopping on an exception at t = {self.session.time_ns} ns: {self._crash[1]}')
+
+    def finish(self, ended_by=None):
+        """Finalise the recording (idempotent) and return the exit status."""
+        if ended_by and not self.ended_by:
+            self.ended_by = ended_by
+        self._close_recording()
+        return self.exit_status
+
+
+def _init_rclpy(args):
+    """
+    ``rclpy.init`` without its own signal handlers; return None, or one line on why it failed.
+
+    rcl refuses a missing or broken params file, mixed int/float arrays and ``-p name:=``
+    with an exception plus an ``[ERROR] [rcl]`` log line on stderr: the log is held back and
+    the caller prints one line instead.
+    """
+    saved_fd = os.dup(2)
+    with tempfile.TemporaryFile() as log:
+        os.dup2(log.fileno(), 2)
+        try:
+            rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+            error = None
+        except RuntimeError as exc:  # RCLError, UnknownROSArgsError
+            error = exc
+        finally:
+            os.dup2(saved_fd, 2)
+            os.close(saved_fd)
+        if error is None:
+            log.seek(0)
+            sys.stderr.write(log.read().decode(errors='replace'))
+            return None
+    text = _rcl_text(error).replace('. Error: error not set', ': no value after :=')
+    if type(error).__name__ == 'UnknownROSArgsError':
+        text = f'unknown ROS arguments {text}'
+    if 'Sequence should be of same type' in text:
+        text += ' (write every value of a double array with a decimal point: 0.0, not 0)'
+    return f'bad --ros-args: {text}'
+
+
+def main(args=None):
+    """
+    Run the node until ``duration_s`` passes or SIGINT/SIGTERM; return the exit status.
+
+    0: ended by ``duration_s`` or a signal (also during start-up); 1: a non-finite step with
+    ``duration_s`` set, an exception out of the step loop, or a recording error; 2: bad input
+    at start-up. Every ending that the process survives writes the ``rbd_ros.run`` record.
+    """
+    # Our own signal handlers, from the start: they only note the signal. (rclpy's would shut
+    # the context down under a running callback, whose next publish then fails.) The node is
+    # built in a worker thread (mesh loading and the first-step check run compiled kernels that
+    # release the GIL), so the main thread sees a signal within the wait below and leaves at
+    # once during the slow part of start-up (meshes, the first step); once the node runs, a
+    # signal stops it between callbacks, then the recording is finalised; once it is final, a
+    # signal ends the teardown at once.
+    stop = []
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda signum, _: stop.append(signal.Signals(signum).name))
+    error = _init_rclpy(args)
+    if error is not None:
+        print(f'rigid_body_node: {error}', file=sys.stderr, flush=True)
+        sys.exit(2)
+    built = []
+
+    def build():
+        try:
+            built.append(RigidBodyNode(args))
+        except BaseException as exc:  # handed to the main thread
+            built.append(exc)
+
+    worker = threading.Thread(target=build, name='rigid_body_node start-up', daemon=True)
+    worker.start()
+    while worker.is_alive() and not (stop and not PAST_SLOW_START_UP.is_set()):
+        worker.join(START_UP_POLL_S)
+    if stop and not built:
+        print(f'rigid_body_node: {stop[0]} during start-up: stopped', file=sys.stderr,
+              flush=True)
+        os._exit(0)  # nothing recorded yet; a half-built node needs no teardown
+    node = built[0]
+    if isinstance(node, RbdError):
+        print(f'rigid_body_node: {node}', file=sys.stderr, flush=True)
+        rclpy.try_shutdown()
+        sys.exit(2)
+    if isinstance(node, BaseException):
+        raise node
+    # Not rclpy's experimental EventsExecutor: its event queue is unbounded, so a wrench flood
+    # faster than the node grew memory without limit. This one takes at most one message per
+    # subscription per wait; what it cannot take, DDS keep-last drops. It rebuilds its wait set
+    # at every wake-up, so instead of the half-step tick timer (2 kHz of wake-ups, half a core)
+    # the loop waits until the next step is due, or a message or request comes, and then ticks.
+    executor = SingleThreadedExecutor()
+    executor.add_node(node)
+    try:
+        while rclpy.ok() and not node.done and not stop:
+            executor.spin_once(timeout_sec=node.seconds_to_next_step())
+            node.tick()
+    except ExternalShutdownException:
+        pass
+    except Exception as exc:  # out of a callback or a step: recorded, then exit 1
+        node.crashed(exc)
+    finally:
+        status = node.finish(stop[0] if stop else 'shutdown')
+        # The recording is final: a signal during the teardown below ends the process at once.
+        for signum in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(signum, lambda *_: os._exit(status))
+        executor.shutdown()
+        if node.endpoint_count() > limits.TEARDOWN_ENDPOINTS:
+            # Fast DDS deletes endpoints in superlinear time (6,000 publishers: 3.6 s; a world
+            # of 1,000 bodies: 18 s): with the recording final there is nothing left to lose,
+            # so a big node leaves without deleting them one by one (the OS reclaims them).
+            rclpy.try_shutdown()
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(status)
+        node.destroy_node()
+        rclpy.try_shutdown()
+    sys.exit(status)
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,330 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+:class:`SimSession`: one simulated body with its wrench inputs, stepped in sim time (no rclpy).
+
+The node and the replay tool drive exactly this class, so a replay of recorded wrench events
+reproduces the live run bit for bit. Usage::
+
+    session = SimSession(NodeConfig.from_parameters(params))
+    session.submit('wrench', 'world', (1.0, 0.0, 0.0), (0.0, 0.0, 0.0))  # next step start
+    while not session.finished:
+        report = session.advance(100)        # <= 100 steps; stops early at a sample time
+        for event in report.events:          # wrenches that took effect, with their step time
+            record(event.time_ns, event)
+        if report.sample_due:                # an output sample is due at session.time_ns
+            publish(session.state)
+
+Rules (all in sim time, integer ns):
+
+- A wrench passed to :meth:`submit` takes effect at the START of the next physics step, i.e.
+  at the step beginning at the current :attr:`time_ns`; the :class:`AppliedEvent` reports that
+  time. Expiries (``wrench_timeout_s``) are applied at the first step start at or after
+  ``t_effect + timeout``.
+- Output samples are due after the step ending at ``t`` when a multiple of the publish period
+  ``P`` lies in ``(t - h, t]``, and at ``t = 0``: :meth:`sample_due` is a pure function of sim
+  time, so replay finds the same sample times whatever the wall clock did.
+- :meth:`advance` honours :attr:`paused` (it does nothing while paused); :meth:`step` takes one
+  step regardless (the ``~/step`` service). Replay sets ``paused = False``.
+- :meth:`advance` stops at ``duration_s`` (:attr:`finished`).
+- A step that turns the state non-finite raises :class:`rbd_ros.core.NonFiniteError` whose
+  ``events`` attribute lists the wrenches applied in that call, the one that caused it
+  included, so a caller records every wrench that took effect, also on a failing run.
+- The simulator is stepped at most :func:`rbd_ros.sim.limits.step_chunk` steps per compiled call,
+  so Python signal handlers run between calls (about every 0.1 s).
+- Determinism: the simulator is stepped in chunks between events; the core guarantees that the
+  chunking does not change the result, so the same config and the same wrenches submitted at
+  the same sim times give bit-identical states.
+
+Not thread-safe: call it from one thread (the node uses a single-threaded executor).
+"""
+
+from dataclasses import dataclass, field
+import hashlib
+import struct
+
+from rbd_ros.core import NonFiniteError
+from rbd_ros.sim.config import make_simulator
+from rbd_ros.sim.drag import DragInputs
+from rbd_ros.sim.inputs import WorldInputs, WrenchInputs
+from rbd_ros.sim.limits import step_chunk
+
+
+@dataclass(frozen=True)
+class StepReport:
+    """
+    What one :meth:`SimSession.advance` call did.
+
+    :ivar steps: physics steps taken.
+    :ivar events: :class:`rbd_ros.sim.inputs.AppliedEvent` list, wrenches that took effect (each
+        with the sim time of the start of its step), in time order.
+    :ivar sample_due: True when an output sample is due at the session's current time (the
+        call stopped there).
+    """
+
+    steps: int = 0
+    events: list = field(default_factory=list)
+    sample_due: bool = False
+
+
+class AppliedDigest:
+    """
+    A running SHA-256 over the wrenches that took effect, bit for bit, in order.
+
+    The node digests what it applied and stores the count and the digest in the recording;
+    replay digests what it applied and compares, so a wrench altered in the bag below the
+    precision of the outputs is still found.  Per event, in this order: the effect time (int64
+    ns, little endian), the input name and the received ``frame_id`` (each a uint32 byte length
+    then its UTF-8 bytes), then force and torque as six float64 (little endian).
+    """
+
+    def __init__(self):
+        self._sha = hashlib.sha256()
+        self.count = 0
+
+    def update(self, event):
+        """Add one :class:`rbd_ros.sim.inputs.AppliedEvent`."""
+        name = event.input_name.encode('utf-8')
+        frame = event.frame_id.encode('utf-8')
+        self._sha.update(struct.pack('<qI', event.time_ns, len(name)) + name
+                         + struct.pack('<I', len(frame)) + frame
+                         + struct.pack('<6d', *event.force, *event.torque))
+        self.count += 1
+
+    def hexdigest(self):
+        """Return the digest so far, 64 hex digits."""
+        return self._sha.hexdigest()
+
+
+def _drag_inputs(config):
+    """Build the :class:`DragInputs` of ``config`` (``drag``, or ``<body>/drag`` per body)."""
+    if config.world:
+        bodies = [(f'{b.name}/drag', b.drag_point_b, b.collision_shape) for b in config.bodies]
+    else:
+        bodies = [('drag', config.parameters['drag_point_b'], config.collision_shape)]
+    p = config.parameters
+    return DragInputs(bodies, world_frame=config.world_frame,
+                      stiffness_n_per_m=p['drag_stiffness_n_per_m'],
+                      damping_n_s_per_m=p['drag_damping_n_s_per_m'],
+                      click_radius_m=p['drag_click_radius_m'],
+                      max_point_m=p['max_drag_point_m'], max_force_n=config.max_force_n,
+                      max_torque_nm=config.max_torque_nm)
+
+
+def _ceil_div(a, b):
+    return -(-a // b)
+
+
+class SimSession:
+    """
+    The simulator, the wrench inputs and the publish schedule of one node.
+
+    :param config: a :class:`rbd_ros.sim.config.NodeConfig`.
+    """
+
+    def __init__(self, config):
+        self.config = config
+        # With a ground or obstacles, a world of this one body (index 0), stepped with contact.
+        self.simulator = make_simulator(config)
+        if config.world:
+            self.inputs = WorldInputs(
+                config.bodies, world_frame=config.world_frame,
+                timeout_ns=config.wrench_timeout_ns, max_force_n=config.max_force_n,
+                max_torque_nm=config.max_torque_nm)
+        else:
+            self.inputs = WrenchInputs(
+                config.wrench_inputs, world_frame=config.world_frame,
+                body_frame=config.body_frame, timeout_ns=config.wrench_timeout_ns,
+                max_force_n=config.max_force_n, max_torque_nm=config.max_torque_nm)
+        self.drags = _drag_inputs(config)
+        self.paused = config.start_paused
+        # Steps per compiled call: a signal is seen between calls (rbd_ros.sim.limits.step_chunk).
+        self._chunk_max = step_chunk(len(config.bodies) if config.world else 1)
+        self.steps_total = 0  # physics steps taken since start, over resets
+        self.resets = 0
+        self.error = None  # message of the last NonFiniteError, if any
+        #: Called with the events of a step start (a list, non-empty) before that step runs:
+        #: the node records every input that took effect before the step that uses it, so a
+        #: step that never returns (a crash, a signal) cannot lose it.
+        self.on_applied = None
+
+    @property
+    def time_ns(self):
+        """Return the sim time, int ns."""
+        return self.simulator.time_ns
+
+    @property
+    def state(self):
+        """Return the current :class:`rbd_ros.core.BodyState`."""
+        return self.simulator.body_state(0)
+
+    @property
+    def contact_wrench_w(self):
+        """
+        Return the net contact ``(force_w, torque_w)`` on the body over the last step.
+
+        Force in N and torque in N·m about the COM, world frame (the contact impulses of the
+        step divided by its length); None when the configuration has no contact.
+        """
+        if not self.config.contact:
+            return None
+        row = self.simulator.contact_wrench_w[0].tolist()
+        return row[:3], row[3:]
+
+    @property
+    def columns(self):
+        """Return a read-only view of every body's packed state, (13, N) (see state_column)."""
+        return self.simulator.arrays[0]
+
+    @property
+    def state_column(self):
+        """
+        Return a read-only view of the packed state ``(p, q, v, ω_b)`` (13 floats).
+
+        The view follows the simulator (steps and resets write in place): take it once.
+        :meth:`rbd_ros.msgs.outputs.SampleBuilder.column_values` reads it without building a
+        :class:`rbd_ros.core.BodyState` per sample.
+        """
+        return self.simulator.arrays[0][:, 0]
+
+    @property
+    def timestep_ns(self):
+        """Return the physics step, int ns."""
+        return self.config.timestep_ns
+
+    @property
+    def finished(self):
+        """Return True once sim time has reached ``duration_s`` (never when it is 0)."""
+        return 0 < self.config.duration_ns <= self.time_ns
+
+    def sample_due(self, time_ns):
+        """Return True if an output sample is due at sim time ``time_ns`` (a step end)."""
+        if time_ns == 0:
+            return True
+        period = self.config.publish_period_ns
+        return time_ns // period != (time_ns - self.config.timestep_ns) // period
+
+    def submit(self, input_name, frame_id, force, torque, tag=None):
+        """
+        Queue a received wrench for the start of the next step (see WrenchInputs.submit).
+
+        :param input_name: ``'wrench'`` or an extra input's name.
+        :param frame_id: the received ``header.frame_id``.
+        :param force: 3 numbers, N. :param torque: 3 numbers, N·m.
+        :param tag: returned in the :class:`AppliedEvent` (the node passes the message).
+        :raises rbd_ros.sim.inputs.WrenchRejected: counted; nothing queued.
+        """
+        return self.inputs.submit(input_name, frame_id, force, torque, tag)
+
+    def submit_point(self, input_name, frame_id, point, tag=None):
+        """
+        Queue a received drag point for the start of the next step (see DragInputs.submit).
+
+        :param input_name: ``'drag'`` (``'<body>/drag'`` in a world) or ``'clicked_point'``.
+        :param point: 3 numbers, m, world frame (all NaN releases a drag).
+        :raises rbd_ros.sim.inputs.WrenchRejected: counted; nothing queued.
+        """
+        return self.drags.submit(input_name, frame_id, point, tag)
+
+    def advance(self, max_steps, until_ns=None):
+        """
+        Take up to ``max_steps`` steps; stop early when a sample is due or at the duration.
+
+        Also stops when sim time reaches ``until_ns`` (replay: advance to a recorded event).
+        Does nothing while :attr:`paused`.
+
+        :raises NonFiniteError: the state stays at its last finite value and the session
+            pauses itself (:attr:`error` holds the message); the exception's ``events`` lists
+            the wrenches applied in this call (they took effect before the failing step).
+        """
+        if self.paused:
+            return StepReport()
+        return self._run(max_steps, until_ns)
+
+    def step(self):
+        """Take exactly one step, paused or not (the ``~/step`` service)."""
+        return self._run(1, None, ignore_duration=True)
+
+    def reset(self):
+        """Back to the initial state at time 0; pending and held wrenches are dropped."""
+        self.simulator.reset()
+        self.inputs.clear()
+        self.drags.clear()
+        self._set_loads()
+        self.resets += 1
+        self.error = None
+
+    def _set_loads(self):
+        if self.config.world:
+            for i in range(len(self.config.bodies)):
+                self.simulator.set_body_loads(i, self.inputs.body_loads(i),
+                                              self.drags.springs(i))
+        elif self.config.contact:
+            self.simulator.set_body_loads(0, self.inputs.loads(), self.drags.springs(0))
+        else:
+            self.simulator.set_loads(self.inputs.loads(), self.drags.springs(0))
+
+    def _state_of(self, index):
+        """Return body ``index``'s position, orientation, velocity and ω_b (views, no copy)."""
+        x = self.simulator.arrays[0]
+        return x[0:3, index], x[3:7, index], x[7:10, index], x[10:13, index]
+
+    def _steps_to_next_sample(self, time_ns):
+        period = self.config.publish_period_ns
+        next_multiple = (time_ns // period + 1) * period
+        return _ceil_div(next_multiple - time_ns, self.config.timestep_ns)
+
+    def _run(self, max_steps, until_ns, ignore_duration=False):
+        h = self.config.timestep_ns
+        duration = self.config.duration_ns
+        events = []
+        done = 0
+        while done < max_steps:
+            t = self.time_ns
+            if duration and t >= duration and not ignore_duration:
+                break
+            if until_ns is not None and t >= until_ns:
+                break
+            expired = self.inputs.expire(t)
+            applied = self.inputs.apply_pending(t)
+            dragged, _ = self.drags.apply_pending(t, self._state_of)
+            if applied or expired or dragged:
+                self._set_loads()
+                events.extend(applied)
+                events.extend(dragged)
+                if self.on_applied is not None and (applied or dragged):
+                    self.on_applied(list(applied) + list(dragged))
+            chunk = min(max_steps - done, self._steps_to_next_sample(t), self._chunk_max)
+            expiry = self.inputs.next_expiry_ns()
+            if expiry is not None:
+                chunk = min(chunk, max(1, _ceil_div(expiry - t, h)))
+            if duration and not ignore_duration:
+                chunk = min(chunk, max(1, _ceil_div(duration - t, h)))
+            if until_ns is not None:
+                chunk = min(chunk, max(1, _ceil_div(until_ns - t, h)))
+            try:
+                self.simulator.step(chunk)
+            except NonFiniteError as exc:
+                taken = (self.time_ns - t) // h
+                self.steps_total += taken
+                self.paused = True
+                self.error = str(exc)
+                exc.events = events
+                raise
+            self.steps_total += chunk
+            done += chunk
+            if self.sample_due(self.time_ns):
+                return StepReport(done, events, True)
+        return StepReport(done, events, False)
