@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-The physics core: rigid body dynamics with numpy and one compiled kernel, no ROS.
+The physics core: rigid body dynamics, numpy and compiled kernels. Imports only itself.
 
 Conventions: SI units; ``_w`` world and ``_b`` body coordinates; quaternions ``(w, x, y, z)``
 with ``v_w = R(q_wb) v_b``; angular velocity stored in body coordinates; time in integer

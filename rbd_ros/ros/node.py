@@ -41,12 +41,6 @@ import tempfile
 import threading
 import time
 
-# Ctrl-C while the imports below load (~1 s) in `python -m rbd_ros.node` or the installed
-# rigid_body_node executable: nothing to finalise yet, exit 0 quietly (main() takes over).
-if __name__ == '__main__' or os.path.basename(sys.argv[0]) == 'rigid_body_node':
-    for _signum in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(_signum, lambda *_: os._exit(0))
-
 from geometry_msgs.msg import PointStamped
 from rbd_ros.core import ConfigError, jitcache, NonFiniteError, RbdError, RecordingError
 from rbd_ros.msgs import conversions as conv

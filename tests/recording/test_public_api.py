@@ -16,6 +16,9 @@
 
 import dataclasses
 import inspect
+from pathlib import Path
+import subprocess
+import sys
 import typing
 
 import pytest
@@ -23,6 +26,7 @@ from rbd_ros.bag import animate, cli, plot, recording, replay
 from rbd_ros.msgs import markers, schemas
 from rbd_ros.sim import tessellation
 
+REPO = Path(__file__).resolve().parents[2]
 MODULES = (cli, plot, recording, replay, schemas, markers, tessellation, animate)
 # replay.expected_message is being rewritten on another branch (how replay rebuilds messages).
 NOT_YET = {'expected_message'}
@@ -76,3 +80,29 @@ def test_none_defaults_are_optional(module):
                         hints[field.name]):
                     wrong.append(f'{name}.{field.name}: {hints[field.name]}')
     assert wrong == []
+
+
+@pytest.mark.parametrize('old, new, name', [
+    ('rbd_ros.recording', 'rbd_ros.bag.recording', 'BagWriter'),
+    ('rbd_ros.replay', 'rbd_ros.bag.replay', 'replay_bag'),
+    ('rbd_ros.session', 'rbd_ros.sim.session', 'SimSession'),
+    ('rbd_ros.plot', 'rbd_ros.bag.plot', 'draw'),
+])
+def test_the_documented_paths_of_the_last_release_still_work_and_say_where_they_went(
+        old, new, name):
+    """In a fresh interpreter: the old path gives the very same object, with a warning."""
+    code = (
+        'import importlib, warnings\n'
+        'with warnings.catch_warnings(record=True) as caught:\n'
+        '    warnings.simplefilter("always")\n'
+        f'    old = importlib.import_module({old!r})\n'
+        f'new = importlib.import_module({new!r})\n'
+        f'print(getattr(old, {name!r}) is getattr(new, {name!r}))\n'
+        'print([str(w.message) for w in caught if w.category is DeprecationWarning])\n'
+    )
+    proc = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                          cwd=REPO, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    same, warned = proc.stdout.splitlines()
+    assert same == 'True'
+    assert f'{old} moved to {new}' in warned, warned

@@ -21,6 +21,7 @@ set`` = ``set_parameters``; ``ros2 topic echo --once`` = a subscription whose du
 transient local when every publisher offers it, taking the first sample.
 """
 
+from pathlib import Path
 import re
 import signal
 import subprocess
@@ -37,6 +38,7 @@ from rcl_interfaces.srv import DescribeParameters, GetParameters, ListParameters
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from ros_probe import call, Probe
 
+REPO = Path(__file__).resolve().parents[2]
 PARAMETER_TYPES = {value: name for name, value in vars(ParameterType).items()
                    if name.startswith('PARAMETER_')}
 
@@ -192,8 +194,10 @@ def _loaded(pid, library):
         return library in maps.read()
 
 
-# What setuptools' console_scripts wrapper for rigid_body_node does (ros2 run executes it).
-CONSOLE_SCRIPT = 'import sys\nfrom rbd_ros.ros.node import main\nsys.exit(main())\n'
+# What setuptools' console_scripts wrapper for rigid_body_node does (ros2 run executes it), with
+# the entry point setup.py declares.
+_ENTRY = re.search(r"'rigid_body_node = ([\w.]+):(\w+)'", (REPO / 'setup.py').read_text())
+CONSOLE_SCRIPT = f'import sys\nfrom {_ENTRY[1]} import {_ENTRY[2]}\nsys.exit({_ENTRY[2]}())\n'
 
 
 @pytest.mark.parametrize('how', ['module', 'executable'])
