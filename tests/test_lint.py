@@ -14,6 +14,7 @@
 
 """The ament linters (flake8, pep257) and the licence header over every Python file."""
 
+import ast
 from pathlib import Path
 
 from ament_flake8.main import main_with_errors
@@ -47,3 +48,22 @@ def test_every_python_file_starts_with_the_apache_header():
     assert len(files) > 10
     missing = [str(p.relative_to(REPO)) for p in files if not p.read_text().startswith(header)]
     assert not missing, f'files without the header of .ci/header.txt: {missing}'
+
+
+def test_every_python_file_says_what_it_is_right_after_the_header():
+    """
+    After the licence header comes the module docstring, nothing else (no comment, no import).
+
+    The header stays the full Apache text rather than an ``SPDX-License-Identifier`` line:
+    ament_copyright identifies a licence by finding its header template's text in the file's
+    first comment block, and an SPDX line alone matches no template.
+    """
+    header = (REPO / '.ci' / 'header.txt').read_text()
+    wrong = []
+    for path in python_files():
+        rest = path.read_text()[len(header):].lstrip('\n')
+        tree = ast.parse(path.read_text())
+        doc = ast.get_docstring(tree)
+        if not (rest.startswith(('"""', "'''", 'r"""')) and doc and doc.strip()):
+            wrong.append(str(path.relative_to(REPO)))
+    assert not wrong, f'files whose docstring does not follow the header: {wrong}'
