@@ -58,7 +58,7 @@ import struct
 from rbd_ros.core import NonFiniteError
 from rbd_ros.sim.config import make_simulator
 from rbd_ros.sim.drag import DragInputs
-from rbd_ros.sim.inputs import WorldInputs, WrenchInputs
+from rbd_ros.sim.inputs import WorldInputs
 from rbd_ros.sim.limits import step_chunk
 
 
@@ -109,13 +109,10 @@ class AppliedDigest:
 
 
 def _drag_inputs(config):
-    """Build the :class:`DragInputs` of ``config`` (``drag``, or ``<body>/drag`` per body)."""
-    if config.world:
-        bodies = [(f'{b.name}/drag', b.drag_point_b, b.collision_shape) for b in config.bodies]
-    else:
-        bodies = [('drag', config.parameters['drag_point_b'], config.collision_shape)]
+    """Build the :class:`DragInputs` of ``config``: ``<prefix>drag`` per body (``drag``)."""
     p = config.parameters
-    return DragInputs(bodies, world_frame=config.world_frame,
+    return DragInputs([(f'{b.prefix}drag', b.drag_point_b, b.collision_shape)
+                       for b in config.bodies], world_frame=config.world_frame,
                       stiffness_n_per_m=p['drag_stiffness_n_per_m'],
                       damping_n_s_per_m=p['drag_damping_n_s_per_m'],
                       click_radius_m=p['drag_click_radius_m'],
@@ -136,22 +133,15 @@ class SimSession:
 
     def __init__(self, config):
         self.config = config
-        # With a ground or obstacles, a world of this one body (index 0), stepped with contact.
+        # Every body of the world (one for a single-body file), with contact or free.
         self.simulator = make_simulator(config)
-        if config.world:
-            self.inputs = WorldInputs(
-                config.bodies, world_frame=config.world_frame,
-                timeout_ns=config.wrench_timeout_ns, max_force_n=config.max_force_n,
-                max_torque_nm=config.max_torque_nm)
-        else:
-            self.inputs = WrenchInputs(
-                config.wrench_inputs, world_frame=config.world_frame,
-                body_frame=config.body_frame, timeout_ns=config.wrench_timeout_ns,
-                max_force_n=config.max_force_n, max_torque_nm=config.max_torque_nm)
+        self.inputs = WorldInputs(
+            config.bodies, world_frame=config.world_frame, timeout_ns=config.wrench_timeout_ns,
+            max_force_n=config.max_force_n, max_torque_nm=config.max_torque_nm)
         self.drags = _drag_inputs(config)
         self.paused = config.start_paused
         # Steps per compiled call: a signal is seen between calls (rbd_ros.sim.limits.step_chunk).
-        self._chunk_max = step_chunk(len(config.bodies) if config.world else 1)
+        self._chunk_max = step_chunk(len(config.bodies))
         self.steps_total = 0  # physics steps taken since start, over resets
         self.resets = 0
         self.error = None  # message of the last NonFiniteError, if any
@@ -167,21 +157,22 @@ class SimSession:
 
     @property
     def state(self):
-        """Return the current :class:`rbd_ros.core.BodyState`."""
+        """Return the current :class:`rbd_ros.core.BodyState` of body 0 (of a file's only one)."""
         return self.simulator.body_state(0)
 
+    def body_state(self, index):
+        """Return the current :class:`rbd_ros.core.BodyState` of body ``index``."""
+        return self.simulator.body_state(index)
+
     @property
-    def contact_wrench_w(self):
+    def contact_wrenches_w(self):
         """
-        Return the net contact ``(force_w, torque_w)`` on the body over the last step.
+        Return every body's net contact force and torque over the last step, (N, 6), or None.
 
         Force in N and torque in N·m about the COM, world frame (the contact impulses of the
         step divided by its length); None when the configuration has no contact.
         """
-        if not self.config.contact:
-            return None
-        row = self.simulator.contact_wrench_w[0].tolist()
-        return row[:3], row[3:]
+        return self.simulator.contact_wrench_w
 
     @property
     def columns(self):
@@ -267,14 +258,8 @@ class SimSession:
         self.error = None
 
     def _set_loads(self):
-        if self.config.world:
-            for i in range(len(self.config.bodies)):
-                self.simulator.set_body_loads(i, self.inputs.body_loads(i),
-                                              self.drags.springs(i))
-        elif self.config.contact:
-            self.simulator.set_body_loads(0, self.inputs.loads(), self.drags.springs(0))
-        else:
-            self.simulator.set_loads(self.inputs.loads(), self.drags.springs(0))
+        for i in range(len(self.config.bodies)):
+            self.simulator.set_body_loads(i, self.inputs.body_loads(i), self.drags.springs(i))
 
     def _state_of(self, index):
         """Return body ``index``'s position, orientation, velocity and ω_b (views, no copy)."""
