@@ -13,10 +13,11 @@
 # limitations under the License.
 
 """
-:class:`SimSession`: one simulated body with its wrench inputs, stepped in sim time (no rclpy).
+:class:`SimSession`: the simulated bodies with their inputs, stepped in sim time (no rclpy).
 
 The node and the replay tool drive exactly this class, so a replay of recorded wrench events
-reproduces the live run bit for bit. Usage::
+reproduces the live run bit for bit. A single-body params file is a world of one body; which
+core simulator steps it is :func:`rbd_ros.sim.config.make_simulator`'s choice. Usage::
 
     session = SimSession(NodeConfig.from_parameters(params))
     session.submit('wrench', 'world', (1.0, 0.0, 0.0), (0.0, 0.0, 0.0))  # next step start
@@ -25,7 +26,7 @@ reproduces the live run bit for bit. Usage::
         for event in report.events:          # wrenches that took effect, with their step time
             record(event.time_ns, event)
         if report.sample_due:                # an output sample is due at session.time_ns
-            publish(session.state)
+            publish(session.columns)         # (13, N): every body's packed state
 
 Rules (all in sim time, integer ns):
 
@@ -182,10 +183,10 @@ class SimSession:
     @property
     def state_column(self):
         """
-        Return a read-only view of the packed state ``(p, q, v, ω_b)`` (13 floats).
+        Return a read-only view of body 0's packed state ``(p, q, v, ω_b)`` (13 floats).
 
         The view follows the simulator (steps and resets write in place): take it once.
-        :meth:`rbd_ros.msgs.outputs.SampleBuilder.column_values` reads it without building a
+        :meth:`rbd_ros.msgs.outputs.BodyOutputs.column_values` reads it without building a
         :class:`rbd_ros.core.BodyState` per sample.
         """
         return self.simulator.arrays[0][:, 0]
