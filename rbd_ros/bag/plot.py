@@ -157,7 +157,8 @@ def _body_model(bag: Bag) -> Tuple[Optional[BodyModel], float]:
         config = config_from_bag(bag)
     except RbdError:
         return None, 0.0
-    return config.model, config.wrench_timeout_ns / NS_PER_S
+    model = config.bodies[0].model if len(config.bodies) == 1 else None
+    return model, config.wrench_timeout_ns / NS_PER_S
 
 
 def _held(samples: WrenchSamples, timeout_s: float,
@@ -423,19 +424,18 @@ def animate_bag(bag: Union[str, os.PathLike, Bag], out_path: str) -> int:
     if not isinstance(bag, Bag):
         bag = open_bag(bag)
     config = config_from_bag(bag)
-    if config.world:
-        names = [b.name for b in config.bodies]
-        shapes = [b.collision_shape for b in config.bodies]
-        topics = {t: names.index(t.rsplit('/', 2)[-2]) for t in bag.topics
-                  if t.endswith('/pose') and t.count('/') >= 2
-                  and t.rsplit('/', 2)[-2] in names}
-    else:
-        if config.collision_shape is None:
-            raise RbdError(f'{bag.mcap_path}: the body has no collision shape to draw (given '
-                           'by inertia only)')
-        shapes = [config.collision_shape]
-        topics = {t: 0 for t, info in bag.topics.items()
-                  if info.type_name == _POSE and t.rsplit('/', 1)[-1] == 'pose'}
+    shapes = [b.collision_shape for b in config.bodies]
+    if None in shapes:
+        raise RbdError(f'{bag.mcap_path}: the body has no collision shape to draw (given '
+                       'by inertia only)')
+    # Body i's poses: the PoseStamped topic ending in /<prefix>pose (the longest prefix).
+    ends = sorted(((f'/{b.prefix}pose', i) for i, b in enumerate(config.bodies)),
+                  key=lambda end: -len(end[0]))
+    topics = {}
+    for t, info in bag.topics.items():
+        index = next((i for end, i in ends if t.endswith(end)), None)
+        if info.type_name == _POSE and index is not None:
+            topics[t] = index
     poses = {}
     for raw, msg in bag.decoded_messages(list(topics)):
         row = poses.setdefault(raw.log_time_ns, [None] * len(shapes))

@@ -237,16 +237,37 @@ def _use_attached_meshes(bag, params):
         params[name] = str(target)
 
 
-def _world_kinds(builder):
-    """Return ``{relative topic: kind}`` of a world's compared per-body outputs."""
-    return {outputs.topic_of(kind): kind for kind in builder.kinds
-            if builder.body_index(kind) is not None}
+def _compared_kinds(config, builder):
+    """
+    Return ``{kind: type name}`` of the compared outputs: each body's, and ``clock``.
+
+    The ``clock`` of named bodies is not compared (their per-body samples are); ``poses`` and
+    ``tf`` repeat the poses.
+    """
+    kinds = [kind for kind in builder.kinds if builder.body_index(kind) is not None]
+    if 'clock' in builder.kinds and not config.named:
+        kinds.append('clock')
+    return {kind: outputs.TYPE_NAMES[kind.rsplit('/', 1)[-1]] for kind in kinds}
 
 
-def _world_kind(kinds, topic):
-    """Return the per-body kind whose relative topic the recorded ``topic`` ends with."""
-    parts = topic.rsplit('/', 2)
-    return kinds.get('/'.join(parts[-2:])) if len(parts) == 3 else None
+def _output_kind(kinds, topic, type_name):
+    """
+    Return the compared kind of a recorded topic, or None (an input, or not compared).
+
+    The kind whose relative topic the recorded ``topic`` ends with (the longest), of the same
+    type; else, for a topic remapped elsewhere, the kind of its type when that is a compared
+    kind (``pose``, ``twist``, ``odom``, ``clock`` of a single-body file).
+    """
+    best = None
+    for kind, kind_type in kinds.items():
+        relative = outputs.topic_of(kind).lstrip('/')
+        if type_name == kind_type and (topic == '/' + relative
+                                       or topic.endswith('/' + relative)):
+            if best is None or len(kind) > len(best):
+                best = kind
+    if best is None and OUTPUT_KINDS.get(type_name) in kinds:
+        best = OUTPUT_KINDS[type_name]
+    return best
 
 
 def _drag_for_topic(session, topic):
@@ -479,17 +500,13 @@ class Replayer:
         self.kinds = {}  # output topic -> kind ('pose', 'twist', 'odom', 'clock')
         self.inputs = {}  # wrench topic -> input name
         self._builder = outputs.sample_builder(self.config)
-        world_kinds = _world_kinds(self._builder) if self.config.world else {}
+        compared = _compared_kinds(self.config, self._builder)
         for topic, info in bag.topics.items():
-            if self.config.world and _world_kind(world_kinds, topic):
-                self.kinds[topic] = _world_kind(world_kinds, topic)  # '<body>/pose', ...
-            elif self.config.world and info.type_name in OUTPUT_KINDS:
-                continue  # /clock: the per-body samples are what is compared
+            kind = _output_kind(compared, topic, info.type_name)  # 'pose', '<body>/pose', ...
+            if kind is not None:
+                self.kinds[topic] = kind  # contact_wrench too: the node refuses it as input
             elif info.type_name in OUTPUT_KINDS:
-                self.kinds[topic] = OUTPUT_KINDS[info.type_name]
-            elif (info.type_name == WRENCH_TYPE and self.config.contact
-                  and topic.rsplit('/', 1)[-1] == 'contact_wrench'):
-                self.kinds[topic] = 'contact_wrench'  # an output: the node refuses it as input
+                continue  # the /clock of named bodies: their per-body samples are compared
             elif info.type_name == WRENCH_TYPE:
                 self.inputs[topic] = _input_for_topic(self.config, topic)
             elif info.type_name == POINT_TYPE:
@@ -665,14 +682,8 @@ class Replayer:
         if self.session.time_ns != t:
             return False
         if self._expected_time_ns != t:
-            builder = self._builder
-            if self.config.world:
-                self._expected = dict(builder.serialize(
-                    t, self.session.columns, self.session.simulator.contact_wrench_w))
-            else:
-                self._expected = dict(builder.serialize(
-                    t, builder.column_values(self.session.state_column),
-                    self.session.contact_wrench_w))
+            self._expected = dict(self._builder.serialize(
+                t, self.session.columns, self.session.contact_wrenches_w))
             self._expected_time_ns = t
         kind = self.kinds[raw.topic]
         if self._expected.get(kind) != raw.data:
@@ -686,15 +697,12 @@ class Replayer:
     def compare_sample(self, raw: RawMessage, msg) -> bool:
         """Compare the recorded output sample ``msg`` with the one recomputed now."""
         kind, t = self.kinds[raw.topic], raw.log_time_ns
-        if self.config.world:
-            index = self._builder.body_index(kind)
-            row = self.session.simulator.contact_wrench_w[index].tolist()
-            expected = self._builder.message(kind, self.session.simulator.body_state(index),
-                                             (row[:3], row[3:]))
-            kind = kind.rsplit('/', 1)[1]
-        else:
-            expected = expected_message(kind, self.session.state, self.config,
-                                        self.session.contact_wrench_w)
+        index = self._builder.body_index(kind) or 0  # clock: body 0's time
+        wrenches = self.session.contact_wrenches_w
+        wrench = None if wrenches is None else (wrenches[index][:3].tolist(),
+                                                wrenches[index][3:].tolist())
+        expected = self._builder.message(kind, self.session.body_state(index), wrench)
+        kind = kind.rsplit('/', 1)[-1]
         if self.session.time_ns != t:
             # Replayed with another step: compare the values at the first step end at or after
             # t (the stamp is not what is being studied).

@@ -15,13 +15,16 @@
 """
 One output sample: state → values → CDR bytes (and messages), for the node, replay and tests.
 
-:class:`SampleBuilder` is the only place that turns a :class:`rbd_ros.core.BodyState` into the
-node's output messages (``pose``, ``twist``, ``odom``, ``contact_wrench`` with contact,
-``/clock``, ``/tf``). The node publishes
-the CDR bytes of :meth:`SampleBuilder.serialize` and records the SAME bytes; replay recomputes
-the samples with :meth:`SampleBuilder.messages`, built from the same values, so "replay
-rebuilds exactly what the node published" holds by construction (a test checks that rclpy
-deserialises the bytes into exactly those messages, at the length rclpy serialises them).
+:class:`SampleBuilder` is the only place that turns the simulator's states into the node's
+output messages: per body ``<prefix>pose``, ``<prefix>twist``, ``<prefix>odom`` and, with
+contact, ``<prefix>contact_wrench`` (the prefix is ``<name>/`` for a body of ``body_names``,
+empty for the body of a single-body file: ``pose``, ...); ``poses`` (every pose, named bodies
+only), ``/clock`` and one ``/tf`` message holding world → body for every body. Each body's
+messages come from its :class:`BodyOutputs`. The node publishes the CDR bytes of
+:meth:`SampleBuilder.serialize` and records the SAME bytes; replay recomputes the samples with
+:meth:`SampleBuilder.message`, built from the same values, so "replay rebuilds exactly what the
+node published" holds by construction (a test checks that rclpy deserialises the bytes into
+exactly those messages, at the length rclpy serialises them).
 
 Frames (REP 103 / REP 105):
 
@@ -114,16 +117,14 @@ def _cdr_string(text):
     return text.encode('utf-8') + b'\x00'
 
 
-class SampleBuilder:
+class BodyOutputs:
     """
-    The output messages of one sample, as CDR bytes (node) or message objects (replay, tests).
+    The output messages of one body, as CDR bytes or message objects (a part of SampleBuilder).
 
-    Built once per configuration.
-
-    :param config: a :class:`rbd_ros.sim.config.NodeConfig` (frames, ``twist_frame``,
-        ``publish_clock``, ``publish_tf``, ``contact``).
-    :param tf: False leaves ``/tf`` out whatever ``publish_tf`` says (tf2_msgs missing, or a
-        caller that does not output it).
+    :param config: frames and switches: ``world_frame``, ``body_frame``, ``twist_frame``,
+        ``publish_clock``, ``publish_tf``, ``contact``. :class:`SampleBuilder` builds each
+        body's with ``publish_clock`` and ``publish_tf`` off (it writes those for all bodies).
+    :param tf: False leaves ``/tf`` out whatever ``publish_tf`` says (tf2_msgs missing).
     """
 
     def __init__(self, config, tf=True):
@@ -165,7 +166,10 @@ class SampleBuilder:
         A quaternion not unit to round-off goes through :class:`BodyState` (which normalises
         it), so the result is always that of :meth:`values` on ``simulator.state``.
         """
-        x = column.tolist()
+        return self.list_values(column.tolist())
+
+    def list_values(self, x):
+        """Return :meth:`column_values` of the column given as a list of its 13 floats."""
         q = x[3:7]
         if abs(((q[0] * q[0] + q[1] * q[1]) + q[2] * q[2]) + q[3] * q[3] - 1.0) \
                 > _UNIT_NORM_SQ_TOL:
@@ -177,7 +181,8 @@ class SampleBuilder:
         Return ``[(kind, CDR bytes)]`` of one sample, in :data:`KINDS` order.
 
         :param contact_wrench: ``(force_w, torque_w)`` (N, N·m about the COM, world frame) for
-            the ``contact_wrench`` kind (:attr:`rbd_ros.sim.session.SimSession.contact_wrench_w`).
+            the ``contact_wrench`` kind (a row of
+            :attr:`rbd_ros.sim.session.SimSession.contact_wrenches_w`).
         """
         (px, py, pz), (qw, qx, qy, qz), twist, twist_b = values
         sec, nanosec = divmod(time_ns, NS_PER_S)
@@ -243,16 +248,13 @@ class SampleBuilder:
 
 
 def sample_builder(config, tf=True):
-    """Return a (shared) :class:`SampleBuilder` for ``config`` (a world's: not shared)."""
-    if config.world:
-        return WorldSampleBuilder(config, tf)
-    if not tf:
-        return SampleBuilder(config, tf=False)
-    return _cached_builder(config.world_frame, config.body_frame, config.twist_frame,
-                           config.publish_clock, config.publish_tf, config.contact)
+    """Return a (shared) :class:`SampleBuilder` for ``config``."""
+    bodies = tuple((b.prefix, b.body_frame) for b in config.bodies)
+    return _cached_builder(config.world_frame, config.twist_frame, config.publish_clock,
+                           config.publish_tf and tf, config.contact, config.named, bodies)
 
 
-#: Per-body output kinds of a world, in publishing order (topics ``<body>/<kind>``).
+#: Per-body output kinds, in publishing order (topics ``<prefix>pose``, ...).
 BODY_KINDS = ('pose', 'twist', 'odom', 'contact_wrench')
 
 
@@ -268,31 +270,35 @@ def type_of(kind):
     return MESSAGE_TYPES[kind.rsplit('/', 1)[-1]]
 
 
-class WorldSampleBuilder:
+class SampleBuilder:
     """
-    The output messages of one sample of a world, as CDR bytes.
+    The output messages of one sample of every body, as CDR bytes (node) or messages (replay).
 
-    Per body ``<name>/pose``, ``<name>/twist``, ``<name>/odom`` and ``<name>/contact_wrench``
-    (each body's :class:`SampleBuilder`, its frame its ``body_frame``); then ``poses``
-    (``geometry_msgs/PoseArray``: every body's pose in ``body_names`` order, world frame),
-    ``clock`` and one ``tf`` message holding world → body for every body.
+    In :attr:`kinds` order: per body (config order) its :class:`BodyOutputs` kinds under its
+    prefix; ``poses`` (``geometry_msgs/PoseArray``: every body's pose, world frame) when the
+    bodies are named (:attr:`rbd_ros.sim.config.NodeConfig.named`); ``clock``; one ``tf``
+    message holding world → body for every body. Built once per configuration
+    (:func:`sample_builder` shares them).
 
-    :param config: a world :class:`rbd_ros.sim.config.NodeConfig`.
-    :param tf: False leaves ``/tf`` out (tf2_msgs missing).
+    :param config: a :class:`rbd_ros.sim.config.NodeConfig`.
+    :param tf: False leaves ``/tf`` out whatever ``publish_tf`` says (tf2_msgs missing, or a
+        caller that does not output it).
     """
 
     def __init__(self, config, tf=True):
         self.world_frame = config.world_frame
-        self.names = tuple(body.name for body in config.bodies)
-        self.bodies = tuple(SampleBuilder(_Frames(
-            config.world_frame, body.body_frame, config.twist_frame, False, False, True))
-            for body in config.bodies)
-        self.kinds = tuple(f'{name}/{kind}' for name in self.names for kind in BODY_KINDS) \
-            + ('poses',) + (('clock',) if config.publish_clock else ()) \
+        self.prefixes = tuple(body.prefix for body in config.bodies)
+        self.bodies = tuple(BodyOutputs(_Frames(
+            config.world_frame, body.body_frame, config.twist_frame, False, False,
+            config.contact)) for body in config.bodies)
+        self.kinds = tuple(prefix + kind for prefix, body in zip(self.prefixes, self.bodies)
+                           for kind in body.kinds) \
+            + (('poses',) if config.named else ()) \
+            + (('clock',) if config.publish_clock else ()) \
             + (('tf',) if tf and config.publish_tf and TFMessage is not None else ())
         world = _cdr_string(self.world_frame)
         header = ('i', 'I')
-        n = len(self.names)
+        n = len(self.bodies)
         self._poses = _layout(*header, world, 'I', *'d' * (7 * n))
         self._clock = _layout(*header)
         fields = ['I']
@@ -301,57 +307,88 @@ class WorldSampleBuilder:
         self._tf = _layout(*fields)
         self._world = world
         self._frames = [_cdr_string(body.body_frame) for body in config.bodies]
+        self._poses_tf = 'poses' in self.kinds or 'tf' in self.kinds
 
     def body_index(self, kind):
-        """Return the index of the body of a per-body kind (``<name>/pose``), or None."""
-        name = kind.rsplit('/', 1)[0] if '/' in kind else None
-        return self.names.index(name) if name in self.names else None
+        """Return the index of the body of a per-body kind (``<prefix>pose``), or None."""
+        head, _, base = kind.rpartition('/')
+        prefix = head + '/' if head else ''
+        if base not in BODY_KINDS or prefix not in self.prefixes:
+            return None
+        return self.prefixes.index(prefix)
 
-    def serialize(self, time_ns, columns, wrenches):
+    def serialize(self, time_ns, columns, wrenches=None):
         """
         Return ``[(kind, CDR bytes)]`` of one sample, in :attr:`kinds` order.
 
         :param columns: (13, N) packed states (:attr:`rbd_ros.sim.session.SimSession.columns`).
-        :param wrenches: (N, 6) contact force and torque per body (N, N·m; world, about COMs).
+        :param wrenches: (N, 6) contact force and torque per body (N, N·m; world, about COMs),
+            or None without contact
+            (:attr:`rbd_ros.sim.session.SimSession.contact_wrenches_w`).
         """
         out = []
         poses = []
         tf = []
         sec, nanosec = divmod(time_ns, NS_PER_S)
         world = self._world
-        rows = wrenches.tolist()
-        for i, (name, builder) in enumerate(zip(self.names, self.bodies)):
-            values = builder.column_values(columns[:, i])
-            row = rows[i]
-            for kind, data in builder.serialize(time_ns, values, (row[:3], row[3:])):
-                out.append((f'{name}/{kind}', data))
-            (px, py, pz), (qw, qx, qy, qz) = values[0], values[1]
-            poses += (px, py, pz, qx, qy, qz, qw)
-            frame = self._frames[i]
-            tf += (sec, nanosec, len(world), world, len(frame), frame, px, py, pz, qx, qy, qz,
-                   qw)
-        out.append(('poses', self._poses.pack(_ENCAPSULATION, sec, nanosec, len(world), world,
-                                              len(self.names), *poses)))
-        if 'clock' in self.kinds:
+        rows = wrenches.tolist() if wrenches is not None else None
+        wrench = None
+        # One list of 13 floats per body, taken at once (a column view per body costs more).
+        for i, x in enumerate(columns.T.tolist()):
+            builder = self.bodies[i]
+            values = builder.list_values(x)
+            if rows is not None:
+                wrench = (rows[i][:3], rows[i][3:])
+            prefix = self.prefixes[i]
+            if prefix:
+                out += [(prefix + kind, data)
+                        for kind, data in builder.serialize(time_ns, values, wrench)]
+            else:
+                out += builder.serialize(time_ns, values, wrench)
+            if self._poses_tf:
+                (px, py, pz), (qw, qx, qy, qz) = values[0], values[1]
+                poses += (px, py, pz, qx, qy, qz, qw)
+                frame = self._frames[i]
+                tf += (sec, nanosec, len(world), world, len(frame), frame, px, py, pz, qx, qy,
+                       qz, qw)
+        kinds = self.kinds
+        if 'poses' in kinds:
+            out.append(('poses', self._poses.pack(_ENCAPSULATION, sec, nanosec, len(world),
+                                                  world, len(self.bodies), *poses)))
+        if 'clock' in kinds:
             out.append(('clock', self._clock.pack(_ENCAPSULATION, sec, nanosec)))
-        if 'tf' in self.kinds:
-            out.append(('tf', self._tf.pack(_ENCAPSULATION, len(self.names), *tf)))
+        if 'tf' in kinds:
+            out.append(('tf', self._tf.pack(_ENCAPSULATION, len(self.bodies), *tf)))
         return out
 
     def message(self, kind, state, contact_wrench=None):
-        """Return a new message of the per-body ``kind`` (``<name>/pose``, ...) for ``state``."""
+        """
+        Return a new message of the per-body ``kind`` (``<prefix>pose``, ...) or ``clock``.
+
+        :param state: the :class:`rbd_ros.core.BodyState` of that kind's body (for ``clock``,
+            any body's: only its time is read).
+        :param contact_wrench: that body's ``(force_w, torque_w)`` for ``contact_wrench``.
+        """
+        if kind == 'clock':
+            return Clock(clock=conv.time_to_msg(state.time_ns))
         index = self.body_index(kind)
         if index is None:
-            raise ValueError(f'kind: {kind!r} is not a per-body kind of this world')
-        return self.bodies[index].message(kind.rsplit('/', 1)[1], state, contact_wrench)
+            raise ValueError(f'kind: {kind!r} is not a per-body kind of this configuration '
+                             f'({", ".join(self.kinds)}) nor clock')
+        return self.bodies[index].message(kind.rsplit('/', 1)[-1], state, contact_wrench)
 
 
 @functools.lru_cache(maxsize=16)
-def _cached_builder(world_frame, body_frame, twist_frame, publish_clock, publish_tf, contact):
-    return SampleBuilder(_Frames(world_frame, body_frame, twist_frame, publish_clock, publish_tf,
-                                 contact))
+def _cached_builder(world_frame, twist_frame, publish_clock, publish_tf, contact, named,
+                    bodies):
+    config = _Config(world_frame, twist_frame, publish_clock, publish_tf, contact, named,
+                     tuple(_Body(prefix, frame) for prefix, frame in bodies))
+    return SampleBuilder(config)
 
 
+_Config = collections.namedtuple(
+    '_Config', 'world_frame twist_frame publish_clock publish_tf contact named bodies')
+_Body = collections.namedtuple('_Body', 'prefix body_frame')
 _Frames = collections.namedtuple(
     '_Frames', 'world_frame body_frame twist_frame publish_clock publish_tf contact')
 

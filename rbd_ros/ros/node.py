@@ -102,19 +102,15 @@ def _world_markers(config):
     ``package://`` URI as given, else the ``file://`` URI of the file loaded), so each sample
     carries its URI and pose, not its triangles.
     """
-    if config.world:
-        prefixes = [f'bodies.{b.name}.' for b in config.bodies]
-        names = [b.name for b in config.bodies]
-        shapes = [b.collision_shape for b in config.bodies]
-    else:
-        prefixes, names, shapes = [''], [config.body_frame], [config.collision_shape]
     meshes = []
-    for prefix in prefixes:
+    for prefix in (b.parameter_prefix for b in config.bodies):
         path = config.parameters.get(prefix + 'mesh_path', '')
         meshes.append((markers.mesh_uri(path, cfg.resolve_mesh_path(path, prefix + 'mesh_path')),
                        config.parameters.get(prefix + 'mesh_scale', (1.0, 1.0, 1.0)))
                       if path else None)
-    return markers.BodyMarkers(names, shapes, config.world_frame, meshes)
+    return markers.BodyMarkers([b.label for b in config.bodies],
+                               [b.collision_shape for b in config.bodies], config.world_frame,
+                               meshes)
 
 
 def _rcl_text(exc):
@@ -170,12 +166,8 @@ class RigidBodyNode(Node):
         self._step_wall_ns = 1_000_000  # wall time per step of the last run (1 ms until measured)
 
         self._recorder = None
-        if config.world:
-            self._builder = outputs.WorldSampleBuilder(config)
-            self._columns = self.session.columns
-        else:
-            self._builder = outputs.SampleBuilder(config)
-            self._state_column = self.session.state_column
+        self._builder = outputs.SampleBuilder(config)
+        self._columns = self.session.columns
         # One publisher per output kind: pose, twist, odom (per body in a world: <body>/pose,
         # ...), contact_wrench with contact, poses in a world, /clock and /tf when on.
         depth = {'clock': 10, 'tf': 100}
@@ -276,9 +268,8 @@ class RigidBodyNode(Node):
 
     def _check_input_topics(self):
         """Refuse an invalid input topic or one that resolves to an output or another input."""
-        kinds = self._world_output_kinds() if self.config.world else OUTPUT_TOPICS
-        outputs = {self.resolve_topic_name(topic) for topic in kinds}
-        names = [f'{b.name}/drag' for b in self.config.bodies] if self.config.world else ['drag']
+        outputs = {self.resolve_topic_name(topic) for topic in self._output_topics()}
+        names = [f'{b.prefix}drag' for b in self.config.bodies]
         drags = {self.resolve_topic_name(name): name for name in names}
         drags['/clicked_point'] = CLICKED_POINT
         seen = {}
@@ -301,10 +292,12 @@ class RigidBodyNode(Node):
                                   f'{seen[resolved]!r} (it would count every wrench twice)')
             seen[resolved] = spec.name
 
-    def _world_output_kinds(self):
-        return [outputs.topic_of(kind) for kind in outputs.WorldSampleBuilder(
-            self.config, tf=False).kinds] + ['markers', 'static_markers', '/clock',
-                                             '/diagnostics', '/tf']
+    def _output_topics(self):
+        """Every topic an output of this node may use (contact_wrench even without contact)."""
+        bodies = self.config.bodies
+        return [outputs.topic_of(kind) for kind in outputs.SampleBuilder(
+            self.config, tf=False).kinds] + [f'{b.prefix}contact_wrench' for b in bodies] + [
+            'markers', 'static_markers', '/clock', '/diagnostics', '/tf']
 
     def _declare(self, spec, value):
         descriptor = ParameterDescriptor(
@@ -509,13 +502,8 @@ class RigidBodyNode(Node):
 
     def _publish_sample(self):
         """Publish the current sample; record the same CDR bytes."""
-        builder, t = self._builder, self.session.time_ns
-        if self.config.world:
-            samples = builder.serialize(t, self._columns,
-                                        self.session.simulator.contact_wrench_w)
-        else:
-            samples = builder.serialize(t, builder.column_values(self._state_column),
-                                        self.session.contact_wrench_w)
+        t = self.session.time_ns
+        samples = self._builder.serialize(t, self._columns, self.session.contact_wrenches_w)
         for (_, publish, topic), (_, data) in zip(self._sample_pubs, samples):
             publish(data)
             if self._recorder is not None:
@@ -526,11 +514,8 @@ class RigidBodyNode(Node):
     def _marker_array(self, t):
         """Every body at its pose, then the contacts of the last stage of the last step."""
         # The poses exactly as the pose topics carry them (the sample builders' values).
-        x = self.session.columns
-        if self.config.world:
-            values = [b.column_values(x[:, i]) for i, b in enumerate(self._builder.bodies)]
-        else:
-            values = [self._builder.column_values(self._state_column)]
+        x = self._columns
+        values = [b.column_values(x[:, i]) for i, b in enumerate(self._builder.bodies)]
         bodies = self._markers.array([v[0] for v in values], [v[1] for v in values], t,
                                      normalise=False)
         contacts = self.session.simulator.contacts
@@ -571,18 +556,16 @@ class RigidBodyNode(Node):
             message += '; not finite: ' + ', '.join(non_finite)
         self._publish('diagnostics', conv.diagnostics_to_msg(
             s.time_ns, f'{self.get_fully_qualified_name()}: rigid body',
-            self.get_fully_qualified_name() if self.config.world else self.config.body_frame,
+            self.get_fully_qualified_name() if self.config.named else
+            self.config.body.body_frame,
             level, message, values), s.time_ns)
 
     def _energy_and_momentum(self):
         """Return the kinetic energy (J) and angular momentum (N·m·s, world) of all bodies."""
         s = self.session
-        if not self.config.world:
-            state, model = s.state, s.config.model
-            return float(state.kinetic_energy(model)), state.angular_momentum_w(model)
         energy, momentum = 0.0, [0.0, 0.0, 0.0]
         for i, body in enumerate(self.config.bodies):
-            state = s.simulator.body_state(i)
+            state = s.body_state(i)
             energy += float(state.kinetic_energy(body.model))
             momentum = [a + float(b)
                         for a, b in zip(momentum, state.angular_momentum_w(body.model))]

@@ -346,17 +346,25 @@ def body_parameter_specs(name):
 @dataclass(frozen=True)
 class BodyConfig:
     """
-    One body of a world: name, model, start, collision shape, material, frame and inputs.
+    One body: name, model, start, collision shape, material, frame, inputs and drag point.
 
-    :ivar name: its name in ``body_names`` (its topics are ``<name>/pose``, ...).
+    A params file without ``body_names`` is a world of one such body, named ``'body'``, whose
+    topics, inputs and parameters carry no prefix (``pose``, ``wrench``, ``drag``, ``mass_kg``);
+    a body of ``body_names`` carries its name (``<name>/pose``, ``bodies.<name>.mass_kg``).
+
+    :ivar name: its name in ``body_names`` (``'body'`` for the body of a single-body file).
     :ivar model: its :class:`BodyModel`.
     :ivar initial_state: its :class:`BodyState` at time 0.
-    :ivar collision_shape: its :class:`rbd_ros.core.contact.CollisionShape`.
+    :ivar collision_shape: its :class:`rbd_ros.core.contact.CollisionShape` (None for a body
+        given by its inertia only, which cannot touch anything).
     :ivar material: its :class:`rbd_ros.core.contact.Material`.
     :ivar body_frame: its frame id (default its name).
     :ivar wrench_inputs: its :class:`WrenchInputSpec` tuple; names and topics are
         ``<name>/wrench``, ``<name>/wrench_<input>`` (relative), so they are unique in the
         world and the node's namespace still applies.
+    :ivar drag_point_b: where a drag pulls, body frame, m.
+    :ivar prefix: the prefix of its topics and input names: ``'<name>/'``, or ``''``.
+    :ivar parameter_prefix: the prefix of its parameters: ``'bodies.<name>.'``, or ``''``.
     """
 
     name: str
@@ -367,6 +375,13 @@ class BodyConfig:
     body_frame: str
     wrench_inputs: tuple
     drag_point_b: tuple = (0.0, 0.0, 0.0)
+    prefix: str = ''
+    parameter_prefix: str = ''
+
+    @property
+    def label(self):
+        """Return the body's name as its topics carry it, else its frame id (markers' text)."""
+        return self.prefix.rstrip('/') or self.body_frame
 
 
 def obstacle_parameter_specs(name):
@@ -532,20 +547,22 @@ class NodeConfig:
 
     Build it with :meth:`from_parameters`; :meth:`to_parameters` gives the plain dict back.
 
-    :ivar model: the :class:`BodyModel` (mass, inertia about the COM, gravity, damping).
-    :ivar initial_state: the :class:`BodyState` at time 0 (quaternion w, x, y, z).
+    Every configuration is a world: :attr:`bodies` holds one :class:`BodyConfig` per body
+    (a single-body params file gives a tuple of one), :attr:`static_world` the ground and
+    obstacles (None without).
+
+    :ivar bodies: the :class:`BodyConfig` tuple, in ``body_names`` order.
     :ivar integrator: integrator name, a key of ``INTEGRATORS``.
     :ivar timestep_ns: physics step, integer ns.
     :ivar publish_period_ns: state publishing period in sim time, integer ns.
     :ivar real_time_factor: sim s per wall s; 0 = as fast as possible.
     :ivar duration_ns: stop after this sim time, integer ns; 0 = never.
     :ivar wrench_timeout_ns: hold time of a received wrench in sim ns; 0 = until replaced.
-    :ivar wrench_inputs: :class:`WrenchInputSpec` tuple, the main input ``'wrench'`` first.
     :ivar parameters: the validated parameter values (a name → value dict, arrays as tuples).
+    :ivar static_world: the :class:`rbd_ros.core.contact.StaticWorld`, or None.
     """
 
-    model: BodyModel
-    initial_state: BodyState
+    bodies: tuple
     integrator: str
     timestep_ns: int
     publish_period_ns: int
@@ -553,13 +570,11 @@ class NodeConfig:
     duration_ns: int
     start_paused: bool
     world_frame: str
-    body_frame: str
     twist_frame: str
     default_wrench_frame: str
     wrench_timeout_ns: int
     max_force_n: float
     max_torque_nm: float
-    wrench_inputs: tuple
     publish_clock: bool
     publish_tf: bool
     publish_markers: bool
@@ -567,20 +582,48 @@ class NodeConfig:
     record_overwrite: bool
     record_on_error: str
     parameters: dict
-    collision_shape: object = None
-    material: object = None
     static_world: object = None
-    bodies: tuple = ()
+
+    @property
+    def named(self):
+        """
+        Return True when the bodies are addressed by name (``body_names`` given).
+
+        Their topics, inputs and parameters then carry the name, and a ``poses`` array holds
+        every pose; the body of a single-body file has none of that (its prefixes are ``''``).
+        """
+        return bool(self.parameters['body_names'])
 
     @property
     def contact(self):
-        """Return True when a body can touch something: a world, a ground or an obstacle."""
-        return self.static_world is not None or bool(self.bodies)
+        """Return True when a body can touch something: named bodies, a ground or an obstacle."""
+        return self.static_world is not None or self.named
 
     @property
-    def world(self):
-        """Return True for a world of named bodies (``body_names`` not empty)."""
-        return bool(self.bodies)
+    def wrench_inputs(self):
+        """Return every body's :class:`WrenchInputSpec`, in body order, each main input first."""
+        return tuple(spec for body in self.bodies for spec in body.wrench_inputs)
+
+    @property
+    def body(self):
+        """
+        Return the only :class:`BodyConfig` (a single-body file's).
+
+        :raises ConfigError: the configuration has more than one body (use :attr:`bodies`).
+        """
+        if len(self.bodies) != 1:
+            raise ConfigError(f'body_names: {len(self.bodies)} bodies, not one: '
+                              'use NodeConfig.bodies')
+        return self.bodies[0]
+
+    # The only body's fields, read through :attr:`body` (so a world of several refuses them).
+    model = property(lambda self: self.body.model, doc="The only body's :class:`BodyModel`.")
+    initial_state = property(lambda self: self.body.initial_state,
+                             doc="The only body's :class:`BodyState` at time 0.")
+    body_frame = property(lambda self: self.body.body_frame, doc="The only body's frame id.")
+    collision_shape = property(lambda self: self.body.collision_shape,
+                               doc="The only body's collision shape, or None.")
+    material = property(lambda self: self.body.material, doc="The only body's material.")
 
     @classmethod
     def from_parameters(cls, params=None):
@@ -608,28 +651,19 @@ class NodeConfig:
                 'their name in wrench_input_names, obstacle_names or body_names)')
         time_settings = _time_settings(values)
         static_world = _static_world(values, obstacle_names)
+        integrator = time_settings['integrator']
         if body_inputs:
-            bodies = _world_bodies(values, body_inputs, static_world,
-                                   time_settings['integrator'])
-            return cls(
-                model=bodies[0].model, initial_state=bodies[0].initial_state, **time_settings,
-                **_frame_settings(values, bodies), **_limits_and_recording(values),
-                wrench_inputs=tuple(spec for body in bodies for spec in body.wrench_inputs),
-                parameters=values, collision_shape=bodies[0].collision_shape,
-                material=bodies[0].material, static_world=static_world, bodies=bodies)
-        collision = _collision_shape(values)
-        model = _model(values, collision)
-        initial_state = _initial_state(values)
-        _check_contact(values, collision, static_world, initial_state,
-                       time_settings['integrator'])
-        return cls(
-            model=model, initial_state=initial_state, **time_settings,
-            **_frame_settings(values), **_limits_and_recording(values),
-            wrench_inputs=_wrench_inputs(values, input_names), parameters=values,
-            collision_shape=collision,
-            material=_reraise(PARAMETERS_BY_NAME['friction'], values['friction'],
-                              validate_material, values['friction'], values['restitution']),
-            static_world=static_world)
+            bodies = _world_bodies(values, body_inputs, static_world, integrator)
+            settings = {**_frame_settings(values, bodies), **_limits_and_recording(values)}
+        else:
+            body = _single_body(values, static_world, integrator)
+            settings = {**_frame_settings(values), **_limits_and_recording(values)}
+            bodies = (dataclass_replace(
+                body, wrench_inputs=_wrench_inputs(values, input_names),
+                material=_reraise(PARAMETERS_BY_NAME['friction'], values['friction'],
+                                  validate_material, values['friction'], values['restitution'])),)
+        return cls(bodies=bodies, **time_settings, **settings, parameters=values,
+                   static_world=static_world)
 
     def to_parameters(self):
         """Return the parameters as a plain dict (lists for arrays), valid for from_parameters."""
@@ -797,7 +831,8 @@ def _world_bodies(values, body_inputs, static_world, integrator):
                                        name=f'bodies.{name}.drag_point_b')
         bodies.append(BodyConfig(name, model, state, collision, material,
                                  sub['body_frame'], specs,
-                                 _vector3(point_spec, sub['drag_point_b'])))
+                                 _vector3(point_spec, sub['drag_point_b']),
+                                 prefix=f'{name}/', parameter_prefix=f'bodies.{name}.'))
     try:
         check_overlaps([(b.name, b.collision_shape, b.initial_state.position_w,
                          b.initial_state.orientation_wb) for b in bodies], static_world)
@@ -807,6 +842,21 @@ def _world_bodies(values, body_inputs, static_world, integrator):
         head, _, rest = message.partition('.position_w: ')
         raise ModelError(f'parameter {head}.initial_position = {rest}') from None
     return tuple(bodies)
+
+
+def _single_body(values, static_world, integrator):
+    """
+    Build the one body of a params file without ``body_names`` (no name prefixes).
+
+    Its shape, model and start; the caller adds its inputs and material after the frame and
+    limit checks (the order in which a file's errors are reported).
+    """
+    collision = _collision_shape(values)
+    model = _model(values, collision)
+    initial_state = _initial_state(values)
+    _check_contact(values, collision, static_world, initial_state, integrator)
+    return BodyConfig('body', model, initial_state, collision, None, values['body_frame'], (),
+                      values['drag_point_b'])
 
 
 def resolve_mesh_path(path, field):
@@ -1107,8 +1157,10 @@ def _frame_settings(values, bodies=()):
     p = PARAMETERS_BY_NAME
     seen = {values['world_frame']: 'world_frame'}
     for body in bodies:
+        if not body.parameter_prefix:
+            continue  # the top-level body_frame: checked below
         spec = PARAMETERS_BY_NAME['body_frame']
-        where = f'bodies.{body.name}.body_frame'
+        where = f'{body.parameter_prefix}body_frame'
         if not body.body_frame:
             _fail(dataclass_replace(spec, name=where), body.body_frame, 'must not be empty')
         if body.body_frame in seen:
@@ -1124,8 +1176,8 @@ def _frame_settings(values, bodies=()):
         if values[name] not in FRAME_KEYWORDS:
             _fail(p[name], values[name], "must be 'world' or 'body'")
     return {name: values[name] for name in (
-        'world_frame', 'body_frame', 'twist_frame', 'default_wrench_frame', 'publish_clock',
-        'publish_tf', 'publish_markers')}
+        'world_frame', 'twist_frame', 'default_wrench_frame', 'publish_clock', 'publish_tf',
+        'publish_markers')}
 
 
 def _limits_and_recording(values):
@@ -1180,24 +1232,40 @@ _FIRST_STEP_SUSPECTS = ('initial_angular_velocity', 'initial_linear_velocity',
                         'linear_damping', 'angular_damping', 'timestep_s')
 
 
+class _FreeBodySimulator(Simulator):
+    """
+    The free-body :class:`Simulator` with the per-body interface of a :class:`WorldSimulator`.
+
+    A body that can touch nothing steps without the contact kernels (a cold start compiles
+    the free-body kernels only); :meth:`set_body_loads` keeps the free body's own load rows
+    (:meth:`Simulator.set_loads`), and there is no contact wrench and no contact.
+    """
+
+    contact_wrench_w = None
+    contacts = None
+
+    def set_body_loads(self, index, wrenches=(), springs=()):
+        """Hold these loads on the body (``index`` 0) from the next step until replaced."""
+        self.set_loads(wrenches, springs)
+
+
 def make_simulator(config):
     """
-    Return the simulator of ``config``.
+    Return the simulator of ``config``: the one place that chooses it.
 
-    A :class:`Simulator`, or with contact (a ground or obstacles) a :class:`WorldSimulator` of
-    this one body (index 0) and the static world.
+    With contact (named bodies, a ground or obstacles) a :class:`WorldSimulator` of every body
+    of ``config.bodies`` and the static world; else the free-body simulator of the one body.
+    Both answer ``time_ns``, ``arrays``, ``body_state(i)``, ``set_body_loads(i, ...)``,
+    ``step``, ``reset``, ``contact_wrench_w`` and ``contacts`` (None without contact).
     """
-    if config.world:
-        return WorldSimulator(
-            [WorldBody(b.name, b.model, b.collision_shape, b.material) for b in config.bodies],
-            [b.initial_state for b in config.bodies], config.static_world,
-            integrator=config.integrator, timestep_ns=config.timestep_ns)
-    if config.contact:
-        body = WorldBody('body', config.model, config.collision_shape, config.material)
-        return WorldSimulator([body], [config.initial_state], config.static_world,
-                              integrator=config.integrator, timestep_ns=config.timestep_ns)
-    return Simulator(config.model, config.initial_state, integrator=config.integrator,
-                     timestep_ns=config.timestep_ns)
+    if not config.contact:
+        (body,) = config.bodies
+        return _FreeBodySimulator(body.model, body.initial_state, integrator=config.integrator,
+                                  timestep_ns=config.timestep_ns)
+    return WorldSimulator(
+        [WorldBody(b.name, b.model, b.collision_shape, b.material) for b in config.bodies],
+        [b.initial_state for b in config.bodies], config.static_world,
+        integrator=config.integrator, timestep_ns=config.timestep_ns)
 
 
 def _step_once(config):
@@ -1253,8 +1321,7 @@ def check_first_step(config):
     except NonFiniteError as exc:
         reason = str(exc)
     params = config.to_parameters()
-    if config.world:
-        _blame_world_body(params, reason)
+    _blame_world_body(params, reason)  # returns at once without body_names
     for name in _FIRST_STEP_SUSPECTS:
         spec = PARAMETERS_BY_NAME[name]
         default = list(spec.default) if isinstance(spec.default, tuple) else spec.default

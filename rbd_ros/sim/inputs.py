@@ -260,7 +260,8 @@ class WorldInputs:
     """
     The wrench inputs of a world: one :class:`WrenchInputs` per body, routed by input name.
 
-    Input names are ``<body>/wrench`` and ``<body>/<input>``
+    Input names are ``<body>/wrench`` and ``<body>/<input>`` (``wrench`` and ``<input>`` for the
+    body of a single-body file)
     (:attr:`rbd_ros.sim.config.BodyConfig.wrench_inputs`); the interface is that of
     :class:`WrenchInputs`, with :meth:`body_loads` for each body's held wrenches.
 
@@ -301,6 +302,11 @@ class WorldInputs:
     def has_pending(self):
         """Return True when a wrench waits for the start of the next step."""
         return any(b.has_pending for b in self._bodies)
+
+    @property
+    def held(self):
+        """Return ``{input_name: (t_effect_ns, AppliedWrench)}`` of every body, acting now."""
+        return {name: held for body in self._bodies for name, held in body.held.items()}
 
     def submit(self, input_name, frame_id, force, torque, tag=None):
         """Route to the body owning ``input_name`` (see :meth:`WrenchInputs.submit`)."""

@@ -13,10 +13,11 @@
 # limitations under the License.
 
 """
-:class:`SimSession`: one simulated body with its wrench inputs, stepped in sim time (no rclpy).
+:class:`SimSession`: the simulated bodies with their inputs, stepped in sim time (no rclpy).
 
 The node and the replay tool drive exactly this class, so a replay of recorded wrench events
-reproduces the live run bit for bit. Usage::
+reproduces the live run bit for bit. A single-body params file is a world of one body; which
+core simulator steps it is :func:`rbd_ros.sim.config.make_simulator`'s choice. Usage::
 
     session = SimSession(NodeConfig.from_parameters(params))
     session.submit('wrench', 'world', (1.0, 0.0, 0.0), (0.0, 0.0, 0.0))  # next step start
@@ -25,7 +26,7 @@ reproduces the live run bit for bit. Usage::
         for event in report.events:          # wrenches that took effect, with their step time
             record(event.time_ns, event)
         if report.sample_due:                # an output sample is due at session.time_ns
-            publish(session.state)
+            publish(session.columns)         # (13, N): every body's packed state
 
 Rules (all in sim time, integer ns):
 
@@ -58,7 +59,7 @@ import struct
 from rbd_ros.core import NonFiniteError
 from rbd_ros.sim.config import make_simulator
 from rbd_ros.sim.drag import DragInputs
-from rbd_ros.sim.inputs import WorldInputs, WrenchInputs
+from rbd_ros.sim.inputs import WorldInputs
 from rbd_ros.sim.limits import step_chunk
 
 
@@ -109,13 +110,10 @@ class AppliedDigest:
 
 
 def _drag_inputs(config):
-    """Build the :class:`DragInputs` of ``config`` (``drag``, or ``<body>/drag`` per body)."""
-    if config.world:
-        bodies = [(f'{b.name}/drag', b.drag_point_b, b.collision_shape) for b in config.bodies]
-    else:
-        bodies = [('drag', config.parameters['drag_point_b'], config.collision_shape)]
+    """Build the :class:`DragInputs` of ``config``: ``<prefix>drag`` per body (``drag``)."""
     p = config.parameters
-    return DragInputs(bodies, world_frame=config.world_frame,
+    return DragInputs([(f'{b.prefix}drag', b.drag_point_b, b.collision_shape)
+                       for b in config.bodies], world_frame=config.world_frame,
                       stiffness_n_per_m=p['drag_stiffness_n_per_m'],
                       damping_n_s_per_m=p['drag_damping_n_s_per_m'],
                       click_radius_m=p['drag_click_radius_m'],
@@ -136,22 +134,15 @@ class SimSession:
 
     def __init__(self, config):
         self.config = config
-        # With a ground or obstacles, a world of this one body (index 0), stepped with contact.
+        # Every body of the world (one for a single-body file), with contact or free.
         self.simulator = make_simulator(config)
-        if config.world:
-            self.inputs = WorldInputs(
-                config.bodies, world_frame=config.world_frame,
-                timeout_ns=config.wrench_timeout_ns, max_force_n=config.max_force_n,
-                max_torque_nm=config.max_torque_nm)
-        else:
-            self.inputs = WrenchInputs(
-                config.wrench_inputs, world_frame=config.world_frame,
-                body_frame=config.body_frame, timeout_ns=config.wrench_timeout_ns,
-                max_force_n=config.max_force_n, max_torque_nm=config.max_torque_nm)
+        self.inputs = WorldInputs(
+            config.bodies, world_frame=config.world_frame, timeout_ns=config.wrench_timeout_ns,
+            max_force_n=config.max_force_n, max_torque_nm=config.max_torque_nm)
         self.drags = _drag_inputs(config)
         self.paused = config.start_paused
         # Steps per compiled call: a signal is seen between calls (rbd_ros.sim.limits.step_chunk).
-        self._chunk_max = step_chunk(len(config.bodies) if config.world else 1)
+        self._chunk_max = step_chunk(len(config.bodies))
         self.steps_total = 0  # physics steps taken since start, over resets
         self.resets = 0
         self.error = None  # message of the last NonFiniteError, if any
@@ -167,21 +158,22 @@ class SimSession:
 
     @property
     def state(self):
-        """Return the current :class:`rbd_ros.core.BodyState`."""
+        """Return the current :class:`rbd_ros.core.BodyState` of body 0 (of a file's only one)."""
         return self.simulator.body_state(0)
 
+    def body_state(self, index):
+        """Return the current :class:`rbd_ros.core.BodyState` of body ``index``."""
+        return self.simulator.body_state(index)
+
     @property
-    def contact_wrench_w(self):
+    def contact_wrenches_w(self):
         """
-        Return the net contact ``(force_w, torque_w)`` on the body over the last step.
+        Return every body's net contact force and torque over the last step, (N, 6), or None.
 
         Force in N and torque in N·m about the COM, world frame (the contact impulses of the
         step divided by its length); None when the configuration has no contact.
         """
-        if not self.config.contact:
-            return None
-        row = self.simulator.contact_wrench_w[0].tolist()
-        return row[:3], row[3:]
+        return self.simulator.contact_wrench_w
 
     @property
     def columns(self):
@@ -191,10 +183,10 @@ class SimSession:
     @property
     def state_column(self):
         """
-        Return a read-only view of the packed state ``(p, q, v, ω_b)`` (13 floats).
+        Return a read-only view of body 0's packed state ``(p, q, v, ω_b)`` (13 floats).
 
         The view follows the simulator (steps and resets write in place): take it once.
-        :meth:`rbd_ros.msgs.outputs.SampleBuilder.column_values` reads it without building a
+        :meth:`rbd_ros.msgs.outputs.BodyOutputs.column_values` reads it without building a
         :class:`rbd_ros.core.BodyState` per sample.
         """
         return self.simulator.arrays[0][:, 0]
@@ -267,14 +259,8 @@ class SimSession:
         self.error = None
 
     def _set_loads(self):
-        if self.config.world:
-            for i in range(len(self.config.bodies)):
-                self.simulator.set_body_loads(i, self.inputs.body_loads(i),
-                                              self.drags.springs(i))
-        elif self.config.contact:
-            self.simulator.set_body_loads(0, self.inputs.loads(), self.drags.springs(0))
-        else:
-            self.simulator.set_loads(self.inputs.loads(), self.drags.springs(0))
+        for i in range(len(self.config.bodies)):
+            self.simulator.set_body_loads(i, self.inputs.body_loads(i), self.drags.springs(i))
 
     def _state_of(self, index):
         """Return body ``index``'s position, orientation, velocity and ω_b (views, no copy)."""

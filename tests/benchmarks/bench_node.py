@@ -229,7 +229,7 @@ def breakdown(sim_seconds=20):
                                     'publish_clock': True})
     check_first_step(c)  # compiles the kernel: not part of the figures
     session = SimSession(c)
-    builder = outputs.SampleBuilder(c)
+    builder = outputs.BodyOutputs(c)  # the one body's part of the SampleBuilder
     column = session.state_column
     n = sim_seconds * 1000
     t = time.perf_counter()

@@ -56,11 +56,12 @@ def record_scripted_run(path, params, script, duration_ns, run_extra=None, **wri
     writer.flush()
     digest = AppliedDigest()
 
-    def publish(state):
-        for kind, data in builder.serialize(state.time_ns, builder.values(state)):
-            writer.write(topics[kind], data, state.time_ns)
+    def publish():
+        t = session.time_ns
+        for kind, data in builder.serialize(t, session.columns, session.contact_wrenches_w):
+            writer.write(topics[kind], data, t)
 
-    publish(session.state)
+    publish()
     queue = list(script)
     while session.time_ns < duration_ns:
         while queue and queue[0][0] <= session.time_ns:
@@ -75,7 +76,7 @@ def record_scripted_run(path, params, script, duration_ns, run_extra=None, **wri
             writer.write(input_topics[event.input_name], serialize_message(msg),
                          event.time_ns)
         if report.sample_due:
-            publish(session.state)
+            publish()
     writer.close(run_metadata={'failure_time_ns': '', 'failure': '',
                                'wrenches_applied': digest.count,
                                'wrench_digest': digest.hexdigest(), **(run_extra or {})})

@@ -34,7 +34,7 @@ R_WB = rotations.quat_to_matrix(Q_WB)
 
 def builder(twist_frame='world', world='world', body='base_link', clock=True, tf=True,
             contact=True):
-    return outputs.SampleBuilder(types.SimpleNamespace(
+    return outputs.BodyOutputs(types.SimpleNamespace(
         world_frame=world, body_frame=body, twist_frame=twist_frame, publish_clock=clock,
         publish_tf=tf, contact=contact))
 
