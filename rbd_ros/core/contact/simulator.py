@@ -31,8 +31,9 @@ import numpy as np
 
 from rbd_ros.core import layout
 from rbd_ros.core.contact import kernels as ck
-from rbd_ros.core.contact import step as cs
+from rbd_ros.core.contact import rows as cs
 from rbd_ros.core.contact.shapes import CollisionShape
+from rbd_ros.core.contact.step import world_step
 from rbd_ros.core.contact.world import (check_overlaps, DEFAULT_OVERLAP_TOLERANCE_M, Material,
                                         StaticWorld)
 from rbd_ros.core.errors import ConfigError, finite_vector, ModelError, NonFiniteError
@@ -130,7 +131,7 @@ def _contact_points(shape):
     if shape.kind == ck.KIND_MESH:
         return points, shape.vertices_b, 0.0
     if shape.kind in (ck.KIND_CYLINDER, ck.KIND_ELLIPSOID):
-        # Its lowest points against a plane are in closed form (cs._plane_points).
+        # Its lowest points against a plane are in closed form (points._plane_points).
         return points, points[:0], 0.0
     return points, points, 0.0
 
@@ -158,7 +159,7 @@ def _chunked(points):
     Return ``((cells, 4) centre and radius of each cell, (points,) the cell of each point)``,
     cells as the leaves of :func:`_kd_order`.  The points keep their order (it decides ties
     when a patch's points are chosen).  The narrow phase skips a cell when φ at its centre
-    says no point of it can be within reach (:func:`rbd_ros.core.contact.step._one_way`).
+    says no point of it can be within reach (:func:`rbd_ros.core.contact.points._one_way`).
     """
     order = _kd_order(points, np.arange(len(points)))
     cell_of = np.empty(len(points), dtype=np.int64)
@@ -318,9 +319,9 @@ class WorldSimulator(BatchSimulator):
         :raises NonFiniteError: if a step would leave a body non-finite; the whole world then
             stays at its last finite state.
         """
-        done, contacts = cs.world_step(self._x, self._params, self._loads, self._t,
-                                       self._info.kernel_id, self._h, self._timestep_ns, n,
-                                       self._geo, self._statics, self._wrench, self._ws)
+        done, contacts = world_step(self._x, self._params, self._loads, self._t,
+                                    self._info.kernel_id, self._h, self._timestep_ns, n,
+                                    self._geo, self._statics, self._wrench, self._ws)
         self._step_count += done
         self._contacts = contacts
         if done != n:

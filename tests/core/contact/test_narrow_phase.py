@@ -33,7 +33,11 @@ import pytest
 from rbd_ros.core import layout
 from rbd_ros.core.contact import (ground_plane, load_mesh, Material, obstacle,
                                   primitive_shape, StaticWorld)
-from rbd_ros.core.contact import step as cs
+from rbd_ros.core.contact import rows as cs
+from rbd_ros.core.contact.bodies import prepare_bodies
+from rbd_ros.core.contact.broad_phase import broad_phase
+from rbd_ros.core.contact.manifold import _consistent_normals
+from rbd_ros.core.contact.narrow_phase import narrow_phase
 from rbd_ros.core.contact.simulator import WorldBody, WorldSimulator
 from rbd_ros.core.model import BodyModel
 from rbd_ros.core.state import BodyState
@@ -70,14 +74,14 @@ def contacts(sim, x, geo, stage):
     vel, inv_mass, inv_inertia_w = np.zeros((n, 6)), np.zeros(n), np.zeros((n, 3, 3))
     rot, pos_c, rot_c = np.zeros((n, 3, 3)), np.zeros((n, 3)), np.zeros((n, 3, 3))
     h = 1e-3
-    cs.prepare_bodies(x, sim._params, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h, False)
-    pairs = cs.broad_phase(x, pos_c, bound_r, n, st_kind, st_params, st_lo, st_hi,
-                           cs.MARGIN_M)
+    prepare_bodies(x, sim._params, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h, False)
+    pairs = broad_phase(x, pos_c, bound_r, n, st_kind, st_params, st_lo, st_hi,
+                        cs.MARGIN_M)
     responses = np.full((n, cs.N_RESPONSE), -1.0)
-    return cs.narrow_phase(pairs, n, x, sim._params, vel, rot, pos_c, rot_c, inv_mass,
-                           inv_inertia_w, st_rot, st_pos, kinds, sparams, pts, pt_off, ppts,
-                           ppt_off, pt_radius, grid_data, grid_off, grid_dim, mu, eps, h,
-                           cs.PHASE_CONTACT, stage, responses, balls, ball_off, cell_of)
+    return narrow_phase(pairs, n, x, sim._params, vel, rot, pos_c, rot_c, inv_mass,
+                        inv_inertia_w, st_rot, st_pos, kinds, sparams, pts, pt_off, ppts,
+                        ppt_off, pt_radius, grid_data, grid_off, grid_dim, mu, eps, h,
+                        cs.PHASE_CONTACT, stage, responses, balls, ball_off, cell_of)
 
 
 def test_skipping_cells_keeps_every_contact_bit_for_bit():
@@ -176,8 +180,8 @@ def test_a_patch_normal_tilted_from_the_face_a_point_leaves_by_reads_no_depth():
         buf[k] = [-1e-9, 0.0, 0.0, 0.0, *n_bar, 0.1, 0.0, 0.01 * k, 1.0]
     buf[3] = [0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.1, 0.0, 0.0, 1.0]
     pose_rc = np.tile(np.eye(3), (3, 1, 1))
-    got = cs._consistent_normals(buf, 4, 0, 1, kinds, sparams, grid_data, grid_off, grid_dim,
-                                 pose_rc)
+    got = _consistent_normals(buf, 4, 0, 1, kinds, sparams, grid_data, grid_off, grid_dim,
+                              pose_rc)
     np.testing.assert_array_equal(got, n_bar)
     # The point takes the patch's normal (φ rises by s cos 5°, within the 1 % the test on
     # the normal allows)...
