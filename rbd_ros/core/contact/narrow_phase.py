@@ -31,10 +31,11 @@ from rbd_ros.core.contact.points import _box_points, _one_way, _plane_points
 from rbd_ros.core.contact.response import _point_velocity
 from rbd_ros.core.contact.rows import (_inl, _jit, _raw, C_A, C_B, C_BIAS, C_NORMAL, C_PHASE,
                                        C_PHI, C_POINT, C_RA, C_RB, C_TARGET, C_TOUCH_U, MARGIN_M,
-                                       N_CONTACT, N_PATCH, PATCH_POINTS, PHASE_COLLISION,
-                                       PUSH_FRACTION, PUSH_MAX_M_S, Q_A, Q_B, Q_CACHED, Q_COUNT,
-                                       Q_EPS, Q_K, Q_MU, Q_PINV, Q_START, R_COUNT, R_INV_INERTIA,
-                                       R_INV_MASS, R_K, R_PINV, R_ROWS, R_STATIC, TOUCH_M)
+                                       N_CONTACT, N_PATCH, pair_material, PATCH_POINTS,
+                                       PHASE_COLLISION, PUSH_FRACTION, PUSH_MAX_M_S, Q_A, Q_B,
+                                       Q_CACHED, Q_COUNT, Q_EPS, Q_K, Q_MU, Q_PINV, Q_START,
+                                       R_COUNT, R_INV_INERTIA, R_INV_MASS, R_K, R_PINV, R_ROWS,
+                                       R_STATIC, TOUCH_M)
 from rbd_ros.core.layout import P_GRAVITY, S_POS
 
 
@@ -68,18 +69,24 @@ def _touching(buf, count, vel, x, a, b, n_bodies, h, v_rest):
 
 
 @_jit
-def narrow_phase(pairs, n_bodies, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_inertia_w,
-                 st_rot, st_pos, kinds, sparams, pts, pt_off, ppts, ppt_off, pt_radius,
-                 grid_data, grid_off, grid_dim, mu, eps, h, phase, stage, responses, balls,
-                 ball_off, cell_of):
+def narrow_phase(pairs, n_bodies, x, prm, work, statics, shapes, h, phase, stage):
     """
     Return ``(contacts (C, N_CONTACT), patches (Q, N_PATCH))`` of the candidate ``pairs``.
+
+    ``work`` is the bodies' :class:`~rbd_ros.core.contact.rows.Work` (filled by
+    :func:`~rbd_ros.core.contact.bodies.prepare_bodies`), ``statics`` the static objects'
+    :class:`~rbd_ros.core.contact.rows.Statics`, ``shapes`` the
+    :class:`~rbd_ros.core.contact.rows.Shapes` table.
 
     Static objects get their fixed pose for both the current and the candidate one.  A patch
     on a static object whose response is in ``responses`` (see :data:`R_STATIC`) starts with
     it (:func:`keep_responses` fills the table).
     """
     n = n_bodies
+    vel, inv_mass, inv_inertia_w = work.vel, work.inv_mass, work.inv_inertia_w
+    rot, pos_c, rot_c, responses = work.rot, work.pos_c, work.rot_c, work.responses
+    st_rot, st_pos = statics.rot, statics.pos
+    pt_off, ppt_off = shapes.pt_off, shapes.ppt_off
     n_static = st_rot.shape[0]
     # Poses of everything, bodies then statics, current and candidate.
     pose_r = np.empty((n + n_static, 3, 3))
@@ -114,30 +121,33 @@ def narrow_phase(pairs, n_bodies, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_
         a = pairs[q, 0]
         b = pairs[q, 1]
         count, mixed = _pair_points(a, b, n, x, prm, vel, pose_r, pose_p, pose_rc, pose_pc,
-                                    kinds, sparams, pts, pt_off, ppts, ppt_off, pt_radius,
-                                    grid_data, grid_off, grid_dim, h, stage, balls, ball_off,
-                                    cell_of, buf, near, clip)
+                                    shapes, h, stage, buf, near, clip)
         if count == 0:
             continue
         pnx, pny, pnz = buf[0, 4], buf[0, 5], buf[0, 6]
         if mixed:
-            pnx, pny, pnz = _consistent_normals(buf, count, a, b, kinds, sparams, grid_data,
-                                                grid_off, grid_dim, pose_rc)
-        nc = _pair_patch(a, b, n, x, vel, inv_mass, inv_inertia_w, mu, eps, h, phase, stage,
-                         responses, buf, count, keep, pnx, pny, pnz, contacts, patches, nc, nq)
+            pnx, pny, pnz = _consistent_normals(buf, count, a, b, shapes.kinds, shapes.sparams,
+                                                shapes.grid_data, shapes.grid_off,
+                                                shapes.grid_dim, pose_rc)
+        nc = _pair_patch(a, b, n, x, vel, inv_mass, inv_inertia_w, shapes.mu, shapes.eps, h,
+                         phase, stage, responses, buf, count, keep, pnx, pny, pnz, contacts,
+                         patches, nc, nq)
         nq += 1
     return contacts[:nc], patches[:nq]
 
 
 @_raw
-def _pair_points(a, b, n, x, prm, vel, pose_r, pose_p, pose_rc, pose_pc, kinds, sparams, pts,
-                 pt_off, ppts, ppt_off, pt_radius, grid_data, grid_off, grid_dim, h, stage,
-                 balls, ball_off, cell_of, buf, near, clip):
+def _pair_points(a, b, n, x, prm, vel, pose_r, pose_p, pose_rc, pose_pc, shapes, h, stage, buf,
+                 near, clip):
     """
     Fill ``buf`` with the contact points of the pair ``(a, b)`` (see :func:`_one_way`).
 
     Return their count and whether their normals differ.
     """
+    kinds, sparams, pts, pt_off = shapes.kinds, shapes.sparams, shapes.pts, shapes.pt_off
+    ppts, ppt_off, pt_radius = shapes.ppts, shapes.ppt_off, shapes.pt_radius
+    grid_data, grid_off, grid_dim = shapes.grid_data, shapes.grid_off, shapes.grid_dim
+    balls, ball_off, cell_of = shapes.balls, shapes.ball_off, shapes.cell_of
     if kinds[b] == ck.KIND_PLANE:
         count = _plane_points(a, b, kinds, ppts, ppt_off, pt_radius, sparams, pose_r,
                               pose_p, pose_rc, pose_pc, a, pose_rc, pose_pc, b, MARGIN_M,
@@ -188,8 +198,9 @@ def _pair_patch(a, b, n, x, vel, inv_mass, inv_inertia_w, mu, eps, h, phase, sta
             keep[k] = k
     else:
         m = _reduce(buf, count, keep, pnx, pny, pnz)
-    pair_mu = math.sqrt(mu[a] * mu[b])
-    pair_eps = max(eps[a], eps[b]) if phase == PHASE_COLLISION else 0.0
+    pair_mu, pair_eps = pair_material(mu[a], eps[a], mu[b], eps[b])
+    if phase != PHASE_COLLISION:
+        pair_eps = 0.0
     static_b = b >= n
     for f in range(Q_K):
         patches[nq, f] = 0.0

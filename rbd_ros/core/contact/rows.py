@@ -19,9 +19,12 @@ The contact table (``C_*``), the patch table (``Q_*``), the response cache (``R_
 warm-start table (``W_*``) are float64 arrays indexed by these constants; every stage module
 of :mod:`rbd_ros.core.contact` reads and writes them by name.  The tolerances say where each
 value comes from.  ``_jit``, ``_inl`` and ``_raw`` are the three ways a stage is compiled (see
-:mod:`rbd_ros.core.contact.step`, "Reference counts").
+:mod:`rbd_ros.core.contact.step`, "Reference counts").  The arrays that travel between the
+stages travel as named tuples (numba compiles their fields as a struct): :class:`Shapes`,
+:class:`Statics` and :class:`Work`; the pair rule of materials is :func:`pair_material`.
 """
 
+from collections import namedtuple
 import math
 
 from rbd_ros.core import jitcache
@@ -169,4 +172,39 @@ _jit = jitcache.kernel()
 _inl = jitcache.kernel(inline='always')
 #: Functions that allocate nothing (the loops per pair, per patch, per body) are compiled
 #: without numba's reference counting (see the module docstring, "Reference counts").
-_raw = jitcache.kernel(_nrt=False)
+_raw = jitcache.raw_kernel()
+
+
+#: The shape table, one entry a shape (the bodies', then the static objects'), built once by
+#: :class:`~rbd_ros.core.contact.simulator.WorldSimulator`: ``kinds`` (``ck.KIND_*``),
+#: ``sparams`` (the shape parameters); the surface points ``pts`` of shape ``s`` are rows
+#: ``pt_off[s]:pt_off[s + 1]`` (body frame, m), the points that can be lowest against a plane
+#: ``ppts``/``ppt_off``; ``pt_radius`` a sphere's or capsule's radius (m); ``bound_r`` the
+#: bounding radius (m); the φ grids of meshes flattened in ``grid_data`` at ``grid_off`` with
+#: shape ``grid_dim``; the materials' friction ``mu`` and restitution ``eps``; the cells of
+#: surface points (see ``points._one_way``): their balls ``balls`` (centre, radius) at
+#: ``ball_off``, and each point's cell ``cell_of``.
+Shapes = namedtuple('Shapes', ('kinds', 'sparams', 'pts', 'pt_off', 'ppts', 'ppt_off',
+                               'pt_radius', 'bound_r', 'grid_data', 'grid_off', 'grid_dim',
+                               'mu', 'eps', 'balls', 'ball_off', 'cell_of'))
+#: The static objects, one entry each: their shape kind and parameters, world pose (rotation
+#: ``rot`` (S, 3, 3), position ``pos`` (S, 3), m) and world bounds ``lo``/``hi`` (S, 3, m).
+Statics = namedtuple('Statics', ('kind', 'params', 'rot', 'pos', 'lo', 'hi'))
+#: The per-body work arrays of the step, kept between stages and steps: world velocities
+#: ``vel`` (N, 6: v then ω), ``inv_mass`` (1/kg), ``inv_inertia_w`` (N, 3, 3, world), current
+#: rotation ``rot``, candidate position ``pos_c`` and rotation ``rot_c``, ``touched`` (a body
+#: with a patch this stage), the response cache ``responses`` (N, N_RESPONSE) and the warm
+#: start ``warm`` (3, N, W_SLOTS, W_FIELDS) with its counts ``warm_n`` (3, N).
+Work = namedtuple('Work', ('vel', 'inv_mass', 'inv_inertia_w', 'rot', 'pos_c', 'rot_c',
+                           'touched', 'responses', 'warm', 'warm_n'))
+
+
+@_inl
+def pair_material(mu_a, eps_a, mu_b, eps_b):
+    """
+    Return the pair rule of two materials: ``(μ, ε) = (sqrt(μ_a μ_b), max(ε_a, ε_b))``.
+
+    The one home of the rule: the narrow phase puts it in each patch (``Q_MU``, ``Q_EPS``) and
+    :meth:`~rbd_ros.core.contact.world.Material.combine` returns it.
+    """
+    return math.sqrt(mu_a * mu_b), max(eps_a, eps_b)

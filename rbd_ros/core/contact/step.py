@@ -84,8 +84,9 @@ atomic updates per call (its pruning pass removes them only in simple control fl
 1000 resting boxes that was 171 000 increments a step, and with their decrements ~60 % of
 the step.  So every function that allocates nothing (the loops per pair, per patch, per
 body, and the helpers they call) is compiled without reference counting (:data:`_raw`,
-numba's ``_nrt=False``), and the functions that allocate (the broad phase's and the narrow
-phase's buffers, a stage's scratch) only call them: about 3 000 are left a step.  A raw
+:func:`rbd_ros.core.jitcache.raw_kernel`), and the functions that allocate (the broad
+phase's and the narrow phase's buffers, a stage's scratch) only call them: about 3 000 are
+left a step.  A raw
 function cannot call one that allocates (numba compiles the callee without reference
 counting too), which is why :func:`_consistent_normals`, which sorts, is called from
 :func:`narrow_phase` between :func:`_pair_points` and :func:`_pair_patch`.
@@ -111,25 +112,25 @@ from rbd_ros.core.layout import (N_STATE, P_ANG_DAMPING, P_INERTIA, P_INV_INERTI
 
 
 @_jit
-def contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi, h, phase,
-                  stage, shock, wrench, ws, same_pose):
+def contact_stage(x, prm, shapes, statics, h, phase, stage, shock, wrench, work, same_pose):
     """
     One detection-and-impulse stage on the velocities stored in ``x``; return the contacts.
 
-    ``geo`` is the shape table tuple (see :func:`world_step`), ``ws`` the per-body work arrays;
-    ``same_pose``: no orientation changed since the last stage (see :func:`prepare_bodies`).
+    ``shapes``, ``statics`` and ``work`` are the :class:`~rbd_ros.core.contact.rows.Shapes`,
+    :class:`~rbd_ros.core.contact.rows.Statics` and :class:`~rbd_ros.core.contact.rows.Work`
+    of the world; ``same_pose``: no orientation changed since the last stage (see
+    :func:`prepare_bodies`).  The stages in order: the bodies' poses and velocities, the broad
+    phase, the narrow phase, the sweeps with shock propagation, the velocities back.
     """
-    (kinds, sparams, pts, pt_off, ppts, ppt_off, pt_radius, bound_r, grid_data, grid_off,
-     grid_dim, mu, eps, balls, ball_off, cell_of) = geo
-    vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, touched, responses, warm, warm_n = ws
+    vel, inv_mass, inv_inertia_w = work.vel, work.inv_mass, work.inv_inertia_w
+    rot, pos_c, rot_c, touched = work.rot, work.pos_c, work.rot_c, work.touched
+    responses, warm, warm_n = work.responses, work.warm, work.warm_n
     slot = stage  # each stage of the step starts from its own last answer
     n = x.shape[1]
     prepare_bodies(x, prm, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h, same_pose)
-    pairs = broad_phase(x, pos_c, bound_r, n, st_kind, st_params, st_lo, st_hi, MARGIN_M)
-    contacts, patches = narrow_phase(
-        pairs, n, x, prm, vel, rot, pos_c, rot_c, inv_mass, inv_inertia_w, st_rot, st_pos, kinds,
-        sparams, pts, pt_off, ppts, ppt_off, pt_radius, grid_data, grid_off, grid_dim, mu, eps,
-        h, phase, stage, responses, balls, ball_off, cell_of)
+    pairs = broad_phase(x, pos_c, shapes.bound_r, n, statics.kind, statics.params, statics.lo,
+                        statics.hi, MARGIN_M)
+    contacts, patches = narrow_phase(pairs, n, x, prm, work, statics, shapes, h, phase, stage)
     if patches.shape[0] == 0:
         if slot >= 0:
             warm_n[slot, :] = 0
@@ -170,16 +171,15 @@ def _half_damping(x, prm, h):
 
 
 @_jit
-def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, ws):
+def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shapes, statics, wrench, work):
     """
     Advance the world ``n_steps`` steps; return ``(steps done, contacts of the last step)``.
 
-    ``statics`` = ``(st_kind, st_params, st_rot, st_pos, st_lo, st_hi)``.  ``wrench`` (N, 6)
+    ``shapes``, ``statics``, ``work``: see :func:`contact_stage`.  ``wrench`` (N, 6)
     receives the net contact force and torque about each COM (world) averaged over the last
     step.  A step that would leave any body non-finite is undone for every body (the world
     stays at its last finite state) and the loop stops.
     """
-    st_kind, st_params, st_rot, st_pos, st_lo, st_hi = statics
     n = x.shape[1]
     shared = prm.shape[1] == 1
     saved = np.empty_like(x)
@@ -192,8 +192,8 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, w
         # Damping's exact flow, half before and half after the step (as the free kernel).
         _half_damping(x, prm, h)
         # 1. Collisions with restitution on the current velocities.
-        c0 = contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi, h,
-                           PHASE_COLLISION, 0, False, wrench, ws, same_pose)
+        c0 = contact_stage(x, prm, shapes, statics, h, PHASE_COLLISION, 0, False, wrench,
+                           work, same_pose)
         if method == kk.MIDPOINT_CAYLEY:
             lmom = np.empty((n, 3))
             # 2. First half kick.
@@ -207,9 +207,9 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, w
                 x[S_OMEGA, i], x[S_OMEGA + 1, i], x[S_OMEGA + 2, i] = wx, wy, wz
                 lmom[i, 0], lmom[i, 1], lmom[i, 2] = lx, ly, lz
             # 3. Contacts on the kicked velocities.
-            c1 = contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi,
-                               h, PHASE_CONTACT, 1, True, wrench, ws, True)
-            touched = ws[6]
+            c1 = contact_stage(x, prm, shapes, statics, h, PHASE_CONTACT, 1, True, wrench,
+                               work, True)
+            touched = work.touched
             # 4. Drift; then the second half kick and its contact stage.
             for i in range(n):
                 j = 0 if shared else i
@@ -227,8 +227,8 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, w
                     prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz,
                     lx, ly, lz, wx, wy, wz)
                 kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
-            c2 = contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi,
-                               h, PHASE_CONTACT, 2, True, wrench, ws, False)
+            c2 = contact_stage(x, prm, shapes, statics, h, PHASE_CONTACT, 2, True, wrench,
+                               work, False)
             same_pose = True  # the next step's first stage sees this pose
         else:
             for i in range(n):
@@ -237,8 +237,8 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, geo, statics, wrench, w
                 vx, vy, vz, wx, wy, wz = kk.se_velocity(
                     prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz)
                 kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
-            c1 = contact_stage(x, prm, geo, st_kind, st_params, st_rot, st_pos, st_lo, st_hi,
-                               h, PHASE_CONTACT, 1, True, wrench, ws, True)
+            c1 = contact_stage(x, prm, shapes, statics, h, PHASE_CONTACT, 1, True, wrench,
+                               work, True)
             for i in range(n):
                 px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = kk._read_state(x, i)
                 px, py, pz, qw, qx, qy, qz = kk.se_position(
