@@ -86,7 +86,11 @@ def narrow_phase(pairs, n_bodies, x, prm, work, statics, shapes, h, phase, stage
     vel, inv_mass, inv_inertia_w = work.vel, work.inv_mass, work.inv_inertia_w
     rot, pos_c, rot_c, responses = work.rot, work.pos_c, work.rot_c, work.responses
     st_rot, st_pos = statics.rot, statics.pos
-    pt_off, ppt_off = shapes.pt_off, shapes.ppt_off
+    # Read out of the named tuples once, here: each read inside the loop below would take a
+    # reference count (two atomic updates) per pair (see the step's "Reference counts").
+    kinds, sparams, pt_off, ppt_off = shapes.kinds, shapes.sparams, shapes.pt_off, shapes.ppt_off
+    grid_data, grid_off, grid_dim = shapes.grid_data, shapes.grid_off, shapes.grid_dim
+    mu, eps = shapes.mu, shapes.eps
     n_static = st_rot.shape[0]
     # Poses of everything, bodies then statics, current and candidate.
     pose_r = np.empty((n + n_static, 3, 3))
@@ -126,12 +130,10 @@ def narrow_phase(pairs, n_bodies, x, prm, work, statics, shapes, h, phase, stage
             continue
         pnx, pny, pnz = buf[0, 4], buf[0, 5], buf[0, 6]
         if mixed:
-            pnx, pny, pnz = _consistent_normals(buf, count, a, b, shapes.kinds, shapes.sparams,
-                                                shapes.grid_data, shapes.grid_off,
-                                                shapes.grid_dim, pose_rc)
-        nc = _pair_patch(a, b, n, x, vel, inv_mass, inv_inertia_w, shapes.mu, shapes.eps, h,
-                         phase, stage, responses, buf, count, keep, pnx, pny, pnz, contacts,
-                         patches, nc, nq)
+            pnx, pny, pnz = _consistent_normals(buf, count, a, b, kinds, sparams, grid_data,
+                                                grid_off, grid_dim, pose_rc)
+        nc = _pair_patch(a, b, n, x, vel, inv_mass, inv_inertia_w, mu, eps, h, phase, stage,
+                         responses, buf, count, keep, pnx, pny, pnz, contacts, patches, nc, nq)
         nq += 1
     return contacts[:nc], patches[:nq]
 
