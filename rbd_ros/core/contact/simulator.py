@@ -327,7 +327,8 @@ class WorldSimulator(BatchSimulator):
         """
         done, contacts = world_step(self._x, self._params, self._loads, self._t,
                                     self._info.kernel_id, self._h, self._timestep_ns, n,
-                                    self._geo, self._statics, self._wrench, self._ws)
+                                    tuple(self._geo), tuple(self._statics), self._wrench,
+                                    tuple(self._ws))  # plain tuples: see world_step
         self._step_count += done
         self._contacts = contacts
         if done != n:
