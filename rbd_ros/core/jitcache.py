@@ -24,8 +24,11 @@ are then compiled in memory at every start (:data:`CACHE_DIR` is None, :data:`PR
 why, and a warning goes to the ``rbd_ros`` logger). numba's default, ``__pycache__`` next to the
 installed sources, is never used.
 
-:func:`configure` runs when :mod:`rbd_ros.core.kernels` is imported, before numba decorates
-anything (numba picks the cache location when a function is decorated).
+Nothing happens at import: :func:`kernel` decorates without a cache and keeps the dispatcher;
+:func:`configured` (called when a simulator is built, by the warm-up and by the cache queries
+below) chooses the directory once, sets ``NUMBA_CACHE_DIR`` for child processes and turns on
+every kept dispatcher's cache (numba's public ``Dispatcher.enable_caching``, what
+``njit(cache=True)`` itself calls), before anything is compiled.
 
 **One cache for every copy of the same sources.** numba's own locators key a cache by the
 directory the source file sits in and its modification time, so a ``colcon build`` install, a
@@ -51,6 +54,7 @@ import stat
 import sys
 
 from numba.core import caching
+from rbd_ros.core import layout
 
 _LOG = logging.getLogger('rbd_ros')
 
@@ -139,27 +143,60 @@ def configure(environ=None, subdir=None):
 
 
 _CONFIGURED = False
+#: The dispatchers :func:`kernel` made before :func:`configured` ran; their caches are turned on
+#: then.
+_PENDING = []
 
 
 def configured():
-    """Run :func:`configure` for this layout once (the first kernel module imported does)."""
+    """
+    Run :func:`configure` for this layout once, and turn on the cache of every kernel so far.
+
+    Called when a simulator is built (before its first compile), by the warm-up and by the cache
+    queries below; importing a kernel module does not (no directories, no environment).
+    """
     global _CONFIGURED
     if not _CONFIGURED:
-        from rbd_ros.core import layout
         configure(subdir=f'layout-{layout.fingerprint_hash()}')
         _CONFIGURED = True
+        if CACHE_DIR is not None:
+            for dispatcher in _PENDING:
+                dispatcher.enable_caching()
+        _PENDING.clear()
     return CACHE_DIR
 
 
 def kernel(**options):
     """
-    Return numba's ``njit`` decorator with :data:`OPTIONS`, ``options`` and the disk cache.
+    Return numba's ``njit`` decorator with :data:`OPTIONS` and ``options``, cached on disk.
 
     ``options`` adds to or overrides :data:`OPTIONS` (``inline='always'`` for small helpers,
-    ``parallel=True``, ``_nrt=False``). Cached when :func:`configured` finds a usable directory.
+    ``parallel=True``). The disk cache is turned on by :func:`configured` (at once if it ran
+    already and found a usable directory), so decorating touches no file.
     """
     import numba
-    return numba.njit(cache=configured() is not None, **{**OPTIONS, **options})
+    jit = numba.njit(**{**OPTIONS, **options})
+
+    def decorate(function):
+        dispatcher = jit(function)
+        if not _CONFIGURED:
+            _PENDING.append(dispatcher)
+        elif CACHE_DIR is not None:
+            dispatcher.enable_caching()
+        return dispatcher
+    return decorate
+
+
+def raw_kernel(**options):
+    """
+    Return :func:`kernel` for a function compiled without numba's reference counting.
+
+    The one use of a private numba option, ``_nrt=False``: numba has no public way to turn off
+    reference counting for one function, and its atomic updates were ~60 % of a step of 1000
+    resting boxes (see :mod:`rbd_ros.core.contact.step`, "Reference counts"). Only for
+    functions that allocate nothing and call none that do.
+    """
+    return kernel(_nrt=False, **options)
 
 
 class SourceCacheLocator(caching.UserProvidedCacheLocator):
@@ -202,7 +239,7 @@ def kernels_on_disk(contact=False):
     kernel source, see the module docstring) after a first step of that kind compiled there;
     numba's index files must be there too. Reads file names only; compiles nothing.
     """
-    if CACHE_DIR is None or not os.path.isfile(_mark(contact)):
+    if configured() is None or not os.path.isfile(_mark(contact)):
         return False
     module = 'rbd_ros.core.contact.step' if contact else 'rbd_ros.core.kernels'
     try:
@@ -218,6 +255,7 @@ COMPILE_S = {'free': 20, 'contact': 200}
 
 def compile_notice(contact=False):
     """Return the one line the node logs before a step that compiles (what, how long, where)."""
+    configured()
     kind = 'contact' if contact else 'free'
     what = 'the contact step' if contact else 'the free-body step'
     where = (f'once per version; cached in {CACHE_DIR}' if CACHE_DIR else
@@ -228,7 +266,7 @@ def compile_notice(contact=False):
 
 def mark_compiled(contact=False):
     """Leave the mark :func:`kernels_on_disk` looks for, after a first step that compiled."""
-    if CACHE_DIR is None:
+    if configured() is None:
         return
     try:
         with open(_mark(contact), 'a'):

@@ -61,12 +61,11 @@ _RESIDUAL_TOL_ULPS = 64.0 * 2.220446049250313e-16
 # Fixed-point iterations tried before Newton; at h|ω| = 1e-3 they reach round-off in ~5.
 _FIXED_POINT_ITER = 8
 
-#: numba's on-disk cache (a private per-user directory, see :mod:`rbd_ros.core.jitcache`), or
-#: None: then every start compiles in memory. Chosen before the first decorator below. numba
-#: keys its cache by this file, not by the values of the globals it imports from layout.py, so
-#: the directory is one per layout (``layout-<fingerprint hash>``): a changed offset compiles
-#: afresh instead of running machine code built for the old one.
-CACHE_DIR = jitcache.configured()
+# numba's on-disk cache is chosen by jitcache.configured() when a simulator is built, not
+# here (see :mod:`rbd_ros.core.jitcache`). numba keys its cache by this file, not by the values
+# of the globals it imports from layout.py, so the directory is one per layout
+# (``layout-<fingerprint hash>``): a changed offset compiles afresh instead of running machine
+# code built for the old one.
 _jit = jitcache.kernel()
 # Small helpers are inlined at numba IR level: measured 20-25 % faster per body-step than
 # leaving them to LLVM, for a longer first compilation (cached on disk afterwards).

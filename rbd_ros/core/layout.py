@@ -87,7 +87,11 @@ FINGERPRINT = (S_POS, S_QUAT, S_VEL, S_OMEGA, N_STATE, P_MASS, P_INV_MASS, P_INE
 #: file before loading it from its cache: the contact step inlines the integrator's kicks
 #: from ``kernels.py``, so an edit there would otherwise leave a stale step in the cache.
 KERNEL_SOURCES = ('layout.py', 'jitcache.py', 'kernels.py', 'contact/kernels.py',
-                  'contact/box_box.py', 'contact/step.py')
+                  'contact/box_box.py', 'contact/rows.py', 'contact/linalg.py',
+                  'contact/bodies.py', 'contact/broad_phase.py', 'contact/points.py',
+                  'contact/manifold.py', 'contact/narrow_phase.py', 'contact/response.py',
+                  'contact/patch.py', 'contact/friction.py', 'contact/sweeps.py',
+                  'contact/step.py')
 
 
 def fingerprint_hash() -> str:

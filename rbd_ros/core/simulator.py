@@ -28,7 +28,7 @@ from typing import Iterable, Optional, Sequence, Tuple, Union
 import numba
 import numpy as np
 
-from rbd_ros.core import kernels, layout
+from rbd_ros.core import jitcache, kernels, layout
 from rbd_ros.core.errors import (ConfigError, ConvergenceError, InputError, NonFiniteError,
                                  whole_number)
 from rbd_ros.core.integrators import DEFAULT_INTEGRATOR, integrator_info
@@ -125,6 +125,7 @@ class BatchSimulator:
     def __init__(self, models: Union[BodyModel, Sequence[BodyModel]],
                  states: Iterable[BodyState], *, integrator: str = DEFAULT_INTEGRATOR,
                  timestep_ns: int = 1_000_000, threads: Optional[int] = None):
+        jitcache.configured()  # the kernel cache, before a first compile
         states = list(states)
         if not states:
             raise ConfigError('states: a batch needs at least one body')
@@ -393,6 +394,7 @@ def net_wrench_w(model: BodyModel, state: BodyState, wrenches: Iterable[AppliedW
 
     The same compiled function the integrators use (:func:`kernels.net_wrench_w`).
     """
+    jitcache.configured()  # the kernel cache, before a first compile
     x = layout.pack_state(state)[:, np.newaxis]
     out = np.empty((6, 1))
     kernels.net_wrench_batch(x, layout.pack_params(model)[:, np.newaxis],

@@ -29,8 +29,8 @@ import sys
 
 import numpy as np
 import pytest
-from rbd_ros.core import (AppliedWrench, BatchSimulator, BodyModel, BodyState, kernels, layout,
-                          Spring)
+from rbd_ros.core import (AppliedWrench, BatchSimulator, BodyModel, BodyState, jitcache,
+                          layout, Spring)
 
 CORE = pathlib.Path(layout.__file__).parent
 
@@ -151,8 +151,9 @@ def test_fingerprint_lists_every_constant_and_names_the_kernel_cache():
                  and isinstance(getattr(layout, name), int)}
     assert len(layout.FINGERPRINT) == len(constants)
     assert sorted(layout.FINGERPRINT) == sorted(getattr(layout, name) for name in constants)
-    if kernels.CACHE_DIR is not None:
-        assert os.path.basename(kernels.CACHE_DIR) == f'layout-{layout.fingerprint_hash()}'
+    cache_dir = jitcache.configured()
+    if cache_dir is not None:
+        assert os.path.basename(cache_dir) == f'layout-{layout.fingerprint_hash()}'
 
 
 def test_every_compiled_source_is_in_the_kernel_cache_name():
@@ -173,7 +174,7 @@ def test_a_child_process_keeps_the_kernel_cache_it_inherits(tmp_path, inherited)
     leaf = f'layout-{layout.fingerprint_hash()}'
     given = tmp_path / leaf if inherited else tmp_path / 'mine'
     env = dict(os.environ, NUMBA_CACHE_DIR=str(given))
-    out = subprocess.run([sys.executable, '-c', 'from rbd_ros.core import kernels; '
-                          'print(kernels.CACHE_DIR)'], env=env, capture_output=True, text=True,
+    out = subprocess.run([sys.executable, '-c', 'from rbd_ros.core import jitcache; '
+                          'print(jitcache.configured())'], env=env, capture_output=True, text=True,
                          check=True, timeout=120).stdout.strip()
     assert out == str(given if inherited else given / leaf)

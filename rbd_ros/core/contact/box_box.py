@@ -65,7 +65,7 @@ CLIP_ROWS = 16
 #: it (φ), then the world point.
 CLIP_COLS = 6
 
-_raw = jitcache.kernel(_nrt=False)
+_raw = jitcache.raw_kernel()
 
 
 @_raw

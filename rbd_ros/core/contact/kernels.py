@@ -85,7 +85,7 @@ _inl = jitcache.kernel(inline='always')
 #: For functions that allocate nothing and run per point: compiled without numba's reference
 #: counting (its ``_nrt`` option), which costs two atomic updates per array argument per call
 #: (see :mod:`rbd_ros.core.contact.step`, "Reference counts").
-_raw = jitcache.kernel(_nrt=False)
+_raw = jitcache.raw_kernel()
 
 
 @_jit

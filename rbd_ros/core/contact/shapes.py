@@ -59,6 +59,7 @@ import zipfile
 
 import numpy as np
 
+from rbd_ros.core import jitcache
 from rbd_ros.core.contact import kernels as k
 from rbd_ros.core.errors import ModelError
 from rbd_ros.core.inertia import from_shape, shape_dimensions, triangle_mesh
@@ -170,6 +171,7 @@ class CollisionShape:
         points = points.reshape(-1, 3)
         phi = np.empty(points.shape[0])
         grad = np.empty((points.shape[0], 3))
+        jitcache.configured()  # the kernel cache, before a first compile
         k.phi_grad_many(self.kind, self.params, self.grid, points, phi, grad)
         if single:
             return phi[0], grad[0]
@@ -466,6 +468,7 @@ def _sdf_grid(vertices, faces, cells, cache_dir):
         if values is not None:
             return origin, h, values
     values = np.zeros(counts)
+    jitcache.configured()  # the kernel cache, before a first compile
     k.build_sdf(vertices, faces, origin, h, values)
     if folder is not None:
         _store(folder / f'{key}.npz', key, values)
@@ -520,6 +523,7 @@ def _check_mesh(mesh, where, field):
     low = np.stack([vertices[faces[:, m]] for m in range(3)]).min(axis=0)
     high = np.stack([vertices[faces[:, m]] for m in range(3)]).max(axis=0)
     order = np.argsort(low[:, 0], kind='stable').astype(np.int64)
+    jitcache.configured()  # the kernel cache, before a first compile
     s, t = k.first_self_intersection(vertices, faces, order, low, high)
     if s >= 0:
         raise ModelError(f'{where}: self-intersecting: faces {s} and {t} cross each other')

@@ -29,10 +29,11 @@ from typing import Optional, Sequence
 
 import numpy as np
 
-from rbd_ros.core import layout
+from rbd_ros.core import jitcache, layout
 from rbd_ros.core.contact import kernels as ck
-from rbd_ros.core.contact import step as cs
+from rbd_ros.core.contact import rows as cs
 from rbd_ros.core.contact.shapes import CollisionShape
+from rbd_ros.core.contact.step import world_step
 from rbd_ros.core.contact.world import (check_overlaps, DEFAULT_OVERLAP_TOLERANCE_M, Material,
                                         StaticWorld)
 from rbd_ros.core.errors import ConfigError, finite_vector, ModelError, NonFiniteError
@@ -130,7 +131,7 @@ def _contact_points(shape):
     if shape.kind == ck.KIND_MESH:
         return points, shape.vertices_b, 0.0
     if shape.kind in (ck.KIND_CYLINDER, ck.KIND_ELLIPSOID):
-        # Its lowest points against a plane are in closed form (cs._plane_points).
+        # Its lowest points against a plane are in closed form (points._plane_points).
         return points, points[:0], 0.0
     return points, points, 0.0
 
@@ -158,7 +159,7 @@ def _chunked(points):
     Return ``((cells, 4) centre and radius of each cell, (points,) the cell of each point)``,
     cells as the leaves of :func:`_kd_order`.  The points keep their order (it decides ties
     when a patch's points are chosen).  The narrow phase skips a cell when φ at its centre
-    says no point of it can be within reach (:func:`rbd_ros.core.contact.step._one_way`).
+    says no point of it can be within reach (:func:`rbd_ros.core.contact.points._one_way`).
     """
     order = _kd_order(points, np.arange(len(points)))
     cell_of = np.empty(len(points), dtype=np.int64)
@@ -198,13 +199,16 @@ def _shape_table(shapes, materials):
     grid_off = np.concatenate([[0], np.cumsum([g.size for g in grids])[:-1]]).astype(np.int64)
     grid_dim = np.array([g.shape for g in grids], dtype=np.int64)
     bound = np.array([s.bounding_radius_m for s in shapes], dtype=np.float64)
-    return (kinds, sparams, np.ascontiguousarray(np.concatenate(pts)), pt_off,
-            np.ascontiguousarray(np.concatenate(ppts)), ppt_off,
-            np.array(radius, dtype=np.float64), bound,
-            np.ascontiguousarray(np.concatenate([g.ravel() for g in grids])), grid_off,
-            grid_dim, np.array([m.friction for m in materials], dtype=np.float64),
-            np.array([m.restitution for m in materials], dtype=np.float64),
-            np.ascontiguousarray(np.concatenate(balls)), ch_off, np.concatenate(cells))
+    return cs.Shapes(
+        kinds=kinds, sparams=sparams, pts=np.ascontiguousarray(np.concatenate(pts)),
+        pt_off=pt_off, ppts=np.ascontiguousarray(np.concatenate(ppts)), ppt_off=ppt_off,
+        pt_radius=np.array(radius, dtype=np.float64), bound_r=bound,
+        grid_data=np.ascontiguousarray(np.concatenate([g.ravel() for g in grids])),
+        grid_off=grid_off, grid_dim=grid_dim,
+        mu=np.array([m.friction for m in materials], dtype=np.float64),
+        eps=np.array([m.restitution for m in materials], dtype=np.float64),
+        balls=np.ascontiguousarray(np.concatenate(balls)), ball_off=ch_off,
+        cell_of=np.concatenate(cells))
 
 
 def _static_table(objects):
@@ -228,7 +232,7 @@ def _static_table(objects):
             world = corners @ rot[s].T + pos[s]
             lo[s] = world.min(axis=0)
             hi[s] = world.max(axis=0)
-    return (kinds, params, rot, pos, lo, hi)
+    return cs.Statics(kinds, params, rot, pos, lo, hi)
 
 
 class WorldSimulator(BatchSimulator):
@@ -249,6 +253,7 @@ class WorldSimulator(BatchSimulator):
                  static: Optional[StaticWorld] = None, *,
                  integrator: str = DEFAULT_INTEGRATOR, timestep_ns: int = 1_000_000,
                  overlap_tolerance_m: float = DEFAULT_OVERLAP_TOLERANCE_M):
+        jitcache.configured()  # the kernel cache, before a first compile
         bodies = tuple(bodies)
         states = tuple(states)
         info = integrator_info(integrator)
@@ -282,10 +287,12 @@ class WorldSimulator(BatchSimulator):
         self._statics = _static_table(objects)
         n = len(bodies)
         self._wrench = np.zeros((n, 6))
-        self._ws = (np.zeros((n, 6)), np.zeros(n), np.zeros((n, 3, 3)), np.zeros((n, 3, 3)),
-                    np.zeros((n, 3)), np.zeros((n, 3, 3)), np.zeros(n, dtype=np.bool_),
-                    np.full((n, cs.N_RESPONSE), -1.0),
-                    np.zeros((3, n, cs.W_SLOTS, cs.W_FIELDS)), np.zeros((3, n), dtype=np.int64))
+        self._ws = cs.Work(
+            vel=np.zeros((n, 6)), inv_mass=np.zeros(n), inv_inertia_w=np.zeros((n, 3, 3)),
+            rot=np.zeros((n, 3, 3)), pos_c=np.zeros((n, 3)), rot_c=np.zeros((n, 3, 3)),
+            touched=np.zeros(n, dtype=np.bool_), responses=np.full((n, cs.N_RESPONSE), -1.0),
+            warm=np.zeros((3, n, cs.W_SLOTS, cs.W_FIELDS)),
+            warm_n=np.zeros((3, n), dtype=np.int64))
         self._contacts = np.zeros((0, cs.N_CONTACT))
 
     @property
@@ -308,7 +315,7 @@ class WorldSimulator(BatchSimulator):
         super().reset(states)
         if hasattr(self, '_wrench'):
             self._wrench[:] = 0.0
-            self._ws[-1][:] = 0  # no warm start from before the reset
+            self._ws.warm_n[:] = 0  # no warm start from before the reset
             self._contacts = np.zeros((0, cs.N_CONTACT))
 
     def step(self, n: int = 1) -> None:
@@ -318,9 +325,10 @@ class WorldSimulator(BatchSimulator):
         :raises NonFiniteError: if a step would leave a body non-finite; the whole world then
             stays at its last finite state.
         """
-        done, contacts = cs.world_step(self._x, self._params, self._loads, self._t,
-                                       self._info.kernel_id, self._h, self._timestep_ns, n,
-                                       self._geo, self._statics, self._wrench, self._ws)
+        done, contacts = world_step(self._x, self._params, self._loads, self._t,
+                                    self._info.kernel_id, self._h, self._timestep_ns, n,
+                                    tuple(self._geo), tuple(self._statics), self._wrench,
+                                    tuple(self._ws))  # plain tuples: see world_step
         self._step_count += done
         self._contacts = contacts
         if done != n:

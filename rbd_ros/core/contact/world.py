@@ -34,7 +34,9 @@ import re
 
 import numpy as np
 
+from rbd_ros.core import jitcache
 from rbd_ros.core.contact import kernels as k
+from rbd_ros.core.contact.rows import pair_material
 from rbd_ros.core.contact.shapes import collision_shape, CollisionShape, plane_shape
 from rbd_ros.core.errors import InputError, ModelError
 from rbd_ros.core.rotations import quat_normalize, quat_to_matrix
@@ -95,9 +97,10 @@ class Material:
             'in [0, 1] (coefficient of restitution ε)'))
 
     def combine(self, other):
-        """Return the pair's material: ``μ = sqrt(μ_a μ_b)``, ``ε = max(ε_a, ε_b)``."""
-        return Material(math.sqrt(self.friction * other.friction),
-                        max(self.restitution, other.restitution))
+        """Return the pair's material (:func:`~rbd_ros.core.contact.rows.pair_material`)."""
+        jitcache.configured()  # the kernel cache, before a first compile
+        return Material(*(float(v) for v in pair_material(
+            self.friction, self.restitution, other.friction, other.restitution)))
 
 
 def _pose(position_w, orientation_wb, field):
@@ -262,6 +265,7 @@ def _one_way(shape_a, rot_a, pos_a, shape_b, rot_b, pos_b):
         return -math.inf, None
     rot_ba = np.ascontiguousarray(rot_b.T @ rot_a)
     trans_ba = np.ascontiguousarray(rot_b.T @ (pos_a - pos_b))
+    jitcache.configured()  # the kernel cache, before a first compile
     phi, index = k.min_phi_posed(shape_b.kind, shape_b.params, shape_b.grid, rot_ba, trans_ba,
                                  shape_a.points_b)
     return -phi - phi_error_bound(shape_b), rot_a @ shape_a.points_b[index] + pos_a

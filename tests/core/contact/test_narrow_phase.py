@@ -33,7 +33,11 @@ import pytest
 from rbd_ros.core import layout
 from rbd_ros.core.contact import (ground_plane, load_mesh, Material, obstacle,
                                   primitive_shape, StaticWorld)
-from rbd_ros.core.contact import step as cs
+from rbd_ros.core.contact import rows as cs
+from rbd_ros.core.contact.bodies import prepare_bodies
+from rbd_ros.core.contact.broad_phase import broad_phase
+from rbd_ros.core.contact.manifold import _consistent_normals
+from rbd_ros.core.contact.narrow_phase import narrow_phase
 from rbd_ros.core.contact.simulator import WorldBody, WorldSimulator
 from rbd_ros.core.model import BodyModel
 from rbd_ros.core.state import BodyState
@@ -63,31 +67,27 @@ def build():
 
 def contacts(sim, x, geo, stage):
     """Run the narrow phase of one contact stage on state ``x`` with the shape table ``geo``."""
-    (kinds, sparams, pts, pt_off, ppts, ppt_off, pt_radius, bound_r, grid_data, grid_off,
-     grid_dim, mu, eps, balls, ball_off, cell_of) = geo
-    st_kind, st_params, st_rot, st_pos, st_lo, st_hi = sim._statics
+    statics = sim._statics
     n = x.shape[1]
-    vel, inv_mass, inv_inertia_w = np.zeros((n, 6)), np.zeros(n), np.zeros((n, 3, 3))
-    rot, pos_c, rot_c = np.zeros((n, 3, 3)), np.zeros((n, 3)), np.zeros((n, 3, 3))
+    work = cs.Work(vel=np.zeros((n, 6)), inv_mass=np.zeros(n), inv_inertia_w=np.zeros((n, 3, 3)),
+                   rot=np.zeros((n, 3, 3)), pos_c=np.zeros((n, 3)), rot_c=np.zeros((n, 3, 3)),
+                   touched=np.zeros(n, dtype=np.bool_),
+                   responses=np.full((n, cs.N_RESPONSE), -1.0),
+                   warm=np.zeros((3, n, cs.W_SLOTS, cs.W_FIELDS)),
+                   warm_n=np.zeros((3, n), dtype=np.int64))
     h = 1e-3
-    cs.prepare_bodies(x, sim._params, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h, False)
-    pairs = cs.broad_phase(x, pos_c, bound_r, n, st_kind, st_params, st_lo, st_hi,
-                           cs.MARGIN_M)
-    responses = np.full((n, cs.N_RESPONSE), -1.0)
-    return cs.narrow_phase(pairs, n, x, sim._params, vel, rot, pos_c, rot_c, inv_mass,
-                           inv_inertia_w, st_rot, st_pos, kinds, sparams, pts, pt_off, ppts,
-                           ppt_off, pt_radius, grid_data, grid_off, grid_dim, mu, eps, h,
-                           cs.PHASE_CONTACT, stage, responses, balls, ball_off, cell_of)
+    prepare_bodies(x, sim._params, work.vel, work.inv_mass, work.inv_inertia_w, work.rot,
+                   work.pos_c, work.rot_c, h, False)
+    pairs = broad_phase(x, work.pos_c, geo.bound_r, n, statics.kind, statics.params, statics.lo,
+                        statics.hi, cs.MARGIN_M)
+    return narrow_phase(pairs, n, x, sim._params, work, statics, geo, h, cs.PHASE_CONTACT, stage)
 
 
 def test_skipping_cells_keeps_every_contact_bit_for_bit():
     sim = build()
     geo = sim._geo
-    balls, ball_off = geo[13], geo[14]
-    plain = list(geo)
-    plain[13] = balls.copy()
-    plain[13][:, 3] = np.inf  # no cell can be skipped: every point is tried
-    plain = tuple(plain)
+    plain = geo._replace(balls=geo.balls.copy())
+    plain.balls[:, 3] = np.inf  # no cell can be skipped: every point is tried
     rng = np.random.default_rng(SEED)
     n = sim.size
     found = 0
@@ -113,7 +113,7 @@ def test_skipping_cells_keeps_every_contact_bit_for_bit():
     # cell is well inside the shape's bounding ball (measured: box cells 0.003–0.05 m against
     # its 0.14 m; a cell as wide as the shape would never be skipped).
     for s in range(n):
-        cells = balls[ball_off[s]:ball_off[s + 1]]
+        cells = geo.balls[geo.ball_off[s]:geo.ball_off[s + 1]]
         if len(cells) > 1:
             assert cells[:, 3].max() < 0.75 * sim.bodies[s].shape.bounding_radius_m, s
 
@@ -167,8 +167,8 @@ def test_a_patch_normal_tilted_from_the_face_a_point_leaves_by_reads_no_depth():
     bodies = [WorldBody(f'b{k}', model, box, Material(0.5, 0.0)) for k in range(2)]
     states = [BodyState(position_w=(3.0 * k, 0.0, 1.0)) for k in range(2)]
     sim = WorldSimulator(bodies, states, StaticWorld(ground_plane()), timestep_ns=1_000_000)
-    kinds, sparams = sim._geo[0], sim._geo[1]
-    grid_data, grid_off, grid_dim = sim._geo[8], sim._geo[9], sim._geo[10]
+    kinds, sparams = sim._geo.kinds, sim._geo.sparams
+    grid_data, grid_off, grid_dim = sim._geo.grid_data, sim._geo.grid_off, sim._geo.grid_dim
     tilt = np.radians(5.0)
     n_bar = [np.cos(tilt), np.sin(tilt), 0.0]
     buf = np.zeros((4, 11))
@@ -176,8 +176,8 @@ def test_a_patch_normal_tilted_from_the_face_a_point_leaves_by_reads_no_depth():
         buf[k] = [-1e-9, 0.0, 0.0, 0.0, *n_bar, 0.1, 0.0, 0.01 * k, 1.0]
     buf[3] = [0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.1, 0.0, 0.0, 1.0]
     pose_rc = np.tile(np.eye(3), (3, 1, 1))
-    got = cs._consistent_normals(buf, 4, 0, 1, kinds, sparams, grid_data, grid_off, grid_dim,
-                                 pose_rc)
+    got = _consistent_normals(buf, 4, 0, 1, kinds, sparams, grid_data, grid_off, grid_dim,
+                              pose_rc)
     np.testing.assert_array_equal(got, n_bar)
     # The point takes the patch's normal (φ rises by s cos 5°, within the 1 % the test on
     # the normal allows)...

@@ -29,7 +29,7 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from rbd_ros.core.contact import step
+from rbd_ros.core.contact import linalg, response, rows
 
 
 def _exact_matmul(a, b):
@@ -91,29 +91,29 @@ def _patch(rng, count, normal, spread_m, offset_m, body_b=False):
     Lever arms on a grid of 2⁻¹² m, so that B's (A's shifted by the COMs' offset) are exact
     in floating point and the exact K has rank 3, as it has mathematically.
     """
-    contacts = np.zeros((2 + count, step.N_CONTACT))
+    contacts = np.zeros((2 + count, rows.N_CONTACT))
     arms = np.round((rng.normal(size=(count, 3)) * spread_m + offset_m) * 4096.0) / 4096.0
-    contacts[2:, step.C_RA:step.C_RA + 3] = arms
-    contacts[2:, step.C_NORMAL:step.C_NORMAL + 3] = normal
+    contacts[2:, rows.C_RA:rows.C_RA + 3] = arms
+    contacts[2:, rows.C_NORMAL:rows.C_NORMAL + 3] = normal
     inv_inertia_w = np.zeros((2, 3, 3))
     inv_inertia_w[1] = _inertia(rng)
     inv_mass = np.array([0.0, 1.0 / rng.uniform(0.1, 5.0)])
     arms_b = None
     if body_b:
         arms_b = arms + np.round(rng.normal(size=3) * 0.1 * 4096.0) / 4096.0
-        contacts[2:, step.C_RB:step.C_RB + 3] = arms_b
+        contacts[2:, rows.C_RB:rows.C_RB + 3] = arms_b
         inv_inertia_w[0] = _inertia(rng)
         inv_mass[0] = 1.0 / rng.uniform(0.1, 5.0)
     return contacts, arms, arms_b, inv_mass, inv_inertia_w
 
 
 def _flat(contacts, count, inv_mass, inv_inertia_w, body_b=False):
-    patches = np.zeros((2, step.N_PATCH))
-    ok = step._flat_response(patches, 1, contacts, 2, count, inv_mass, inv_inertia_w, 1,
-                             0 if body_b else 2, body_b, step.patch_scratch())
-    k = patches[1, step.Q_K:step.Q_K + 16].reshape(4, 4)
-    pinv = patches[1, step.Q_PINV:step.Q_PINV + 16].reshape(4, 4)
-    return ok, k, pinv, patches[1, step.Q_CACHED]
+    patches = np.zeros((2, rows.N_PATCH))
+    ok = response._flat_response(patches, 1, contacts, 2, count, inv_mass, inv_inertia_w, 1,
+                                 0 if body_b else 2, body_b, linalg.patch_scratch())
+    k = patches[1, rows.Q_K:rows.Q_K + 16].reshape(4, 4)
+    pinv = patches[1, rows.Q_PINV:rows.Q_PINV + 16].reshape(4, 4)
+    return ok, k, pinv, patches[1, rows.Q_CACHED]
 
 
 @pytest.mark.parametrize('count', [3, 4])
@@ -157,11 +157,11 @@ def test_flat_response_is_the_exact_pseudo_inverse(count, tilted, body_b):
         assert errors[-1] <= 5e-12
         assert not pinv[count:].any() and not pinv[:, count:].any()
         # The general route (_pinv_small) on the exact K rounded to floats, for comparison.
-        scr = step.patch_scratch()
-        scr[step.SCR_K:step.SCR_K + count, :count] = exact_k
-        scr[step.SCR_ACTIVE, :count] = 1.0
-        step._pinv_small(scr, count)
-        general.append(np.abs(scr[step.SCR_PINV:step.SCR_PINV + count, :count]
+        scr = linalg.patch_scratch()
+        scr[linalg.SCR_K:linalg.SCR_K + count, :count] = exact_k
+        scr[linalg.SCR_ACTIVE, :count] = 1.0
+        linalg._pinv_small(scr, count)
+        general.append(np.abs(scr[linalg.SCR_PINV:linalg.SCR_PINV + count, :count]
                               - exact_pinv).max() / scale)
     assert checked >= 20  # (about 1 % of random triangles are slivers)
     # What the README says: ~100× closer to exact than the general route (medians 1e-15
@@ -178,10 +178,10 @@ def test_flat_response_leaves_other_patches_to_the_general_route():
     assert not _flat(contacts, 2, inv_mass, inv_inertia_w)[0]
     # Four points on a line in the tangent plane: S₂ singular.
     contacts, _, _, inv_mass, inv_inertia_w = _patch(rng, 4, normal, 0.05, 0.0)
-    contacts[2:, step.C_RA:step.C_RA + 3] = [[0.01 * k, 0.02 * k, -0.05] for k in range(4)]
+    contacts[2:, rows.C_RA:rows.C_RA + 3] = [[0.01 * k, 0.02 * k, -0.05] for k in range(4)]
     assert not _flat(contacts, 4, inv_mass, inv_inertia_w)[0]
     # Normals that differ in their last bit: not one normal.
     contacts, _, _, inv_mass, inv_inertia_w = _patch(rng, 4, normal, 0.05, 0.0)
-    contacts[4, step.C_NORMAL + 1] = 1e-17
+    contacts[4, rows.C_NORMAL + 1] = 1e-17
     ok, _, _, cached = _flat(contacts, 4, inv_mass, inv_inertia_w)
     assert not ok and cached == 0.0

@@ -35,8 +35,8 @@ from contact_scenes import body, ground, STEP_IDS, steps, STEPS_NS, world
 import numpy as np
 import pytest
 from rbd_ros.core.contact import Material, mesh_shape
+from rbd_ros.core.contact.rows import MARGIN_M, PUSH_FRACTION, PUSH_MAX_M_S
 from rbd_ros.core.contact.simulator import WorldBody
-from rbd_ros.core.contact.step import MARGIN_M, PUSH_FRACTION, PUSH_MAX_M_S
 from rbd_ros.core.model import BodyModel
 from rbd_ros.core.state import BodyState
 import trimesh

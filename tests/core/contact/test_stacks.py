@@ -28,7 +28,7 @@ the pyramid's top drifts 2.5e-15 / 1.3e-14 m with penetration up to 3.1e-16 / 3.
 from contact_scenes import body, ground, STEP_IDS, steps, STEPS_NS, world
 import numpy as np
 import pytest
-from rbd_ros.core.contact import step as cs
+from rbd_ros.core.contact import rows as cs
 from rbd_ros.core.loads import AppliedWrench
 from rbd_ros.core.state import BodyState
 

@@ -1,0 +1,62 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Importing :mod:`rbd_ros.core` does nothing a user did not ask for (issue 26, item 4).
+
+Every module of the package is imported in a fresh process whose home and cache directories
+are empty: no directory may appear and no environment variable may change. The kernel cache
+is chosen only when it is needed (:func:`rbd_ros.core.jitcache.configured`, called when a
+simulator is built), which the last part checks, so the test can tell the two apart.
+"""
+
+import json
+import os
+import subprocess
+import sys
+
+from rbd_ros.core import layout
+
+PROBE = """
+import importlib, json, os, pkgutil
+import rbd_ros.core as core
+before = dict(os.environ)
+names = sorted(m.name for m in pkgutil.walk_packages(core.__path__, 'rbd_ros.core.'))
+for name in names:
+    importlib.import_module(name)
+changed = sorted(k for k in set(os.environ) | set(before) if os.environ.get(k) != before.get(k))
+after_import = sorted(os.listdir(os.environ['HOME']))
+from rbd_ros.core import BodyModel, Simulator
+Simulator(BodyModel(1.0, [[1.0, 0, 0], [0, 1.0, 0], [0, 0, 1.0]]))
+print(json.dumps({'names': names, 'changed': changed, 'after_import': after_import,
+                  'after_build': sorted(os.listdir(os.environ['HOME'])),
+                  'numba_cache_dir': os.environ.get('NUMBA_CACHE_DIR')}))
+"""
+
+
+def test_importing_core_creates_no_directory_and_sets_no_environment(tmp_path):
+    env = {k: v for k, v in os.environ.items() if k not in ('NUMBA_CACHE_DIR', 'XDG_CACHE_HOME')}
+    env['HOME'] = str(tmp_path)
+    out = subprocess.run([sys.executable, '-c', PROBE], env=env, capture_output=True,
+                         text=True, check=True, timeout=120).stdout
+    seen = json.loads(out.strip().splitlines()[-1])
+    # Not vacuous: the walk found the contact stages and the kernel modules.
+    assert {'rbd_ros.core.kernels', 'rbd_ros.core.jitcache', 'rbd_ros.core.contact.step',
+            'rbd_ros.core.contact.sweeps'} <= set(seen['names'])
+    assert seen['changed'] == []
+    assert seen['after_import'] == []
+    # Building a simulator chooses the cache: ~/.cache/rbd_ros/numba/layout-<hash>.
+    assert seen['after_build'] == ['.cache']
+    assert seen['numba_cache_dir'] == os.path.join(
+        str(tmp_path), '.cache', 'rbd_ros', 'numba', f'layout-{layout.fingerprint_hash()}')
