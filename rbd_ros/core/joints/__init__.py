@@ -1,0 +1,27 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Joints between two rigid bodies (or a body and the world), in maximal coordinates.
+
+A joint is a value: its kind, the two bodies it connects (``parent`` may be ``None``, the
+world), its frame in each body (``origin_*_b`` and ``axis_b``) and its limits. The articulated
+step (not in this slice) treats each joint as one more kind of constraint between two bodies.
+May import :mod:`rbd_ros.core` helpers only.
+"""
+
+from rbd_ros.core.joints.model import (Joint, JOINT_KINDS, joint_position, joint_velocity,
+                                       unwrap_angle)
+
+__all__ = ['Joint', 'JOINT_KINDS', 'joint_position', 'joint_velocity', 'unwrap_angle']
