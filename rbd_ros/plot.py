@@ -21,6 +21,5 @@ warnings.warn('rbd_ros.plot moved to rbd_ros.bag.plot'
               '; the old path goes in the next release',
               DeprecationWarning, stacklevel=2)
 
-if __name__ == '__main__':
-    from rbd_ros.bag.plot import main
-    raise SystemExit(main())
+if __name__ == '__main__':  # python -m rbd_ros.plot, as in the last release
+    raise SystemExit(main())  # noqa: F405 - main comes with the star import

@@ -21,6 +21,5 @@ warnings.warn('rbd_ros.replay moved to rbd_ros.bag.replay'
               '; the old path goes in the next release',
               DeprecationWarning, stacklevel=2)
 
-if __name__ == '__main__':
-    from rbd_ros.bag.replay import main
-    raise SystemExit(main())
+if __name__ == '__main__':  # python -m rbd_ros.replay, as in the last release
+    raise SystemExit(main())  # noqa: F405 - main comes with the star import

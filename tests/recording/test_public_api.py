@@ -106,3 +106,11 @@ def test_the_documented_paths_of_the_last_release_still_work_and_say_where_they_
     same, warned = proc.stdout.splitlines()
     assert same == 'True'
     assert f'{old} moved to {new}' in warned, warned
+
+
+@pytest.mark.parametrize('tool', ['replay', 'plot'])
+def test_the_old_module_paths_still_run_the_tools(tool):
+    proc = subprocess.run([sys.executable, '-m', f'rbd_ros.{tool}', '--help'],
+                          capture_output=True, text=True, cwd=REPO, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.startswith(f'usage: {tool} '), proc.stdout
