@@ -116,3 +116,11 @@ def test_the_changelog_is_in_ros_format():
     assert headings[0] == 'Forthcoming' or release.match(headings[0]), headings[0]
     for heading in headings[1:]:
         assert release.match(heading), heading
+
+
+def test_the_recording_page_names_every_run_record_key_and_ending():
+    """doc/recording.md lists the ``rbd_ros.run`` record: every key and every ``ended_by``."""
+    from rbd_ros.bag.recorder import ENDINGS, RUN_KEYS
+    text = (REPO / 'doc' / 'recording.md').read_text()
+    missing = [name for name in RUN_KEYS + ENDINGS if f'`{name}`' not in text]
+    assert not missing, f'doc/recording.md does not name {missing}'

@@ -39,16 +39,17 @@ from rbd_ros.bag.recording import Bag, open_bag
 from rbd_ros.core import BodyState, RbdError
 from rbd_ros.core.model import BodyModel
 from rbd_ros.core.rotations import quat_log, quat_to_matrix
+from rbd_ros.msgs import type_names as types
 from rbd_ros.msgs.conversions import quaternion_from_msg as _quat, vector_from_msg as _vec
 from rbd_ros.sim.config import NS_PER_S, recorded_parameters
 
 SAVE_DPI = 90
 
 
-_ODOM = 'nav_msgs/msg/Odometry'
-_POSE = 'geometry_msgs/msg/PoseStamped'
-_TWIST = 'geometry_msgs/msg/TwistStamped'
-_WRENCH = 'geometry_msgs/msg/WrenchStamped'
+_ODOM = types.ODOMETRY
+_POSE = types.POSE_STAMPED
+_TWIST = types.TWIST_STAMPED
+_WRENCH = types.WRENCH_STAMPED
 _AXES = ('x', 'y', 'z')
 _NAN3 = (np.nan,) * 3
 

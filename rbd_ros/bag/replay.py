@@ -59,6 +59,7 @@ import sys
 from typing import Collection, Dict, Iterable, List, Optional, Tuple, Union
 
 import numpy as np
+from rbd_ros.bag import recorder as run_record
 from rbd_ros.bag.cli import open_bag_with_notes, run_on_bag
 from rbd_ros.bag.recording import Bag, open_bag, RawMessage
 from rbd_ros.core import NonFiniteError
@@ -66,20 +67,17 @@ from rbd_ros.core.errors import RbdError
 from rbd_ros.core.rotations import quat_angle_between
 from rbd_ros.msgs import conversions
 from rbd_ros.msgs import outputs
+from rbd_ros.msgs import type_names as types
 from rbd_ros.sim import limits
 from rbd_ros.sim.config import NodeConfig, recorded_parameters
 from rbd_ros.sim.inputs import AppliedEvent, WrenchRejected
 from rbd_ros.sim.session import AppliedDigest, SimSession
 
-WRENCH_TYPE = 'geometry_msgs/msg/WrenchStamped'
-POINT_TYPE = 'geometry_msgs/msg/PointStamped'
+WRENCH_TYPE = types.WRENCH_STAMPED
+POINT_TYPE = types.POINT_STAMPED
 #: Output topic kinds by message type.
-OUTPUT_KINDS = {
-    'geometry_msgs/msg/PoseStamped': 'pose',
-    'geometry_msgs/msg/TwistStamped': 'twist',
-    'nav_msgs/msg/Odometry': 'odom',
-    'rosgraph_msgs/msg/Clock': 'clock',
-}
+OUTPUT_KINDS = {types.POSE_STAMPED: 'pose', types.TWIST_STAMPED: 'twist',
+                types.ODOMETRY: 'odom', types.CLOCK: 'clock'}
 #: Exit status: every sample and wrench matched.
 EXIT_MATCH = 0
 #: Exit status: something differs (:attr:`ReplayResult.problems`).
@@ -335,11 +333,11 @@ def check_times(bag: Bag, config: NodeConfig, messages: Iterable[RawMessage],
 def recorded_failure(bag: Bag) -> Optional[Tuple[int, str]]:
     """Return ``(time_ns, message)`` of the recorded run's non-finite step, or None."""
     run = bag.run_metadata or {}
-    text = run.get('failure_time_ns', '')
+    text = run.get(run_record.RUN_FAILURE_TIME_NS, '')
     if not text:
         return None
     try:
-        return int(text), run.get('failure', '')
+        return int(text), run.get(run_record.RUN_FAILURE, '')
     except ValueError:
         raise ReplayError(f'{bag.mcap_path}: the rbd_ros.run record has failure_time_ns '
                           f'{text!r}, not an integer (ns)') from None
@@ -603,9 +601,10 @@ class Replayer:
         _judge_failure(result, self.failure, replay_failure, self.study)
         _judge_digest(result, self.bag, self.digest, self.study)
         run = self.bag.run_metadata or {}
-        if run.get('exception'):
-            result.run_crashed = (f'the node stopped on an exception at t = '
-                                  f'{run.get("exception_time_ns", "?")} ns: {run["exception"]}')
+        if run.get(run_record.RUN_EXCEPTION):
+            when = run.get(run_record.RUN_EXCEPTION_TIME_NS, '?')
+            result.run_crashed = (f'the node stopped on an exception at t = {when} ns: '
+                                  f'{run[run_record.RUN_EXCEPTION]}')
         return result
 
     def took_effect(self, events: Iterable[AppliedEvent]) -> None:
@@ -739,20 +738,21 @@ def _judge_digest(result, bag, digest, study):
     run = bag.run_metadata or {}
     if study:
         return
-    if 'wrench_digest' not in run:
+    if run_record.RUN_WRENCH_DIGEST not in run:
         result.remarks.append(
             'no rbd_ros.run record (bag not finalised, or not recorded by the node): the '
             'applied wrenches were checked against the recorded messages only')
         return
     result.wrench_digest_checked = True
-    count = run.get('wrenches_applied', '')
-    if run['wrench_digest'] != digest.hexdigest() or count != str(digest.count):
+    count = run.get(run_record.RUN_WRENCHES_APPLIED, '')
+    recorded = run[run_record.RUN_WRENCH_DIGEST]
+    if recorded != digest.hexdigest() or count != str(digest.count):
         result.wrench_mismatches += 1
         result.problems.append(
             f'the wrenches applied on replay ({digest.count}, SHA-256 '
             f'{digest.hexdigest()[:16]}...) are not bit for bit those the node applied '
-            f'({count}, SHA-256 {run["wrench_digest"][:16]}...): the recorded wrench messages '
-            'differ from what the node applied')
+            f'({count}, SHA-256 {recorded[:16]}...): the recorded wrench messages differ from '
+            'what the node applied')
 
 
 def _restamp(kind, msg, t_ns):

@@ -62,6 +62,7 @@ from nav_msgs.msg import Odometry
 import numpy as np
 from rbd_ros.core import BodyState
 from rbd_ros.msgs import conversions as conv
+from rbd_ros.msgs import type_names as types
 from rbd_ros.sim.config import NS_PER_S
 from rosgraph_msgs.msg import Clock
 
@@ -72,10 +73,9 @@ except ImportError:  # pragma: no cover - depends on the install
 
 #: Output kinds in publishing order, with their message types.
 KINDS = ('pose', 'twist', 'odom', 'contact_wrench', 'clock', 'tf')
-TYPE_NAMES = {'pose': 'geometry_msgs/msg/PoseStamped',
-              'twist': 'geometry_msgs/msg/TwistStamped', 'odom': 'nav_msgs/msg/Odometry',
-              'contact_wrench': 'geometry_msgs/msg/WrenchStamped',
-              'clock': 'rosgraph_msgs/msg/Clock', 'tf': 'tf2_msgs/msg/TFMessage'}
+TYPE_NAMES = {'pose': types.POSE_STAMPED, 'twist': types.TWIST_STAMPED,
+              'odom': types.ODOMETRY, 'contact_wrench': types.WRENCH_STAMPED,
+              'clock': types.CLOCK, 'tf': types.TF_MESSAGE}
 MESSAGE_TYPES = {'pose': PoseStamped, 'twist': TwistStamped, 'odom': Odometry,
                  'contact_wrench': WrenchStamped, 'clock': Clock, 'tf': TFMessage}
 

@@ -20,19 +20,17 @@ Everything else lives in rclpy-free modules: :mod:`rbd_ros.sim.config` (paramete
 :mod:`rbd_ros.sim.session` (stepping, wrench hold and expiry, publish schedule),
 :mod:`rbd_ros.msgs.outputs` (a sample's messages as CDR bytes, published and recorded alike),
 :mod:`rbd_ros.msgs.conversions` (the other messages) and :mod:`rbd_ros.ros.ros_args` (the parameter
-overrides in the ROS arguments). The wall clock only paces the fixed physics
-step: the sim time due is ``sim_anchor + (wall_now - wall_anchor) * real_time_factor`` against
-an absolute wall anchor (re-anchored on pause, reset and a change of the factor), so pacing
-error does not accumulate. A tick steps for at most :data:`TICK_BUDGET_NS` of wall time and then
-returns to the spin loop, so a node behind the wall clock (a slow world, a high factor) still
-takes wrenches and service calls within about that time; the steps left due run in the next
-tick. A backlog of more than :data:`MAX_BACKLOG_STEPS` steps is dropped (counted in
-``/diagnostics`` as ``wall_time_dropped_s``). Timers run on a
+overrides in the ROS arguments), :mod:`rbd_ros.sim.pacing` (the wall clock pacing the fixed
+physics step), :mod:`rbd_ros.sim.diagnostics` (the ``/diagnostics`` values) and
+:mod:`rbd_ros.bag.recorder` (what the run records). A tick steps for at most
+:data:`rbd_ros.sim.pacing.TICK_BUDGET_NS` of wall time and then returns to the spin loop, so a
+node behind the wall clock (a slow world, a high factor) still takes wrenches and service calls
+within about that time; the steps left due run in the next tick. Timers run on a
 steady clock, so ``use_sim_time`` (which launch files set on every node) cannot freeze the
 node: its stamps are always its own sim time.
 """
 
-import math
+import dataclasses
 import os
 import re
 import signal
@@ -46,9 +44,13 @@ from rbd_ros.core import ConfigError, jitcache, NonFiniteError, RbdError, Record
 from rbd_ros.msgs import conversions as conv
 from rbd_ros.msgs import markers
 from rbd_ros.msgs import outputs
+from rbd_ros.msgs import type_names as types
 from rbd_ros.ros import ros_args
 from rbd_ros.sim import config as cfg
 from rbd_ros.sim import limits
+from rbd_ros.sim import pacing
+from rbd_ros.sim.diagnostics import Diagnostics
+from rbd_ros.sim.diagnostics import status as diagnostics_status
 from rbd_ros.sim.drag import CLICKED_POINT
 from rbd_ros.sim.inputs import WrenchRejected
 from rbd_ros.sim.session import SimSession
@@ -67,8 +69,6 @@ from rclpy.signals import SignalHandlerOptions
 from std_srvs.srv import SetBool, Trigger
 from visualization_msgs.msg import MarkerArray
 
-MAX_BACKLOG_STEPS = 1000  # the catch-up cap: a longer backlog of due steps is dropped
-TICK_BUDGET_NS = 10_000_000  # wall time a tick may step for (then serve callbacks)
 START_UP_POLL_S = 0.05  # how often the main thread looks for a signal during start-up
 #: Set once the node has loaded its meshes and run its first step (see RigidBodyNode).
 PAST_SLOW_START_UP = threading.Event()
@@ -160,10 +160,8 @@ class RigidBodyNode(Node):
         #: 'shutdown' (the ROS context shut down); '' while it runs.
         self.ended_by = ''
         self._crash = None  # (sim time ns, 'Type: message') of an exception out of the loop
-        self._rtf = config.real_time_factor
-        self._dropped_ns = 0
-        self._lag_max_ns = 0  # largest wall-minus-sim lag seen at a tick, since the last diag
-        self._step_wall_ns = 1_000_000  # wall time per step of the last run (1 ms until measured)
+        self._failure = None  # (sim time ns, message) of a non-finite step
+        self._pacer = pacing.Pacer(config.real_time_factor)
 
         self._recorder = None
         self._builder = outputs.SampleBuilder(config)
@@ -235,7 +233,7 @@ class RigidBodyNode(Node):
                 config.static_world, config.world_frame, 0), 0)
         self._publish_sample()
         self._anchor()  # sim time 0 = now: pacing starts when the node is ready
-        self._diag_last = (time.monotonic_ns(), 0, 0)
+        self._diagnostics = Diagnostics(self.session, self._pacer)
 
     def _read_overrides(self, global_args, kwargs):
         """Return name → value of this node's parameter overrides (rclpy's precedence)."""
@@ -356,62 +354,51 @@ class RigidBodyNode(Node):
                     return SetParametersResult(successful=False, reason=str(exc))
         for param in params:
             if param.name == 'real_time_factor':
-                self._rtf = float(param.value)
-                self._anchor()
+                self._pacer.set_factor(param.value, self.session.time_ns)
         return SetParametersResult(successful=True)
 
     def _open_recording(self):
-        from rbd_ros.bag.recording import BagWriter
-        from rbd_ros.sim.session import AppliedDigest
-        recorder = BagWriter(self.config.record_path, config=self.config.to_parameters(),
-                             overwrite=self.config.record_overwrite)
+        from rbd_ros.bag.recorder import RunRecorder
+        recorder = RunRecorder(self.config, serialize_message,
+                               overwrite=self.config.record_overwrite)
+        inputs = {topic: name for name, topic in self._input_topics.items()}
         try:
             for pub in list(self._pubs.values()) + self._input_subs:
-                msg_type = pub.msg_type
-                type_name = f'{msg_type.__module__.split(".")[0]}/msg/{msg_type.__name__}'
                 qos = pub.qos_profile  # what the endpoint really offers (qos_overrides included)
-                recorder.add_topic(pub.topic_name, type_name, {
+                recorder.add_topic(pub.topic_name, types.type_name(pub.msg_type), {
                     'history': qos.history.name.lower(), 'depth': qos.depth,
                     'reliability': qos.reliability.name.lower(),
-                    'durability': qos.durability.name.lower()})
-            for name, value in sorted(self.config.parameters.items()):
-                if name.endswith('mesh_path') and value:  # the meshes, so replay needs no files
-                    # a regular file within cfg.MAX_MESH_FILE_BYTES, as config checked it
-                    recorder.add_file(value, cfg.read_mesh_file(value, name), 'model/stl' if
-                                      value.lower().endswith('.stl') else
-                                      'application/octet-stream')
-            recorder.flush()  # a full disk fails here, at start (exit 2), not mid-run
+                    'durability': qos.durability.name.lower()}, inputs.get(pub.topic_name))
         except RbdError:
             recorder.close()
             raise
+        recorder.start(self.config.parameters)
         self._recorder = recorder
-        self._digest = AppliedDigest()  # what the run applied, for replay to compare
-        self._failure = None  # (sim time ns, message) of a non-finite step
         # Every input that takes effect is recorded at its step start, before that step runs.
         self.session.on_applied = self._record_events
         self.get_logger().info(f'recording to {recorder.path}')
 
     def _record_events(self, events):
         """Record the inputs that take effect at a step start (called before that step)."""
-        for event in events:
-            if self._recorder is not None:
-                self._digest.update(event)
-            self._record(self._input_topics[event.input_name], event.tag, event.time_ns)
+        if self._recorder is not None:
+            self._guarded(self._recorder.record_events, events)
 
     def _record(self, topic, msg, time_ns):
         """Record ``msg`` (a message, or its CDR bytes) if recording."""
         if self._recorder is not None:
-            try:
-                self._recorder.write(
-                    topic, msg if isinstance(msg, bytes) else serialize_message(msg), time_ns)
-            except RecordingError as exc:
-                stop = self.config.record_on_error == 'stop'
-                then = 'stopping the node (record_on_error: stop)' if stop else 'simulating on'
-                self.get_logger().error(f'recording stopped: {exc}; {then}')
-                self.exit_status = 1
-                self.ended_by = self.ended_by or 'recording error'
-                self._close_recording()
-                self.done = self.done or stop
+            self._guarded(self._recorder.write, topic, msg, time_ns)
+
+    def _guarded(self, write, *args):
+        try:
+            write(*args)
+        except RecordingError as exc:
+            stop = self.config.record_on_error == 'stop'
+            then = 'stopping the node (record_on_error: stop)' if stop else 'simulating on'
+            self.get_logger().error(f'recording stopped: {exc}; {then}')
+            self.exit_status = 1
+            self.ended_by = self.ended_by or 'recording error'
+            self._close_recording()
+            self.done = self.done or stop
 
     def _publish(self, key, msg, time_ns):
         pub = self._pubs[key]
@@ -419,40 +406,28 @@ class RigidBodyNode(Node):
         self._record(pub.topic_name, msg, time_ns)
 
     def _anchor(self):
-        self._wall_anchor_ns = time.monotonic_ns()
-        self._sim_anchor_ns = self.session.time_ns
+        self._pacer.anchor(self.session.time_ns)
 
     def seconds_to_next_step(self, longest_s=0.1):
         """Wall seconds until the next physics step is due (0 at RTF 0, ``longest_s`` cap)."""
-        session, rtf = self.session, self._rtf
+        session = self.session
         if session.paused or self.done:
             return longest_s
-        if rtf == 0:
-            return 0.0
-        due_ns = self._wall_anchor_ns + (
-            session.time_ns + session.timestep_ns - self._sim_anchor_ns) / rtf
-        return min(longest_s, max(0.0, (due_ns - time.monotonic_ns()) * 1e-9))
+        return self._pacer.seconds_to_next_step(session.time_ns, session.timestep_ns, longest_s)
 
     def tick(self):
         """Run the steps due by the wall clock (at RTF 0: steps) for at most the tick budget."""
         session = self.session
         if session.paused or self.done:
             return
-        deadline_ns = time.monotonic_ns() + TICK_BUDGET_NS
-        if self._rtf == 0:
+        deadline_ns = time.monotonic_ns() + pacing.TICK_BUDGET_NS
+        if self._pacer.real_time_factor == 0:
             self._run(sys.maxsize, deadline_ns=deadline_ns)
             return
-        elapsed_ns = time.monotonic_ns() - self._wall_anchor_ns
-        target_ns = self._sim_anchor_ns + (
-            elapsed_ns if self._rtf == 1.0 else int(elapsed_ns * self._rtf))
-        self._lag_max_ns = max(self._lag_max_ns, target_ns - session.time_ns)
-        due = (target_ns - session.time_ns) // session.timestep_ns
-        if due > MAX_BACKLOG_STEPS:  # too far behind: keep the cap, drop the rest
-            self._dropped_ns += (due - MAX_BACKLOG_STEPS) * session.timestep_ns
-            self._sim_anchor_ns -= (due - MAX_BACKLOG_STEPS) * session.timestep_ns
+        due, dropped = self._pacer.due_steps(session.time_ns, session.timestep_ns)
+        if dropped:  # too far behind: the cap kept, the rest dropped
             self.get_logger().warning('falling behind the wall clock: dropping wall time',
                                       throttle_duration_sec=5.0)
-            due = MAX_BACKLOG_STEPS
         if due > 0:
             self._run(due, deadline_ns=deadline_ns)
 
@@ -469,7 +444,7 @@ class RigidBodyNode(Node):
                 start_ns = time.monotonic_ns()
                 if start_ns >= deadline_ns:
                     return
-                ask = min(n_steps, max(1, (deadline_ns - start_ns) // self._step_wall_ns))
+                ask = self._pacer.steps_that_fit(n_steps, start_ns, deadline_ns)
             try:
                 report = self.session.step() if manual else self.session.advance(ask)
             except NonFiniteError as exc:
@@ -486,7 +461,7 @@ class RigidBodyNode(Node):
                     self.get_logger().error(f'{exc}; paused (call ~/reset)')
                 return
             if deadline_ns is not None and report.steps:
-                self._step_wall_ns = max(1, (time.monotonic_ns() - start_ns) // report.steps)
+                self._pacer.measured(start_ns, report.steps)
             rejected, self.session.drags.last_rejection = self.session.drags.last_rejection, None
             if rejected is not None:  # a point over max_force_n / max_torque_nm at its step
                 self._warn_rejected('drag point', rejected)
@@ -521,55 +496,22 @@ class RigidBodyNode(Node):
         contacts = self.session.simulator.contacts
         if len(contacts):
             last = contacts.stage == contacts.stage.max()
-            contacts = type(contacts)(*(getattr(contacts, f)[last]
-                                        for f in contacts.__dataclass_fields__))
+            contacts = type(contacts)(*(getattr(contacts, f.name)[last]
+                                        for f in dataclasses.fields(contacts)))
         # Lines of 1 cm per N: the last stage's impulse over the step.
         shown = markers.contact_markers(contacts, self.config.world_frame, t,
                                         0.01 / (self.config.timestep_ns * 1e-9))
         return MarkerArray(markers=list(bodies.markers) + list(shown.markers))
 
     def _publish_diagnostics(self):
-        s, now = self.session, time.monotonic_ns()
-        wall0, sim0, steps0 = self._diag_last
-        self._diag_last = (now, s.time_ns, s.steps_total)
-        energy, momentum = self._energy_and_momentum()
-        values = {
-            'sim_time_s': s.time_ns * 1e-9,
-            'real_time_factor': (s.time_ns - sim0) / max(1, now - wall0),
-            'real_time_factor_target': self._rtf, 'steps_taken': s.steps_total,
-            'paused': s.paused, 'wrenches_received': s.inputs.received_total,
-            'wrenches_rejected': s.inputs.rejected_total,
-            'drags_received': s.drags.received, 'drags_rejected': s.drags.rejected_total,
-            **{f'wrenches_rejected_{k}': v for k, v in s.inputs.rejected.items()},
-            'kinetic_energy_j': energy,
-            'angular_momentum_norm_nms': math.hypot(*momentum),
-            'wall_time_dropped_s': self._dropped_ns * 1e-9, 'resets': s.resets,
-            'pacing_lag_max_ms': self._lag_max_ns * 1e-6}
-        self._lag_max_ns = 0
-        non_finite = [key for key, value in values.items()
-                      if isinstance(value, float) and not math.isfinite(value)]
-        level = 'error' if s.error else (
-            'warn' if s.inputs.rejected_total or s.drags.rejected_total or non_finite
-            else 'ok')
-        message = s.error or ('paused' if s.paused else 'running')
-        if non_finite:
-            message += '; not finite: ' + ', '.join(non_finite)
+        s = self.session
+        values = self._diagnostics.values()
+        level, message = diagnostics_status(s, values)
         self._publish('diagnostics', conv.diagnostics_to_msg(
             s.time_ns, f'{self.get_fully_qualified_name()}: rigid body',
             self.get_fully_qualified_name() if self.config.named else
             self.config.body.body_frame,
             level, message, values), s.time_ns)
-
-    def _energy_and_momentum(self):
-        """Return the kinetic energy (J) and angular momentum (N·m·s, world) of all bodies."""
-        s = self.session
-        energy, momentum = 0.0, [0.0, 0.0, 0.0]
-        for i, body in enumerate(self.config.bodies):
-            state = s.body_state(i)
-            energy += float(state.kinetic_energy(body.model))
-            momentum = [a + float(b)
-                        for a, b in zip(momentum, state.angular_momentum_w(body.model))]
-        return energy, momentum
 
     def _warm_up(self):
         """
@@ -609,7 +551,7 @@ class RigidBodyNode(Node):
         except WrenchRejected as exc:
             self._warn_rejected(what, exc)
             return
-        if self._rtf > 0:  # run a step that became due since the last tick now: less latency
+        if self._pacer.real_time_factor > 0:  # run a step due since the last tick now
             self.tick()
 
     def _warn_rejected(self, what, exc):
@@ -657,15 +599,9 @@ class RigidBodyNode(Node):
         if recorder.failed is not None:  # already reported where it failed
             recorder.close()
             return
-        failure_ns, failure = self._failure or ('', '')
-        crash_ns, crash = self._crash or ('', '')
+        recorder.failure, recorder.exception = self._failure, self._crash
         try:
-            recorder.close(run_metadata={
-                'failure_time_ns': failure_ns, 'failure': failure,
-                'ended_by': self.ended_by or 'unknown', 'ended_at_ns': self.session.time_ns,
-                'exception_time_ns': crash_ns, 'exception': crash,
-                'wrenches_applied': self._digest.count,
-                'wrench_digest': self._digest.hexdigest()})
+            recorder.close(self.ended_by, self.session.time_ns)
             self.get_logger().info(f'recording closed: {recorder.path}')
         except RecordingError as exc:
             self.get_logger().error(f'recording not finalised: {exc}')

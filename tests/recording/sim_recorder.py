@@ -13,53 +13,60 @@
 # limitations under the License.
 
 """
-Record a scripted run by driving SimSession + BagWriter directly (the node's path minus DDS).
+Record a scripted run by driving SimSession and the node's RunRecorder (the node's path minus DDS).
 
-It records what the node records: each wrench as it took effect (``WrenchStamped`` on the
-input's absolute topic, log time = start of the step it was applied at), the outputs
-``/pose``, ``/twist``, ``/odom`` (and ``/clock`` when ``publish_clock``; no ``/tf``) at every
-sample the session reports, as the CDR bytes of the node's own
-:class:`rbd_ros.msgs.outputs.SampleBuilder`, and at close the ``rbd_ros.run`` record (digest of the
-applied wrenches; no failure).
+It records what the node records, through the same :class:`rbd_ros.bag.recorder.RunRecorder`:
+each wrench as it took effect (``WrenchStamped`` on the input's absolute topic, log time = start
+of the step it was applied at), the outputs ``/pose``, ``/twist``, ``/odom`` (and ``/clock``
+when ``publish_clock``; no ``/tf``) at every sample the session reports, as the CDR bytes of the
+node's own :class:`rbd_ros.msgs.outputs.SampleBuilder`, and at close the ``rbd_ros.run``
+record. Only the loop that drives the session is this file's: a script instead of DDS.
 """
 
+from rbd_ros.bag.recorder import RunRecorder
 from rbd_ros.bag.recording import BagWriter, open_bag
 from rbd_ros.msgs import conversions
+from rbd_ros.msgs import type_names
 from rbd_ros.msgs.outputs import SampleBuilder, TYPE_NAMES
 from rbd_ros.sim.config import NodeConfig
-from rbd_ros.sim.session import AppliedDigest, SimSession
+from rbd_ros.sim.session import SimSession
 from rclpy.serialization import serialize_message
 
 
-def record_scripted_run(path, params, script, duration_ns, run_extra=None, **writer_options):
+def record_scripted_run(path, params, script, duration_ns, ended_by='duration_s',
+                        exception=None, **writer_options):
     """
     Run ``params`` for ``duration_ns`` of sim time, submitting ``script`` wrenches; record.
 
     :param script: ``(time_ns, input_name, frame_id, force, torque)`` tuples in time order;
         each is submitted when sim time has reached ``time_ns`` (so it takes effect at the
         first step starting at or after it).
-    :param run_extra: more ``rbd_ros.run`` fields (how the run ended, e.g. an exception).
-    :returns: the closed :class:`BagWriter`.
+    :param ended_by: how the run record says the run ended.
+    :param exception: ``(sim time ns, 'Type: message')`` of an exception to record as the
+        node records one out of its loop, or None.
+    :returns: the closed :class:`RunRecorder`.
     """
     config = NodeConfig.from_parameters(params)
     session = SimSession(config)
     session.paused = False
-    writer = BagWriter(path, config=config.to_parameters(), **writer_options)
+    recorder = RunRecorder(config, serialize_message, path, **writer_options)
     builder = SampleBuilder(config, tf=False)
     topics = {kind: '/clock' if kind == 'clock' else '/' + kind for kind in builder.kinds}
     for kind in builder.kinds:
-        writer.add_topic(topics[kind], TYPE_NAMES[kind], {'depth': 10})
-    input_topics = {}
+        recorder.add_topic(topics[kind], TYPE_NAMES[kind], {'depth': 10})
     for spec in config.wrench_inputs:
-        input_topics[spec.name] = '/' + spec.topic
-        writer.add_topic('/' + spec.topic, 'geometry_msgs/msg/WrenchStamped', {'depth': 10})
-    writer.flush()
-    digest = AppliedDigest()
+        recorder.add_topic('/' + spec.topic, type_names.WRENCH_STAMPED, {'depth': 10},
+                           spec.name)
+    recorder.start(config.parameters)
 
     def publish():
         t = session.time_ns
         for kind, data in builder.serialize(t, session.columns, session.contact_wrenches_w):
-            writer.write(topics[kind], data, t)
+            recorder.write(topics[kind], data, t)
+
+    def message_of(event):
+        return conversions.wrench_to_msg(event.frame_id, event.force, event.torque,
+                                         event.time_ns)
 
     publish()
     queue = list(script)
@@ -69,18 +76,12 @@ def record_scripted_run(path, params, script, duration_ns, run_extra=None, **wri
             session.submit(name, frame_id, force, torque)
         until = min(duration_ns, queue[0][0]) if queue else duration_ns
         report = session.advance(1 << 40, until_ns=until)
-        for event in report.events:
-            digest.update(event)
-            msg = conversions.wrench_to_msg(event.frame_id, event.force, event.torque,
-                                            event.time_ns)
-            writer.write(input_topics[event.input_name], serialize_message(msg),
-                         event.time_ns)
+        recorder.record_events(report.events, message_of)
         if report.sample_due:
             publish()
-    writer.close(run_metadata={'failure_time_ns': '', 'failure': '',
-                               'wrenches_applied': digest.count,
-                               'wrench_digest': digest.hexdigest(), **(run_extra or {})})
-    return writer
+    recorder.exception = exception
+    recorder.close(ended_by, session.time_ns)
+    return recorder
 
 
 def rewrite_bag(src, dst, config_edit=None, drop=None, edit=None, extra=(), run_edit=None,

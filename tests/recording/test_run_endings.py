@@ -84,9 +84,8 @@ def test_non_finite_step_with_duration_exits_1_and_says_why(start_node, tmp_path
 def test_replay_reports_a_run_that_ended_with_an_exception(tmp_path, capsys):
     """The node records an exception out of its step loop; replay must not call that MATCH."""
     bag_path = tmp_path / 'crashed'
-    record_scripted_run(str(bag_path), {}, [], 100_000_000, run_extra={
-        'ended_by': 'exception', 'exception_time_ns': '100000000',
-        'exception': 'RuntimeError: publisher destroyed'})
+    record_scripted_run(str(bag_path), {}, [], 100_000_000, ended_by='exception',
+                        exception=(100_000_000, 'RuntimeError: publisher destroyed'))
     assert main([str(bag_path), '--no-progress']) == EXIT_RUN_FAILED
     out = capsys.readouterr().out.strip()
     assert 'run crashed: the node stopped on an exception at t = 100000000 ns: RuntimeError: ' \

@@ -1,0 +1,80 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The values the node publishes on ``/diagnostics`` once a second, and their level and message.
+
+ROS-free: :class:`Diagnostics` reads the session and the :class:`rbd_ros.sim.pacing.Pacer`;
+:func:`rbd_ros.msgs.conversions.diagnostics_to_msg` makes the message of its values.
+"""
+
+import math
+import time
+
+
+def energy_and_momentum(session):
+    """Return the kinetic energy (J) and angular momentum (N·m·s, world) of all bodies."""
+    energy, momentum = 0.0, [0.0, 0.0, 0.0]
+    for i, body in enumerate(session.config.bodies):
+        state = session.body_state(i)
+        energy += float(state.kinetic_energy(body.model))
+        momentum = [a + float(b) for a, b in zip(momentum, state.angular_momentum_w(body.model))]
+    return energy, momentum
+
+
+def status(session, values):
+    """Return ``(level, message)`` of ``values``: 'error', 'warn' or 'ok', and why."""
+    non_finite = [key for key, value in values.items()
+                  if isinstance(value, float) and not math.isfinite(value)]
+    level = 'error' if session.error else (
+        'warn' if session.inputs.rejected_total or session.drags.rejected_total or non_finite
+        else 'ok')
+    message = session.error or ('paused' if session.paused else 'running')
+    if non_finite:
+        message += '; not finite: ' + ', '.join(non_finite)
+    return level, message
+
+
+class Diagnostics:
+    """The diagnostics of one session; the real-time factor is measured between two reads."""
+
+    def __init__(self, session, pacer, clock=time.monotonic_ns):
+        """Measure from now."""
+        self.session, self.pacer, self.clock = session, pacer, clock
+        self.start()
+
+    def start(self):
+        """Measure the real-time factor from now."""
+        s = self.session
+        self._last = (self.clock(), s.time_ns, s.steps_total)
+
+    def values(self):
+        """Return name -> value (numbers, bools) since the last call; reset the lag maximum."""
+        s, now = self.session, self.clock()
+        wall0, sim0, _ = self._last
+        self._last = (now, s.time_ns, s.steps_total)
+        energy, momentum = energy_and_momentum(s)
+        return {
+            'sim_time_s': s.time_ns * 1e-9,
+            'real_time_factor': (s.time_ns - sim0) / max(1, now - wall0),
+            'real_time_factor_target': self.pacer.real_time_factor,
+            'steps_taken': s.steps_total,
+            'paused': s.paused, 'wrenches_received': s.inputs.received_total,
+            'wrenches_rejected': s.inputs.rejected_total,
+            'drags_received': s.drags.received, 'drags_rejected': s.drags.rejected_total,
+            **{f'wrenches_rejected_{k}': v for k, v in s.inputs.rejected.items()},
+            'kinetic_energy_j': energy,
+            'angular_momentum_norm_nms': math.hypot(*momentum),
+            'wall_time_dropped_s': self.pacer.dropped_ns * 1e-9, 'resets': s.resets,
+            'pacing_lag_max_ms': self.pacer.take_lag_max() * 1e-6}
