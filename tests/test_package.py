@@ -39,7 +39,7 @@ import pytest
 from rbd_ros.core.contact.shapes import load_mesh
 from rbd_ros.core.errors import ModelError
 from rbd_ros.msgs import outputs
-from rbd_ros.ros import node
+from rbd_ros.ros import endpoints
 from rbd_ros.sim import drag
 from rbd_ros.sim.config import PARAMETERS_BY_NAME
 import rclpy
@@ -327,7 +327,7 @@ def test_rviz_config_shows_what_the_node_publishes(tmp_path):
     displays = {d['Class']: d for d in config['Displays']}
     assert 'rviz_default_plugins/TF' in displays
     topics = {d['Topic']['Value']: d for d in config['Displays'] if 'Topic' in d}
-    published = set(node.OUTPUT_TOPICS) | {outputs.topic_of('poses')}
+    published = set(endpoints.OUTPUT_TOPICS) | {outputs.topic_of('poses')}
     assert set(topics) == {'markers', 'static_markers', outputs.topic_of('poses')}
     assert set(topics) <= published
     tools = [t for t in config['Tools'] if 'Topic' in t]

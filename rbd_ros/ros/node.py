@@ -32,7 +32,6 @@ node: its stamps are always its own sim time.
 
 import dataclasses
 import os
-import re
 import signal
 import sys
 import tempfile
@@ -45,6 +44,8 @@ from rbd_ros.msgs import conversions as conv
 from rbd_ros.msgs import markers
 from rbd_ros.msgs import outputs
 from rbd_ros.msgs import type_names as types
+from rbd_ros.ros import endpoints
+from rbd_ros.ros import parameters
 from rbd_ros.ros import ros_args
 from rbd_ros.sim import config as cfg
 from rbd_ros.sim import limits
@@ -54,16 +55,11 @@ from rbd_ros.sim.diagnostics import status as diagnostics_status
 from rbd_ros.sim.drag import CLICKED_POINT
 from rbd_ros.sim.inputs import WrenchRejected
 from rbd_ros.sim.session import SimSession
-from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
-                                ParameterType, SetParametersResult)
+from rcl_interfaces.msg import SetParametersResult
 import rclpy
 from rclpy.clock import Clock, ClockType
-from rclpy.exceptions import NameValidationException, ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
-from rclpy.parameter import Parameter
-from rclpy.qos import DurabilityPolicy, QoSPolicyKind, QoSProfile, ReliabilityPolicy
-from rclpy.qos_overriding_options import QoSOverridingOptions
 from rclpy.serialization import serialize_message
 from rclpy.signals import SignalHandlerOptions
 from std_srvs.srv import SetBool, Trigger
@@ -72,26 +68,6 @@ from visualization_msgs.msg import MarkerArray
 START_UP_POLL_S = 0.05  # how often the main thread looks for a signal during start-up
 #: Set once the node has loaded its meshes and run its first step (see RigidBodyNode).
 PAST_SLOW_START_UP = threading.Event()
-_TYPES = {cfg.BOOL: ParameterType.PARAMETER_BOOL, cfg.INTEGER: ParameterType.PARAMETER_INTEGER,
-          cfg.DOUBLE: ParameterType.PARAMETER_DOUBLE, cfg.STRING: ParameterType.PARAMETER_STRING,
-          cfg.DOUBLE_ARRAY: ParameterType.PARAMETER_DOUBLE_ARRAY,
-          cfg.STRING_ARRAY: ParameterType.PARAMETER_STRING_ARRAY}
-_ARRAY_TYPES = {cfg.DOUBLE_ARRAY: Parameter.Type.DOUBLE_ARRAY,
-                cfg.STRING_ARRAY: Parameter.Type.STRING_ARRAY}
-_IGNORED = ('use_sim_time', 'start_type_description_service')
-# Parameters whose names depend on a list (wrench_input_names, obstacle_names, body_names):
-# wrench_inputs.<name>.*, obstacles.<name>.*, bodies.<name>.*
-_DYNAMIC_PREFIXES = ('wrench_inputs.', 'obstacles.', 'bodies.')
-# pose, twist and odom: reliable, transient local, keep last 1: a subscriber that arrives while the
-# node is paused (ros2 topic echo pose --once) gets the latest sample. The other topics: depth 10,
-# reliable, volatile (rclpy's default). Every endpoint takes qos_overrides.<topic>.<kind>.<policy>.
-STATE_QOS = {'depth': 1, 'reliability': ReliabilityPolicy.RELIABLE,
-             'durability': DurabilityPolicy.TRANSIENT_LOCAL}
-QOS_OVERRIDES = QoSOverridingOptions(policy_kinds=(
-    QoSPolicyKind.HISTORY, QoSPolicyKind.DEPTH, QoSPolicyKind.RELIABILITY,
-    QoSPolicyKind.DURABILITY))
-OUTPUT_TOPICS = ('pose', 'twist', 'odom', 'contact_wrench', 'markers', 'static_markers', '/clock',
-                 '/diagnostics', '/tf')
 
 
 def _world_markers(config):
@@ -113,12 +89,6 @@ def _world_markers(config):
                                meshes)
 
 
-def _rcl_text(exc):
-    """Return an rcl error message without its source locations (``, at file.c:123``)."""
-    text = re.sub(r', at [^,]*:\d+', '', str(exc)).strip()
-    return re.sub(r'^failed to (initialize rcl|resolve name): ', '', text)
-
-
 class RigidBodyNode(Node):
     """Simulate one rigid body; see doc/ for parameters, topics and services."""
 
@@ -136,21 +106,20 @@ class RigidBodyNode(Node):
         self._overrides = overrides = self._read_overrides(global_args, kwargs)
         params = {}
         for name, value in overrides.items():
-            if name in cfg.PARAMETERS_BY_NAME or name.startswith(_DYNAMIC_PREFIXES) \
-                    or name in cfg.RENAMED_PARAMETERS:  # refused by name by from_parameters
+            if parameters.is_ours(name):
                 params[name] = value
-            elif name not in _IGNORED and not name.startswith('qos_overrides.'):
+            elif not parameters.is_rclpys(name):
                 self.get_logger().warning(f'ignoring unknown parameter {name} = {value!r}')
         self.config = config = cfg.NodeConfig.from_parameters(params)
-        self._check_input_topics()
+        endpoints.check_input_topics(self, config)
         self._warm_up()
         # The slow part of start-up is over (meshes loaded, kernels compiled and run once): from
         # here on a signal lets the node finish starting (linear in the bodies) and then stops
         # it as usual, so that a node seen on the graph always leaves a finalised recording.
         PAST_SLOW_START_UP.set()
         for spec in config.all_specs():
-            self._declare(spec, config.parameters[spec.name])
-        self.add_pre_set_parameters_callback(self._coerce_parameters)
+            parameters.declare(self, spec, config.parameters[spec.name])
+        self.add_pre_set_parameters_callback(parameters.coerce_parameters)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         self.session = SimSession(config)
         self.done = False
@@ -170,7 +139,7 @@ class RigidBodyNode(Node):
         # ...), contact_wrench with contact, poses in a world, /clock and /tf when on.
         depth = {'clock': 10, 'tf': 100}
         self._pubs = {kind: self._publisher(outputs.type_of(kind), outputs.topic_of(kind),
-                                            depth.get(kind, STATE_QOS))
+                                            depth.get(kind, endpoints.STATE_QOS))
                       for kind in self._builder.kinds}
         self._pubs['diagnostics'] = self._publisher(conv.DiagnosticArray, '/diagnostics', 10)
         self._markers = None
@@ -181,22 +150,21 @@ class RigidBodyNode(Node):
             self._markers = _world_markers(config)
             self._pubs['markers'] = self._publisher(MarkerArray, 'markers', 10)
             self._pubs['static_markers'] = self._publisher(MarkerArray, 'static_markers',
-                                                           STATE_QOS)
+                                                           endpoints.STATE_QOS)
         self._sample_pubs = [(kind, self._pubs[kind].publish, self._pubs[kind].topic_name)
                              for kind in self._builder.kinds]
-        self._input_subs = [self._qos_checked(
-            spec.topic, 'subscription', self.create_subscription, conv.WrenchStamped, spec.topic,
-            lambda msg, name=spec.name: self._on_wrench(name, msg), 10,
-            qos_overriding_options=QOS_OVERRIDES) for spec in config.wrench_inputs]
+        self._input_subs = [endpoints.subscription(
+            self, overrides, conv.WrenchStamped, spec.topic,
+            lambda msg, name=spec.name: self._on_wrench(name, msg))
+            for spec in config.wrench_inputs]
         if config.publish_tf and 'tf' not in self._builder.kinds:
             self.get_logger().info('tf2_msgs is not importable: not broadcasting /tf')
         # Drags: drag (<body>/drag in a world) and /clicked_point (RViz, Foxglove).
         drag_topics = {name: name for name in self.session.drags.input_names}
         drag_topics[CLICKED_POINT] = '/clicked_point'
-        point_subs = [self._qos_checked(
-            topic, 'subscription', self.create_subscription, PointStamped, topic,
-            lambda msg, name=name: self._on_point(name, msg), 10,
-            qos_overriding_options=QOS_OVERRIDES) for name, topic in drag_topics.items()]
+        point_subs = [endpoints.subscription(
+            self, overrides, PointStamped, topic, lambda msg, name=name: self._on_point(name, msg))
+            for name, topic in drag_topics.items()]
         self._input_topics = {spec.name: sub.topic_name
                               for spec, sub in zip(config.wrench_inputs, self._input_subs)}
         self._input_topics.update({name: sub.topic_name
@@ -235,6 +203,9 @@ class RigidBodyNode(Node):
         self._anchor()  # sim time 0 = now: pacing starts when the node is ready
         self._diagnostics = Diagnostics(self.session, self._pacer)
 
+    def _publisher(self, msg_type, topic, qos):
+        return endpoints.publisher(self, self._overrides, msg_type, topic, qos)
+
     def _read_overrides(self, global_args, kwargs):
         """Return name → value of this node's parameter overrides (rclpy's precedence)."""
         try:
@@ -244,99 +215,6 @@ class RigidBodyNode(Node):
                 {p.name: p.value for p in kwargs.get('parameter_overrides') or ()})
         except ros_args.RosArgsError as exc:  # rcl read the same moments ago
             raise ConfigError(str(exc)) from None
-
-    def _publisher(self, msg_type, topic, qos):
-        # A profile of its own for each publisher: rclpy writes the overrides into it.
-        qos = QoSProfile(**qos) if isinstance(qos, dict) else qos
-        return self._qos_checked(topic, 'publisher', self.create_publisher, msg_type, topic, qos,
-                                 qos_overriding_options=QOS_OVERRIDES)
-
-    def _qos_checked(self, topic, kind, create, *args, **kwargs):
-        """Create an endpoint; a bad ``qos_overrides.<topic>.<kind>.*`` value is a ConfigError."""
-        prefix = f'qos_overrides.{self.resolve_topic_name(topic)}.{kind}.'
-        depth = self._overrides.get(prefix + 'depth')
-        if isinstance(depth, int) and depth < 0:
-            raise ConfigError(f'parameter {prefix}depth = {depth}: must be >= 0')
-        try:
-            return create(*args, **kwargs)
-        except (RuntimeError, ParameterException) as exc:  # rclpy's RCLError among them
-            given = {name[len(prefix):]: value for name, value in self._overrides.items()
-                     if name.startswith(prefix)}
-            raise ConfigError(f'parameters {prefix}* = {given}: {_rcl_text(exc)}') from None
-
-    def _check_input_topics(self):
-        """Refuse an invalid input topic or one that resolves to an output or another input."""
-        outputs = {self.resolve_topic_name(topic) for topic in self._output_topics()}
-        names = [f'{b.prefix}drag' for b in self.config.bodies]
-        drags = {self.resolve_topic_name(name): name for name in names}
-        drags['/clicked_point'] = CLICKED_POINT
-        seen = {}
-        for spec in self.config.wrench_inputs:
-            body, _, name = spec.name.rpartition('/')
-            field = f'bodies.{body}.wrench_inputs.{name}' if body else f'wrench_inputs.{name}'
-            what = f'topic {spec.topic!r} of the main wrench input' if name == \
-                cfg.MAIN_INPUT else f'parameter {field}.topic = {spec.topic!r}'
-            try:
-                resolved = self.resolve_topic_name(spec.topic)
-            except (RuntimeError, NameValidationException) as exc:  # rclpy raises RCLError
-                raise ConfigError(f'{what}: not a valid topic name ({_rcl_text(exc)})') from None
-            if resolved in outputs:
-                raise ConfigError(f'{what}: resolves to {resolved}, an output of this node')
-            if resolved in drags:
-                raise ConfigError(f'{what}: resolves to {resolved}, the drag input '
-                                  f'{drags[resolved]!r} (PointStamped, not WrenchStamped)')
-            if resolved in seen:
-                raise ConfigError(f'{what}: resolves to {resolved}, the topic of wrench input '
-                                  f'{seen[resolved]!r} (it would count every wrench twice)')
-            seen[resolved] = spec.name
-
-    def _output_topics(self):
-        """Every topic an output of this node may use (contact_wrench even without contact)."""
-        bodies = self.config.bodies
-        return [outputs.topic_of(kind) for kind in outputs.SampleBuilder(
-            self.config, tf=False).kinds] + [f'{b.prefix}contact_wrench' for b in bodies] + [
-            'markers', 'static_markers', '/clock', '/diagnostics', '/tf']
-
-    def _declare(self, spec, value):
-        descriptor = ParameterDescriptor(
-            name=spec.name, type=_TYPES[spec.kind], read_only=spec.read_only,
-            description=spec.description + (f' [{spec.unit}]' if spec.unit else ''),
-            additional_constraints=spec.rule)
-        if spec.bounds is not None and spec.kind == cfg.DOUBLE and not (
-                spec.rule.startswith('> 0') and spec.bounds[0] == 0.0):
-            # A '> 0' rule has no closed range that excludes 0 but admits every positive
-            # double: the range is left out (the rule is in additional_constraints).
-            descriptor.floating_point_range = [FloatingPointRange(
-                from_value=float(spec.bounds[0]), to_value=float(spec.bounds[1]))]
-        elif spec.bounds is not None and spec.kind == cfg.INTEGER:
-            descriptor.integer_range = [IntegerRange(
-                from_value=int(spec.bounds[0]), to_value=int(spec.bounds[1]))]
-        if isinstance(value, tuple) and not value:
-            # rclpy cannot infer the type of []: declare it writable by type, give it the typed
-            # value [] (so that get_parameters, hence ros2 param dump/get, returns a value for
-            # every name), then make it read-only.
-            writable = ParameterDescriptor()
-            writable.type = descriptor.type
-            self.declare_parameter(spec.name, _ARRAY_TYPES[spec.kind], writable,
-                                   ignore_override=True)
-            self.set_parameters([Parameter(spec.name, _ARRAY_TYPES[spec.kind], [])])
-            self.set_descriptor(spec.name, descriptor)
-            return
-        if isinstance(value, tuple):
-            value = list(value)
-        self.declare_parameter(spec.name, value, descriptor, ignore_override=True)
-
-    @staticmethod
-    def _coerce_parameters(params):
-        """
-        Return ``params`` with an integer ``real_time_factor`` as a double.
-
-        ``ros2 param set <node> real_time_factor 2`` sends an INTEGER, which rclpy would refuse
-        against the DOUBLE descriptor; a params file's ``real_time_factor: 2`` is accepted.
-        """
-        return [Parameter(p.name, Parameter.Type.DOUBLE, float(p.value))
-                if p.name == 'real_time_factor' and p.type_ == Parameter.Type.INTEGER else p
-                for p in params]
 
     def _on_set_parameters(self, params):
         for param in params:
@@ -651,7 +529,7 @@ def _init_rclpy(args):
             log.seek(0)
             sys.stderr.write(log.read().decode(errors='replace'))
             return None
-    text = _rcl_text(error).replace('. Error: error not set', ': no value after :=')
+    text = endpoints.rcl_text(error).replace('. Error: error not set', ': no value after :=')
     if type(error).__name__ == 'UnknownROSArgsError':
         text = f'unknown ROS arguments {text}'
     if 'Sequence should be of same type' in text:
