@@ -56,13 +56,15 @@ import math
 import os
 from pathlib import Path
 import sys
+import tempfile
 from typing import Collection, Dict, Iterable, List, Optional, Tuple, Union
+import warnings
 
 import numpy as np
 from rbd_ros.bag import recorder as run_record
 from rbd_ros.bag.cli import open_bag_with_notes, run_on_bag
 from rbd_ros.bag.recording import Bag, open_bag, RawMessage
-from rbd_ros.core import NonFiniteError
+from rbd_ros.core import cachedir, NonFiniteError
 from rbd_ros.core.errors import RbdError
 from rbd_ros.core.rotations import quat_angle_between
 from rbd_ros.msgs import conversions
@@ -212,15 +214,20 @@ def _use_attached_meshes(bag, params):
     """
     Point every ``*mesh_path`` at the copy of the mesh the node attached to the recording.
 
-    The copies go to ``~/.cache/rbd_ros/bag_meshes/<sha256>`` (content-addressed, so shared
-    and never stale); a bag without the attachment keeps the path as recorded.
+    The copies go to ``bag_meshes/<sha256>`` in the cache folder (:mod:`rbd_ros.core.cachedir`:
+    content-addressed, so shared and never stale; a temporary folder if the cache folder is not
+    this user's alone); a bag without the attachment keeps the path as recorded.
     """
     names = [k for k, v in params.items() if k.endswith('mesh_path') and v]
     if not names:
         return
     attached = bag.attachments()
-    folder = Path(os.environ.get('XDG_CACHE_HOME') or Path.home() / '.cache') / 'rbd_ros' \
-        / 'bag_meshes'
+    folder, problem = cachedir.private_dir('bag_meshes')
+    if problem is not None:  # not safe to share: this replay's own copies
+        warnings.warn(f'{problem}; the meshes go to a temporary folder', RuntimeWarning,
+                      stacklevel=2)
+        folder = tempfile.mkdtemp(prefix='rbd_ros_bag_meshes_')
+    folder = Path(folder)
     for name in names:
         data = attached.get(params[name])
         if data is None:
@@ -228,7 +235,6 @@ def _use_attached_meshes(bag, params):
         suffix = Path(params[name]).suffix
         target = folder / (hashlib.sha256(data).hexdigest() + suffix)
         if not target.is_file():
-            folder.mkdir(parents=True, exist_ok=True)
             partial = target.with_suffix(target.suffix + f'.{os.getpid()}')
             partial.write_bytes(data)
             os.replace(partial, target)

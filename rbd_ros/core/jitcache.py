@@ -18,7 +18,8 @@ Where numba caches the compiled kernels: a private per-user directory, never the
 numba loads its on-disk cache with :mod:`pickle`, so whoever can write the cache directory can
 run code as whoever imports :mod:`rbd_ros.core`. The cache therefore lives in
 ``$NUMBA_CACHE_DIR`` if the user set it, else ``$XDG_CACHE_HOME/rbd_ros/numba`` (an absolute
-``XDG_CACHE_HOME``), else ``~/.cache/rbd_ros/numba``; directories we create get mode 0700. A
+``XDG_CACHE_HOME``), else ``~/.cache/rbd_ros/numba``, by the one rule for cache folders
+(:mod:`rbd_ros.core.cachedir`): directories we use get mode 0700. A
 directory not owned by the current user or writable by group or others is refused: the kernels
 are then compiled in memory at every start (:data:`CACHE_DIR` is None, :data:`PROBLEM` says
 why, and a warning goes to the ``rbd_ros`` logger). numba's default, ``__pycache__`` next to the
@@ -50,11 +51,10 @@ bit-for-bit results), and the GIL released.
 import hashlib
 import logging
 import os
-import stat
 import sys
 
 from numba.core import caching
-from rbd_ros.core import layout
+from rbd_ros.core import cachedir, layout
 
 _LOG = logging.getLogger('rbd_ros')
 
@@ -74,27 +74,12 @@ MARK = 'compiled-{kind}'
 
 
 def default_dir(environ=None):
-    """Return ``$XDG_CACHE_HOME/rbd_ros/numba`` or ``~/.cache/rbd_ros/numba``."""
-    environ = os.environ if environ is None else environ
-    base = environ.get('XDG_CACHE_HOME', '')
-    if not os.path.isabs(base):  # the XDG spec: a relative value is to be ignored
-        base = os.path.join(os.path.expanduser('~'), '.cache')
-    return os.path.join(base, 'rbd_ros', 'numba')
+    """Return ``numba`` in :func:`rbd_ros.core.cachedir.base_dir` (the cache folder rule)."""
+    return os.path.join(cachedir.base_dir(environ), 'numba')
 
 
-def unsafe_reason(path):
-    """Return why directory ``path`` must not hold a pickle-loaded cache, or None if it is ok."""
-    try:
-        info = os.stat(path)
-    except OSError as exc:
-        return f'cannot stat it ({exc.strerror})'
-    if not stat.S_ISDIR(info.st_mode):
-        return 'not a directory'
-    if info.st_uid != os.getuid():
-        return f'owned by uid {info.st_uid}, not by this user (uid {os.getuid()})'
-    if info.st_mode & (stat.S_IWGRP | stat.S_IWOTH):
-        return f'writable by group or others (mode {stat.S_IMODE(info.st_mode):04o})'
-    return None
+#: Why a directory must not hold the cache (:func:`rbd_ros.core.cachedir.unsafe_reason`).
+unsafe_reason = cachedir.unsafe_reason
 
 
 def configure(environ=None, subdir=None):
@@ -119,17 +104,11 @@ def configure(environ=None, subdir=None):
     if subdir and os.path.basename(path) != subdir:
         path = os.path.join(path, subdir)
         ours.append(path)
+    refused = cachedir.make_private(ours)  # outermost first: nothing below a refused one
     problem = None
-    for directory in ours:  # outermost first: nothing is created below a refused directory
-        try:
-            os.makedirs(directory, mode=0o700, exist_ok=True)
-            problem = unsafe_reason(directory)
-        except OSError as exc:
-            problem = f'cannot create it ({exc.strerror})'
-        if problem:
-            problem = f'numba cache directory {directory}: {problem}; compiling the physics ' \
-                      'kernels in memory at every start (no on-disk cache)'
-            break
+    if refused is not None:
+        problem = f'numba cache directory {refused[0]}: {refused[1]}; compiling the physics ' \
+                  'kernels in memory at every start (no on-disk cache)'
     CACHE_DIR, PROBLEM = (None, problem) if problem else (path, None)
     if problem:
         _LOG.warning(problem)

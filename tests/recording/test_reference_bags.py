@@ -149,3 +149,16 @@ def test_every_message_decodes_with_the_stored_schemas(bag):
             counts[channel.topic] = counts.get(channel.topic, 0) + 1
     assert counts == {t: info.message_count for t, info in opened.topics.items()
                       if info.message_count}
+
+
+def test_a_mesh_bag_replays_from_a_temporary_copy_when_the_cache_is_not_private(
+        tmp_path, monkeypatch):
+    """The mesh copies follow the cache-folder rule: a shared cache folder is not trusted."""
+    shared = tmp_path / 'rbd_ros'
+    shared.mkdir()
+    shared.chmod(0o777)
+    monkeypatch.setenv('XDG_CACHE_HOME', str(tmp_path))
+    with pytest.warns(RuntimeWarning, match='writable by group or others.*temporary folder'):
+        result = replay_bag(open_bag(str(REPO / 'bags' / 'l_block_bin')))
+    assert result.match, result.problems
+    assert not (shared / 'bag_meshes').exists()  # nothing written into the shared folder

@@ -47,7 +47,7 @@ rims every ``s / 2``.  Per kind:
 * mesh: the vertices plus points on each edge every ``s / 2``.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 import hashlib
 import math
 import numbers
@@ -59,7 +59,7 @@ import zipfile
 
 import numpy as np
 
-from rbd_ros.core import jitcache
+from rbd_ros.core import cachedir, jitcache
 from rbd_ros.core.contact import kernels as k
 from rbd_ros.core.errors import ModelError
 from rbd_ros.core.inertia import from_shape, shape_dimensions, triangle_mesh
@@ -145,8 +145,8 @@ class CollisionShape:
     def __eq__(self, other):
         if not isinstance(other, CollisionShape):
             return NotImplemented
-        return all(np.array_equal(getattr(self, f), getattr(other, f))
-                   for f in self.__dataclass_fields__)
+        return all(np.array_equal(getattr(self, f.name), getattr(other, f.name))
+                   for f in fields(self))
 
     __hash__ = None
 
@@ -390,26 +390,16 @@ def plane_shape(normal, offset_m, field=''):
 
 
 def sdf_cache_dir():
-    """Return the SDF cache folder: ``$XDG_CACHE_HOME/rbd_ros/sdf`` or ``~/.cache/rbd_ros/sdf``."""
-    base = os.environ.get('XDG_CACHE_HOME') or os.path.join(os.path.expanduser('~'), '.cache')
-    return Path(base) / 'rbd_ros' / 'sdf'
+    """Return the SDF cache folder, ``sdf`` in :func:`rbd_ros.core.cachedir.base_dir`."""
+    return Path(cachedir.base_dir()) / 'sdf'
 
 
 def _private_dir(path):
-    """Create ``path`` (and missing parents, mode 0700); return it if it is ours, else None."""
-    try:
-        for folder in reversed((path,) + tuple(path.parents)):
-            if not folder.exists():
-                folder.mkdir(mode=0o700)
-        info = path.stat()
-        if info.st_uid != os.getuid():
-            warnings.warn(f'SDF cache {str(path)!r} belongs to another user; not used',
-                          RuntimeWarning, stacklevel=3)
-            return None
-        if info.st_mode & 0o777 != 0o700:
-            path.chmod(0o700)
-    except OSError as exc:
-        warnings.warn(f'SDF cache {str(path)!r} is not usable ({exc}); building without it',
+    """Return ``path`` created and checked by the cache rule (:mod:`cachedir`), or None."""
+    default = path == sdf_cache_dir()
+    refused = cachedir.make_private((str(path.parent), str(path)) if default else (str(path),))
+    if refused is not None:
+        warnings.warn(f'SDF cache {refused[0]!r}: {refused[1]}; building without it',
                       RuntimeWarning, stacklevel=3)
         return None
     return path
