@@ -50,6 +50,11 @@ S_QUAT = 3
 S_VEL = 7
 S_OMEGA = 10
 N_STATE = 13
+#: The same rows as slices, for code outside the kernels (rows of a column or of the array).
+POS = slice(S_POS, S_QUAT)
+QUAT = slice(S_QUAT, S_VEL)
+VEL = slice(S_VEL, S_OMEGA)
+OMEGA = slice(S_OMEGA, N_STATE)
 
 # Parameter rows (26, N).
 P_MASS = 0

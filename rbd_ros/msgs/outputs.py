@@ -60,7 +60,7 @@ from geometry_msgs.msg import (PoseArray, PoseStamped, TransformStamped, TwistSt
                                WrenchStamped)
 from nav_msgs.msg import Odometry
 import numpy as np
-from rbd_ros.core import BodyState
+from rbd_ros.core import BodyState, layout
 from rbd_ros.msgs import conversions as conv
 from rbd_ros.msgs import type_names as types
 from rbd_ros.sim.config import NS_PER_S
@@ -170,11 +170,12 @@ class BodyOutputs:
 
     def list_values(self, x):
         """Return :meth:`column_values` of the column given as a list of its 13 floats."""
-        q = x[3:7]
+        q = x[layout.QUAT]
         if abs(((q[0] * q[0] + q[1] * q[1]) + q[2] * q[2]) + q[3] * q[3] - 1.0) \
                 > _UNIT_NORM_SQ_TOL:
-            return self.values(BodyState(x[0:3], q, x[7:10], x[10:13]))
-        return _values(x[0:3], q, x[7:10], x[10:13], self.twist_frame == 'world')
+            return self.values(BodyState(x[layout.POS], q, x[layout.VEL], x[layout.OMEGA]))
+        return _values(x[layout.POS], q, x[layout.VEL], x[layout.OMEGA],
+                       self.twist_frame == 'world')
 
     def serialize(self, time_ns, values, contact_wrench=None):
         """

@@ -56,7 +56,7 @@ from dataclasses import dataclass, field
 import hashlib
 import struct
 
-from rbd_ros.core import NonFiniteError
+from rbd_ros.core import layout, NonFiniteError
 from rbd_ros.sim.config import make_simulator
 from rbd_ros.sim.drag import DragInputs
 from rbd_ros.sim.inputs import WorldInputs
@@ -265,7 +265,8 @@ class SimSession:
     def _state_of(self, index):
         """Return body ``index``'s position, orientation, velocity and ω_b (views, no copy)."""
         x = self.simulator.arrays[0]
-        return x[0:3, index], x[3:7, index], x[7:10, index], x[10:13, index]
+        return (x[layout.POS, index], x[layout.QUAT, index], x[layout.VEL, index],
+                x[layout.OMEGA, index])
 
     def _steps_to_next_sample(self, time_ns):
         period = self.config.publish_period_ns

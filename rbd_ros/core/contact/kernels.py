@@ -67,8 +67,8 @@ N_SHAPE_PARAM = 8
 #: round-off of the point's coordinates.  Boxes side by side meet their diagonal neighbours
 #: edge on edge; their edge points got normals anywhere between the two faces' (and tilted
 #: up or down at the corners).  In a grid of 1000 boxes a patch normal tilted 7° like that
-#: read 1.8 µm of depth that was not there (see step.DEPTH_READ_ERROR_M), and one tilted
-#: from the faces by less than atan μ can lock as a wedge (see step._consistent_normals).
+#: read 1.8 µm of depth that was not there (see rows.DEPTH_READ_ERROR_M), and one tilted
+#: from the faces by less than atan μ can lock as a wedge (see manifold._consistent_normals).
 #: φ is the exact distance all the same.
 EDGE_ROUNDOFF_M = 1e-12
 

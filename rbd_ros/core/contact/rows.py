@@ -171,7 +171,7 @@ WARM_LEFT_MAX_M_S = 1e-6
 _jit = jitcache.kernel()
 _inl = jitcache.kernel(inline='always')
 #: Functions that allocate nothing (the loops per pair, per patch, per body) are compiled
-#: without numba's reference counting (see the module docstring, "Reference counts").
+#: without numba's reference counting (see :mod:`rbd_ros.core.contact.step`, "Reference counts").
 _raw = jitcache.raw_kernel()
 
 
