@@ -36,7 +36,7 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2]))
 
 from nav_msgs.msg import Odometry  # noqa: E402
 from rbd_ros.bag.recording import BagWriter  # noqa: E402
-from rbd_ros.msgs.outputs import BodyOutputs, TYPE_NAMES  # noqa: E402
+from rbd_ros.msgs.outputs import SampleBuilder, TYPE_NAMES  # noqa: E402
 from rbd_ros.sim.config import check_first_step, NodeConfig  # noqa: E402
 from rbd_ros.sim.session import SimSession  # noqa: E402
 from rclpy.serialization import serialize_message  # noqa: E402
@@ -49,8 +49,7 @@ def _run(writer):
     check_first_step(config)  # compiles the kernel: not part of the figures
     session = SimSession(config)
     session.paused = False
-    builder = BodyOutputs(config, tf=False)
-    column = session.state_column
+    builder = SampleBuilder(config, tf=False)  # the node's path
     if writer is not None:
         for kind in builder.kinds:
             writer.add_topic('/' + kind, TYPE_NAMES[kind], {'depth': 10})
@@ -59,7 +58,7 @@ def _run(writer):
         report = session.advance(1000, until_ns=SIM_NS)
         if report.sample_due:
             t = session.time_ns
-            samples = builder.serialize(t, builder.column_values(column))
+            samples = builder.serialize(t, session.columns)
             if writer is not None:
                 for kind, data in samples:
                     writer.write('/' + kind, data, t)
