@@ -41,7 +41,7 @@ from rbd_ros.core.errors import ModelError
 from rbd_ros.msgs import outputs
 from rbd_ros.ros import endpoints
 from rbd_ros.sim import drag
-from rbd_ros.sim.config import PARAMETERS_BY_NAME
+from rbd_ros.sim.params import PARAMETERS_BY_NAME
 import rclpy
 from rclpy.context import Context
 from rclpy.qos import DurabilityPolicy

@@ -31,7 +31,7 @@ from typing import Optional, Sequence, Tuple, TYPE_CHECKING, Union
 import numpy as np
 from rbd_ros.core.errors import ConfigError, InputError
 from rbd_ros.core.rotations import quat_to_matrix
-from rbd_ros.sim.config import NS_PER_S
+from rbd_ros.sim.params import NS_PER_S
 from rbd_ros.sim.tessellation import body_color, plane_frame, shape_triangles
 
 if TYPE_CHECKING:  # pragma: no cover - annotations only

@@ -41,7 +41,7 @@ from rbd_ros.core.model import BodyModel
 from rbd_ros.core.rotations import quat_log, quat_to_matrix
 from rbd_ros.msgs import type_names as types
 from rbd_ros.msgs.conversions import quaternion_from_msg as _quat, vector_from_msg as _vec
-from rbd_ros.sim.config import NS_PER_S, recorded_parameters
+from rbd_ros.sim.params import NS_PER_S, recorded_parameters
 
 SAVE_DPI = 90
 

@@ -24,7 +24,7 @@ write each sample's CDR bytes, and close it with the ``rbd_ros.run`` record, who
 
 from rbd_ros.bag.recording import BagWriter
 from rbd_ros.core import RbdError
-from rbd_ros.sim import config as cfg
+from rbd_ros.sim import meshes
 from rbd_ros.sim.session import AppliedDigest
 
 # The keys of the rbd_ros.run record (every value is stored as a string).
@@ -92,8 +92,8 @@ class RunRecorder:
         try:
             for name, value in sorted(parameters.items()):
                 if name.endswith('mesh_path') and value:
-                    # a regular file within cfg.MAX_MESH_FILE_BYTES, as config checked it
-                    self.writer.add_file(value, cfg.read_mesh_file(value, name),
+                    # a regular file within MAX_MESH_FILE_BYTES, as config checked it
+                    self.writer.add_file(value, meshes.read_mesh_file(value, name),
                                          mesh_media_type(value))
             self.writer.flush()
         except RbdError:

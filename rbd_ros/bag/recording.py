@@ -67,8 +67,9 @@ from rbd_ros.bag.format import (  # noqa: F401
     MAX_YAML_BYTES, MCAP_MAGIC, normalize_qos, os_error_text, ROSBAG2_METADATA_VERSION,
     RUN_METADATA_NAME)
 from rbd_ros.bag.reader import Bag, open_bag, RawMessage, TopicInfo  # noqa: F401
-from rbd_ros.core.errors import RecordingError
+from rbd_ros.core.errors import RbdError, RecordingError
 from rbd_ros.msgs import schemas
+from rbd_ros.sim.params import PARAMETERS_BY_NAME, to_ns
 import yaml
 
 _COMPRESSION = {
@@ -212,13 +213,17 @@ class BagWriter:
                 or re.fullmatch(re.escape(self.name) + r'_\d+\.mcap', entry) is not None)
 
     def _config_record(self, extra):
-        timestep_s = self._config.get('timestep_s')
+        try:  # the config's own rule for seconds -> ns (a config that breaks it records '')
+            timestep_ns = str(to_ns(PARAMETERS_BY_NAME['timestep_s'],
+                                    float(self._config['timestep_s'])))
+        except (KeyError, TypeError, ValueError, RbdError):
+            timestep_ns = ''
         record = {
             'format': CONFIG_FORMAT,
             'package_version': __version__,
             'config_yaml': yaml.safe_dump(self._config, sort_keys=True),
             'integrator': str(self._config.get('integrator', '')),
-            'timestep_ns': '' if timestep_s is None else str(round(float(timestep_s) * 1e9)),
+            'timestep_ns': timestep_ns,
         }
         for key, value in (extra or {}).items():
             record[str(key)] = str(value)

@@ -71,8 +71,9 @@ from rbd_ros.msgs import conversions
 from rbd_ros.msgs import outputs
 from rbd_ros.msgs import type_names as types
 from rbd_ros.sim import limits
-from rbd_ros.sim.config import NodeConfig, recorded_parameters
+from rbd_ros.sim.config import NodeConfig
 from rbd_ros.sim.inputs import AppliedEvent, WrenchRejected
+from rbd_ros.sim.params import recorded_parameters
 from rbd_ros.sim.session import AppliedDigest, SimSession
 
 WRENCH_TYPE = types.WRENCH_STAMPED

@@ -24,7 +24,7 @@ module has the time stamps, the wrench input and the diagnostics.
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Quaternion, WrenchStamped
-from rbd_ros.sim.config import NS_PER_S
+from rbd_ros.sim.params import NS_PER_S
 
 
 def time_to_msg(time_ns):

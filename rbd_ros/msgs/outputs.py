@@ -63,7 +63,7 @@ import numpy as np
 from rbd_ros.core import BodyState, layout
 from rbd_ros.msgs import conversions as conv
 from rbd_ros.msgs import type_names as types
-from rbd_ros.sim.config import NS_PER_S
+from rbd_ros.sim.params import NS_PER_S
 from rosgraph_msgs.msg import Clock
 
 try:  # tf2_msgs is on every Jazzy install but not in the PyPI wheels.

@@ -25,7 +25,7 @@ import re
 
 from rbd_ros.core import ConfigError
 from rbd_ros.msgs import outputs
-from rbd_ros.sim import config as cfg
+from rbd_ros.sim import params as sim_params
 from rbd_ros.sim.drag import CLICKED_POINT
 from rclpy.exceptions import NameValidationException, ParameterException
 from rclpy.qos import DurabilityPolicy, QoSPolicyKind, QoSProfile, ReliabilityPolicy
@@ -100,7 +100,7 @@ def check_input_topics(node, config):
         body, _, name = spec.name.rpartition('/')
         field = f'bodies.{body}.wrench_inputs.{name}' if body else f'wrench_inputs.{name}'
         what = f'topic {spec.topic!r} of the main wrench input' if name == \
-            cfg.MAIN_INPUT else f'parameter {field}.topic = {spec.topic!r}'
+            sim_params.MAIN_INPUT else f'parameter {field}.topic = {spec.topic!r}'
         try:
             resolved = node.resolve_topic_name(spec.topic)
         except (RuntimeError, NameValidationException) as exc:  # rclpy raises RCLError

@@ -47,9 +47,12 @@ from rbd_ros.msgs import type_names as types
 from rbd_ros.ros import endpoints
 from rbd_ros.ros import parameters
 from rbd_ros.ros import ros_args
+from rbd_ros.sim import build
 from rbd_ros.sim import config as cfg
 from rbd_ros.sim import limits
+from rbd_ros.sim import meshes as mesh_files
 from rbd_ros.sim import pacing
+from rbd_ros.sim import params as sim_params
 from rbd_ros.sim.diagnostics import Diagnostics
 from rbd_ros.sim.diagnostics import status as diagnostics_status
 from rbd_ros.sim.drag import CLICKED_POINT
@@ -81,8 +84,9 @@ def _world_markers(config):
     meshes = []
     for prefix in (b.parameter_prefix for b in config.bodies):
         path = config.parameters.get(prefix + 'mesh_path', '')
-        meshes.append((markers.mesh_uri(path, cfg.resolve_mesh_path(path, prefix + 'mesh_path')),
-                       config.parameters.get(prefix + 'mesh_scale', (1.0, 1.0, 1.0)))
+        uri = markers.mesh_uri(path, mesh_files.resolve_mesh_path(path, prefix + 'mesh_path')) \
+            if path else None
+        meshes.append((uri, config.parameters.get(prefix + 'mesh_scale', (1.0, 1.0, 1.0)))
                       if path else None)
     return markers.BodyMarkers([b.label for b in config.bodies],
                                [b.collision_shape for b in config.bodies], config.world_frame,
@@ -227,7 +231,7 @@ class RigidBodyNode(Node):
                     'at start, as launch files do)'))
             if param.name == 'real_time_factor':
                 try:
-                    cfg.check_real_time_factor(param.value)
+                    sim_params.check_real_time_factor(param.value)
                 except RbdError as exc:
                     return SetParametersResult(successful=False, reason=str(exc))
         for param in params:
@@ -393,7 +397,7 @@ class RigidBodyNode(Node):
 
     def _warm_up(self):
         """
-        Take the first physics step on a throw-away simulator (:func:`cfg.check_first_step`).
+        Take the first physics step on a throw-away simulator (:func:`build.check_first_step`).
 
         That compiles the physics kernels (or loads them from numba's cache): logged when it
         compiles, so the check comes after the look into the cache.
@@ -403,7 +407,7 @@ class RigidBodyNode(Node):
         if not on_disk:
             self.get_logger().info(jitcache.compile_notice(contact))
         start = time.monotonic()
-        cfg.check_first_step(self.config)  # in main()'s start-up thread: a signal is seen
+        build.check_first_step(self.config)  # in main()'s start-up thread: a signal is seen
         if not on_disk:
             jitcache.mark_compiled(contact)
             self.get_logger().info(

@@ -20,17 +20,19 @@ this module only says how a row of it becomes an rclpy parameter, so that ``ros2
 describe`` shows the unit, the range and the rule the node enforces.
 """
 
-from rbd_ros.sim import config as cfg
+from rbd_ros.sim import params as sim_params
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 ParameterType)
 from rclpy.parameter import Parameter
 
-_TYPES = {cfg.BOOL: ParameterType.PARAMETER_BOOL, cfg.INTEGER: ParameterType.PARAMETER_INTEGER,
-          cfg.DOUBLE: ParameterType.PARAMETER_DOUBLE, cfg.STRING: ParameterType.PARAMETER_STRING,
-          cfg.DOUBLE_ARRAY: ParameterType.PARAMETER_DOUBLE_ARRAY,
-          cfg.STRING_ARRAY: ParameterType.PARAMETER_STRING_ARRAY}
-_ARRAY_TYPES = {cfg.DOUBLE_ARRAY: Parameter.Type.DOUBLE_ARRAY,
-                cfg.STRING_ARRAY: Parameter.Type.STRING_ARRAY}
+_TYPES = {sim_params.BOOL: ParameterType.PARAMETER_BOOL,
+          sim_params.INTEGER: ParameterType.PARAMETER_INTEGER,
+          sim_params.DOUBLE: ParameterType.PARAMETER_DOUBLE,
+          sim_params.STRING: ParameterType.PARAMETER_STRING,
+          sim_params.DOUBLE_ARRAY: ParameterType.PARAMETER_DOUBLE_ARRAY,
+          sim_params.STRING_ARRAY: ParameterType.PARAMETER_STRING_ARRAY}
+_ARRAY_TYPES = {sim_params.DOUBLE_ARRAY: Parameter.Type.DOUBLE_ARRAY,
+                sim_params.STRING_ARRAY: Parameter.Type.STRING_ARRAY}
 #: Parameters rclpy or launch set on every node: neither ours nor worth a warning.
 RCLPY_PARAMETERS = ('use_sim_time', 'start_type_description_service')
 # Parameters whose names depend on a list (wrench_input_names, obstacle_names, body_names):
@@ -40,8 +42,8 @@ _DYNAMIC_PREFIXES = ('wrench_inputs.', 'obstacles.', 'bodies.')
 
 def is_ours(name):
     """Return whether ``name`` is for the config (a renamed one too: it refuses it by name)."""
-    return (name in cfg.PARAMETERS_BY_NAME or name.startswith(_DYNAMIC_PREFIXES)
-            or name in cfg.RENAMED_PARAMETERS)
+    return (name in sim_params.PARAMETERS_BY_NAME or name.startswith(_DYNAMIC_PREFIXES)
+            or name in sim_params.RENAMED_PARAMETERS)
 
 
 def is_rclpys(name):
@@ -55,13 +57,13 @@ def descriptor(spec):
         name=spec.name, type=_TYPES[spec.kind], read_only=spec.read_only,
         description=spec.description + (f' [{spec.unit}]' if spec.unit else ''),
         additional_constraints=spec.rule)
-    if spec.bounds is not None and spec.kind == cfg.DOUBLE and not (
+    if spec.bounds is not None and spec.kind == sim_params.DOUBLE and not (
             spec.rule.startswith('> 0') and spec.bounds[0] == 0.0):
         # A '> 0' rule has no closed range that excludes 0 but admits every positive
         # double: the range is left out (the rule is in additional_constraints).
         result.floating_point_range = [FloatingPointRange(
             from_value=float(spec.bounds[0]), to_value=float(spec.bounds[1]))]
-    elif spec.bounds is not None and spec.kind == cfg.INTEGER:
+    elif spec.bounds is not None and spec.kind == sim_params.INTEGER:
         result.integer_range = [IntegerRange(
             from_value=int(spec.bounds[0]), to_value=int(spec.bounds[1]))]
     return result

@@ -123,7 +123,7 @@ def check_steps(bag):
     :param bag: an opened :class:`rbd_ros.bag.recording.Bag`.
     :raises RecordingError: naming ``timestep_s``, its value, the steps and the limits.
     """
-    from rbd_ros.sim.config import recorded_parameters  # today's names, also for an old bag
+    from rbd_ros.sim.params import recorded_parameters  # today's names, also for an old bag
     config = recorded_parameters(bag.config or {})
     timestep_s = config.get('timestep_s')
     if isinstance(timestep_s, (int, float)) and timestep_s > 0 and bag.end_ns:

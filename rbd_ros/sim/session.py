@@ -57,7 +57,7 @@ import hashlib
 import struct
 
 from rbd_ros.core import layout, NonFiniteError
-from rbd_ros.sim.config import make_simulator
+from rbd_ros.sim.build import make_simulator
 from rbd_ros.sim.drag import DragInputs
 from rbd_ros.sim.inputs import WorldInputs
 from rbd_ros.sim.limits import step_chunk

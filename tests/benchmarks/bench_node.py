@@ -222,7 +222,8 @@ def breakdown(sim_seconds=20):
     """Time per sim second of each part of the node's work, in-process (rclpy, no DDS peer)."""
     from rbd_ros.bag.recording import BagWriter
     from rbd_ros.msgs import outputs
-    from rbd_ros.sim.config import check_first_step, NodeConfig
+    from rbd_ros.sim.build import check_first_step
+    from rbd_ros.sim.config import NodeConfig
     from rbd_ros.sim.session import SimSession
     import rclpy
     c = NodeConfig.from_parameters({'publish_rate_hz': 100.0, 'real_time_factor': 0.0,

@@ -37,7 +37,8 @@ sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[2]))
 from nav_msgs.msg import Odometry  # noqa: E402
 from rbd_ros.bag.recording import BagWriter  # noqa: E402
 from rbd_ros.msgs.outputs import SampleBuilder, TYPE_NAMES  # noqa: E402
-from rbd_ros.sim.config import check_first_step, NodeConfig  # noqa: E402
+from rbd_ros.sim.build import check_first_step  # noqa: E402
+from rbd_ros.sim.config import NodeConfig  # noqa: E402
 from rbd_ros.sim.session import SimSession  # noqa: E402
 from rclpy.serialization import serialize_message  # noqa: E402
 

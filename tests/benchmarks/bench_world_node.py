@@ -71,7 +71,8 @@ def node_wall_s(params_file, sim_s):
 
 def core_step_us(params, steps):
     """Return µs per step of the core world of ``params`` (no node, no publishing)."""
-    from rbd_ros.sim.config import make_simulator, NodeConfig
+    from rbd_ros.sim.build import make_simulator
+    from rbd_ros.sim.config import NodeConfig
     sim = make_simulator(NodeConfig.from_parameters(params))
     sim.step(10)
     start = time.perf_counter()

@@ -30,7 +30,8 @@ import numpy as np
 import pytest
 from rbd_ros.bag.plot import draw, load_series, load_world, main, render, SAVE_DPI
 from rbd_ros.bag.recording import open_bag
-from rbd_ros.sim.config import NodeConfig, recorded_parameters
+from rbd_ros.sim.config import NodeConfig
+from rbd_ros.sim.params import recorded_parameters
 import yaml
 
 REPO = Path(__file__).resolve().parents[2]

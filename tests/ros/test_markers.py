@@ -38,7 +38,7 @@ from rbd_ros.core.model import BodyModel
 from rbd_ros.core.rotations import quat_from_axis_angle, quat_to_matrix
 from rbd_ros.core.state import BodyState
 from rbd_ros.msgs import markers
-from rbd_ros.sim.config import resolve_mesh_path
+from rbd_ros.sim.meshes import resolve_mesh_path
 from rclpy.serialization import deserialize_message, serialize_message
 from ros_probe import Probe
 import trimesh

@@ -25,7 +25,7 @@ import os
 from conftest import REPO
 import pytest
 from rbd_ros.bag.recording import open_bag
-from rbd_ros.sim import config as cfg
+from rbd_ros.sim import params as sim_params
 from rbd_ros.sim.config import NodeConfig
 import yaml
 
@@ -51,7 +51,7 @@ def _fifo(tmp):
 def _sparse(tmp):
     path = tmp / 'huge.stl'
     with open(path, 'wb') as f:
-        f.truncate(cfg.MAX_MESH_FILE_BYTES + 1)  # sparse: no disk, no time
+        f.truncate(sim_params.MAX_MESH_FILE_BYTES + 1)  # sparse: no disk, no time
     return str(path)
 
 
@@ -85,17 +85,18 @@ CASES = [  # (base params file, params from tmp_path, what the one line must con
      ['parameter obstacles.o.mesh_path', 'mesh.fifo', 'not a regular file']),
     (DEFAULT, lambda tmp: {**_obstacle(shape='mesh', mesh_path=_sparse(tmp)),
                            'obstacles.o.dimensions_m': []},
-     ['parameter obstacles.o.mesh_path', 'huge.stl', f'limit of {cfg.MAX_MESH_FILE_BYTES} bytes']),
+     ['parameter obstacles.o.mesh_path', 'huge.stl',
+      f'limit of {sim_params.MAX_MESH_FILE_BYTES} bytes']),
     (None, lambda tmp: {'wrench_input_names': ['a'], 'wrench_inputs.a.topic': 'drag'},
      ["parameter wrench_inputs.a.topic = 'drag'", "drag input 'drag'"]),
     (None, lambda tmp: {'wrench_input_names': ['a'], 'wrench_inputs.a.topic': '/clicked_point'},
      ["parameter wrench_inputs.a.topic = '/clicked_point'", "drag input 'clicked_point'"]),
     (None, lambda tmp: {'shape': 'box', 'dimensions_m': [1e300, 1.0, 1.0]},
-     ['parameter dimensions_m = [1e+300, 1.0, 1.0] m', f'at most {cfg.MAX_SIZE:g} m']),
+     ['parameter dimensions_m = [1e+300, 1.0, 1.0] m', f'at most {sim_params.MAX_SIZE:g} m']),
     (None, lambda tmp: {'mesh_path': L_BLOCK, 'mesh_scale': [1e100, 1e100, 1e100]},
      ['parameter mesh_scale = [1e+100, 1e+100, 1e+100]']),
     (None, lambda tmp: {'body_names': [f'b{i}' for i in range(15000)]},
-     ['parameter body_names = ', f'15000 bodies exceed the limit of {cfg.MAX_BODIES}']),
+     ['parameter body_names = ', f'15000 bodies exceed the limit of {sim_params.MAX_BODIES}']),
     (None, _stack_with_spin,
      ['parameter bodies.middle.initial_angular_velocity = [1e+200, 0.0, 0.0] rad/s',
       'not finite']),

@@ -26,7 +26,8 @@ import pytest
 from rbd_ros.core import ConfigError, ModelError
 from rbd_ros.core import inertia as inertia_mod
 from rbd_ros.ros import ros_args
-from rbd_ros.sim import config as cfg
+from rbd_ros.sim import build
+from rbd_ros.sim import params as sim_params
 from rbd_ros.sim.config import NodeConfig
 import yaml
 
@@ -41,15 +42,15 @@ ISSUE_NAMES = (
 
 
 def test_the_table_holds_every_public_name_with_description_and_a_valid_default():
-    names = [spec.name for spec in cfg.PARAMETERS]
+    names = [spec.name for spec in sim_params.PARAMETERS]
     assert len(names) == len(set(names))
     assert set(ISSUE_NAMES) <= set(names)
-    for spec in cfg.PARAMETERS:
+    for spec in sim_params.PARAMETERS:
         assert spec.description.endswith('.'), spec.name
         if spec.bounds is not None:
             assert spec.bounds[0] <= spec.default <= spec.bounds[1], spec.name
     defaults = NodeConfig.from_parameters({})
-    assert defaults.parameters == {s.name: s.default for s in cfg.PARAMETERS}
+    assert defaults.parameters == {s.name: s.default for s in sim_params.PARAMETERS}
 
 
 def test_defaults_are_the_issue_defaults():
@@ -170,11 +171,12 @@ def test_an_empty_array_that_arrives_as_not_set_means_the_empty_default():
 
 
 def test_real_time_factor_check_for_live_changes():
-    assert cfg.check_real_time_factor(0.0) == 0.0
-    assert cfg.check_real_time_factor(1e-3) == 1e-3 and cfg.check_real_time_factor(1e6) == 1e6
+    assert sim_params.check_real_time_factor(0.0) == 0.0
+    assert sim_params.check_real_time_factor(1e-3) == 1e-3
+    assert sim_params.check_real_time_factor(1e6) == 1e6
     for bad in (5e-324, 9.99e-4, 1.0000001e6, -1.0, math.inf, math.nan):
         with pytest.raises(ConfigError, match='parameter real_time_factor = '):
-            cfg.check_real_time_factor(bad)
+            sim_params.check_real_time_factor(bad)
 
 
 @pytest.mark.parametrize('params, name', [
@@ -188,11 +190,11 @@ def test_a_non_finite_first_step_is_refused_naming_the_parameter(params, name):
     # Each value is finite and valid on its own; the first physics step overflows.
     config = NodeConfig.from_parameters(params)
     with pytest.raises(ConfigError) as info:
-        cfg.check_first_step(config)
+        build.check_first_step(config)
     message = str(info.value)
     assert message.startswith(f'parameter {name} = ') and 'not finite' in message, message
     assert '\n' not in message
-    cfg.check_first_step(NodeConfig.from_parameters({}))  # the defaults step finitely
+    build.check_first_step(NodeConfig.from_parameters({}))  # the defaults step finitely
 
 
 def test_msg_config_files_are_valid_configs():
@@ -217,13 +219,14 @@ def test_config_and_session_do_not_import_rclpy():
 
 def test_the_docs_document_every_parameter():
     reference = (REPO / 'doc' / 'parameters.md').read_text()
-    for spec in (cfg.PARAMETERS + cfg.input_parameter_specs('<name>')
-                 + cfg.obstacle_parameter_specs('<name>')):
+    for spec in (sim_params.PARAMETERS + sim_params.input_parameter_specs('<name>')
+                 + sim_params.obstacle_parameter_specs('<name>')):
         assert f'| `{spec.name}` |' in reference, spec.name
 
 
-README_TYPES = {cfg.BOOL: 'bool', cfg.INTEGER: 'integer', cfg.DOUBLE: 'double',
-                cfg.STRING: 'string', cfg.DOUBLE_ARRAY: 'double[]', cfg.STRING_ARRAY: 'string[]'}
+README_TYPES = {sim_params.BOOL: 'bool', sim_params.INTEGER: 'integer',
+                sim_params.DOUBLE: 'double', sim_params.STRING: 'string',
+                sim_params.DOUBLE_ARRAY: 'double[]', sim_params.STRING_ARRAY: 'string[]'}
 
 
 def _readme_value(text):
@@ -243,19 +246,19 @@ def test_the_documented_parameter_table_is_the_parameter_table():
         cells = [c.strip() for c in re.split(r'(?<!\\)\|', line)[1:-1]]  # '\|' is text
         if line.startswith('| `') and len(cells) == 6 and cells[1] in README_TYPES.values():
             rows[cells[0].strip('`')] = cells[1:4]
-    specs = list(cfg.PARAMETERS) + [
+    specs = list(sim_params.PARAMETERS) + [
         dataclass_replace(spec, name=spec.name.replace('.x.', '.<name>.'),
                           default=spec.default.replace('_x', '_<name>')
-                          if spec.kind == cfg.STRING else spec.default)
-        for spec in cfg.input_parameter_specs('x')] + [
+                          if spec.kind == sim_params.STRING else spec.default)
+        for spec in sim_params.input_parameter_specs('x')] + [
         dataclass_replace(spec, name=spec.name.replace('.x.', '.<name>.'))
-        for spec in cfg.obstacle_parameter_specs('x')]
+        for spec in sim_params.obstacle_parameter_specs('x')]
     assert sorted(rows) == sorted(spec.name for spec in specs)
     for spec in specs:
         kind, default, unit = rows[spec.name]
         assert kind == README_TYPES[spec.kind], spec.name
         assert unit == spec.unit, spec.name
         expected = spec.default
-        if spec.kind == cfg.DOUBLE:
+        if spec.kind == sim_params.DOUBLE:
             expected = float(expected)
         assert _readme_value(default) == expected, spec.name

@@ -114,7 +114,8 @@ def test_a_cache_dir_that_others_can_write_is_refused(tmp_path, monkeypatch):
     in_package = numba_files(PACKAGE)
     # Import the core and take a step (which compiles the kernels) with the refused directory.
     probe = ('from rbd_ros.core import jitcache; '
-             'from rbd_ros.sim.config import NodeConfig, check_first_step; '
+             'from rbd_ros.sim.build import check_first_step; '
+             'from rbd_ros.sim.config import NodeConfig; '
              'check_first_step(NodeConfig.from_parameters({})); '
              'print(jitcache.CACHE_DIR, jitcache.kernels_on_disk())')
     result = subprocess.run([sys.executable, '-c', probe], capture_output=True, text=True,

@@ -23,7 +23,7 @@ recording must rebuild the samples bit for bit.
 from rbd_ros.bag.recording import open_bag
 from rbd_ros.bag.replay import replay_bag
 from rbd_ros.msgs import outputs
-from rbd_ros.sim.config import NS_PER_S
+from rbd_ros.sim.params import NS_PER_S
 from rclpy.serialization import deserialize_message
 from ros_probe import Probe
 

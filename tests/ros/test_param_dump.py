@@ -31,6 +31,7 @@ from rbd_ros.bag.recording import open_bag
 from rbd_ros.bag.replay import config_from_bag
 from rbd_ros.core import ConfigError
 from rbd_ros.sim import config as cfg
+from rbd_ros.sim import params as sim_params
 from rclpy.parameter import parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 from ros_probe import Probe
@@ -142,7 +143,8 @@ def test_an_old_list_name_is_refused_naming_the_new_one(old, new, value):
     assert str(info.value) == (
         f'parameter {old} = {value!r}: renamed to {new} (a list is never the prefix of its '
         f'items; the items {old}.<name>.* keep their names)')
-    assert cfg.recorded_parameters({old: value, 'mass_kg': 2.0}) == {new: value, 'mass_kg': 2.0}
+    assert sim_params.recorded_parameters({old: value, 'mass_kg': 2.0}) == {
+        new: value, 'mass_kg': 2.0}
 
 
 @pytest.mark.parametrize('bag_dir', BAGS, ids=[p.name for p in BAGS])
@@ -153,8 +155,8 @@ def test_a_bag_recorded_with_the_old_names_reads_under_the_new_ones(bag_dir):
     bag = open_bag(str(bag_dir))
     assert 'wrench_inputs' in bag.config and 'wrench_input_names' not in bag.config
     params = config_from_bag(bag).to_parameters()
-    assert not {name for name in params if cfg.new_parameter_name(name)}
-    for old, new in cfg.RENAMED_PARAMETERS.items():
+    assert not {name for name in params if sim_params.new_parameter_name(name)}
+    for old, new in sim_params.RENAMED_PARAMETERS.items():
         assert params[new] == bag.config.get(old, []), new
     assert prefix_clashes(params) == []
 

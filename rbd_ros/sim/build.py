@@ -1,0 +1,135 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The simulator of a configuration, and its first step taken before the node starts.
+
+:func:`make_simulator` is the one place that picks the free-body simulator (one body, no
+contact) or the world simulator; :func:`check_first_step` takes the first physics step on a
+throw-away simulator, so a configuration whose first step is not finite is refused at start
+with one line naming the parameters that most likely caused it.
+"""
+
+from rbd_ros.core import ConfigError, ModelError, NonFiniteError, Simulator
+from rbd_ros.core.contact.simulator import WorldBody, WorldSimulator
+from rbd_ros.sim.config import NodeConfig
+from rbd_ros.sim.params import fail, fmt, PARAMETERS_BY_NAME
+
+_FIRST_STEP_SUSPECTS = ('initial_angular_velocity', 'initial_linear_velocity',
+                        'initial_position', 'gravity', 'mass_kg', 'inertia', 'dimensions_m',
+                        'linear_damping', 'angular_damping', 'timestep_s')
+
+
+class _FreeBodySimulator(Simulator):
+    """
+    The free-body :class:`Simulator` with the per-body interface of a :class:`WorldSimulator`.
+
+    A body that can touch nothing steps without the contact kernels (a cold start compiles
+    the free-body kernels only); :meth:`set_body_loads` keeps the free body's own load rows
+    (:meth:`Simulator.set_loads`), and there is no contact wrench and no contact.
+    """
+
+    contact_wrench_w = None
+    contacts = None
+
+    def set_body_loads(self, index, wrenches=(), springs=()):
+        """Hold these loads on the body (``index`` 0) from the next step until replaced."""
+        self.set_loads(wrenches, springs)
+
+
+def make_simulator(config):
+    """
+    Return the simulator of ``config``: the one place that chooses it.
+
+    With contact (named bodies, a ground or obstacles) a :class:`WorldSimulator` of every body
+    of ``config.bodies`` and the static world; else the free-body simulator of the one body.
+    Both answer ``time_ns``, ``arrays``, ``body_state(i)``, ``set_body_loads(i, ...)``,
+    ``step``, ``reset``, ``contact_wrench_w`` and ``contacts`` (None without contact).
+    """
+    if not config.contact:
+        (body,) = config.bodies
+        return _FreeBodySimulator(body.model, body.initial_state, integrator=config.integrator,
+                                  timestep_ns=config.timestep_ns)
+    return WorldSimulator(
+        [WorldBody(b.name, b.model, b.collision_shape, b.material) for b in config.bodies],
+        [b.initial_state for b in config.bodies], config.static_world,
+        integrator=config.integrator, timestep_ns=config.timestep_ns)
+
+
+def _step_once(config):
+    make_simulator(config).step(1)
+
+
+def _finite_with(params, overrides):
+    """Return whether the first step is finite with ``overrides`` applied to ``params``."""
+    try:
+        _step_once(NodeConfig.from_parameters({**params, **overrides}))
+    except (ModelError, ConfigError, NonFiniteError):
+        return False
+    return True
+
+
+def _blame_world_body(params, reason):
+    """
+    Raise naming the ``bodies.<name>.<suspect>`` whose default makes the first step finite.
+
+    For each suspect, all bodies' values go back to the default at once; if that helps, halving
+    finds the body (``S + S log2 N`` trial steps at most). Returns if no single one is to blame.
+    """
+    for suspect in _FIRST_STEP_SUSPECTS:
+        spec = PARAMETERS_BY_NAME[suspect]
+        default = list(spec.default) if isinstance(spec.default, tuple) else spec.default
+        names = [f'bodies.{body}.{suspect}' for body in params.get('body_names', ())
+                 if params.get(f'bodies.{body}.{suspect}', default) != default]
+        if not names or not _finite_with(params, dict.fromkeys(names, default)):
+            continue
+        while len(names) > 1:
+            half = names[:len(names) // 2]
+            names = half if _finite_with(params, dict.fromkeys(half, default)) else \
+                names[len(names) // 2:]
+        unit = f' {spec.unit}' if spec.unit else ''
+        raise ConfigError(f'parameter {names[0]} = {fmt(params[names[0]])}{unit}: the first '
+                          f'physics step is not finite ({reason})')
+
+
+def check_first_step(config):
+    """
+    Take one physics step from the initial state on a throw-away simulator.
+
+    Valid parameters can still make the first step non-finite (``initial_angular_velocity:
+    [1e200, 0.0, 0.0]`` overflows); the node refuses them at start instead of pausing on its
+    first step. This also compiles the physics kernel.
+
+    :raises ConfigError: naming the parameter that makes the step non-finite: the first of
+        :data:`_FIRST_STEP_SUSPECTS` whose default value makes the step finite.
+    """
+    try:
+        _step_once(config)
+        return
+    except NonFiniteError as exc:
+        reason = str(exc)
+    params = config.to_parameters()
+    _blame_world_body(params, reason)  # returns at once without body_names
+    for name in _FIRST_STEP_SUSPECTS:
+        spec = PARAMETERS_BY_NAME[name]
+        default = list(spec.default) if isinstance(spec.default, tuple) else spec.default
+        if params[name] == default:
+            continue
+        try:
+            _step_once(NodeConfig.from_parameters({**params, name: default}))
+        except (ModelError, ConfigError, NonFiniteError):
+            continue  # still not finite, or not a valid configuration without this value
+        fail(spec, params[name], f'the first physics step is not finite ({reason})',
+             ConfigError)
+    raise ConfigError(f'parameters: the first physics step is not finite ({reason})')
