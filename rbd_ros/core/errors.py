@@ -42,9 +42,10 @@ def finite_vector(value, name: str, unit: str, size: int = 3, error: Optional[ty
     try:
         array = np.array(value, dtype=np.float64).reshape(size)
     except (TypeError, ValueError):
-        raise error(f'{name}: expected {size} numbers in {unit}, got {value!r}') from None
+        raise field_error(error, name, f'expected {size} numbers in {unit}, got {value!r}',
+                          value, unit) from None
     if not np.all(np.isfinite(array)):
-        raise error(f'{name}: {array.tolist()} {unit} must be finite')
+        raise field_error(error, name, f'{array.tolist()} {unit} must be finite', value, unit)
     if frozen:
         array.flags.writeable = False
     return array
@@ -66,12 +67,14 @@ def finite_scalar(value, name: str, unit: str, *, minimum: Optional[float] = Non
         if not (isinstance(value, np.ndarray) and value.shape == ()
                 and (np.issubdtype(value.dtype, np.floating)
                      or np.issubdtype(value.dtype, np.integer))):
-            raise error(f'{name}: {value!r} is not a number in {unit}')
+            raise field_error(error, name, f'{value!r} is not a number in {unit}', value, unit)
     number = float(value)
     if not math.isfinite(number):
-        raise error(f'{name}: {number!r} {unit} must be finite')
+        raise field_error(error, name, f'{number!r} {unit} must be finite', value, unit)
     if minimum is not None and (number <= minimum if strict else number < minimum):
-        raise error(f'{name}: {number!r} {unit} must be {">" if strict else ">="} {minimum:g}')
+        raise field_error(error, name,
+                          f'{number!r} {unit} must be {">" if strict else ">="} {minimum:g}',
+                          value, unit)
     return number
 
 
@@ -97,12 +100,42 @@ def whole_number(value, name: str, unit: str, *, positive: bool = False,
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) \
             or (positive and value <= 0):
         rule = 'a positive integer' if positive else 'an integer'
-        raise error(f'{name}: {value!r} {unit} must be {rule}')
+        raise field_error(error, name, f'{value!r} {unit} must be {rule}', value, unit)
     return int(value)
 
 
 class RbdError(Exception):
-    """Base class of every error rbd_ros raises on purpose."""
+    """
+    Base class of every error rbd_ros raises on purpose.
+
+    Besides its one-line message, an error may carry what it is about, so that code which names
+    it anew (the parameter layer saying ``parameter bodies.a.mass_kg`` for the core's
+    ``mass_kg``) reads attributes instead of parsing text (:func:`field_error` makes one):
+
+    :ivar field: the parameter or field the message names first, or None.
+    :ivar value: the offending value as given, or None.
+    :ivar unit: its unit ('' for none), or None.
+    :ivar detail: the message after ``<field>: `` (the value and what is wrong), or None.
+    :ivar rule: what is wrong, without the value (where the raiser says it apart), or None.
+    """
+
+    def __init__(self, message='', *, field=None, value=None, unit=None, detail=None,
+                 rule=None):
+        super().__init__(message)
+        if detail is None and field is not None and message.startswith(f'{field}: '):
+            detail = message[len(field) + 2:]
+        self.field, self.value, self.unit, self.detail = field, value, unit, detail
+        self.rule = rule
+
+    def renamed(self, field: str) -> 'RbdError':
+        """Return the same error naming ``field`` where it named :attr:`field`."""
+        return type(self)(str(self).replace(self.field, field, 1), field=field,
+                          value=self.value, unit=self.unit, detail=self.detail, rule=self.rule)
+
+
+def field_error(error: type, field: str, detail: str, value=None, unit=None) -> RbdError:
+    """Return ``error('<field>: <detail>')`` carrying its field, value, unit and detail."""
+    return error(f'{field}: {detail}', field=field, value=value, unit=unit, detail=detail)
 
 
 class ModelError(RbdError, ValueError):

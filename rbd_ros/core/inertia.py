@@ -36,7 +36,7 @@ from typing import Tuple
 
 import numpy as np
 
-from rbd_ros.core.errors import finite_vector, ModelError, positive
+from rbd_ros.core.errors import field_error, finite_vector, ModelError, positive
 
 __all__ = [
     'MassProperties',
@@ -114,28 +114,34 @@ def validate_inertia(inertia, name='inertia') -> np.ndarray:
     try:
         arr = np.array(inertia, dtype=np.float64)
     except (TypeError, ValueError):
-        raise ModelError(
-            f'{name}: {inertia!r} is not a numeric 3x3 inertia tensor in kg·m²') from None
+        raise field_error(ModelError, name,
+                          f'{inertia!r} is not a numeric 3x3 inertia tensor in kg·m²', inertia,
+                          'kg·m²') from None
     if arr.shape != (3, 3):
-        raise ModelError(f'{name}: shape {arr.shape} must be (3, 3) (inertia tensor in kg·m²)')
+        raise field_error(ModelError, name,
+                          f'shape {arr.shape} must be (3, 3) (inertia tensor in kg·m²)', inertia,
+                          'kg·m²')
     if not np.all(np.isfinite(arr)):
-        raise ModelError(f'{name}: {arr.tolist()} kg·m² must be finite')
+        raise field_error(ModelError, name, f'{arr.tolist()} kg·m² must be finite', inertia,
+                          'kg·m²')
     scale = np.abs(arr).max()
     asymmetry = np.abs(arr - arr.T).max()
     if asymmetry > SYMMETRY_RTOL * scale:
-        raise ModelError(
-            f'{name}: {arr.tolist()} kg·m² is not symmetric: max |I - I^T| = '
-            f'{asymmetry:.6g} kg·m² > {SYMMETRY_RTOL:g} * {scale:.6g} kg·m²')
+        raise field_error(ModelError, name,
+                          f'{arr.tolist()} kg·m² is not symmetric: max |I - I^T| = '
+                          f'{asymmetry:.6g} kg·m² > {SYMMETRY_RTOL:g} * {scale:.6g} kg·m²',
+                          inertia, 'kg·m²')
     moments = np.linalg.eigvalsh(0.5 * (arr + arr.T))
     if moments[0] <= 0.0:
-        raise ModelError(
-            f'{name}: not positive definite: principal moments {_fmt(moments)} kg·m² must '
-            'all be > 0')
+        raise field_error(ModelError, name,
+                          f'not positive definite: principal moments {_fmt(moments)} kg·m² '
+                          'must all be > 0', inertia, 'kg·m²')
     lhs = moments[0] + moments[1]
     if lhs < moments[2] * (1.0 - TRIANGLE_RTOL):
-        raise ModelError(
-            f'{name}: principal moments {_fmt(moments)} kg·m² break the triangle inequality '
-            f'I1 + I2 >= I3 ({_fmt(lhs)} < {_fmt(moments[2])})')
+        raise field_error(ModelError, name,
+                          f'principal moments {_fmt(moments)} kg·m² break the triangle '
+                          f'inequality I1 + I2 >= I3 ({_fmt(lhs)} < {_fmt(moments[2])})',
+                          inertia, 'kg·m²')
     return arr
 
 
@@ -329,7 +335,8 @@ def from_shape(shape, dimensions_m, mass_kg) -> 'MassProperties':
         the unit and the rule.
     """
     if shape not in _SHAPE_BUILDERS:
-        raise ModelError(f'shape: {shape!r} is not one of {", ".join(SHAPES)}')
+        raise field_error(ModelError, 'shape', f'{shape!r} is not one of {", ".join(SHAPES)}',
+                          shape, '')
     builder, _ = _SHAPE_BUILDERS[shape]
     dims = shape_dimensions(shape, dimensions_m)
     return builder(mass_kg, dims)
@@ -348,19 +355,20 @@ def shape_dimensions(shape: str, dimensions_m, field: str = '') -> np.ndarray:
     try:
         dims = np.array(dimensions_m, dtype=np.float64).reshape(-1)
     except (TypeError, ValueError):
-        raise ModelError(
-            f'{field}dimensions_m: {dimensions_m!r} is not a list of lengths in m '
-            f'({shape!r} needs {expected})') from None
+        raise field_error(ModelError, f'{field}dimensions_m',
+                          f'{dimensions_m!r} is not a list of lengths in m '
+                          f'({shape!r} needs {expected})', dimensions_m, 'm') from None
     if dims.size != len(names):
-        raise ModelError(
-            f'{field}dimensions_m: {dims.tolist()} m has {dims.size} values; shape {shape!r} '
-            f'needs {len(names)}: {expected}')
+        raise field_error(ModelError, f'{field}dimensions_m',
+                          f'{dims.tolist()} m has {dims.size} values; shape {shape!r} '
+                          f'needs {len(names)}: {expected}', dimensions_m, 'm')
     bad = ~(np.isfinite(dims) & (dims > 0.0))
     if np.any(bad):
         i = int(np.flatnonzero(bad)[0])
-        raise ModelError(
-            f'{field}dimensions_m: {dims.tolist()} m for shape {shape!r} {expected}: '
-            f'{names[i]} = {float(dims[i])!r} m must be finite and > 0')
+        raise field_error(ModelError, f'{field}dimensions_m',
+                          f'{dims.tolist()} m for shape {shape!r} {expected}: '
+                          f'{names[i]} = {float(dims[i])!r} m must be finite and > 0',
+                          dimensions_m, 'm')
     return dims
 
 

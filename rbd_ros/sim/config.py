@@ -46,8 +46,8 @@ import numpy as np
 from rbd_ros.core import BodyModel, BodyState, ConfigError, INTEGRATORS, ModelError
 from rbd_ros.core.contact.shapes import primitive_shape, PRIMITIVES
 from rbd_ros.core.contact.simulator import CONTACT_INTEGRATORS
-from rbd_ros.core.contact.world import (check_overlaps, ground_plane, obstacle, StaticWorld,
-                                        validate_material)
+from rbd_ros.core.contact.world import (check_overlaps, ground_plane, is_valid_name, NAME_RULE,
+                                        obstacle, StaticWorld, validate_material)
 from rbd_ros.core.inertia import from_shape, inertia_from_components, SHAPES
 from rbd_ros.sim.meshes import check_sizes, mesh_file, mesh_shape
 from rbd_ros.sim.params import (body_parameter_specs, BODY_PARAMETERS, check_range,
@@ -275,13 +275,9 @@ def _input_values(values, params):
     """Check ``wrench_input_names``; move each input's parameters from ``params`` to ``values``."""
     spec = PARAMETERS_BY_NAME['wrench_input_names']
     names = values['wrench_input_names']
-    for name in names:
-        if not name or not (name.replace('_', 'a').isalnum() and name.isascii()):
-            fail(spec, list(names), f'input name {name!r} must be letters, digits and _')
-        if name == MAIN_INPUT:
-            fail(spec, list(names), f'{MAIN_INPUT!r} is the main input')
-    if len(set(names)) != len(names):
-        fail(spec, list(names), 'names must be distinct')
+    _check_names(spec, names, 'input')
+    if MAIN_INPUT in names:
+        fail(spec, list(names), f'{MAIN_INPUT!r} is the main input')
     for name in names:
         for input_spec in input_parameter_specs(name):
             values[input_spec.name] = coerce(
@@ -293,15 +289,9 @@ def _obstacle_values(values, params):
     """Check ``obstacle_names``; move each obstacle's parameters from ``params`` to ``values``."""
     spec = PARAMETERS_BY_NAME['obstacle_names']
     names = values['obstacle_names']
-    for name in names:
-        if not name or not (name.replace('_', 'a').isalnum() and name.isascii()) \
-                or name[0].isdigit():
-            fail(spec, list(names), f'obstacle name {name!r} must be letters, digits and _ '
-                 '(not starting with a digit)')
-        if name == 'ground':
-            fail(spec, list(names), "'ground' is the ground plane (ground.*)")
-    if len(set(names)) != len(names):
-        fail(spec, list(names), 'names must be distinct')
+    _check_names(spec, names, 'obstacle')
+    if 'ground' in names:
+        fail(spec, list(names), "'ground' is the ground plane (ground.*)")
     for name in names:
         for obstacle_spec in obstacle_parameter_specs(name):
             value = coerce(obstacle_spec, params.pop(obstacle_spec.name, obstacle_spec.default))
@@ -318,11 +308,10 @@ def _body_input_specs(body, name):
 
 
 def _check_names(spec, names, what):
+    """Refuse a name that breaks the one name rule (``NAME_RULE``) or a name given twice."""
     for name in names:
-        if not name or not (name.replace('_', 'a').isalnum() and name.isascii()) \
-                or name[0].isdigit():
-            fail(spec, list(names), f'{what} name {name!r} must be letters, digits and _ '
-                 '(not starting with a digit)')
+        if not is_valid_name(name):
+            fail(spec, list(names), f'{what} name {name!r} must be {NAME_RULE}')
     if len(set(names)) != len(names):
         fail(spec, list(names), 'names must be distinct')
 
@@ -352,8 +341,7 @@ def _body_values(values, params):
             if MAIN_INPUT in inputs:
                 fail(inputs_spec, list(inputs), f'{MAIN_INPUT!r} is the main input')
         except ConfigError as exc:
-            raise ConfigError(str(exc).replace('parameter wrench_input_names',
-                                               f'parameter bodies.{name}.wrench_input_names'))
+            raise exc.renamed(f'bodies.{name}.wrench_input_names') from None
         for input_name in inputs:
             for spec in _body_input_specs(name, input_name):
                 values[spec.name] = coerce(spec, params.pop(spec.name, spec.default))
@@ -362,11 +350,10 @@ def _body_values(values, params):
 
 
 def _renamed(body, exc):
-    """Return ``exc`` (ModelError/ConfigError) with per-body parameter names prefixed."""
-    message = str(exc)
-    for base in sorted(BODY_PARAMETERS, key=len, reverse=True):
-        message = message.replace(f'parameter {base}', f'parameter bodies.{body}.{base}')
-    return type(exc)(message)
+    """Return ``exc`` (ModelError/ConfigError) naming the body's own parameter."""
+    if exc.field in BODY_PARAMETERS:
+        return exc.renamed(f'bodies.{body}.{exc.field}')
+    return exc
 
 
 def _world_bodies(values, body_inputs, static_world, integrator):
@@ -393,10 +380,9 @@ def _world_bodies(values, body_inputs, static_world, integrator):
             model = _model(sub, collision)
             state = _initial_state(sub)
             if collision is None:
-                raise ModelError(
-                    f'parameter inertia = {fmt(sub["inertia"])} kg·m²: a body given only by '
-                    'its inertia has no collision shape; give shape and dimensions_m, or '
-                    'mesh_path')
+                fail(PARAMETERS_BY_NAME['inertia'], sub['inertia'], 'a body given only by its '
+                     'inertia has no collision shape; give shape and dimensions_m, or '
+                     'mesh_path', ModelError)
             material = validate_material(sub['friction'], sub['restitution'])
             specs = _wrench_inputs(sub, inputs)
         except (ModelError, ConfigError) as exc:
@@ -413,10 +399,10 @@ def _world_bodies(values, body_inputs, static_world, integrator):
         check_overlaps([(b.name, b.collision_shape, b.initial_state.position_w,
                          b.initial_state.orientation_wb) for b in bodies], static_world)
     except ModelError as exc:
-        # 'bodies.<name>.position_w: [..] m puts ...' → name the parameter.
-        message = str(exc)
-        head, _, rest = message.partition('.position_w: ')
-        raise ModelError(f'parameter {head}.initial_position = {rest}') from None
+        # bodies.<name>.position_w (the core's name) is parameter bodies.<name>.initial_position
+        field = exc.field[:-len('position_w')] + 'initial_position'
+        raise ModelError(f'parameter {field} = {exc.detail}', field=field, value=exc.value,
+                         unit=exc.unit, detail=exc.detail, rule=exc.rule) from None
     return tuple(bodies)
 
 
@@ -567,9 +553,7 @@ def _check_contact(values, collision, static_world, initial_state, integrator):
         check_overlaps([('body', collision, initial_state.position_w,
                          initial_state.orientation_wb)], static_world)
     except ModelError as exc:
-        reason = str(exc).split(' m puts the body ', 1)[-1]
-        fail(p['initial_position'], values['initial_position'], 'puts the body ' + reason,
-             ModelError)
+        fail(p['initial_position'], values['initial_position'], exc.rule, ModelError)
 
 
 def _unit_quaternion(spec, q_xyzw):
@@ -683,11 +667,10 @@ def _reraise(spec, value, func, *args):
     try:
         return func(*args)
     except (ModelError, ConfigError) as exc:
-        message = str(exc)
-        if not message.startswith((spec.name + ':', spec.name + ' ')):
-            unit = f' {spec.unit}' if spec.unit else ''
-            message = f'{spec.name} = {fmt(value)}{unit}: {message}'
-        raise type(exc)(f'parameter {message}') from None
+        if exc.field == spec.name:  # the core named the parameter: say it is one
+            raise type(exc)(f'parameter {exc}', field=spec.name, value=value, unit=spec.unit,
+                            detail=exc.detail, rule=exc.rule) from None
+        fail(spec, value, str(exc), type(exc))
 
 
 # Parameters that shape the first physics step, in the order they are blamed when that step is

@@ -60,7 +60,8 @@ def resolve_mesh_path(path, field):
     if package == 'rbd_ros' and os.path.isfile(os.path.join(source, 'package.xml')):
         return os.path.join(source, rest)
     raise ModelError(f'parameter {field} = {path!r}: package {package!r} is found neither in '
-                     f'the ament index (source its workspace) nor in {share}')
+                     f'the ament index (source its workspace) nor in {share}', field=field,
+                     value=path)
 
 
 def _open_mesh_file(value, field):
@@ -74,7 +75,8 @@ def _open_mesh_file(value, field):
     try:
         fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | getattr(os, 'O_CLOEXEC', 0))
     except OSError as exc:
-        raise ModelError(f'{where} does not exist or is not a file ({exc.strerror})') from None
+        raise ModelError(f'{where} does not exist or is not a file ({exc.strerror})',
+                         field=field, value=value) from None
     info = os.fstat(fd)
     problem = None
     if not stat.S_ISREG(info.st_mode):
@@ -84,7 +86,7 @@ def _open_mesh_file(value, field):
                    'bytes')
     if problem:
         os.close(fd)
-        raise ModelError(f'{where} {problem}')
+        raise ModelError(f'{where} {problem}', field=field, value=value)
     return path, fd
 
 
@@ -109,7 +111,7 @@ def read_mesh_file(value, field):
         data = stream.read(MAX_MESH_FILE_BYTES + 1)
     if len(data) > MAX_MESH_FILE_BYTES:
         raise ModelError(f'parameter {field} = {value!r}: more than the limit of '
-                         f'{MAX_MESH_FILE_BYTES} bytes')
+                         f'{MAX_MESH_FILE_BYTES} bytes', field=field, value=value)
     return data
 
 
@@ -120,10 +122,9 @@ def mesh_shape(spec_path, spec_scale, path, scale):
     try:
         return load_mesh(file_path, scale, field=field)
     except ModelError as exc:
-        message = str(exc)
-        blamed = spec_scale if message.startswith(field + 'mesh_scale') else spec_path
+        blamed = spec_scale if exc.field == field + 'mesh_scale' else spec_path
         value = scale if blamed is spec_scale else path
-        fail(blamed, value, message.split(': ', 1)[-1] if ': ' in message else message)
+        fail(blamed, value, str(exc) if exc.detail is None else exc.detail)
 
 
 def check_sizes(dims_spec, dims, scale_spec, scale):

@@ -380,10 +380,12 @@ def fmt(value):
 
 def fail(spec, value, rule, error=None):
     """Raise the one-line error of a bad value: parameter, value, unit and rule."""
-    if error is None:
-        error = ModelError if spec.name in _MODEL_PARAMETERS else ConfigError
+    if error is None:  # a body's own parameter (bodies.<name>.mass_kg) is its base's kind
+        base = spec.name.split('.', 2)[2] if spec.name.startswith('bodies.') else spec.name
+        error = ModelError if base in _MODEL_PARAMETERS else ConfigError
     unit = f' {spec.unit}' if spec.unit else ''
-    raise error(f'parameter {spec.name} = {fmt(value)}{unit}: {rule}')
+    raise error(f'parameter {spec.name} = {fmt(value)}{unit}: {rule}', field=spec.name,
+                value=value, unit=spec.unit, detail=f'{fmt(value)}{unit}: {rule}', rule=rule)
 
 
 def coerce(spec, value):

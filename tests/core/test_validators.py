@@ -74,3 +74,32 @@ def test_numpy_scalars_are_accepted_everywhere():
     assert (model.mass_kg, model.linear_damping_per_s, model.angular_damping_per_s) == \
         (2.0, 0.25, 0.5)
     assert BodyState(time_ns=np.int64(7)).time_ns == 7
+
+
+def test_errors_carry_their_field_value_unit_and_detail():
+    """What an error is about travels as attributes: a re-labeller reads them, not the text."""
+    from rbd_ros.core.contact.world import check_overlaps, ground_plane, StaticWorld
+    from rbd_ros.core.contact.shapes import primitive_shape
+    from rbd_ros.sim.config import NodeConfig
+    with pytest.raises(ModelError) as caught:
+        BodyModel(-2.0, EYE)
+    exc = caught.value
+    assert (exc.field, exc.value, exc.unit) == ('mass_kg', -2.0, 'kg')
+    assert exc.detail == '-2.0 kg must be > 0'
+    assert str(exc) == f'{exc.field}: {exc.detail}'
+    renamed = exc.renamed('bodies.a.mass_kg')
+    assert type(renamed) is ModelError and renamed.field == 'bodies.a.mass_kg'
+    assert str(renamed) == 'bodies.a.mass_kg: -2.0 kg must be > 0'
+    box = primitive_shape('box', (1.0, 1.0, 1.0))
+    with pytest.raises(ModelError) as caught:
+        check_overlaps([('b', box, (0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0))],
+                       StaticWorld(ground=ground_plane()))
+    exc = caught.value
+    assert exc.field == 'bodies.b.position_w' and exc.unit == 'm'
+    assert exc.rule.startswith('puts the body 0.5 m deep inside ground'), exc.rule
+    # The parameter layer names the parameter from the attributes, for a world body too.
+    with pytest.raises(ModelError) as caught:
+        NodeConfig.from_parameters({'body_names': ['a'], 'bodies.a.mass_kg': 0.0})
+    exc = caught.value
+    assert (exc.field, exc.value, exc.unit) == ('bodies.a.mass_kg', 0.0, 'kg'), vars(exc)
+    assert str(exc) == 'parameter bodies.a.mass_kg = 0.0 kg: must be > 0'

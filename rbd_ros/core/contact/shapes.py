@@ -61,7 +61,7 @@ import numpy as np
 
 from rbd_ros.core import cachedir, jitcache
 from rbd_ros.core.contact import kernels as k
-from rbd_ros.core.errors import ModelError
+from rbd_ros.core.errors import field_error, ModelError
 from rbd_ros.core.inertia import from_shape, shape_dimensions, triangle_mesh
 
 __all__ = [
@@ -476,16 +476,16 @@ def _mesh_points(vertices, faces, s):
     return np.concatenate(pts)
 
 
-def _check_mesh(mesh, where, field):
+def _check_mesh(mesh, where, field, where_field):
     """Refuse open, inconsistently wound, degenerate, inverted or self-intersecting meshes."""
     vertices = np.asarray(mesh.vertices, dtype=np.float64)
     faces = np.asarray(mesh.faces, dtype=np.int64)
     if faces.shape[0] < 4 or vertices.shape[0] < 4:
         raise ModelError(
             f'{where}: has {faces.shape[0]} faces and {vertices.shape[0]} vertices; a closed '
-            'mesh needs at least 4 of each')
+            'mesh needs at least 4 of each', field=where_field)
     if not np.all(np.isfinite(vertices)):
-        raise ModelError(f'{where}: has non-finite vertex coordinates')
+        raise ModelError(f'{where}: has non-finite vertex coordinates', field=where_field)
     extent = float((vertices.max(axis=0) - vertices.min(axis=0)).max())
     area = 0.5 * np.linalg.norm(np.cross(vertices[faces[:, 1]] - vertices[faces[:, 0]],
                                          vertices[faces[:, 2]] - vertices[faces[:, 0]]), axis=1)
@@ -493,30 +493,33 @@ def _check_mesh(mesh, where, field):
         bad = int(np.argmin(area))
         raise ModelError(
             f'{where}: face {bad} has area {float(area[bad]):.6g} m², degenerate (<= '
-            f'{_DEGENERATE_RTOL:g} × extent²; extent {extent:.6g} m)')
+            f'{_DEGENERATE_RTOL:g} × extent²; extent {extent:.6g} m)', field=where_field)
     if not mesh.is_watertight:
         raise ModelError(
             f'{where}: the mesh is open (not watertight): some edge is not shared by exactly '
-            'two faces')
+            'two faces', field=where_field)
     if not mesh.is_winding_consistent:
         raise ModelError(
-            f'{where}: inconsistent winding: adjacent faces disagree on orientation')
+            f'{where}: inconsistent winding: adjacent faces disagree on orientation',
+            field=where_field)
     corners = (vertices - vertices.mean(axis=0))[faces]  # centred: no cancellation far out
     volume = float(np.einsum('ij,ij->', corners[:, 0],
                              np.cross(corners[:, 1], corners[:, 2]))) / 6.0
     if abs(volume) <= _DEGENERATE_RTOL * extent ** 3:
-        raise ModelError(f'{where}: encloses volume {volume:.6g} m³; it must be > 0')
+        raise ModelError(f'{where}: encloses volume {volume:.6g} m³; it must be > 0',
+                         field=where_field)
     if volume < 0.0:
         raise ModelError(
             f'{where}: encloses volume {volume:.6g} m³ < 0: the faces are wound clockwise seen '
-            'from outside (normals point in)')
+            'from outside (normals point in)', field=where_field)
     low = np.stack([vertices[faces[:, m]] for m in range(3)]).min(axis=0)
     high = np.stack([vertices[faces[:, m]] for m in range(3)]).max(axis=0)
     order = np.argsort(low[:, 0], kind='stable').astype(np.int64)
     jitcache.configured()  # the kernel cache, before a first compile
     s, t = k.first_self_intersection(vertices, faces, order, low, high)
     if s >= 0:
-        raise ModelError(f'{where}: self-intersecting: faces {s} and {t} cross each other')
+        raise ModelError(f'{where}: self-intersecting: faces {s} and {t} cross each other',
+                         field=where_field)
     return vertices, faces
 
 
@@ -528,9 +531,10 @@ def _check_cells(sdf_cells, field):
     return int(sdf_cells)
 
 
-def _mesh_from_trimesh(mesh, where, field, spacing_m, sdf_cells, centre, cache_dir):
+def _mesh_from_trimesh(mesh, where, where_field, field, spacing_m, sdf_cells, centre,
+                       cache_dir):
     cells = _check_cells(sdf_cells, field)
-    vertices, faces = _check_mesh(mesh, where, field)
+    vertices, faces = _check_mesh(mesh, where, field, where_field)
     offset = np.zeros(3)
     if centre:
         offset = triangle_mesh(vertices, faces, density=1.0).com_b
@@ -585,7 +589,8 @@ def mesh_shape(vertices, faces, spacing_m=None, sdf_cells=DEFAULT_SDF_CELLS, cen
             f'{field}faces: shape {tris.shape}, dtype {tris.dtype} must be (m, 3) integer '
             f'indices in [0, {verts.shape[0] - 1}]')
     mesh = _trimesh().Trimesh(vertices=verts, faces=tris.astype(np.int64), process=False)
-    return _mesh_from_trimesh(mesh, f'{field}mesh', field, spacing_m, sdf_cells, centre,
+    return _mesh_from_trimesh(mesh, f'{field}mesh', f'{field}mesh', field, spacing_m, sdf_cells,
+                              centre,
                               cache_dir)
 
 
@@ -593,11 +598,14 @@ def _check_scale(mesh_scale, field):
     try:
         scale = np.array(mesh_scale, dtype=np.float64).reshape(-1)
     except (TypeError, ValueError):
-        raise ModelError(
-            f'{field}mesh_scale: {mesh_scale!r} is not 3 positive scale factors') from None
+        raise field_error(ModelError, f'{field}mesh_scale',
+                          f'{mesh_scale!r} is not 3 positive scale factors', mesh_scale,
+                          '') from None
     if scale.size != 3 or not np.all(np.isfinite(scale) & (scale > 0.0)):
         raise ModelError(
-            f'{field}mesh_scale: {scale.tolist()} must be 3 finite factors > 0 (x, y, z)')
+            f'{field}mesh_scale: {scale.tolist()} must be 3 finite factors > 0 (x, y, z)',
+            field=f'{field}mesh_scale', value=mesh_scale, unit='',
+            detail=f'{scale.tolist()} must be 3 finite factors > 0 (x, y, z)')
     return scale
 
 
@@ -616,22 +624,25 @@ def load_mesh(mesh_path, mesh_scale=(1.0, 1.0, 1.0), spacing_m=None,
     """
     scale = _check_scale(mesh_scale, field)
     if not isinstance(mesh_path, (str, os.PathLike)) or str(mesh_path) == '':
-        raise ModelError(f'{field}mesh_path: {mesh_path!r} is not a file path')
+        raise ModelError(f'{field}mesh_path: {mesh_path!r} is not a file path',
+                         field=f'{field}mesh_path')
     where = f'{field}mesh_path: {str(mesh_path)!r}'
     path = Path(mesh_path)
     if not path.is_file():
-        raise ModelError(f'{where} does not exist or is not a file')
+        raise ModelError(f'{where} does not exist or is not a file', field=f'{field}mesh_path')
     try:
         mesh = _trimesh().load(str(path), force='mesh')
     except Exception as exc:  # trimesh raises many exception types for a bad file
         reason = (str(exc).splitlines() or [type(exc).__name__])[0]
-        raise ModelError(f'{where} is not a readable mesh ({reason})') from None
+        raise ModelError(f'{where} is not a readable mesh ({reason})',
+                         field=f'{field}mesh_path') from None
     faces = getattr(mesh, 'faces', None)
     if faces is None or len(faces) == 0:
-        raise ModelError(f'{where} holds no triangles')
+        raise ModelError(f'{where} holds no triangles', field=f'{field}mesh_path')
     mesh = _trimesh().Trimesh(vertices=np.asarray(mesh.vertices, dtype=np.float64) * scale,
                               faces=np.asarray(mesh.faces, dtype=np.int64), process=False)
-    return _mesh_from_trimesh(mesh, where, field, spacing_m, sdf_cells, centre, cache_dir)
+    return _mesh_from_trimesh(mesh, where, f'{field}mesh_path', field, spacing_m, sdf_cells,
+                              centre, cache_dir)
 
 
 def collision_shape(shape, dimensions_m=None, mesh_path=None, mesh_scale=(1.0, 1.0, 1.0),

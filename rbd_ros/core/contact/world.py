@@ -38,7 +38,7 @@ from rbd_ros.core import jitcache
 from rbd_ros.core.contact import kernels as k
 from rbd_ros.core.contact.rows import pair_material
 from rbd_ros.core.contact.shapes import collision_shape, CollisionShape, plane_shape
-from rbd_ros.core.errors import InputError, ModelError
+from rbd_ros.core.errors import field_error, InputError, ModelError
 from rbd_ros.core.rotations import quat_normalize, quat_to_matrix
 
 __all__ = [
@@ -49,14 +49,23 @@ __all__ = [
 #: Default depth (m) by which bodies may overlap at start before :func:`check_overlaps` refuses.
 DEFAULT_OVERLAP_TOLERANCE_M = 1e-3
 _NAME = re.compile(r'[A-Za-z_][A-Za-z0-9_]*\Z')
+#: The one rule for a name of a body, obstacle or input, in words (see :func:`is_valid_name`).
+NAME_RULE = 'letters, digits and _ (not starting with a digit)'
+
+
+def is_valid_name(name) -> bool:
+    """Return whether ``name`` is a valid body, obstacle or input name (:data:`NAME_RULE`)."""
+    return isinstance(name, str) and _NAME.match(name) is not None
 
 
 def _coefficient(value, name, low, high, rule):
     if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.number)):
-        raise ModelError(f'{name}: {value!r} is not a number (dimensionless)')
+        raise field_error(ModelError, name, f'{value!r} is not a number (dimensionless)',
+                          value, '')
     number = float(value)
     if not (math.isfinite(number) and low <= number <= high):
-        raise ModelError(f'{name}: {number!r} (dimensionless) must be {rule}')
+        raise field_error(ModelError, name, f'{number!r} (dimensionless) must be {rule}', value,
+                          '')
     return number
 
 
@@ -143,7 +152,7 @@ class StaticObject:
     material: Material = field(default_factory=Material)
 
     def __post_init__(self):
-        if not isinstance(self.name, str) or not _NAME.match(self.name):
+        if not is_valid_name(self.name):
             raise ModelError(
                 f'name: {self.name!r} must be an identifier (letters, digits, _; not starting '
                 'with a digit)')
@@ -194,7 +203,7 @@ def obstacle(name, shape, dimensions_m=None, mesh_path=None, mesh_scale=(1.0, 1.
     :raises ModelError: e.g. ``obstacles.ramp.dimensions_m: [0.0, 1.0, 1.0] m for shape 'box'
         [x, y, z]: x = 0.0 m must be finite and > 0``.
     """
-    if not isinstance(name, str) or not _NAME.match(name):
+    if not is_valid_name(name):
         raise ModelError(
             f'obstacles: name {name!r} must be an identifier (letters, digits, _; not starting '
             'with a digit)')
@@ -328,7 +337,7 @@ def check_overlaps(bodies, world=None, tolerance_m=DEFAULT_OVERLAP_TOLERANCE_M):
     tolerance = _coefficient(tolerance_m, 'tolerance_m', 0.0, math.inf, 'finite and >= 0 m')
     posed = []
     for name, shape, position_w, orientation_wb in bodies:
-        if not isinstance(name, str) or not _NAME.match(name):
+        if not is_valid_name(name):
             raise ModelError(
                 f'bodies: name {name!r} must be an identifier (letters, digits, _; not starting '
                 'with a digit)')
@@ -352,7 +361,8 @@ def check_overlaps(bodies, world=None, tolerance_m=DEFAULT_OVERLAP_TOLERANCE_M):
             depth, point = penetration_depth(shape, position, quat, other, other_position,
                                              other_quat)
             if depth > tolerance:
-                raise ModelError(
-                    f'bodies.{name}.position_w: {position.tolist()} m puts the body '
-                    f'{depth:.6g} m deep inside {label} (at {np.round(point, 6).tolist()} m; '
-                    f'tolerance {tolerance:g} m)')
+                rule = (f'puts the body {depth:.6g} m deep inside {label} (at '
+                        f'{np.round(point, 6).tolist()} m; tolerance {tolerance:g} m)')
+                raise ModelError(f'bodies.{name}.position_w: {position.tolist()} m {rule}',
+                                 field=f'bodies.{name}.position_w', value=position.tolist(),
+                                 unit='m', rule=rule)
