@@ -94,6 +94,9 @@ class OursWorld:
     def joint_forces(self):
         return np.linalg.norm(np.asarray(self.sim.joint_wrenches())[:, :3], axis=1)
 
+    def joint_error(self):
+        return self.sim.joint_error()
+
     def close(self):
         pass
 

@@ -470,11 +470,27 @@ def _run(world, n_steps, every=1):
         k = min(every, n_steps - done)
         world.step(k)
         done += k
+        _track_joint_error(world)
         ts.append(done * h)
         qs.append(world.q().copy())
         qds.append(world.qd().copy())
         es.append(world.energy())
     return np.array(ts), np.array(qs), np.array(qds), np.array(es)
+
+
+def _track_joint_error(world):
+    """Keep the largest joint error of a world that reports one (reduced coordinates do not)."""
+    if hasattr(world, 'joint_error'):
+        dist, angle = world.joint_error()
+        old = getattr(world, 'max_joint_error', (0.0, 0.0))
+        world.max_joint_error = (max(old[0], float(dist)), max(old[1], float(angle)))
+
+
+def _with_joint_error(world, out):
+    """Add the largest joint error seen (m, rad) to a case's figures, where there is one."""
+    if hasattr(world, 'max_joint_error'):
+        out['max_joint_err_m'], out['max_joint_err_rad'] = world.max_joint_error
+    return out
 
 
 def crossings(ts, q, qd):
@@ -530,8 +546,9 @@ def double_pendulum(world_cls, h_s, quick=False):
     finally:
         world.close()
     scale = ROD_KG * G * 1.0
-    return {'max_dE_per_mgL': float(np.max(np.abs(e - e[0]))) / scale,
-            'end_dE_per_mgL': float(e[-1] - e[0]) / scale}
+    out = {'max_dE_per_mgL': float(np.max(np.abs(e - e[0]))) / scale,
+           'end_dE_per_mgL': float(e[-1] - e[0]) / scale}
+    return _with_joint_error(world, out)
 
 
 def _blowup(ts, e, e0, scale):
@@ -548,10 +565,11 @@ def arm_upright(world_cls, h_s, quick=False):
         world.close()
     scale = ARM_LINKS * ARM_LINK_KG * G * ARM_LINKS * ARM_LINK_M / 2.0   # M g l / 2
     finite = np.isfinite(e)
-    return {'max_dE_per_Mgl2': float(np.max(np.abs(e[finite] - e[0]))) / scale
-            if finite.all() else math.nan,
-            'blowup_t_s': _blowup(ts, e, e[0], scale),
-            'max_joint_speed_rad_s': float(np.nanmax(np.abs(qd)))}
+    out = {'max_dE_per_Mgl2': float(np.max(np.abs(e[finite] - e[0]))) / scale
+           if finite.all() else math.nan,
+           'blowup_t_s': _blowup(ts, e, e[0], scale),
+           'max_joint_speed_rad_s': float(np.nanmax(np.abs(qd)))}
+    return _with_joint_error(world, out)
 
 
 def hanging_chain(world_cls, h_s, quick=False):
@@ -559,14 +577,16 @@ def hanging_chain(world_cls, h_s, quick=False):
     world = world_cls(chain(10, h_s))
     try:
         world.step(steps(0.5 if quick else 1.0, h_s))
+        _track_joint_error(world)
         qd = world.qd()
         forces = world.joint_forces()
     finally:
         world.close()
     exact = closed_forms.chain_joint_forces(10, CHAIN_LINK_KG)
-    return {'max_speed_rad_s': float(np.max(np.abs(qd))),
-            'top_force_rel_err': abs(forces[0] / exact[0] - 1.0),
-            'max_force_rel_err': float(np.max(np.abs(forces / exact - 1.0)))}
+    out = {'max_speed_rad_s': float(np.max(np.abs(qd))),
+           'top_force_rel_err': abs(forces[0] / exact[0] - 1.0),
+           'max_force_rel_err': float(np.max(np.abs(forces / exact - 1.0)))}
+    return _with_joint_error(world, out)
 
 
 LIMIT_L_M = 1.0
@@ -585,11 +605,12 @@ def limit_stop(world_cls, h_s, quick=False):
     t_stop = ts[peak + after[0]] if len(after) else math.nan
     l_eq = closed_forms.compound_pendulum_l_eq(LIMIT_L_M)
     t_exact = math.sqrt(l_eq / G) * closed_forms.ellipk(0.5)   # quarter period from 90 deg
-    return {'omega_at_stop_rad_s': float(qd[peak]),
-            'overshoot_rad': float(max(0.0, np.max(q))),
-            'rebound_rad': float(max(0.0, -np.min(q[peak + 1:]))) if peak + 1 < len(q) else 0.0,
-            'energy_lost_J': float(e[0] - e[-1]),
-            'stop_lag_steps': (t_stop - t_exact) / h_s}
+    out = {'omega_at_stop_rad_s': float(qd[peak]),
+           'overshoot_rad': float(max(0.0, np.max(q))),
+           'rebound_rad': float(max(0.0, -np.min(q[peak + 1:]))) if peak + 1 < len(q) else 0.0,
+           'energy_lost_J': float(e[0] - e[-1]),
+           'stop_lag_steps': (t_stop - t_exact) / h_s}
+    return _with_joint_error(world, out)
 
 
 def cart_pole_case(world_cls, h_s, quick=False):
@@ -601,7 +622,8 @@ def cart_pole_case(world_cls, h_s, quick=False):
         world.close()
     exact = closed_forms.cartpole_omega(CART_KG, POLE_KG, POLE_HALF_M)
     omega = 2.0 * math.pi / _period(ts, q[:, 1], qd[:, 1])
-    return {'omega_rad_s': omega, 'rel_err': abs(omega / exact - 1.0)}
+    out = {'omega_rad_s': omega, 'rel_err': abs(omega / exact - 1.0)}
+    return _with_joint_error(world, out)
 
 
 def babyboot_case(world_cls, h_s, quick=False):
@@ -613,9 +635,10 @@ def babyboot_case(world_cls, h_s, quick=False):
     finally:
         world.close()
     scale = b.g * (b.mass_a_kg * b.l_a_m + b.mass_b_kg * b.l_b_m)   # 0.204 J
-    return {'qA_err_deg': math.degrees(abs(q[-1, 0] - b.q_ref_rad[0])),
-            'qB_err_deg': math.degrees(abs(q[-1, 1] - b.q_ref_rad[1])),
-            'max_dE_rel': float(np.max(np.abs(e - e[0]))) / scale}
+    out = {'qA_err_deg': math.degrees(abs(q[-1, 0] - b.q_ref_rad[0])),
+           'qB_err_deg': math.degrees(abs(q[-1, 1] - b.q_ref_rad[1])),
+           'max_dE_rel': float(np.max(np.abs(e - e[0]))) / scale}
+    return _with_joint_error(world, out)
 
 
 def step_cost(world_cls, mech, quick=False):
@@ -714,6 +737,10 @@ def _exact():
 
 #: The exact answer of each figure that has one: ``{case_name: {key: value}}``.
 EXACT = _exact()
+JOINT_ERROR_CASES = ('double_pendulum', 'arm_upright', 'hanging_chain', 'limit_stop', 'cart_pole',
+                     'babyboot')
+for _case in JOINT_ERROR_CASES:
+    EXACT[_case].update({'max_joint_err_m': 0.0, 'max_joint_err_rad': 0.0})
 #: The issue's targets for our column, where it sets one: ``{case: {key: (h_s, bound)}}``.
 TARGETS = {
     'pendulum_period': {f'rel_err_{d:g}deg': {0.001: 5e-7, 0.01: 5e-5}
@@ -727,3 +754,6 @@ TARGETS = {
     'cart_pole': {'rel_err': {0.001: 1e-4, 0.01: 1e-4}},
     'babyboot': {'qA_err_deg': {0.001: 0.5}, 'qB_err_deg': {0.001: 0.5},
                  'max_dE_rel': {0.001: 1e-6}}}
+for _case in JOINT_ERROR_CASES:   # the joint error after every step, ours only (issue item 3)
+    TARGETS[_case].update({'max_joint_err_m': {0.001: 1e-12, 0.01: 1e-12},
+                           'max_joint_err_rad': {0.001: 1e-12, 0.01: 1e-12}})
