@@ -53,6 +53,13 @@ KIND_CODES = {'fixed': 0, 'revolute': 1, 'continuous': 2, 'prismatic': 3, 'spher
 #: Row kinds: a position row ``C = e_k · d`` and an alignment row ``C = e_k · f_l``.
 ROW_LIN = 0
 ROW_ANG = 1
+#: A limit row: ``C = q - bound`` (``q`` the revolute angle or prismatic offset on ``axis_b``).
+ROW_LIMIT = 2
+#: A limit is crossed when the joint is beyond its bound by more than this (rad or m); the
+#: crossing is then located inside the step to :data:`LOCATE_TOL`.
+CROSS_TOL = 1e-13
+LOCATE_TOL = 1e-14
+LOCATE_MAX_ITER = 60
 #: A dense pivot below this fraction of its row's diagonal marks a redundant row.
 DROP_REL = 1e-9
 
@@ -69,8 +76,9 @@ J_PARENT = 0
 J_CHILD = 1
 J_KIND = 2
 J_ROW0 = 3
-J_NROWS = 4
-J_INT_SIZE = 5
+J_NROWS = 4      # rows of the kind, plus one for a limit (the last; active or not)
+J_LIMROW = 5     # index of the limit row, or -1
+J_INT_SIZE = 6
 # jprm columns
 J_ORIGIN_P = 0
 J_ORIGIN_C = 3
@@ -86,14 +94,26 @@ B_OMEGA_W = 24
 B_SIZE = 27
 
 #: The arrays that describe the system (constant after construction).
-ArtModel = namedtuple('ArtModel', 'prm jint jprm rows order node_par node_dim dense')
+ArtModel = namedtuple('ArtModel', 'prm jint jprm jlim rows order node_par node_dim dense')
 #: Preallocated work arrays (nothing is allocated inside a step).
 ArtWork = namedtuple('ArtWork', 'bd jac con bias D Hp W rhs y A mj drop k xs yb yj lam '
-                     'wrench angle stats')
-# stats: 0 max |C| after the last projection, 1 projection iterations (max), 2 failure flag
+                     'wrench angle stats nrow dim active lim_state lim0 x0 k0')
+# jlim columns: lower, upper, has lower, has upper
+L_LOWER = 0
+L_UPPER = 1
+L_HAS_LOWER = 2
+L_HAS_UPPER = 3
+# stats: 0 max |C| after the last projection, 1 projection iterations (max), 2 failure flag,
+# 3 number of stops in the last call, 4 joint of the last stop, 5 the speed it removed
+# (rad/s or m/s, signed), 6 its time from the start of the call (s)
 S_ERR = 0
 S_ITER = 1
 S_FAIL = 2
+S_STOPS = 3
+S_STOP_JOINT = 4
+S_STOP_SPEED = 5
+S_STOP_TIME = 6
+S_SIZE = 8
 
 
 @_inl
@@ -160,6 +180,75 @@ def body_derived(model, x, work):
         bd[b, B_FORCE + 3], bd[b, B_FORCE + 4], bd[b, B_FORCE + 5] = t0, t1, t2
         o0, o1, o2 = _mv(bd, b, B_ROT, w0, w1, w2)
         bd[b, B_OMEGA_W], bd[b, B_OMEGA_W + 1], bd[b, B_OMEGA_W + 2] = o0, o1, o2
+
+
+@_inl
+def _twist(model, x, j):
+    """Return the angle of ``q_pc q_rest⁻¹`` about ``axis_b`` (rad, in (-pi, pi])."""
+    jint, jprm = model.jint, model.jprm
+    par, c = jint[j, J_PARENT], jint[j, J_CHILD]
+    if par >= 0:
+        pw, px, py, pz = x[par, 3], -x[par, 4], -x[par, 5], -x[par, 6]
+    else:
+        pw, px, py, pz = 1.0, 0.0, 0.0, 0.0
+    cw, cx, cy, cz = x[c, 3], x[c, 4], x[c, 5], x[c, 6]
+    aw = pw * cw - px * cx - py * cy - pz * cz
+    ax = pw * cx + px * cw + py * cz - pz * cy
+    ay = pw * cy - px * cz + py * cw + pz * cx
+    az = pw * cz + px * cy - py * cx + pz * cw
+    rw, rx, ry, rz = (jprm[j, J_QREST], -jprm[j, J_QREST + 1], -jprm[j, J_QREST + 2],
+                      -jprm[j, J_QREST + 3])
+    ew = aw * rw - ax * rx - ay * ry - az * rz
+    ex = aw * rx + ax * rw + ay * rz - az * ry
+    ey = aw * ry - ax * rz + ay * rw + az * rx
+    ez = aw * rz + ax * ry - ay * rx + az * rw
+    if ew < 0.0:
+        ew, ex, ey, ez = -ew, -ex, -ey, -ez
+    u = (ex * jprm[j, J_BASIS_P + 6] + ey * jprm[j, J_BASIS_P + 7]
+         + ez * jprm[j, J_BASIS_P + 8])
+    return 2.0 * math.atan2(u, ew)
+
+
+@_jit
+def limit_coordinate(model, x, j):
+    """Return joint ``j``'s limited coordinate: revolute angle (rad) or prismatic offset (m)."""
+    if model.jint[j, J_KIND] != 3:
+        return _twist(model, x, j)
+    jint, jprm = model.jint, model.jprm
+    par, c = jint[j, J_PARENT], jint[j, J_CHILD]
+    # d = (p_c + R_c o_c) - (p_P + R_P o_P), then its component on R_P u3
+    qw, qx, qy, qz = x[c, 3], x[c, 4], x[c, 5], x[c, 6]
+    s = 2.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
+    o0, o1, o2 = jprm[j, J_ORIGIN_C], jprm[j, J_ORIGIN_C + 1], jprm[j, J_ORIGIN_C + 2]
+    d0 = x[c, 0] + (1.0 - s * (qy * qy + qz * qz)) * o0 + s * (qx * qy - qw * qz) * o1 \
+        + s * (qx * qz + qw * qy) * o2
+    d1 = x[c, 1] + s * (qx * qy + qw * qz) * o0 + (1.0 - s * (qx * qx + qz * qz)) * o1 \
+        + s * (qy * qz - qw * qx) * o2
+    d2 = x[c, 2] + s * (qx * qz - qw * qy) * o0 + s * (qy * qz + qw * qx) * o1 \
+        + (1.0 - s * (qx * qx + qy * qy)) * o2
+    u0, u1, u2 = jprm[j, J_BASIS_P + 6], jprm[j, J_BASIS_P + 7], jprm[j, J_BASIS_P + 8]
+    o0, o1, o2 = jprm[j, J_ORIGIN_P], jprm[j, J_ORIGIN_P + 1], jprm[j, J_ORIGIN_P + 2]
+    if par >= 0:
+        qw, qx, qy, qz = x[par, 3], x[par, 4], x[par, 5], x[par, 6]
+        s = 2.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
+        r00, r01, r02 = 1.0 - s * (qy * qy + qz * qz), s * (qx * qy - qw * qz), \
+            s * (qx * qz + qw * qy)
+        r10, r11, r12 = s * (qx * qy + qw * qz), 1.0 - s * (qx * qx + qz * qz), \
+            s * (qy * qz - qw * qx)
+        r20, r21, r22 = s * (qx * qz - qw * qy), s * (qy * qz + qw * qx), \
+            1.0 - s * (qx * qx + qy * qy)
+        d0 -= x[par, 0] + r00 * o0 + r01 * o1 + r02 * o2
+        d1 -= x[par, 1] + r10 * o0 + r11 * o1 + r12 * o2
+        d2 -= x[par, 2] + r20 * o0 + r21 * o1 + r22 * o2
+        e0 = r00 * u0 + r01 * u1 + r02 * u2
+        e1 = r10 * u0 + r11 * u1 + r12 * u2
+        e2 = r20 * u0 + r21 * u1 + r22 * u2
+    else:
+        d0 -= o0
+        d1 -= o1
+        d2 -= o2
+        e0, e1, e2 = u0, u1, u2
+    return d0 * e0 + d1 * e1 + d2 * e2
 
 
 @_jit
@@ -247,7 +336,7 @@ def joint_rows(model, x, work, full):
             a0, a1, a2 = _cross(wc0, wc1, wc2, t0, t1, t2)
             b0, b1, b2 = _cross(wp0, wp1, wp2, u0, u1, u2)
             acc0, acc1, acc2 = a0 - b0, a1 - b1, a2 - b2
-        for r in range(jint[j, J_NROWS]):
+        for r in range(work.nrow[j]):
             row = row0 + r
             k = rows[row, 2]
             m0, m1, m2 = (jprm[j, J_BASIS_P + 3 * k], jprm[j, J_BASIS_P + 3 * k + 1],
@@ -255,8 +344,27 @@ def joint_rows(model, x, work, full):
             e0 = p00 * m0 + p01 * m1 + p02 * m2
             e1 = p10 * m0 + p11 * m1 + p12 * m2
             e2 = p20 * m0 + p21 * m1 + p22 * m2
-            if rows[row, 1] == ROW_LIN:
-                con[row] = e0 * d0 + e1 * d1 + e2 * d2
+            kind = rows[row, 1]
+            if kind == ROW_LIMIT:
+                bound = (model.jlim[j, L_UPPER] if work.lim_state[j] > 0
+                         else model.jlim[j, L_LOWER])
+                if jint[j, J_KIND] == 3:   # prismatic: the offset on axis_b
+                    con[row] = e0 * d0 + e1 * d1 + e2 * d2 - bound
+                    kind = ROW_LIN
+                else:
+                    con[row] = _twist(model, x, j) - bound
+                    if full:
+                        for i in range(12):
+                            jac[row, i] = 0.0
+                        jac[row, 3], jac[row, 4], jac[row, 5] = -e0, -e1, -e2
+                        jac[row, 9], jac[row, 10], jac[row, 11] = e0, e1, e2
+                        h0, h1, h2 = _cross(wp0, wp1, wp2, e0, e1, e2)
+                        bias[row] = ((wc0 - wp0) * h0 + (wc1 - wp1) * h1
+                                     + (wc2 - wp2) * h2)
+                    continue
+            if kind == ROW_LIN:
+                if rows[row, 1] != ROW_LIMIT:
+                    con[row] = e0 * d0 + e1 * d1 + e2 * d2
                 if full:
                     jac[row, 0], jac[row, 1], jac[row, 2] = -e0, -e1, -e2
                     g0, g1, g2 = _cross(xc0, xc1, xc2, e0, e1, e2)
@@ -290,6 +398,12 @@ def joint_rows(model, x, work, full):
                     bias[row] = (n0 * f0 + n1 * f1 + n2 * f2
                                  + 2.0 * (h0 * s0 + h1 * s1 + h2 * s2)
                                  + e0 * t0 + e1 * t1 + e2 * t2)
+        lim = jint[j, J_LIMROW]
+        if lim >= 0 and work.lim_state[j] == 0:
+            con[lim] = 0.0
+            bias[lim] = 0.0
+            for i in range(12):
+                jac[lim, i] = 0.0
 
 
 @_inl
@@ -354,7 +468,7 @@ def _tree_factor(model, work):
     n_b = model.prm.shape[0]
     jint, bd, jac = model.jint, work.bd, work.jac
     D, Hp, W = work.D, work.Hp, work.W
-    dim, par = model.node_dim, model.node_par
+    dim, par = work.dim, model.node_par
     for i in range(dim.shape[0]):
         for r in range(6):
             for c in range(6):
@@ -375,7 +489,7 @@ def _tree_factor(model, work):
             b, j = p, i - n_b
         off = 6 if jint[j, J_CHILD] == b else 0
         row0 = jint[j, J_ROW0]
-        for r in range(jint[j, J_NROWS]):
+        for r in range(work.nrow[j]):
             for a in range(6):
                 if i < n_b:
                     Hp[i, a, r] = jac[row0 + r, off + a]
@@ -444,7 +558,7 @@ def _dense_factor(model, work):
         d = diag
         for k in range(j):
             d -= A[j, k] * A[j, k] * A[k, k]
-        if d <= DROP_REL * diag or diag <= 0.0:
+        if d <= DROP_REL * diag or diag <= 0.0 or work.active[j] == 0:
             work.drop[j] = 1
             A[j, j] = 1.0
             for r in range(j + 1, n_r):
@@ -472,13 +586,13 @@ def solve(model, work, rb, rj, yb, yj):
     jint, rows = model.jint, model.rows
     if not model.dense:
         rhs, y, W, D = work.rhs, work.y, work.W, work.D
-        dim, par = model.node_dim, model.node_par
+        dim, par = work.dim, model.node_par
         for b in range(n_b):
             for k in range(6):
                 rhs[b, k] = rb[b, k]
         for j in range(jint.shape[0]):
             row0 = jint[j, J_ROW0]
-            for r in range(jint[j, J_NROWS]):
+            for r in range(work.nrow[j]):
                 rhs[n_b + j, r] = rj[row0 + r]
         order = model.order
         for t in range(order.shape[0]):
@@ -507,7 +621,7 @@ def solve(model, work, rb, rj, yb, yj):
                 yb[b, k] = y[b, k]
         for j in range(jint.shape[0]):
             row0 = jint[j, J_ROW0]
-            for r in range(jint[j, J_NROWS]):
+            for r in range(work.nrow[j]):
                 yj[row0 + r] = y[n_b + j, r]
         return
     # dense: A yj = J M⁻¹ rb - rj, yb = M⁻¹ (rb - Jᵀ yj)
@@ -591,7 +705,7 @@ def _wrenches(model, work):
         for k in range(6):
             wr[j, k] = 0.0
         row0 = jint[j, J_ROW0]
-        for r in range(jint[j, J_NROWS]):
+        for r in range(work.nrow[j]):
             for k in range(6):
                 wr[j, k] += lam[row0 + r] * jac[row0 + r, 6 + k]
 
@@ -690,50 +804,62 @@ def _project_velocities(model, x, work):
 
 
 @_jit
+def _unwrap(model, x, work):
+    """Keep each continuous joint's running angle (twist of ``q_pc q_rest⁻¹`` on ``axis_b``)."""
+    jint = model.jint
+    for j in range(jint.shape[0]):
+        if jint[j, J_KIND] != 2:
+            continue
+        delta = _twist(model, x, j) - work.angle[j]
+        delta -= 2.0 * math.pi * math.floor(delta / (2.0 * math.pi) + 0.5)
+        work.angle[j] += delta
+
+
+@_jit
+def set_limit(model, work, j, state):
+    """Hold joint ``j``'s limit row at its upper (``state`` 1) or lower (-1) bound; 0 frees."""
+    lim = model.jint[j, J_LIMROW]
+    work.lim_state[j] = state
+    base = model.jint[j, J_NROWS] - 1
+    work.nrow[j] = base + (1 if state != 0 else 0)
+    work.dim[model.prm.shape[0] + j] = work.nrow[j]
+    work.active[lim] = 1 if state != 0 else 0
+
+
+@_jit
+def _release(model, work):
+    """Release every held limit whose multiplier would pull (no sticking); return how many."""
+    jint, lam = model.jint, work.lam
+    released = 0
+    for j in range(jint.shape[0]):
+        state = work.lim_state[j]
+        if state == 0:
+            continue
+        # the row's multiplier is the generalized force along q on the child: a stop at the
+        # upper bound may only push down (λ <= 0), one at the lower bound only up (λ >= 0)
+        if state * lam[jint[j, J_LIMROW]] > 0.0:
+            set_limit(model, work, j, 0)
+            released += 1
+    return released
+
+
+@_jit
 def _end_of_step(model, x, work):
     """Factor at the projected positions, project velocities, then ``ẋ`` (next k1) and ``λ``."""
     body_derived(model, x, work)
     joint_rows(model, x, work, True)
     factor(model, work)
     _project_velocities(model, x, work)
-    body_derived(model, x, work)   # f and ω_w at the new velocities (M unchanged)
-    joint_rows(model, x, work, True)   # J̇ u at the new velocities (J unchanged)
-    _dynamics_solve(model, x, work, work.k[0])
+    for _ in range(model.jint.shape[0] + 1):
+        body_derived(model, x, work)   # f and ω_w at the new velocities (M unchanged)
+        joint_rows(model, x, work, True)   # J̇ u at the new velocities (J unchanged)
+        _dynamics_solve(model, x, work, work.k[0])
+        if _release(model, work) == 0:
+            break
+        joint_rows(model, x, work, True)
+        factor(model, work)
     _wrenches(model, work)
     _unwrap(model, x, work)
-
-
-@_jit
-def _unwrap(model, x, work):
-    """Keep each continuous joint's running angle (twist of ``q_pc q_rest⁻¹`` on ``axis_b``)."""
-    jint, jprm = model.jint, model.jprm
-    for j in range(jint.shape[0]):
-        if jint[j, J_KIND] != 2:
-            continue
-        par, c = jint[j, J_PARENT], jint[j, J_CHILD]
-        if par >= 0:
-            pw, px, py, pz = x[par, 3], -x[par, 4], -x[par, 5], -x[par, 6]
-        else:
-            pw, px, py, pz = 1.0, 0.0, 0.0, 0.0
-        cw, cx, cy, cz = x[c, 3], x[c, 4], x[c, 5], x[c, 6]
-        aw = pw * cw - px * cx - py * cy - pz * cz
-        ax = pw * cx + px * cw + py * cz - pz * cy
-        ay = pw * cy - px * cz + py * cw + pz * cx
-        az = pw * cz + px * cy - py * cx + pz * cw
-        rw, rx, ry, rz = (jprm[j, J_QREST], -jprm[j, J_QREST + 1], -jprm[j, J_QREST + 2],
-                          -jprm[j, J_QREST + 3])
-        ew = aw * rw - ax * rx - ay * ry - az * rz
-        ex = aw * rx + ax * rw + ay * rz - az * ry
-        ey = aw * ry - ax * rz + ay * rw + az * rx
-        ez = aw * rz + ax * ry - ay * rx + az * rw
-        if ew < 0.0:
-            ew, ex, ey, ez = -ew, -ex, -ey, -ez
-        u = (ex * jprm[j, J_BASIS_P + 6] + ey * jprm[j, J_BASIS_P + 7]
-             + ez * jprm[j, J_BASIS_P + 8])
-        theta = 2.0 * math.atan2(u, ew)
-        delta = theta - work.angle[j]
-        delta -= 2.0 * math.pi * math.floor(delta / (2.0 * math.pi) + 0.5)
-        work.angle[j] += delta
 
 
 @_jit
@@ -746,38 +872,148 @@ def initialize(model, x, work, tol, max_iter):
 
 
 @_jit
+def _rk4(model, x, work, h, tol, max_iter):
+    """One RK4 step of size ``h`` from ``x`` (``work.k[0]`` = ``ẋ``) and the projections."""
+    k, xs = work.k, work.xs
+    n_b = x.shape[0]
+    for stage in range(1, 4):
+        c = 0.5 * h if stage < 3 else h
+        for b in range(n_b):
+            for i in range(13):
+                xs[b, i] = x[b, i] + c * k[stage - 1, b, i]
+        _accelerations(model, xs, work, k[stage])
+    for b in range(n_b):
+        for i in range(13):
+            x[b, i] += (h / 6.0) * (k[0, b, i] + 2.0 * (k[1, b, i] + k[2, b, i]) + k[3, b, i])
+        qw, qx, qy, qz = x[b, 3], x[b, 4], x[b, 5], x[b, 6]
+        q = 1.0 / math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+        x[b, 3], x[b, 4], x[b, 5], x[b, 6] = qw * q, qx * q, qy * q, qz * q
+    it = _project_positions(model, x, work, tol, max_iter, 3)
+    if it < 0:
+        return it
+    _end_of_step(model, x, work)
+    return it
+
+
+@_jit
+def _crossing(model, x, work):
+    """Return ``(joint, bound side, excess)`` of the free limit crossed deepest, or (-1, 0, 0)."""
+    jint, jlim = model.jint, model.jlim
+    best, side, excess = -1, 0, 0.0
+    for j in range(jint.shape[0]):
+        if jint[j, J_LIMROW] < 0 or work.lim_state[j] != 0:
+            continue
+        q = limit_coordinate(model, x, j)
+        if jlim[j, L_HAS_UPPER] != 0.0 and q - jlim[j, L_UPPER] > max(CROSS_TOL, excess):
+            best, side, excess = j, 1, q - jlim[j, L_UPPER]
+        if jlim[j, L_HAS_LOWER] != 0.0 and jlim[j, L_LOWER] - q > max(CROSS_TOL, excess):
+            best, side, excess = j, -1, jlim[j, L_LOWER] - q
+    return best, side, excess
+
+
+@_jit
+def _restore(model, x, work):
+    for b in range(x.shape[0]):
+        for i in range(13):
+            x[b, i] = work.x0[b, i]
+            work.k[0, b, i] = work.k0[b, i]
+    for j in range(model.jint.shape[0]):
+        if model.jint[j, J_LIMROW] >= 0 and work.lim_state[j] != work.lim0[j]:
+            set_limit(model, work, j, work.lim0[j])
+
+
+@_jit
+def _joint_speed(model, x, work, j):
+    """Return the rate of joint ``j``'s limited coordinate: its limit row's ``J u``."""
+    state = work.lim_state[j]
+    set_limit(model, work, j, 1)
+    body_derived(model, x, work)
+    joint_rows(model, x, work, True)
+    jint, row = model.jint, model.jint[j, J_LIMROW]
+    s = 0.0
+    for side in range(2):
+        b = jint[j, J_CHILD] if side == 1 else jint[j, J_PARENT]
+        if b >= 0:
+            for i in range(3):
+                s += (work.jac[row, 6 * side + i] * x[b, 7 + i]
+                      + work.jac[row, 6 * side + 3 + i] * work.bd[b, B_OMEGA_W + i])
+    set_limit(model, work, j, state)
+    return s
+
+
+@_jit
 def step(model, x, work, h, n_steps, tol, max_iter):
     """
     ``n_steps`` classical RK4 steps of the constrained ODE, each followed by the projection.
 
+    A limit crossed inside a step (by more than :data:`CROSS_TOL`) splits it: the crossing
+    time is found by the Illinois method on ``q(RK4(x0, τ)) - bound`` (each trial a full RK4
+    sub-step and projection from the step's start) until ``|q - bound| <= LOCATE_TOL``; there
+    the limit row is made active, the velocity projection stops the joint dead (an equal and
+    opposite impulse: the inelastic stop) and the rest of the step is taken with the row held.
     ``work.k[0]`` must hold ``ẋ`` at ``x`` (left there by :func:`initialize` and by every
     step). Return 0, or the step index + 1 at which the position projection failed.
     """
-    k, xs = work.k, work.xs
-    n_b = x.shape[0]
     worst = 0.0
     worst_it = 0
+    work.stats[S_STOPS] = 0.0
     for s in range(n_steps):
-        for stage in range(1, 4):
-            c = 0.5 * h if stage < 3 else h
-            for b in range(n_b):
+        left = h
+        for _ in range(2 * model.jint.shape[0] + 2):
+            for b in range(x.shape[0]):
                 for i in range(13):
-                    xs[b, i] = x[b, i] + c * k[stage - 1, b, i]
-            _accelerations(model, xs, work, k[stage])
-        for b in range(n_b):
-            for i in range(13):
-                x[b, i] += (h / 6.0) * (k[0, b, i] + 2.0 * (k[1, b, i] + k[2, b, i])
-                                        + k[3, b, i])
-            qw, qx, qy, qz = x[b, 3], x[b, 4], x[b, 5], x[b, 6]
-            q = 1.0 / math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
-            x[b, 3], x[b, 4], x[b, 5], x[b, 6] = qw * q, qx * q, qy * q, qz * q
-        it = _project_positions(model, x, work, tol, max_iter, 3)
-        if it < 0:
-            work.stats[S_FAIL] = 1.0
-            return s + 1
-        worst = max(worst, work.stats[S_ERR])
-        worst_it = max(worst_it, it)
-        _end_of_step(model, x, work)
+                    work.x0[b, i] = x[b, i]
+                    work.k0[b, i] = work.k[0, b, i]
+            for j in range(model.jint.shape[0]):
+                work.lim0[j] = work.lim_state[j]
+            it = _rk4(model, x, work, left, tol, max_iter)
+            if it < 0:
+                work.stats[S_FAIL] = 1.0
+                return s + 1
+            j, side, excess = _crossing(model, x, work)
+            if j < 0:
+                worst = max(worst, work.stats[S_ERR])
+                worst_it = max(worst_it, it)
+                break
+            bound = model.jlim[j, L_UPPER] if side > 0 else model.jlim[j, L_LOWER]
+            # g(τ) = side (q(τ) - bound): g(0) <= 0 < g(left) = excess
+            lo, g_lo = 0.0, side * (limit_coordinate(model, work.x0, j) - bound)
+            hi, g_hi = left, excess
+            tau = left
+            for _ in range(LOCATE_MAX_ITER):
+                tau = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
+                _restore(model, x, work)
+                if _rk4(model, x, work, tau, tol, max_iter) < 0:
+                    work.stats[S_FAIL] = 1.0
+                    return s + 1
+                g = side * (limit_coordinate(model, x, j) - bound)
+                if abs(g) <= LOCATE_TOL or hi - lo <= 1e-15 * h:
+                    break
+                if g > 0.0:
+                    hi, g_hi = tau, g
+                    g_lo *= 0.5   # Illinois: halve the end that stays
+                else:
+                    lo, g_lo = tau, g
+                    g_hi *= 0.5
+            # stop dead: hold the bound as an equality row, project positions onto it,
+            # then the velocity projection takes out the speed into the stop
+            speed = _joint_speed(model, x, work, j)
+            set_limit(model, work, j, side)
+            body_derived(model, x, work)
+            joint_rows(model, x, work, True)
+            factor(model, work)
+            if _project_positions(model, x, work, tol, max_iter, 0) < 0:
+                work.stats[S_FAIL] = 1.0
+                return s + 1
+            _end_of_step(model, x, work)
+            work.stats[S_STOPS] += 1.0
+            work.stats[S_STOP_JOINT] = j
+            work.stats[S_STOP_SPEED] = speed
+            work.stats[S_STOP_TIME] = s * h + (h - left) + tau
+            worst = max(worst, work.stats[S_ERR])
+            left -= tau
+            if left <= 1e-12 * h:
+                break
     work.stats[S_ERR] = worst
     work.stats[S_ITER] = worst_it
     return 0

@@ -186,6 +186,7 @@ class ArticulatedSimulator:
             self._x[b] = np.concatenate([s.position_w, s.orientation_wb, s.linear_velocity_w,
                                          s.angular_velocity_b])
         self._time_ns = states[0].time_ns
+        self._t_call = self._time_ns
         jitcache.configured()  # the kernel cache, before a first compile
         it = jk.initialize(self._model, self._x, self._work, PROJECTION_TOL,
                            PROJECTION_MAX_ITER)
@@ -195,10 +196,24 @@ class ArticulatedSimulator:
                 f'{PROJECTION_MAX_ITER} Newton iterations (error {self._work.stats[0]:.3g} m '
                 'or rad); start them nearer')
         self._check_finite('the initial projection')
+        self._check_limits()
         for j, joint in enumerate(joints):
             if joint.kind == 'continuous':
                 self._work.angle[j] = joint_position(joint, *self._poses(joint))[0]
         jk._unwrap(self._model, self._x, self._work)
+
+    def _check_limits(self):
+        for j, joint in enumerate(self._joints):
+            if joint.lower is None and joint.upper is None:
+                continue
+            q = jk.limit_coordinate(self._model, self._x, j)
+            unit = 'm' if joint.kind == 'prismatic' else 'rad'
+            if joint.upper is not None and q > joint.upper + jk.CROSS_TOL:
+                raise ConfigError(f'joint {joint.name!r}.upper: the initial position {q!r} {unit}'
+                                  f' is above upper {joint.upper!r} {unit}')
+            if joint.lower is not None and q < joint.lower - jk.CROSS_TOL:
+                raise ConfigError(f'joint {joint.name!r}.lower: the initial position {q!r} {unit}'
+                                  f' is below lower {joint.lower!r} {unit}')
 
     @staticmethod
     def _arrays(models, joints):
@@ -213,11 +228,18 @@ class ArticulatedSimulator:
             prm[b, jk.P_ANG_DAMP] = m.angular_damping_per_s
         jint = np.zeros((n_j, jk.J_INT_SIZE), dtype=np.int64)
         jprm = np.zeros((n_j, jk.J_PRM_SIZE))
+        jlim = np.zeros((n_j, 4))
         rows = []
         for j, joint in enumerate(joints):
             spec = ROWS[joint.kind]
+            limited = joint.lower is not None or joint.upper is not None
+            if limited:
+                spec = spec + (('limit', 2),)
             jint[j] = (-1 if joint.parent is None else joint.parent, joint.child,
-                       jk.KIND_CODES[joint.kind], len(rows), len(spec))
+                       jk.KIND_CODES[joint.kind], len(rows), len(spec),
+                       len(rows) + len(spec) - 1 if limited else -1)
+            jlim[j] = (joint.lower or 0.0, joint.upper or 0.0, joint.lower is not None,
+                       joint.upper is not None)
             basis = _basis(joint)
             rest = quat_to_matrix(np.asarray(joint.q_rest))
             jprm[j, jk.J_ORIGIN_P:jk.J_ORIGIN_P + 3] = joint.origin_parent_b
@@ -225,18 +247,21 @@ class ArticulatedSimulator:
             jprm[j, jk.J_BASIS_P:jk.J_BASIS_P + 9] = basis.ravel()
             jprm[j, jk.J_BASIS_C:jk.J_BASIS_C + 9] = (basis @ rest).ravel()   # rows Rᵀ u
             jprm[j, jk.J_QREST:jk.J_QREST + 4] = joint.q_rest
+            code = {'lin': jk.ROW_LIN, 'ang': jk.ROW_ANG, 'limit': jk.ROW_LIMIT}
             for r in spec:
-                rows.append((j, jk.ROW_LIN, r[1], 0) if r[0] == 'lin'
-                            else (j, jk.ROW_ANG, r[1], r[2]))
+                rows.append((j, code[r[0]], r[1], r[2] if len(r) > 2 else 0))
         rows = np.array(rows, dtype=np.int64).reshape(-1, 4)
         n_r = rows.shape[0]
         dense, order, par = _tree(n_b, joints)
         n_nodes = n_b + n_j
         dim = np.array([6] * n_b + [len(ROWS[jt.kind]) for jt in joints], dtype=np.int64)
+        nrow = dim[n_b:].copy()
+        active = np.ones(n_r, dtype=np.int64)
+        active[jint[:, jk.J_LIMROW][jint[:, jk.J_LIMROW] >= 0]] = 0
         if dense:
             order = np.zeros(0, dtype=np.int64)
             par = -np.ones(n_nodes, dtype=np.int64)
-        model = jk.ArtModel(prm, jint, jprm, rows, order, par, dim, bool(dense))
+        model = jk.ArtModel(prm, jint, jprm, jlim, rows, order, par, dim.copy(), bool(dense))
         dn = n_r if dense else 1
         nd = 1 if dense else n_nodes
         work = jk.ArtWork(
@@ -247,7 +272,10 @@ class ArticulatedSimulator:
             drop=np.zeros(dn, dtype=np.int64), k=np.zeros((4, n_b, 13)),
             xs=np.zeros((n_b, 13)), yb=np.zeros((n_b, 6)), yj=np.zeros(n_r),
             lam=np.zeros(n_r), wrench=np.zeros((max(n_j, 1), 6)), angle=np.zeros(max(n_j, 1)),
-            stats=np.zeros(3))
+            stats=np.zeros(jk.S_SIZE), nrow=nrow, dim=dim, active=active,
+            lim_state=np.zeros(max(n_j, 1), dtype=np.int64),
+            lim0=np.zeros(max(n_j, 1), dtype=np.int64), x0=np.zeros((n_b, 13)),
+            k0=np.zeros((n_b, 13)))
         return model, work
 
     def _check_finite(self, where):
@@ -266,6 +294,7 @@ class ArticulatedSimulator:
         if n == 0:
             return
         h = self._timestep_ns * 1e-9
+        self._t_call = self._time_ns
         failed = jk.step(self._model, self._x, self._work, h, n, PROJECTION_TOL,
                          PROJECTION_MAX_ITER)
         if failed:
@@ -305,6 +334,25 @@ class ArticulatedSimulator:
     def last_projection(self):
         """Return ``(max row error after the last call's projections, max iterations)``."""
         return float(self._work.stats[0]), int(self._work.stats[1])
+
+    @property
+    def last_stop(self):
+        """
+        Return the last limit stop of the last :meth:`step` call, or None if there was none.
+
+        ``(joint index, time ns (float: inside a step), speed removed rad/s or m/s)``; the
+        speed is the joint rate just before the stop's impulse (it is zero after).
+        """
+        stats = self._work.stats
+        if stats[jk.S_STOPS] == 0:
+            return None
+        return (int(stats[jk.S_STOP_JOINT]), self._t_call + stats[jk.S_STOP_TIME] * 1e9,
+                float(stats[jk.S_STOP_SPEED]))
+
+    @property
+    def held_limits(self):
+        """Return per joint +1 (held at upper), -1 (at lower) or 0 (free)."""
+        return [int(self._work.lim_state[j]) for j in range(len(self._joints))]
 
     @property
     def states(self):
