@@ -55,6 +55,24 @@ ROW_LIN = 0
 ROW_ANG = 1
 #: A limit row: ``C = q - bound`` (``q`` the revolute angle or prismatic offset on ``axis_b``).
 ROW_LIMIT = 2
+#: A motor row: the joint rate held at a velocity target, or the critically damped
+#: acceleration toward a position target; absent from the position projection.
+ROW_MOTOR = 3
+MOTOR_OFF = 0
+MOTOR_EFFORT = 1
+MOTOR_VELOCITY = 2
+MOTOR_POSITION = 3
+# work.motor columns: mode, effort (N m or N), velocity target, position target, omega (1/s),
+# effort limit (inf for none), saturation sign (-1, 0, 1), applied effort (the readout)
+M_MODE = 0
+M_EFFORT = 1
+M_VELOCITY = 2
+M_POSITION = 3
+M_OMEGA = 4
+M_LIMIT = 5
+M_SAT = 6
+M_APPLIED = 7
+M_SIZE = 8
 #: A limit is crossed when the joint is beyond its bound by more than this (rad or m); the
 #: crossing is then located inside the step to :data:`LOCATE_TOL`.
 CROSS_TOL = 1e-13
@@ -78,7 +96,8 @@ J_KIND = 2
 J_ROW0 = 3
 J_NROWS = 4      # rows of the kind, plus one for a limit (the last; active or not)
 J_LIMROW = 5     # index of the limit row, or -1
-J_INT_SIZE = 6
+J_MOTROW = 6     # index of the motor row (1-dof kinds), or -1
+J_INT_SIZE = 7
 # jprm columns
 J_ORIGIN_P = 0
 J_ORIGIN_C = 3
@@ -97,7 +116,7 @@ B_SIZE = 27
 ArtModel = namedtuple('ArtModel', 'prm jint jprm jlim rows order node_par node_dim dense')
 #: Preallocated work arrays (nothing is allocated inside a step).
 ArtWork = namedtuple('ArtWork', 'bd jac con bias D Hp W rhs y A mj drop k xs yb yj lam '
-                     'wrench angle stats nrow dim active lim_state lim0 x0 k0')
+                     'wrench angle stats nrow dim active lim_state lim0 x0 k0 jrows motor')
 # jlim columns: lower, upper, has lower, has upper
 L_LOWER = 0
 L_UPPER = 1
@@ -336,7 +355,7 @@ def joint_rows(model, x, work, full):
             a0, a1, a2 = _cross(wc0, wc1, wc2, t0, t1, t2)
             b0, b1, b2 = _cross(wp0, wp1, wp2, u0, u1, u2)
             acc0, acc1, acc2 = a0 - b0, a1 - b1, a2 - b2
-        for r in range(work.nrow[j]):
+        for r in range(jint[j, J_NROWS]):
             row = row0 + r
             k = rows[row, 2]
             m0, m1, m2 = (jprm[j, J_BASIS_P + 3 * k], jprm[j, J_BASIS_P + 3 * k + 1],
@@ -345,26 +364,27 @@ def joint_rows(model, x, work, full):
             e1 = p10 * m0 + p11 * m1 + p12 * m2
             e2 = p20 * m0 + p21 * m1 + p22 * m2
             kind = rows[row, 1]
-            if kind == ROW_LIMIT:
-                bound = (model.jlim[j, L_UPPER] if work.lim_state[j] > 0
-                         else model.jlim[j, L_LOWER])
-                if jint[j, J_KIND] == 3:   # prismatic: the offset on axis_b
-                    con[row] = e0 * d0 + e1 * d1 + e2 * d2 - bound
-                    kind = ROW_LIN
-                else:
-                    con[row] = _twist(model, x, j) - bound
-                    if full:
-                        for i in range(12):
-                            jac[row, i] = 0.0
-                        jac[row, 3], jac[row, 4], jac[row, 5] = -e0, -e1, -e2
-                        jac[row, 9], jac[row, 10], jac[row, 11] = e0, e1, e2
-                        h0, h1, h2 = _cross(wp0, wp1, wp2, e0, e1, e2)
-                        bias[row] = ((wc0 - wp0) * h0 + (wc1 - wp1) * h1
-                                     + (wc2 - wp2) * h2)
-                    continue
-            if kind == ROW_LIN:
-                if rows[row, 1] != ROW_LIMIT:
-                    con[row] = e0 * d0 + e1 * d1 + e2 * d2
+            coord = 0.0
+            rate = 0.0
+            axial = kind == ROW_LIMIT or kind == ROW_MOTOR
+            if axial and jint[j, J_KIND] != 3:
+                # revolute / continuous: the relative rotation rate about e = R_P axis_b
+                if full:
+                    for i in range(12):
+                        jac[row, i] = 0.0
+                    jac[row, 3], jac[row, 4], jac[row, 5] = -e0, -e1, -e2
+                    jac[row, 9], jac[row, 10], jac[row, 11] = e0, e1, e2
+                    h0, h1, h2 = _cross(wp0, wp1, wp2, e0, e1, e2)
+                    bias[row] = (wc0 - wp0) * h0 + (wc1 - wp1) * h1 + (wc2 - wp2) * h2
+                    rate = (wc0 - wp0) * e0 + (wc1 - wp1) * e1 + (wc2 - wp2) * e2
+                coord = _twist(model, x, j)
+                if jint[j, J_KIND] == 2:
+                    delta = coord - work.angle[j]
+                    coord = work.angle[j] + delta - 2.0 * math.pi * math.floor(
+                        delta / (2.0 * math.pi) + 0.5)
+            elif kind == ROW_LIN or axial:
+                coord = e0 * d0 + e1 * d1 + e2 * d2
+                con[row] = coord
                 if full:
                     jac[row, 0], jac[row, 1], jac[row, 2] = -e0, -e1, -e2
                     g0, g1, g2 = _cross(xc0, xc1, xc2, e0, e1, e2)
@@ -377,6 +397,7 @@ def joint_rows(model, x, work, full):
                     bias[row] = (e0 * acc0 + e1 * acc1 + e2 * acc2
                                  + 2.0 * (h0 * dd0 + h1 * dd1 + h2 * dd2)
                                  + n0 * d0 + n1 * d1 + n2 * d2)
+                    rate = e0 * dd0 + e1 * dd1 + e2 * dd2 + h0 * d0 + h1 * d1 + h2 * d2
             else:
                 li = rows[row, 3]
                 m0, m1, m2 = (jprm[j, J_BASIS_C + 3 * li], jprm[j, J_BASIS_C + 3 * li + 1],
@@ -398,12 +419,20 @@ def joint_rows(model, x, work, full):
                     bias[row] = (n0 * f0 + n1 * f1 + n2 * f2
                                  + 2.0 * (h0 * s0 + h1 * s1 + h2 * s2)
                                  + e0 * t0 + e1 * t1 + e2 * t2)
-        lim = jint[j, J_LIMROW]
-        if lim >= 0 and work.lim_state[j] == 0:
-            con[lim] = 0.0
-            bias[lim] = 0.0
-            for i in range(12):
-                jac[lim, i] = 0.0
+            if kind == ROW_LIMIT:
+                con[row] = coord - (model.jlim[j, L_UPPER] if work.lim_state[j] > 0
+                                    else model.jlim[j, L_LOWER])
+            elif kind == ROW_MOTOR:
+                # not a position row: the projection leaves the motor's coordinate alone
+                con[row] = 0.0
+                if full and work.motor[j, M_MODE] == MOTOR_POSITION:
+                    # q'' = -2 w q' - w^2 (q - q*): the exact critically damped response
+                    w = work.motor[j, M_OMEGA]
+                    bias[row] += 2.0 * w * rate + w * w * (coord - work.motor[j, M_POSITION])
+            if work.active[row] == 0:
+                con[row] = 0.0
+                if full:
+                    bias[row] = 0.0
 
 
 @_inl
@@ -488,13 +517,13 @@ def _tree_factor(model, work):
         else:
             b, j = p, i - n_b
         off = 6 if jint[j, J_CHILD] == b else 0
-        row0 = jint[j, J_ROW0]
         for r in range(work.nrow[j]):
+            row = work.jrows[j, r]
             for a in range(6):
                 if i < n_b:
-                    Hp[i, a, r] = jac[row0 + r, off + a]
+                    Hp[i, a, r] = jac[row, off + a]
                 else:
-                    Hp[i, r, a] = jac[row0 + r, off + a]
+                    Hp[i, r, a] = jac[row, off + a]
     for t in range(model.order.shape[0]):
         i = model.order[t]
         di = dim[i]
@@ -591,9 +620,8 @@ def solve(model, work, rb, rj, yb, yj):
             for k in range(6):
                 rhs[b, k] = rb[b, k]
         for j in range(jint.shape[0]):
-            row0 = jint[j, J_ROW0]
             for r in range(work.nrow[j]):
-                rhs[n_b + j, r] = rj[row0 + r]
+                rhs[n_b + j, r] = rj[work.jrows[j, r]]
         order = model.order
         for t in range(order.shape[0]):
             i = order[t]
@@ -619,10 +647,11 @@ def solve(model, work, rb, rj, yb, yj):
         for b in range(n_b):
             for k in range(6):
                 yb[b, k] = y[b, k]
+        for r in range(yj.shape[0]):
+            yj[r] = 0.0
         for j in range(jint.shape[0]):
-            row0 = jint[j, J_ROW0]
             for r in range(work.nrow[j]):
-                yj[row0 + r] = y[n_b + j, r]
+                yj[work.jrows[j, r]] = y[n_b + j, r]
         return
     # dense: A yj = J M⁻¹ rb - rj, yb = M⁻¹ (rb - Jᵀ yj)
     A, mj, jac, bd, prm = work.A, work.mj, work.jac, work.bd, model.prm
@@ -670,7 +699,36 @@ def _accelerations(model, x, work, kout):
     body_derived(model, x, work)
     joint_rows(model, x, work, True)
     factor(model, work)
+    _motor_forces(model, work)
     _dynamics_solve(model, x, work, kout)
+
+
+@_jit
+def _motor_forces(model, work):
+    """
+    Add each effort motor's (and saturated motor's) generalized force to ``work.bd``'s wrenches.
+
+    The force ``τ`` along the joint coordinate acts through the motor row's Jacobian,
+    ``f += Jᵀ τ``: equal and opposite on the two bodies (a torque pair about the axis, or a
+    force pair at the child's anchor along the axis).
+    """
+    jint, motor, jac, bd = model.jint, work.motor, work.jac, work.bd
+    for j in range(jint.shape[0]):
+        row = jint[j, J_MOTROW]
+        if row < 0:
+            continue
+        mode = motor[j, M_MODE]
+        if mode == MOTOR_EFFORT:
+            tau = min(max(motor[j, M_EFFORT], -motor[j, M_LIMIT]), motor[j, M_LIMIT])
+        elif mode != MOTOR_OFF and motor[j, M_SAT] != 0.0 and work.lim_state[j] == 0:
+            tau = motor[j, M_SAT] * motor[j, M_LIMIT]
+        else:
+            continue
+        for side in range(2):
+            b = jint[j, J_CHILD] if side == 1 else jint[j, J_PARENT]
+            if b >= 0:
+                for k in range(6):
+                    bd[b, B_FORCE + k] += tau * jac[row, 6 * side + k]
 
 
 @_jit
@@ -704,10 +762,10 @@ def _wrenches(model, work):
     for j in range(jint.shape[0]):
         for k in range(6):
             wr[j, k] = 0.0
-        row0 = jint[j, J_ROW0]
         for r in range(work.nrow[j]):
+            row = work.jrows[j, r]
             for k in range(6):
-                wr[j, k] += lam[row0 + r] * jac[row0 + r, 6 + k]
+                wr[j, k] += lam[row] * jac[row, 6 + k]
 
 
 @_inl
@@ -792,6 +850,11 @@ def _project_velocities(model, x, work):
                 for k in range(3):
                     s += jac[r, o + k] * x[b, 7 + k] + jac[r, o + 3 + k] * bd[b, B_OMEGA_W + k]
         work.bias[r] = -s
+        if rows[r, 1] == ROW_MOTOR:
+            # a velocity target is a velocity row, J u = v*; a position target's row is an
+            # acceleration row only, so the projection leaves that rate alone
+            mode = work.motor[j, M_MODE]
+            work.bias[r] = work.motor[j, M_VELOCITY] - s if mode == MOTOR_VELOCITY else 0.0
     solve(model, work, zero, work.bias, work.yb, work.yj)
     yb = work.yb
     for b in range(x.shape[0]):
@@ -816,14 +879,27 @@ def _unwrap(model, x, work):
 
 
 @_jit
+def refresh_rows(model, work, j):
+    """Rebuild joint ``j``'s list of active rows (``work.jrows``, ``nrow``, its node's size)."""
+    n = 0
+    row0 = model.jint[j, J_ROW0]
+    for r in range(model.jint[j, J_NROWS]):
+        if work.active[row0 + r] != 0:
+            work.jrows[j, n] = row0 + r
+            n += 1
+    work.nrow[j] = n
+    work.dim[model.prm.shape[0] + j] = n
+
+
+@_jit
 def set_limit(model, work, j, state):
     """Hold joint ``j``'s limit row at its upper (``state`` 1) or lower (-1) bound; 0 frees."""
-    lim = model.jint[j, J_LIMROW]
     work.lim_state[j] = state
-    base = model.jint[j, J_NROWS] - 1
-    work.nrow[j] = base + (1 if state != 0 else 0)
-    work.dim[model.prm.shape[0] + j] = work.nrow[j]
-    work.active[lim] = 1 if state != 0 else 0
+    work.active[model.jint[j, J_LIMROW]] = 1 if state != 0 else 0
+    motor_row = model.jint[j, J_MOTROW]
+    if motor_row >= 0 and state != 0:
+        work.active[motor_row] = 0   # a held limit pauses the joint's motor
+    refresh_rows(model, work, j)
 
 
 @_jit
@@ -844,21 +920,107 @@ def _release(model, work):
 
 
 @_jit
+def _saturate(model, work):
+    """
+    Switch off every motor row whose multiplier exceeds the effort limit; return how many.
+
+    A saturated motor pushes with ``±effort_limit`` instead (see :func:`_motor_forces`).
+    """
+    jint, lam, motor = model.jint, work.lam, work.motor
+    changed = 0
+    for j in range(jint.shape[0]):
+        row = jint[j, J_MOTROW]
+        if row < 0 or work.active[row] == 0:
+            continue
+        if abs(lam[row]) > motor[j, M_LIMIT]:
+            motor[j, M_SAT] = 1.0 if lam[row] > 0.0 else -1.0
+            work.active[row] = 0
+            refresh_rows(model, work, j)
+            changed += 1
+    return changed
+
+
+@_jit
+def _motor_rows_on(model, work):
+    """Turn on the row of every position / velocity motor not paused by a held limit."""
+    jint, motor = model.jint, work.motor
+    changed = 0
+    for j in range(jint.shape[0]):
+        row = jint[j, J_MOTROW]
+        if row < 0:
+            continue
+        mode = motor[j, M_MODE]
+        want = 1 if ((mode == MOTOR_VELOCITY or mode == MOTOR_POSITION)
+                     and work.lim_state[j] == 0) else 0
+        motor[j, M_SAT] = 0.0
+        if work.active[row] != want:
+            work.active[row] = want
+            refresh_rows(model, work, j)
+            changed += 1
+    return changed
+
+
+@_jit
+def _applied_efforts(model, work):
+    jint, motor = model.jint, work.motor
+    for j in range(jint.shape[0]):
+        row = jint[j, J_MOTROW]
+        if row < 0:
+            continue
+        mode = motor[j, M_MODE]
+        if mode == MOTOR_EFFORT:
+            motor[j, M_APPLIED] = min(max(motor[j, M_EFFORT], -motor[j, M_LIMIT]),
+                                      motor[j, M_LIMIT])
+        elif work.active[row] != 0:
+            motor[j, M_APPLIED] = work.lam[row]
+        elif mode != MOTOR_OFF and motor[j, M_SAT] != 0.0:
+            motor[j, M_APPLIED] = motor[j, M_SAT] * motor[j, M_LIMIT]
+        else:
+            motor[j, M_APPLIED] = 0.0
+
+
+@_jit
+def refresh_dynamics(model, x, work):
+    """Recompute ``ẋ`` (k1), ``λ``, wrenches and efforts at ``x`` after a change of motors."""
+    _dynamics_at(model, x, work, True)
+
+
+@_jit
+def _dynamics_at(model, x, work, refactor):
+    """
+    ``ẋ`` into ``work.k[0]`` and ``λ`` at ``x``, deciding limits and saturation.
+
+    Held limits whose multiplier would pull are released; motor rows are tried on and a
+    motor whose multiplier exceeds its effort limit is saturated; each change refactors.
+    """
+    if _motor_rows_on(model, work) > 0:
+        refactor = True
+    for _ in range(2 * model.jint.shape[0] + 2):
+        body_derived(model, x, work)   # f and ω_w at the current velocities
+        joint_rows(model, x, work, True)   # J̇ u at the current velocities
+        if refactor:
+            factor(model, work)
+        _motor_forces(model, work)
+        _dynamics_solve(model, x, work, work.k[0])
+        changed = _release(model, work)
+        if changed > 0:
+            _motor_rows_on(model, work)   # a released joint's motor resumes
+        changed += _saturate(model, work)
+        if changed == 0:
+            break
+        refactor = True
+    _wrenches(model, work)
+    _applied_efforts(model, work)
+
+
+@_jit
 def _end_of_step(model, x, work):
     """Factor at the projected positions, project velocities, then ``ẋ`` (next k1) and ``λ``."""
     body_derived(model, x, work)
     joint_rows(model, x, work, True)
     factor(model, work)
     _project_velocities(model, x, work)
-    for _ in range(model.jint.shape[0] + 1):
-        body_derived(model, x, work)   # f and ω_w at the new velocities (M unchanged)
-        joint_rows(model, x, work, True)   # J̇ u at the new velocities (J unchanged)
-        _dynamics_solve(model, x, work, work.k[0])
-        if _release(model, work) == 0:
-            break
-        joint_rows(model, x, work, True)
-        factor(model, work)
-    _wrenches(model, work)
+    _dynamics_at(model, x, work, False)
     _unwrap(model, x, work)
 
 
@@ -925,8 +1087,6 @@ def _restore(model, x, work):
 @_jit
 def _joint_speed(model, x, work, j):
     """Return the rate of joint ``j``'s limited coordinate: its limit row's ``J u``."""
-    state = work.lim_state[j]
-    set_limit(model, work, j, 1)
     body_derived(model, x, work)
     joint_rows(model, x, work, True)
     jint, row = model.jint, model.jint[j, J_LIMROW]
@@ -937,7 +1097,6 @@ def _joint_speed(model, x, work, j):
             for i in range(3):
                 s += (work.jac[row, 6 * side + i] * x[b, 7 + i]
                       + work.jac[row, 6 * side + 3 + i] * work.bd[b, B_OMEGA_W + i])
-    set_limit(model, work, j, state)
     return s
 
 

@@ -31,7 +31,8 @@ from typing import Sequence
 import numpy as np
 
 from rbd_ros.core import jitcache
-from rbd_ros.core.errors import ConfigError, ConvergenceError, NonFiniteError, whole_number
+from rbd_ros.core.errors import (ConfigError, ConvergenceError, finite_scalar, NonFiniteError,
+                                 whole_number)
 from rbd_ros.core.joints import kernels as jk
 from rbd_ros.core.joints.model import Joint, joint_position, joint_velocity
 from rbd_ros.core.model import BodyModel
@@ -52,6 +53,8 @@ ROWS = {
     'universal': (('lin', 0), ('lin', 1), ('lin', 2), ('ang', 2, 0)),
     'planar': (('lin', 2), ('ang', 0, 2), ('ang', 1, 2)),
 }
+#: Joint kinds that take a motor (one coordinate).
+MOTOR_KINDS = ('revolute', 'continuous', 'prismatic')
 #: Largest row error left by the projection after every step, m (position rows) or the
 #: cosine of the angle between two axes that must be perpendicular (alignment rows).
 PROJECTION_TOL = 1e-13
@@ -233,11 +236,15 @@ class ArticulatedSimulator:
         for j, joint in enumerate(joints):
             spec = ROWS[joint.kind]
             limited = joint.lower is not None or joint.upper is not None
+            limit_row = motor_row = -1
             if limited:
+                limit_row = len(rows) + len(spec)
                 spec = spec + (('limit', 2),)
+            if joint.kind in MOTOR_KINDS:
+                motor_row = len(rows) + len(spec)
+                spec = spec + (('motor', 2),)
             jint[j] = (-1 if joint.parent is None else joint.parent, joint.child,
-                       jk.KIND_CODES[joint.kind], len(rows), len(spec),
-                       len(rows) + len(spec) - 1 if limited else -1)
+                       jk.KIND_CODES[joint.kind], len(rows), len(spec), limit_row, motor_row)
             jlim[j] = (joint.lower or 0.0, joint.upper or 0.0, joint.lower is not None,
                        joint.upper is not None)
             basis = _basis(joint)
@@ -247,7 +254,8 @@ class ArticulatedSimulator:
             jprm[j, jk.J_BASIS_P:jk.J_BASIS_P + 9] = basis.ravel()
             jprm[j, jk.J_BASIS_C:jk.J_BASIS_C + 9] = (basis @ rest).ravel()   # rows Rᵀ u
             jprm[j, jk.J_QREST:jk.J_QREST + 4] = joint.q_rest
-            code = {'lin': jk.ROW_LIN, 'ang': jk.ROW_ANG, 'limit': jk.ROW_LIMIT}
+            code = {'lin': jk.ROW_LIN, 'ang': jk.ROW_ANG, 'limit': jk.ROW_LIMIT,
+                    'motor': jk.ROW_MOTOR}
             for r in spec:
                 rows.append((j, code[r[0]], r[1], r[2] if len(r) > 2 else 0))
         rows = np.array(rows, dtype=np.int64).reshape(-1, 4)
@@ -257,7 +265,8 @@ class ArticulatedSimulator:
         dim = np.array([6] * n_b + [len(ROWS[jt.kind]) for jt in joints], dtype=np.int64)
         nrow = dim[n_b:].copy()
         active = np.ones(n_r, dtype=np.int64)
-        active[jint[:, jk.J_LIMROW][jint[:, jk.J_LIMROW] >= 0]] = 0
+        for column in (jk.J_LIMROW, jk.J_MOTROW):
+            active[jint[:, column][jint[:, column] >= 0]] = 0
         if dense:
             order = np.zeros(0, dtype=np.int64)
             par = -np.ones(n_nodes, dtype=np.int64)
@@ -275,7 +284,12 @@ class ArticulatedSimulator:
             stats=np.zeros(jk.S_SIZE), nrow=nrow, dim=dim, active=active,
             lim_state=np.zeros(max(n_j, 1), dtype=np.int64),
             lim0=np.zeros(max(n_j, 1), dtype=np.int64), x0=np.zeros((n_b, 13)),
-            k0=np.zeros((n_b, 13)))
+            k0=np.zeros((n_b, 13)), jrows=np.zeros((max(n_j, 1), 8), dtype=np.int64),
+            motor=np.zeros((max(n_j, 1), jk.M_SIZE)))
+        for j, joint in enumerate(joints):
+            work.motor[j, jk.M_LIMIT] = (math.inf if joint.effort_limit is None
+                                         else joint.effort_limit)
+            jk.refresh_rows(model, work, j)
         return model, work
 
     def _check_finite(self, where):
@@ -334,6 +348,82 @@ class ArticulatedSimulator:
     def last_projection(self):
         """Return ``(max row error after the last call's projections, max iterations)``."""
         return float(self._work.stats[0]), int(self._work.stats[1])
+
+    def set_motor(self, joint_index: int, *, effort=None, velocity=None, position=None,
+                  time_constant_s=None) -> None:
+        """
+        Set (or, with no target, clear) joint ``joint_index``'s motor; held until changed.
+
+        One of: ``effort`` (N m or N along the joint coordinate, clipped by the joint's
+        ``effort_limit``); ``velocity`` (rad/s or m/s: the joint rate is held at it, enforced
+        with the other rows at the end of every step); ``position`` (rad or m) with
+        ``time_constant_s`` ``1/ω``: the joint follows ``ë = -2ω ė - ω² e`` exactly (critically
+        damped, no overshoot, no steady-state error under gravity), an acceleration row. A
+        position or velocity motor needing more than ``effort_limit`` saturates: it pushes with
+        ``±effort_limit`` (:meth:`motor_saturated` says so). A held limit pauses the motor.
+        """
+        n_j = len(self._joints)
+        if isinstance(joint_index, bool) or not isinstance(joint_index, (int, np.integer)) \
+                or not 0 <= joint_index < n_j:
+            raise ConfigError(f'joint_index: {joint_index!r} is not a joint index (0 to '
+                              f'{n_j - 1})')
+        joint = self._joints[joint_index]
+        who = f'joint {joint.name!r}'
+        given = [(name, value) for name, value in (('effort', effort), ('velocity', velocity),
+                                                   ('position', position)) if value is not None]
+        if given and joint.kind not in MOTOR_KINDS:
+            raise ConfigError(f'{who}: a {joint.kind} joint takes no motor (only '
+                              f'{", ".join(MOTOR_KINDS)})')
+        if len(given) > 1:
+            raise ConfigError(f'{who}: give one of effort, velocity, position, not '
+                              f'{" and ".join(name for name, _ in given)}')
+        linear = joint.kind == 'prismatic'
+        units = {'effort': 'N' if linear else 'N m', 'velocity': 'm/s' if linear else 'rad/s',
+                 'position': 'm' if linear else 'rad'}
+        row = self._work.motor[joint_index]
+        mode, value = (given[0] if given else ('off', 0.0))
+        if given:
+            value = finite_scalar(value, f'{who}.{mode}', units[mode], error=ConfigError)
+        if mode == 'position':
+            if time_constant_s is None:
+                raise ConfigError(f'{who}.time_constant_s: None; a position target needs a '
+                                  'time constant in s > 0')
+            tau = finite_scalar(time_constant_s, f'{who}.time_constant_s', 's',
+                                error=ConfigError)
+            if not tau > 0.0:
+                raise ConfigError(f'{who}.time_constant_s: {tau!r} s must be > 0')
+            for bound, ok in (('lower', joint.lower is None or value >= joint.lower),
+                              ('upper', joint.upper is None or value <= joint.upper)):
+                if not ok:
+                    raise ConfigError(f'{who}.position: {value!r} {units[mode]} is beyond '
+                                      f'{bound} {getattr(joint, bound)!r} {units[mode]}')
+            if joint.kind == 'revolute' and not -math.pi < value <= math.pi:
+                raise ConfigError(f'{who}.position: {value!r} rad must be in (-pi, pi] for a '
+                                  'revolute joint (a continuous joint takes any angle)')
+            row[jk.M_OMEGA] = 1.0 / tau
+        elif time_constant_s is not None:
+            raise ConfigError(f'{who}.time_constant_s: {time_constant_s!r}; only a position '
+                              'target takes a time constant')
+        codes = {'off': jk.MOTOR_OFF, 'effort': jk.MOTOR_EFFORT,
+                 'velocity': jk.MOTOR_VELOCITY, 'position': jk.MOTOR_POSITION}
+        row[jk.M_MODE] = codes[mode]
+        row[jk.M_EFFORT] = value if mode == 'effort' else 0.0
+        row[jk.M_VELOCITY] = value if mode == 'velocity' else 0.0
+        row[jk.M_POSITION] = value if mode == 'position' else 0.0
+        jk.refresh_dynamics(self._model, self._x, self._work)
+
+    def joint_efforts(self) -> np.ndarray:
+        """
+        Return (n_joints,): each motor's applied effort now, N m or N (0 without a motor).
+
+        An effort motor: its clipped effort; a position or velocity motor: the force its row
+        applies (the multiplier), or ``±effort_limit`` when saturated.
+        """
+        return np.array([self._work.motor[j, jk.M_APPLIED] for j in range(len(self._joints))])
+
+    def motor_saturated(self):
+        """Return per joint True when its position or velocity motor is at its effort limit."""
+        return [bool(self._work.motor[j, jk.M_SAT] != 0.0) for j in range(len(self._joints))]
 
     @property
     def last_stop(self):
