@@ -121,8 +121,9 @@ def test_free_system_keeps_momentum(step_ns):
     assert np.abs(p1 - p0).max() <= 1e-12 * max(1.0, np.abs(p0).max())
     # Angular momentum about the origin is quadratic (p x m v + R I w): the velocity
     # projection keeps it exactly (its impulses act at one point, their torques cancel),
-    # the RK4 stages only to their truncation error, O(h^4).
-    tol = 1e-9 if step_ns == 1_000_000 else 1e-5
+    # the RK4 stages only to their truncation error, O(h^4): 4e-14 measured at 1 ms, 9e-10 at
+    # 10 ms (the h^4 ratio, 1e4); bounds with a margin of 10 over those
+    tol = 1e-12 if step_ns == 1_000_000 else 1e-8
     assert np.abs(l1 - l0).max() <= tol * np.abs(l0).max()
 
 
@@ -308,16 +309,17 @@ def four_bar(step_ns):
 def test_four_bar_loop_stays_closed(step_ns):
     sim = four_bar(step_ns)
     assert sim.solver == 'dense'
-    e0 = sim.energy()
+    e0, crank0 = sim.energy(), sim.joint_positions()[0][0]
     worst = 0.0
     for _ in range(600):
         sim.step(100_000_000 // step_ns)
         worst = max(worst, *sim.joint_error())
     # the issue's target: the loop closed to 1e-12 m over 60 s
     assert worst <= JOINT_TOL
-    # and it moved (the crank is not locked by the redundant planar rows): energy is kept
-    # to the integrator's error and the crank has turned
-    assert abs(sim.energy() - e0) <= 1e-3 * abs(e0) + 1e-3
+    # the redundant planar rows do not lock it: it swings (the crank turns ~0.9 rad) with
+    # its energy kept to RK4's error (3e-8 J at 1 ms, 3e-3 J at 10 ms measured; h^4 scaling)
+    assert abs(sim.joint_positions()[0][0] - crank0) > 0.1
+    assert abs(sim.energy() - e0) <= (1e-6 if step_ns == 1_000_000 else 1e-2)
 
 
 @pytest.mark.parametrize('step_ns', STEPS_NS)
