@@ -141,15 +141,20 @@ class ArticulatedSimulator:
         (the smallest kinetic-energy change that makes every joint's rows still).
     :param joints: the joints; ``parent=None`` is the world. Trees, branches and loops.
     :param timestep_ns: the fixed step ``h``, integer ns > 0.
+    :param solver: ``'auto'`` (the tree elimination when no loop closes, else dense) or
+        ``'dense'`` (always the dense factorisation; the same answers, for checking).
     :raises ConfigError: a bad argument (one line naming the joint or body and field).
     :raises ConvergenceError: the initial poses could not be projected onto the joints.
     """
 
     def __init__(self, models: Sequence[BodyModel], states: Sequence[BodyState],
-                 joints: Sequence[Joint], *, timestep_ns: int = 1_000_000):
+                 joints: Sequence[Joint], *, timestep_ns: int = 1_000_000,
+                 solver: str = 'auto'):
         models, states, joints = list(models), list(states), list(joints)
         self._timestep_ns = whole_number(timestep_ns, 'timestep_ns', 'ns', positive=True,
                                          error=ConfigError)
+        if solver not in ('auto', 'dense'):
+            raise ConfigError(f"solver: {solver!r} is not 'auto' or 'dense'")
         if not models:
             raise ConfigError('models: empty; an articulated system needs at least one body')
         if len(states) != len(models):
@@ -183,7 +188,7 @@ class ArticulatedSimulator:
                 raise ConfigError(f'{who}.parent: {joint.parent} is its own child')
         self._models = tuple(models)
         self._joints = tuple(joints)
-        self._model, self._work = self._arrays(models, joints)
+        self._model, self._work = self._arrays(models, joints, solver == 'dense')
         self._x = np.zeros((n_b, 13))
         for b, s in enumerate(states):
             self._x[b] = np.concatenate([s.position_w, s.orientation_wb, s.linear_velocity_w,
@@ -219,7 +224,7 @@ class ArticulatedSimulator:
                                   f' is below lower {joint.lower!r} {unit}')
 
     @staticmethod
-    def _arrays(models, joints):
+    def _arrays(models, joints, force_dense=False):
         n_b, n_j = len(models), len(joints)
         prm = np.zeros((n_b, jk.P_SIZE))
         for b, m in enumerate(models):
@@ -261,6 +266,7 @@ class ArticulatedSimulator:
         rows = np.array(rows, dtype=np.int64).reshape(-1, 4)
         n_r = rows.shape[0]
         dense, order, par = _tree(n_b, joints)
+        dense = dense or force_dense
         n_nodes = n_b + n_j
         dim = np.array([6] * n_b + [len(ROWS[jt.kind]) for jt in joints], dtype=np.int64)
         nrow = dim[n_b:].copy()
