@@ -17,11 +17,13 @@ Joints between two rigid bodies (or a body and the world), in maximal coordinate
 
 A joint is a value: its kind, the two bodies it connects (``parent`` may be ``None``, the
 world), its frame in each body (``origin_*_b`` and ``axis_b``) and its limits. The articulated
-step (not in this slice) treats each joint as one more kind of constraint between two bodies.
+step (:class:`ArticulatedSimulator`) treats each joint as constraint rows between two bodies.
 May import :mod:`rbd_ros.core` helpers only.
 """
 
 from rbd_ros.core.joints.model import (Joint, JOINT_KINDS, joint_position, joint_velocity,
                                        unwrap_angle)
+from rbd_ros.core.joints.simulator import ArticulatedSimulator, PROJECTION_TOL, ROWS
 
-__all__ = ['Joint', 'JOINT_KINDS', 'joint_position', 'joint_velocity', 'unwrap_angle']
+__all__ = ['ArticulatedSimulator', 'Joint', 'JOINT_KINDS', 'PROJECTION_TOL', 'ROWS',
+           'joint_position', 'joint_velocity', 'unwrap_angle']

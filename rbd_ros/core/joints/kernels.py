@@ -1,0 +1,1178 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The articulated step's numba kernels: constraint rows, the direct solve, RK4 and projection.
+
+Bodies are in maximal coordinates, state row ``x[b] = (p_w, q_wb, v_w, ω_b)`` (13 floats). The
+constrained accelerations solve the saddle-point system
+
+    ``[[M, Jᵀ], [J, 0]] [a; -λ] = [f; -J̇ u]``,   ``M = diag(m I₃, I_w)``, ``u = (v_w, ω_w)``,
+
+for the body accelerations ``a = (v̇_w, ω̇_w)`` and the multipliers ``λ`` (the constraint
+wrench on the bodies is ``Jᵀ λ``, equal and opposite by construction of each row). ``f`` holds
+gravity, the body damping as a force (``-m c_v v``, ``-c_ω R I_b ω_b``) and the gyroscopic
+torque ``-ω × I_w ω``. Two solvers, both direct:
+
+- **tree** (Baraff 1996): the system's graph with one node a body (6 rows) and one a joint
+  (its rows) is a tree when no loop closes; it is factored leaves first by block LDLᵀ, one
+  pass linear in the number of joints. A component is rooted at its world joint (or at a
+  body when it has none), so every joint node is eliminated after a body and its block is
+  negative definite.
+- **dense**: with a loop (a body-joint cycle, or two world joints in one component) the
+  reduced system ``J M⁻¹ Jᵀ λ = ...`` is built dense and factored by LDLᵀ; a pivot below
+  :data:`DROP_REL` of its diagonal is a redundant row (a planar four-bar's out-of-plane rows)
+  and its multiplier is set to zero.
+
+The same factorisation serves the projections: positions by Newton with the mass-weighted
+minimal change (right side ``[0; -C]``), velocities by ``[0; -J u]``.
+"""
+
+from collections import namedtuple
+import math
+
+from rbd_ros.core import jitcache
+
+_jit = jitcache.kernel()
+_inl = jitcache.kernel(inline='always')
+
+#: Joint kind codes (the order of :data:`rbd_ros.core.joints.model.JOINT_KINDS`).
+KIND_CODES = {'fixed': 0, 'revolute': 1, 'continuous': 2, 'prismatic': 3, 'spherical': 4,
+              'universal': 5, 'planar': 6}
+#: Row kinds: a position row ``C = e_k · d`` and an alignment row ``C = e_k · f_l``.
+ROW_LIN = 0
+ROW_ANG = 1
+#: A limit row: ``C = q - bound`` (``q`` the revolute angle or prismatic offset on ``axis_b``).
+ROW_LIMIT = 2
+#: A motor row: the joint rate held at a velocity target, or the critically damped
+#: acceleration toward a position target; absent from the position projection.
+ROW_MOTOR = 3
+MOTOR_OFF = 0
+MOTOR_EFFORT = 1
+MOTOR_VELOCITY = 2
+MOTOR_POSITION = 3
+# work.motor columns: mode, effort (N m or N), velocity target, position target, omega (1/s),
+# effort limit (inf for none), saturation sign (-1, 0, 1), applied effort (the readout)
+M_MODE = 0
+M_EFFORT = 1
+M_VELOCITY = 2
+M_POSITION = 3
+M_OMEGA = 4
+M_LIMIT = 5
+M_SAT = 6
+M_APPLIED = 7
+M_SIZE = 8
+#: A limit is crossed when the joint is beyond its bound by more than this (rad or m); the
+#: crossing is then located inside the step to :data:`LOCATE_TOL`.
+CROSS_TOL = 1e-13
+LOCATE_TOL = 1e-14
+LOCATE_MAX_ITER = 60
+#: A dense pivot below this fraction of its row's diagonal marks a redundant row.
+DROP_REL = 1e-9
+
+# prm columns (one row a body)
+P_MASS = 0
+P_INERTIA = 1
+P_INERTIA_INV = 10
+P_GRAVITY = 19
+P_LIN_DAMP = 22
+P_ANG_DAMP = 23
+P_SIZE = 24
+# jint columns (one row a joint)
+J_PARENT = 0
+J_CHILD = 1
+J_KIND = 2
+J_ROW0 = 3
+J_NROWS = 4      # rows of the kind, plus one for a limit (the last; active or not)
+J_LIMROW = 5     # index of the limit row, or -1
+J_MOTROW = 6     # index of the motor row (1-dof kinds), or -1
+J_INT_SIZE = 7
+# jprm columns
+J_ORIGIN_P = 0
+J_ORIGIN_C = 3
+J_BASIS_P = 6    # u1, u2, u3 in parent coordinates (u3 = axis_b)
+J_BASIS_C = 15   # the same three at rest, in child coordinates
+J_QREST = 24
+J_PRM_SIZE = 28
+# bd columns (derived per body at one configuration)
+B_ROT = 0
+B_IW = 9
+B_FORCE = 18
+B_OMEGA_W = 24
+B_SIZE = 27
+
+#: The arrays that describe the system (constant after construction).
+ArtModel = namedtuple('ArtModel', 'prm jint jprm jlim rows order node_par node_dim dense')
+#: Preallocated work arrays (nothing is allocated inside a step).
+ArtWork = namedtuple('ArtWork', 'bd jac con bias D Hp W rhs y A mj drop k xs yb yj lam '
+                     'wrench angle stats nrow dim active lim_state lim0 x0 k0 jrows motor')
+# jlim columns: lower, upper, has lower, has upper
+L_LOWER = 0
+L_UPPER = 1
+L_HAS_LOWER = 2
+L_HAS_UPPER = 3
+# stats: 0 max |C| after the last projection, 1 projection iterations (max), 2 failure flag,
+# 3 number of stops in the last call, 4 joint of the last stop, 5 the speed it removed
+# (rad/s or m/s, signed), 6 its time from the start of the call (s)
+S_ERR = 0
+S_ITER = 1
+S_FAIL = 2
+S_STOPS = 3
+S_STOP_JOINT = 4
+S_STOP_SPEED = 5
+S_STOP_TIME = 6
+S_SIZE = 8
+
+
+@_inl
+def _cross(a0, a1, a2, b0, b1, b2):
+    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+
+
+@_inl
+def _rot_from_q(qw, qx, qy, qz, out, i, off):
+    """Write ``R(q/|q|)`` row-major into ``out[i, off:off + 9]``."""
+    s = 2.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
+    out[i, off + 0] = 1.0 - s * (qy * qy + qz * qz)
+    out[i, off + 1] = s * (qx * qy - qw * qz)
+    out[i, off + 2] = s * (qx * qz + qw * qy)
+    out[i, off + 3] = s * (qx * qy + qw * qz)
+    out[i, off + 4] = 1.0 - s * (qx * qx + qz * qz)
+    out[i, off + 5] = s * (qy * qz - qw * qx)
+    out[i, off + 6] = s * (qx * qz - qw * qy)
+    out[i, off + 7] = s * (qy * qz + qw * qx)
+    out[i, off + 8] = 1.0 - s * (qx * qx + qy * qy)
+
+
+@_inl
+def _mv(m, i, off, x0, x1, x2):
+    """Return ``A v`` for the row-major 3×3 ``A`` in ``m[i, off:off + 9]``."""
+    return (m[i, off] * x0 + m[i, off + 1] * x1 + m[i, off + 2] * x2,
+            m[i, off + 3] * x0 + m[i, off + 4] * x1 + m[i, off + 5] * x2,
+            m[i, off + 6] * x0 + m[i, off + 7] * x1 + m[i, off + 8] * x2)
+
+
+@_inl
+def _mtv(m, i, off, x0, x1, x2):
+    """Return ``Aᵀ v`` for the row-major 3×3 ``A`` in ``m[i, off:off + 9]``."""
+    return (m[i, off] * x0 + m[i, off + 3] * x1 + m[i, off + 6] * x2,
+            m[i, off + 1] * x0 + m[i, off + 4] * x1 + m[i, off + 7] * x2,
+            m[i, off + 2] * x0 + m[i, off + 5] * x1 + m[i, off + 8] * x2)
+
+
+@_jit
+def body_derived(model, x, work):
+    """Fill ``work.bd``: rotation, world inertia, free wrench ``f`` (world) and ``ω_w``."""
+    prm, bd = model.prm, work.bd
+    for b in range(x.shape[0]):
+        _rot_from_q(x[b, 3], x[b, 4], x[b, 5], x[b, 6], bd, b, B_ROT)
+        # I_w = R I_b Rᵀ
+        for r in range(3):
+            for c in range(3):
+                s = 0.0
+                for k in range(3):
+                    for m in range(3):
+                        s += (bd[b, B_ROT + 3 * r + k] * prm[b, P_INERTIA + 3 * k + m]
+                              * bd[b, B_ROT + 3 * c + m])
+                bd[b, B_IW + 3 * r + c] = s
+        mass = prm[b, P_MASS]
+        cv = prm[b, P_LIN_DAMP]
+        for k in range(3):
+            bd[b, B_FORCE + k] = mass * (prm[b, P_GRAVITY + k] - cv * x[b, 7 + k])
+        w0, w1, w2 = x[b, 10], x[b, 11], x[b, 12]
+        h0, h1, h2 = _mv(prm, b, P_INERTIA, w0, w1, w2)
+        # τ_b = -c_ω I_b ω_b - ω_b × I_b ω_b (damping and the gyroscopic term), then world
+        g0, g1, g2 = _cross(w0, w1, w2, h0, h1, h2)
+        ca = prm[b, P_ANG_DAMP]
+        t0, t1, t2 = _mv(bd, b, B_ROT, -ca * h0 - g0, -ca * h1 - g1, -ca * h2 - g2)
+        bd[b, B_FORCE + 3], bd[b, B_FORCE + 4], bd[b, B_FORCE + 5] = t0, t1, t2
+        o0, o1, o2 = _mv(bd, b, B_ROT, w0, w1, w2)
+        bd[b, B_OMEGA_W], bd[b, B_OMEGA_W + 1], bd[b, B_OMEGA_W + 2] = o0, o1, o2
+
+
+@_inl
+def _twist(model, x, j):
+    """Return the angle of ``q_pc q_rest⁻¹`` about ``axis_b`` (rad, in (-pi, pi])."""
+    jint, jprm = model.jint, model.jprm
+    par, c = jint[j, J_PARENT], jint[j, J_CHILD]
+    if par >= 0:
+        pw, px, py, pz = x[par, 3], -x[par, 4], -x[par, 5], -x[par, 6]
+    else:
+        pw, px, py, pz = 1.0, 0.0, 0.0, 0.0
+    cw, cx, cy, cz = x[c, 3], x[c, 4], x[c, 5], x[c, 6]
+    aw = pw * cw - px * cx - py * cy - pz * cz
+    ax = pw * cx + px * cw + py * cz - pz * cy
+    ay = pw * cy - px * cz + py * cw + pz * cx
+    az = pw * cz + px * cy - py * cx + pz * cw
+    rw, rx, ry, rz = (jprm[j, J_QREST], -jprm[j, J_QREST + 1], -jprm[j, J_QREST + 2],
+                      -jprm[j, J_QREST + 3])
+    ew = aw * rw - ax * rx - ay * ry - az * rz
+    ex = aw * rx + ax * rw + ay * rz - az * ry
+    ey = aw * ry - ax * rz + ay * rw + az * rx
+    ez = aw * rz + ax * ry - ay * rx + az * rw
+    if ew < 0.0:
+        ew, ex, ey, ez = -ew, -ex, -ey, -ez
+    u = (ex * jprm[j, J_BASIS_P + 6] + ey * jprm[j, J_BASIS_P + 7]
+         + ez * jprm[j, J_BASIS_P + 8])
+    return 2.0 * math.atan2(u, ew)
+
+
+@_jit
+def limit_coordinate(model, x, j):
+    """Return joint ``j``'s limited coordinate: revolute angle (rad) or prismatic offset (m)."""
+    if model.jint[j, J_KIND] != 3:
+        return _twist(model, x, j)
+    jint, jprm = model.jint, model.jprm
+    par, c = jint[j, J_PARENT], jint[j, J_CHILD]
+    # d = (p_c + R_c o_c) - (p_P + R_P o_P), then its component on R_P u3
+    qw, qx, qy, qz = x[c, 3], x[c, 4], x[c, 5], x[c, 6]
+    s = 2.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
+    o0, o1, o2 = jprm[j, J_ORIGIN_C], jprm[j, J_ORIGIN_C + 1], jprm[j, J_ORIGIN_C + 2]
+    d0 = x[c, 0] + (1.0 - s * (qy * qy + qz * qz)) * o0 + s * (qx * qy - qw * qz) * o1 \
+        + s * (qx * qz + qw * qy) * o2
+    d1 = x[c, 1] + s * (qx * qy + qw * qz) * o0 + (1.0 - s * (qx * qx + qz * qz)) * o1 \
+        + s * (qy * qz - qw * qx) * o2
+    d2 = x[c, 2] + s * (qx * qz - qw * qy) * o0 + s * (qy * qz + qw * qx) * o1 \
+        + (1.0 - s * (qx * qx + qy * qy)) * o2
+    u0, u1, u2 = jprm[j, J_BASIS_P + 6], jprm[j, J_BASIS_P + 7], jprm[j, J_BASIS_P + 8]
+    o0, o1, o2 = jprm[j, J_ORIGIN_P], jprm[j, J_ORIGIN_P + 1], jprm[j, J_ORIGIN_P + 2]
+    if par >= 0:
+        qw, qx, qy, qz = x[par, 3], x[par, 4], x[par, 5], x[par, 6]
+        s = 2.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
+        r00, r01, r02 = 1.0 - s * (qy * qy + qz * qz), s * (qx * qy - qw * qz), \
+            s * (qx * qz + qw * qy)
+        r10, r11, r12 = s * (qx * qy + qw * qz), 1.0 - s * (qx * qx + qz * qz), \
+            s * (qy * qz - qw * qx)
+        r20, r21, r22 = s * (qx * qz - qw * qy), s * (qy * qz + qw * qx), \
+            1.0 - s * (qx * qx + qy * qy)
+        d0 -= x[par, 0] + r00 * o0 + r01 * o1 + r02 * o2
+        d1 -= x[par, 1] + r10 * o0 + r11 * o1 + r12 * o2
+        d2 -= x[par, 2] + r20 * o0 + r21 * o1 + r22 * o2
+        e0 = r00 * u0 + r01 * u1 + r02 * u2
+        e1 = r10 * u0 + r11 * u1 + r12 * u2
+        e2 = r20 * u0 + r21 * u1 + r22 * u2
+    else:
+        d0 -= o0
+        d1 -= o1
+        d2 -= o2
+        e0, e1, e2 = u0, u1, u2
+    return d0 * e0 + d1 * e1 + d2 * e2
+
+
+@_jit
+def joint_rows(model, x, work, full):
+    """
+    Fill ``work.con`` (the errors ``C``) and, if ``full``, ``work.jac`` and ``work.bias``.
+
+    Rows of joint ``j`` between parent ``P`` (or the world) and child ``c``, with the anchors
+    ``r_P = R_P o_P``, ``r_c = R_c o_c``, the separation ``d = (p_c + r_c) - (p_P + r_P)``,
+    the parent's joint basis ``e_k = R_P u_k`` and the child's ``f_l = R_c w_l``:
+
+    - position row ``C = e_k · d``: ``J`` has ``v_c: e``, ``ω_c: r_c × e``, ``v_P: -e``,
+      ``ω_P: -(p_c + r_c - p_P) × e``; ``J̇ u = e·(ω_c×(ω_c×r_c) - ω_P×(ω_P×r_P))
+      + 2 (ω_P×e)·ḋ + (ω_P×(ω_P×e))·d``;
+    - alignment row ``C = e_k · f_l``: ``J`` has ``ω_c: f × e``, ``ω_P: e × f``;
+      ``J̇ u = (ω_P×(ω_P×e))·f + 2 (ω_P×e)·(ω_c×f) + e·(ω_c×(ω_c×f))``.
+
+    ``jac`` columns: ``v_P, ω_P, v_c, ω_c`` (world); ``ω`` are world angular velocities.
+    """
+    jint, jprm, rows = model.jint, model.jprm, model.rows
+    jac, con, bias = work.jac, work.con, work.bias
+    for j in range(jint.shape[0]):
+        par = jint[j, J_PARENT]
+        c = jint[j, J_CHILD]
+        row0 = jint[j, J_ROW0]
+        # child rotation
+        qw, qx, qy, qz = x[c, 3], x[c, 4], x[c, 5], x[c, 6]
+        s = 2.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
+        c00 = 1.0 - s * (qy * qy + qz * qz)
+        c01 = s * (qx * qy - qw * qz)
+        c02 = s * (qx * qz + qw * qy)
+        c10 = s * (qx * qy + qw * qz)
+        c11 = 1.0 - s * (qx * qx + qz * qz)
+        c12 = s * (qy * qz - qw * qx)
+        c20 = s * (qx * qz - qw * qy)
+        c21 = s * (qy * qz + qw * qx)
+        c22 = 1.0 - s * (qx * qx + qy * qy)
+        if par >= 0:
+            qw, qx, qy, qz = x[par, 3], x[par, 4], x[par, 5], x[par, 6]
+            s = 2.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
+            p00 = 1.0 - s * (qy * qy + qz * qz)
+            p01 = s * (qx * qy - qw * qz)
+            p02 = s * (qx * qz + qw * qy)
+            p10 = s * (qx * qy + qw * qz)
+            p11 = 1.0 - s * (qx * qx + qz * qz)
+            p12 = s * (qy * qz - qw * qx)
+            p20 = s * (qx * qz - qw * qy)
+            p21 = s * (qy * qz + qw * qx)
+            p22 = 1.0 - s * (qx * qx + qy * qy)
+            pp0, pp1, pp2 = x[par, 0], x[par, 1], x[par, 2]
+            vp0, vp1, vp2 = x[par, 7], x[par, 8], x[par, 9]
+            wb0, wb1, wb2 = x[par, 10], x[par, 11], x[par, 12]
+            wp0 = p00 * wb0 + p01 * wb1 + p02 * wb2
+            wp1 = p10 * wb0 + p11 * wb1 + p12 * wb2
+            wp2 = p20 * wb0 + p21 * wb1 + p22 * wb2
+        else:
+            p00, p01, p02, p10, p11, p12, p20, p21, p22 = 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, \
+                0.0, 1.0
+            pp0 = pp1 = pp2 = 0.0
+            vp0 = vp1 = vp2 = 0.0
+            wp0 = wp1 = wp2 = 0.0
+        wb0, wb1, wb2 = x[c, 10], x[c, 11], x[c, 12]
+        wc0 = c00 * wb0 + c01 * wb1 + c02 * wb2
+        wc1 = c10 * wb0 + c11 * wb1 + c12 * wb2
+        wc2 = c20 * wb0 + c21 * wb1 + c22 * wb2
+        o0, o1, o2 = jprm[j, J_ORIGIN_P], jprm[j, J_ORIGIN_P + 1], jprm[j, J_ORIGIN_P + 2]
+        rp0 = p00 * o0 + p01 * o1 + p02 * o2
+        rp1 = p10 * o0 + p11 * o1 + p12 * o2
+        rp2 = p20 * o0 + p21 * o1 + p22 * o2
+        o0, o1, o2 = jprm[j, J_ORIGIN_C], jprm[j, J_ORIGIN_C + 1], jprm[j, J_ORIGIN_C + 2]
+        rc0 = c00 * o0 + c01 * o1 + c02 * o2
+        rc1 = c10 * o0 + c11 * o1 + c12 * o2
+        rc2 = c20 * o0 + c21 * o1 + c22 * o2
+        # child anchor relative to the parent's centre, and the separation d
+        xc0 = x[c, 0] + rc0 - pp0
+        xc1 = x[c, 1] + rc1 - pp1
+        xc2 = x[c, 2] + rc2 - pp2
+        d0, d1, d2 = xc0 - rp0, xc1 - rp1, xc2 - rp2
+        if full:
+            t0, t1, t2 = _cross(wc0, wc1, wc2, rc0, rc1, rc2)
+            u0, u1, u2 = _cross(wp0, wp1, wp2, rp0, rp1, rp2)
+            dd0 = x[c, 7] + t0 - vp0 - u0
+            dd1 = x[c, 8] + t1 - vp1 - u1
+            dd2 = x[c, 9] + t2 - vp2 - u2
+            a0, a1, a2 = _cross(wc0, wc1, wc2, t0, t1, t2)
+            b0, b1, b2 = _cross(wp0, wp1, wp2, u0, u1, u2)
+            acc0, acc1, acc2 = a0 - b0, a1 - b1, a2 - b2
+        for r in range(jint[j, J_NROWS]):
+            row = row0 + r
+            k = rows[row, 2]
+            m0, m1, m2 = (jprm[j, J_BASIS_P + 3 * k], jprm[j, J_BASIS_P + 3 * k + 1],
+                          jprm[j, J_BASIS_P + 3 * k + 2])
+            e0 = p00 * m0 + p01 * m1 + p02 * m2
+            e1 = p10 * m0 + p11 * m1 + p12 * m2
+            e2 = p20 * m0 + p21 * m1 + p22 * m2
+            kind = rows[row, 1]
+            coord = 0.0
+            rate = 0.0
+            axial = kind == ROW_LIMIT or kind == ROW_MOTOR
+            if axial and jint[j, J_KIND] != 3:
+                # revolute / continuous: the relative rotation rate about e = R_P axis_b
+                if full:
+                    for i in range(12):
+                        jac[row, i] = 0.0
+                    jac[row, 3], jac[row, 4], jac[row, 5] = -e0, -e1, -e2
+                    jac[row, 9], jac[row, 10], jac[row, 11] = e0, e1, e2
+                    h0, h1, h2 = _cross(wp0, wp1, wp2, e0, e1, e2)
+                    bias[row] = (wc0 - wp0) * h0 + (wc1 - wp1) * h1 + (wc2 - wp2) * h2
+                    rate = (wc0 - wp0) * e0 + (wc1 - wp1) * e1 + (wc2 - wp2) * e2
+                coord = _twist(model, x, j)
+                if jint[j, J_KIND] == 2:
+                    delta = coord - work.angle[j]
+                    coord = work.angle[j] + delta - 2.0 * math.pi * math.floor(
+                        delta / (2.0 * math.pi) + 0.5)
+            elif kind == ROW_LIN or axial:
+                coord = e0 * d0 + e1 * d1 + e2 * d2
+                con[row] = coord
+                if full:
+                    jac[row, 0], jac[row, 1], jac[row, 2] = -e0, -e1, -e2
+                    g0, g1, g2 = _cross(xc0, xc1, xc2, e0, e1, e2)
+                    jac[row, 3], jac[row, 4], jac[row, 5] = -g0, -g1, -g2
+                    jac[row, 6], jac[row, 7], jac[row, 8] = e0, e1, e2
+                    g0, g1, g2 = _cross(rc0, rc1, rc2, e0, e1, e2)
+                    jac[row, 9], jac[row, 10], jac[row, 11] = g0, g1, g2
+                    h0, h1, h2 = _cross(wp0, wp1, wp2, e0, e1, e2)
+                    n0, n1, n2 = _cross(wp0, wp1, wp2, h0, h1, h2)
+                    bias[row] = (e0 * acc0 + e1 * acc1 + e2 * acc2
+                                 + 2.0 * (h0 * dd0 + h1 * dd1 + h2 * dd2)
+                                 + n0 * d0 + n1 * d1 + n2 * d2)
+                    rate = e0 * dd0 + e1 * dd1 + e2 * dd2 + h0 * d0 + h1 * d1 + h2 * d2
+            else:
+                li = rows[row, 3]
+                m0, m1, m2 = (jprm[j, J_BASIS_C + 3 * li], jprm[j, J_BASIS_C + 3 * li + 1],
+                              jprm[j, J_BASIS_C + 3 * li + 2])
+                f0 = c00 * m0 + c01 * m1 + c02 * m2
+                f1 = c10 * m0 + c11 * m1 + c12 * m2
+                f2 = c20 * m0 + c21 * m1 + c22 * m2
+                con[row] = e0 * f0 + e1 * f1 + e2 * f2
+                if full:
+                    g0, g1, g2 = _cross(e0, e1, e2, f0, f1, f2)
+                    jac[row, 0] = jac[row, 1] = jac[row, 2] = 0.0
+                    jac[row, 3], jac[row, 4], jac[row, 5] = g0, g1, g2
+                    jac[row, 6] = jac[row, 7] = jac[row, 8] = 0.0
+                    jac[row, 9], jac[row, 10], jac[row, 11] = -g0, -g1, -g2
+                    h0, h1, h2 = _cross(wp0, wp1, wp2, e0, e1, e2)
+                    n0, n1, n2 = _cross(wp0, wp1, wp2, h0, h1, h2)
+                    s0, s1, s2 = _cross(wc0, wc1, wc2, f0, f1, f2)
+                    t0, t1, t2 = _cross(wc0, wc1, wc2, s0, s1, s2)
+                    bias[row] = (n0 * f0 + n1 * f1 + n2 * f2
+                                 + 2.0 * (h0 * s0 + h1 * s1 + h2 * s2)
+                                 + e0 * t0 + e1 * t1 + e2 * t2)
+            if kind == ROW_LIMIT:
+                con[row] = coord - (model.jlim[j, L_UPPER] if work.lim_state[j] > 0
+                                    else model.jlim[j, L_LOWER])
+            elif kind == ROW_MOTOR:
+                # not a position row: the projection leaves the motor's coordinate alone
+                con[row] = 0.0
+                if full and work.motor[j, M_MODE] == MOTOR_POSITION:
+                    # q'' = -2 w q' - w^2 (q - q*): the exact critically damped response
+                    w = work.motor[j, M_OMEGA]
+                    bias[row] += 2.0 * w * rate + w * w * (coord - work.motor[j, M_POSITION])
+            if work.active[row] == 0:
+                con[row] = 0.0
+                if full:
+                    bias[row] = 0.0
+
+
+@_inl
+def _ldl(a, i, n):
+    """LDLᵀ of the symmetric ``a[i, :n, :n]`` in place (lower part; no pivoting)."""
+    for j in range(n):
+        d = a[i, j, j]
+        for k in range(j):
+            d -= a[i, j, k] * a[i, j, k] * a[i, k, k]
+        a[i, j, j] = d
+        for r in range(j + 1, n):
+            s = a[i, r, j]
+            for k in range(j):
+                s -= a[i, r, k] * a[i, j, k] * a[i, k, k]
+            a[i, r, j] = s / d
+
+
+@_inl
+def _ldl_solve_col(a, i, n, v, vi, col):
+    """Solve ``a[i] z = v[vi, :n, col]`` in place with the LDLᵀ factor of :func:`_ldl`."""
+    for r in range(n):
+        s = v[vi, r, col]
+        for k in range(r):
+            s -= a[i, r, k] * v[vi, k, col]
+        v[vi, r, col] = s
+    for r in range(n):
+        v[vi, r, col] /= a[i, r, r]
+    for r in range(n - 1, -1, -1):
+        s = v[vi, r, col]
+        for k in range(r + 1, n):
+            s -= a[i, k, r] * v[vi, k, col]
+        v[vi, r, col] = s
+
+
+@_inl
+def _ldl_solve_vec(a, i, n, v, vi):
+    for r in range(n):
+        s = v[vi, r]
+        for k in range(r):
+            s -= a[i, r, k] * v[vi, k]
+        v[vi, r] = s
+    for r in range(n):
+        v[vi, r] /= a[i, r, r]
+    for r in range(n - 1, -1, -1):
+        s = v[vi, r]
+        for k in range(r + 1, n):
+            s -= a[i, k, r] * v[vi, k]
+        v[vi, r] = s
+
+
+@_jit
+def factor(model, work):
+    """Factor the saddle-point system at the configuration of ``work.bd`` and ``work.jac``."""
+    if model.dense:
+        _dense_factor(model, work)
+    else:
+        _tree_factor(model, work)
+
+
+@_jit
+def _tree_factor(model, work):
+    n_b = model.prm.shape[0]
+    jint, bd, jac = model.jint, work.bd, work.jac
+    D, Hp, W = work.D, work.Hp, work.W
+    dim, par = work.dim, model.node_par
+    for i in range(dim.shape[0]):
+        for r in range(6):
+            for c in range(6):
+                D[i, r, c] = 0.0
+    for b in range(n_b):
+        m = model.prm[b, P_MASS]
+        D[b, 0, 0] = D[b, 1, 1] = D[b, 2, 2] = m
+        for r in range(3):
+            for c in range(3):
+                D[b, 3 + r, 3 + c] = bd[b, B_IW + 3 * r + c]
+    for i in range(dim.shape[0]):
+        p = par[i]
+        if p < 0:
+            continue
+        if i < n_b:
+            b, j = i, p - n_b
+        else:
+            b, j = p, i - n_b
+        off = 6 if jint[j, J_CHILD] == b else 0
+        for r in range(work.nrow[j]):
+            row = work.jrows[j, r]
+            for a in range(6):
+                if i < n_b:
+                    Hp[i, a, r] = jac[row, off + a]
+                else:
+                    Hp[i, r, a] = jac[row, off + a]
+    for t in range(model.order.shape[0]):
+        i = model.order[t]
+        di = dim[i]
+        _ldl(D, i, di)
+        p = par[i]
+        if p < 0:
+            continue
+        dp = dim[p]
+        for c in range(dp):
+            for r in range(di):
+                W[i, r, c] = Hp[i, r, c]
+            _ldl_solve_col(D, i, di, W, i, c)
+        for a in range(dp):
+            for c in range(a + 1):
+                s = 0.0
+                for k in range(di):
+                    s += Hp[i, k, a] * W[i, k, c]
+                D[p, a, c] -= s
+
+
+@_jit
+def _dense_factor(model, work):
+    jint, rows, bd, jac, mj, A = model.jint, model.rows, work.bd, work.jac, work.mj, work.A
+    n_r = rows.shape[0]
+    prm = model.prm
+    # M⁻¹ Jᵀ per row and body side: linear / m, angular R I_b⁻¹ Rᵀ
+    for row in range(n_r):
+        j = rows[row, 0]
+        for side in range(2):
+            b = jint[j, J_CHILD] if side == 1 else jint[j, J_PARENT]
+            o = 6 * side
+            if b < 0:
+                for k in range(6):
+                    mj[row, o + k] = 0.0
+                continue
+            inv_m = 1.0 / prm[b, P_MASS]
+            for k in range(3):
+                mj[row, o + k] = jac[row, o + k] * inv_m
+            t0, t1, t2 = _mtv(bd, b, B_ROT, jac[row, o + 3], jac[row, o + 4], jac[row, o + 5])
+            t0, t1, t2 = _mv(prm, b, P_INERTIA_INV, t0, t1, t2)
+            mj[row, o + 3], mj[row, o + 4], mj[row, o + 5] = _mv(bd, b, B_ROT, t0, t1, t2)
+    for r in range(n_r):
+        jr = rows[r, 0]
+        for s in range(r + 1):
+            js = rows[s, 0]
+            acc = 0.0
+            for sr in range(2):
+                br = jint[jr, J_CHILD] if sr == 1 else jint[jr, J_PARENT]
+                if br < 0:
+                    continue
+                for ss in range(2):
+                    bs = jint[js, J_CHILD] if ss == 1 else jint[js, J_PARENT]
+                    if bs != br:
+                        continue
+                    for k in range(6):
+                        acc += jac[r, 6 * sr + k] * mj[s, 6 * ss + k]
+            A[r, s] = acc
+    # LDLᵀ with redundant rows dropped
+    for j in range(n_r):
+        diag = A[j, j]
+        d = diag
+        for k in range(j):
+            d -= A[j, k] * A[j, k] * A[k, k]
+        if d <= DROP_REL * diag or diag <= 0.0 or work.active[j] == 0:
+            work.drop[j] = 1
+            A[j, j] = 1.0
+            for r in range(j + 1, n_r):
+                A[r, j] = 0.0
+            for k in range(j):
+                A[j, k] = 0.0
+            continue
+        work.drop[j] = 0
+        A[j, j] = d
+        for r in range(j + 1, n_r):
+            s = A[r, j]
+            for k in range(j):
+                s -= A[r, k] * A[j, k] * A[k, k]
+            A[r, j] = s / d
+
+
+@_jit
+def solve(model, work, rb, rj, yb, yj):
+    """
+    Solve ``[[M, Jᵀ], [J, 0]] [yb; yj] = [rb; rj]`` with the factor of :func:`factor`.
+
+    ``rb`` (n_b, 6) body rows (force, torque; world), ``rj`` (n_rows) joint rows.
+    """
+    n_b = model.prm.shape[0]
+    jint, rows = model.jint, model.rows
+    if not model.dense:
+        rhs, y, W, D = work.rhs, work.y, work.W, work.D
+        dim, par = work.dim, model.node_par
+        for b in range(n_b):
+            for k in range(6):
+                rhs[b, k] = rb[b, k]
+        for j in range(jint.shape[0]):
+            for r in range(work.nrow[j]):
+                rhs[n_b + j, r] = rj[work.jrows[j, r]]
+        order = model.order
+        for t in range(order.shape[0]):
+            i = order[t]
+            p = par[i]
+            if p >= 0:
+                for a in range(dim[p]):
+                    s = 0.0
+                    for k in range(dim[i]):
+                        s += W[i, k, a] * rhs[i, k]
+                    rhs[p, a] -= s
+        for t in range(order.shape[0] - 1, -1, -1):
+            i = order[t]
+            for k in range(dim[i]):
+                y[i, k] = rhs[i, k]
+            _ldl_solve_vec(D, i, dim[i], y, i)
+            p = par[i]
+            if p >= 0:
+                for k in range(dim[i]):
+                    s = 0.0
+                    for a in range(dim[p]):
+                        s += W[i, k, a] * y[p, a]
+                    y[i, k] -= s
+        for b in range(n_b):
+            for k in range(6):
+                yb[b, k] = y[b, k]
+        for r in range(yj.shape[0]):
+            yj[r] = 0.0
+        for j in range(jint.shape[0]):
+            for r in range(work.nrow[j]):
+                yj[work.jrows[j, r]] = y[n_b + j, r]
+        return
+    # dense: A yj = J M⁻¹ rb - rj, yb = M⁻¹ (rb - Jᵀ yj)
+    A, mj, jac, bd, prm = work.A, work.mj, work.jac, work.bd, model.prm
+    n_r = rows.shape[0]
+    for b in range(n_b):
+        inv_m = 1.0 / prm[b, P_MASS]
+        for k in range(3):
+            yb[b, k] = rb[b, k] * inv_m
+        t0, t1, t2 = _mtv(bd, b, B_ROT, rb[b, 3], rb[b, 4], rb[b, 5])
+        t0, t1, t2 = _mv(prm, b, P_INERTIA_INV, t0, t1, t2)
+        yb[b, 3], yb[b, 4], yb[b, 5] = _mv(bd, b, B_ROT, t0, t1, t2)
+    for r in range(n_r):
+        j = rows[r, 0]
+        s = -rj[r]
+        for side in range(2):
+            b = jint[j, J_CHILD] if side == 1 else jint[j, J_PARENT]
+            if b >= 0:
+                for k in range(6):
+                    s += jac[r, 6 * side + k] * yb[b, k]
+        yj[r] = s
+    for r in range(n_r):
+        s = yj[r]
+        for k in range(r):
+            s -= A[r, k] * yj[k]
+        yj[r] = s
+    for r in range(n_r):
+        yj[r] = 0.0 if work.drop[r] else yj[r] / A[r, r]
+    for r in range(n_r - 1, -1, -1):
+        s = yj[r]
+        for k in range(r + 1, n_r):
+            s -= A[k, r] * yj[k]
+        yj[r] = 0.0 if work.drop[r] else s
+    for r in range(n_r):
+        j = rows[r, 0]
+        for side in range(2):
+            b = jint[j, J_CHILD] if side == 1 else jint[j, J_PARENT]
+            if b >= 0:
+                for k in range(6):
+                    yb[b, k] -= mj[r, 6 * side + k] * yj[r]
+
+
+@_jit
+def _accelerations(model, x, work, kout):
+    """Rows, factor and solve at ``x``; write ``ẋ`` into ``kout`` and ``λ`` into ``work.lam``."""
+    body_derived(model, x, work)
+    joint_rows(model, x, work, True)
+    factor(model, work)
+    _motor_forces(model, work)
+    _dynamics_solve(model, x, work, kout)
+
+
+@_jit
+def _motor_forces(model, work):
+    """
+    Add each effort motor's (and saturated motor's) generalized force to ``work.bd``'s wrenches.
+
+    The force ``τ`` along the joint coordinate acts through the motor row's Jacobian,
+    ``f += Jᵀ τ``: equal and opposite on the two bodies (a torque pair about the axis, or a
+    force pair at the child's anchor along the axis).
+    """
+    jint, motor, jac, bd = model.jint, work.motor, work.jac, work.bd
+    for j in range(jint.shape[0]):
+        row = jint[j, J_MOTROW]
+        if row < 0:
+            continue
+        mode = motor[j, M_MODE]
+        if mode == MOTOR_EFFORT:
+            tau = min(max(motor[j, M_EFFORT], -motor[j, M_LIMIT]), motor[j, M_LIMIT])
+        elif mode != MOTOR_OFF and motor[j, M_SAT] != 0.0 and work.lim_state[j] == 0:
+            tau = motor[j, M_SAT] * motor[j, M_LIMIT]
+        else:
+            continue
+        for side in range(2):
+            b = jint[j, J_CHILD] if side == 1 else jint[j, J_PARENT]
+            if b >= 0:
+                for k in range(6):
+                    bd[b, B_FORCE + k] += tau * jac[row, 6 * side + k]
+
+
+@_jit
+def _dynamics_solve(model, x, work, kout):
+    """With rows and factor at ``x``: accelerations into ``kout`` (``ẋ``), ``λ``, wrenches."""
+    bd, yb, yj, bias, lam = work.bd, work.yb, work.yj, work.bias, work.lam
+    for r in range(bias.shape[0]):
+        bias[r] = -bias[r]
+    solve(model, work, bd[:, B_FORCE:B_FORCE + 6], bias, yb, yj)
+    for r in range(bias.shape[0]):
+        lam[r] = -yj[r]
+    for b in range(x.shape[0]):
+        qw, qx, qy, qz = x[b, 3], x[b, 4], x[b, 5], x[b, 6]
+        w0, w1, w2 = x[b, 10], x[b, 11], x[b, 12]
+        kout[b, 0], kout[b, 1], kout[b, 2] = x[b, 7], x[b, 8], x[b, 9]
+        # q̇ = ½ q ⊗ (0, ω_b)
+        kout[b, 3] = 0.5 * (-qx * w0 - qy * w1 - qz * w2)
+        kout[b, 4] = 0.5 * (qw * w0 + qy * w2 - qz * w1)
+        kout[b, 5] = 0.5 * (qw * w1 - qx * w2 + qz * w0)
+        kout[b, 6] = 0.5 * (qw * w2 + qx * w1 - qy * w0)
+        kout[b, 7], kout[b, 8], kout[b, 9] = yb[b, 0], yb[b, 1], yb[b, 2]
+        # ω̇_b = Rᵀ ω̇_w (Ṙᵀ ω_w = -Rᵀ (ω_w × ω_w) = 0)
+        a0, a1, a2 = _mtv(bd, b, B_ROT, yb[b, 3], yb[b, 4], yb[b, 5])
+        kout[b, 10], kout[b, 11], kout[b, 12] = a0, a1, a2
+
+
+@_jit
+def _wrenches(model, work):
+    """``work.wrench[j]``: ``Σ λ J_c`` of joint ``j``'s rows: force, torque about the child COM."""
+    jint, jac, lam, wr = model.jint, work.jac, work.lam, work.wrench
+    for j in range(jint.shape[0]):
+        for k in range(6):
+            wr[j, k] = 0.0
+        for r in range(work.nrow[j]):
+            row = work.jrows[j, r]
+            for k in range(6):
+                wr[j, k] += lam[row] * jac[row, 6 + k]
+
+
+@_inl
+def _max_abs(v):
+    m = 0.0
+    for i in range(v.shape[0]):
+        a = abs(v[i])
+        if not a <= m:
+            m = a if a == a else math.inf
+    return m
+
+
+@_jit
+def _apply_dx(x, yb):
+    """``p += dp``, ``q ← exp(dθ_w / 2) ⊗ q`` (world-frame rotation increment), renormalised."""
+    for b in range(x.shape[0]):
+        for k in range(3):
+            x[b, k] += yb[b, k]
+        t0, t1, t2 = yb[b, 3], yb[b, 4], yb[b, 5]
+        ang = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+        if ang == 0.0:
+            continue
+        cw = math.cos(0.5 * ang)
+        sk = math.sin(0.5 * ang) / ang
+        dx, dy, dz = sk * t0, sk * t1, sk * t2
+        qw, qx, qy, qz = x[b, 3], x[b, 4], x[b, 5], x[b, 6]
+        nw = cw * qw - dx * qx - dy * qy - dz * qz
+        nx = cw * qx + dx * qw + dy * qz - dz * qy
+        ny = cw * qy - dx * qz + dy * qw + dz * qx
+        nz = cw * qz + dx * qy - dy * qx + dz * qw
+        s = 1.0 / math.sqrt(nw * nw + nx * nx + ny * ny + nz * nz)
+        x[b, 3], x[b, 4], x[b, 5], x[b, 6] = nw * s, nx * s, ny * s, nz * s
+
+
+@_jit
+def _project_positions(model, x, work, tol, max_iter, refactor_after):
+    """
+    Newton on ``C(x) = 0`` with the minimal mass-weighted change ``dx = -M⁻¹ Jᵀ μ``.
+
+    The first ``refactor_after`` iterations reuse the factor already in ``work`` (a chord
+    step: the last RK4 stage's, O(h) away); later ones refactor at the current ``x``.
+    Return the iterations taken, or -1 when ``max|C| <= tol`` was not reached.
+    """
+    zero = work.xs[:, 0:6]
+    for b in range(zero.shape[0]):
+        for k in range(6):
+            zero[b, k] = 0.0
+    for it in range(max_iter + 1):
+        joint_rows(model, x, work, False)
+        err = _max_abs(work.con)
+        work.stats[S_ERR] = err
+        if err <= tol:
+            return it
+        if it == max_iter:
+            break
+        if it >= refactor_after:
+            body_derived(model, x, work)
+            joint_rows(model, x, work, True)
+            factor(model, work)
+        for r in range(work.con.shape[0]):
+            work.bias[r] = -work.con[r]
+        solve(model, work, zero, work.bias, work.yb, work.yj)
+        _apply_dx(x, work.yb)
+    return -1
+
+
+@_jit
+def _project_velocities(model, x, work):
+    """With rows and factor at ``x``: ``u ← u - M⁻¹ Jᵀ (J M⁻¹ Jᵀ)⁻¹ J u``."""
+    jint, rows, jac, bd = model.jint, model.rows, work.jac, work.bd
+    zero = work.xs[:, 0:6]
+    for b in range(zero.shape[0]):
+        for k in range(6):
+            zero[b, k] = 0.0
+    for r in range(rows.shape[0]):
+        j = rows[r, 0]
+        s = 0.0
+        for side in range(2):
+            b = jint[j, J_CHILD] if side == 1 else jint[j, J_PARENT]
+            if b >= 0:
+                o = 6 * side
+                for k in range(3):
+                    s += jac[r, o + k] * x[b, 7 + k] + jac[r, o + 3 + k] * bd[b, B_OMEGA_W + k]
+        work.bias[r] = -s
+        if rows[r, 1] == ROW_MOTOR:
+            # a velocity target is a velocity row, J u = v*; a position target's row is an
+            # acceleration row only, so the projection leaves that rate alone
+            mode = work.motor[j, M_MODE]
+            work.bias[r] = work.motor[j, M_VELOCITY] - s if mode == MOTOR_VELOCITY else 0.0
+    solve(model, work, zero, work.bias, work.yb, work.yj)
+    yb = work.yb
+    for b in range(x.shape[0]):
+        for k in range(3):
+            x[b, 7 + k] += yb[b, k]
+        t0, t1, t2 = _mtv(bd, b, B_ROT, yb[b, 3], yb[b, 4], yb[b, 5])
+        x[b, 10] += t0
+        x[b, 11] += t1
+        x[b, 12] += t2
+
+
+@_jit
+def _unwrap(model, x, work):
+    """Keep each continuous joint's running angle (twist of ``q_pc q_rest⁻¹`` on ``axis_b``)."""
+    jint = model.jint
+    for j in range(jint.shape[0]):
+        if jint[j, J_KIND] != 2:
+            continue
+        delta = _twist(model, x, j) - work.angle[j]
+        delta -= 2.0 * math.pi * math.floor(delta / (2.0 * math.pi) + 0.5)
+        work.angle[j] += delta
+
+
+@_jit
+def refresh_rows(model, work, j):
+    """Rebuild joint ``j``'s list of active rows (``work.jrows``, ``nrow``, its node's size)."""
+    n = 0
+    row0 = model.jint[j, J_ROW0]
+    for r in range(model.jint[j, J_NROWS]):
+        if work.active[row0 + r] != 0:
+            work.jrows[j, n] = row0 + r
+            n += 1
+    work.nrow[j] = n
+    work.dim[model.prm.shape[0] + j] = n
+
+
+@_jit
+def set_limit(model, work, j, state):
+    """Hold joint ``j``'s limit row at its upper (``state`` 1) or lower (-1) bound; 0 frees."""
+    work.lim_state[j] = state
+    work.active[model.jint[j, J_LIMROW]] = 1 if state != 0 else 0
+    motor_row = model.jint[j, J_MOTROW]
+    if motor_row >= 0 and state != 0:
+        work.active[motor_row] = 0   # a held limit pauses the joint's motor
+    refresh_rows(model, work, j)
+
+
+@_jit
+def _release(model, work):
+    """Release every held limit whose multiplier would pull (no sticking); return how many."""
+    jint, lam = model.jint, work.lam
+    released = 0
+    for j in range(jint.shape[0]):
+        state = work.lim_state[j]
+        if state == 0:
+            continue
+        # the row's multiplier is the generalized force along q on the child: a stop at the
+        # upper bound may only push down (λ <= 0), one at the lower bound only up (λ >= 0)
+        if state * lam[jint[j, J_LIMROW]] > 0.0:
+            set_limit(model, work, j, 0)
+            released += 1
+    return released
+
+
+@_jit
+def _saturate(model, work):
+    """
+    Switch off every motor row whose multiplier exceeds the effort limit; return how many.
+
+    A saturated motor pushes with ``±effort_limit`` instead (see :func:`_motor_forces`).
+    """
+    jint, lam, motor = model.jint, work.lam, work.motor
+    changed = 0
+    for j in range(jint.shape[0]):
+        row = jint[j, J_MOTROW]
+        if row < 0 or work.active[row] == 0:
+            continue
+        if abs(lam[row]) > motor[j, M_LIMIT]:
+            motor[j, M_SAT] = 1.0 if lam[row] > 0.0 else -1.0
+            work.active[row] = 0
+            refresh_rows(model, work, j)
+            changed += 1
+    return changed
+
+
+@_jit
+def _motor_rows_on(model, work):
+    """Turn on the row of every position / velocity motor not paused by a held limit."""
+    jint, motor = model.jint, work.motor
+    changed = 0
+    for j in range(jint.shape[0]):
+        row = jint[j, J_MOTROW]
+        if row < 0:
+            continue
+        mode = motor[j, M_MODE]
+        want = 1 if ((mode == MOTOR_VELOCITY or mode == MOTOR_POSITION)
+                     and work.lim_state[j] == 0) else 0
+        motor[j, M_SAT] = 0.0
+        if work.active[row] != want:
+            work.active[row] = want
+            refresh_rows(model, work, j)
+            changed += 1
+    return changed
+
+
+@_jit
+def _applied_efforts(model, work):
+    jint, motor = model.jint, work.motor
+    for j in range(jint.shape[0]):
+        row = jint[j, J_MOTROW]
+        if row < 0:
+            continue
+        mode = motor[j, M_MODE]
+        if mode == MOTOR_EFFORT:
+            motor[j, M_APPLIED] = min(max(motor[j, M_EFFORT], -motor[j, M_LIMIT]),
+                                      motor[j, M_LIMIT])
+        elif work.active[row] != 0:
+            motor[j, M_APPLIED] = work.lam[row]
+        elif mode != MOTOR_OFF and motor[j, M_SAT] != 0.0:
+            motor[j, M_APPLIED] = motor[j, M_SAT] * motor[j, M_LIMIT]
+        else:
+            motor[j, M_APPLIED] = 0.0
+
+
+@_jit
+def refresh_dynamics(model, x, work):
+    """Recompute ``ẋ`` (k1), ``λ``, wrenches and efforts at ``x`` after a change of motors."""
+    _dynamics_at(model, x, work, True)
+
+
+@_jit
+def _dynamics_at(model, x, work, refactor):
+    """
+    ``ẋ`` into ``work.k[0]`` and ``λ`` at ``x``, deciding limits and saturation.
+
+    Held limits whose multiplier would pull are released; motor rows are tried on and a
+    motor whose multiplier exceeds its effort limit is saturated; each change refactors.
+    """
+    if _motor_rows_on(model, work) > 0:
+        refactor = True
+    for _ in range(2 * model.jint.shape[0] + 2):
+        body_derived(model, x, work)   # f and ω_w at the current velocities
+        joint_rows(model, x, work, True)   # J̇ u at the current velocities
+        if refactor:
+            factor(model, work)
+        _motor_forces(model, work)
+        _dynamics_solve(model, x, work, work.k[0])
+        changed = _release(model, work)
+        if changed > 0:
+            _motor_rows_on(model, work)   # a released joint's motor resumes
+        changed += _saturate(model, work)
+        if changed == 0:
+            break
+        refactor = True
+    _wrenches(model, work)
+    _applied_efforts(model, work)
+
+
+@_jit
+def _end_of_step(model, x, work):
+    """Factor at the projected positions, project velocities, then ``ẋ`` (next k1) and ``λ``."""
+    body_derived(model, x, work)
+    joint_rows(model, x, work, True)
+    factor(model, work)
+    _project_velocities(model, x, work)
+    _dynamics_at(model, x, work, False)
+    _unwrap(model, x, work)
+
+
+@_jit
+def initialize(model, x, work, tol, max_iter):
+    """Project ``x`` onto the joints (full Newton), then velocities; fill k1, λ, wrenches."""
+    it = _project_positions(model, x, work, tol, max_iter, 0)
+    work.stats[S_ITER] = it
+    _end_of_step(model, x, work)
+    return it
+
+
+@_jit
+def _rk4(model, x, work, h, tol, max_iter):
+    """One RK4 step of size ``h`` from ``x`` (``work.k[0]`` = ``ẋ``) and the projections."""
+    k, xs = work.k, work.xs
+    n_b = x.shape[0]
+    for stage in range(1, 4):
+        c = 0.5 * h if stage < 3 else h
+        for b in range(n_b):
+            for i in range(13):
+                xs[b, i] = x[b, i] + c * k[stage - 1, b, i]
+        _accelerations(model, xs, work, k[stage])
+    for b in range(n_b):
+        for i in range(13):
+            x[b, i] += (h / 6.0) * (k[0, b, i] + 2.0 * (k[1, b, i] + k[2, b, i]) + k[3, b, i])
+        qw, qx, qy, qz = x[b, 3], x[b, 4], x[b, 5], x[b, 6]
+        q = 1.0 / math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+        x[b, 3], x[b, 4], x[b, 5], x[b, 6] = qw * q, qx * q, qy * q, qz * q
+    it = _project_positions(model, x, work, tol, max_iter, 3)
+    if it < 0:
+        return it
+    _end_of_step(model, x, work)
+    return it
+
+
+@_jit
+def _crossing(model, x, work):
+    """Return ``(joint, bound side, excess)`` of the free limit crossed deepest, or (-1, 0, 0)."""
+    jint, jlim = model.jint, model.jlim
+    best, side, excess = -1, 0, 0.0
+    for j in range(jint.shape[0]):
+        if jint[j, J_LIMROW] < 0 or work.lim_state[j] != 0:
+            continue
+        q = limit_coordinate(model, x, j)
+        if jlim[j, L_HAS_UPPER] != 0.0 and q - jlim[j, L_UPPER] > max(CROSS_TOL, excess):
+            best, side, excess = j, 1, q - jlim[j, L_UPPER]
+        if jlim[j, L_HAS_LOWER] != 0.0 and jlim[j, L_LOWER] - q > max(CROSS_TOL, excess):
+            best, side, excess = j, -1, jlim[j, L_LOWER] - q
+    return best, side, excess
+
+
+@_jit
+def _restore(model, x, work):
+    for b in range(x.shape[0]):
+        for i in range(13):
+            x[b, i] = work.x0[b, i]
+            work.k[0, b, i] = work.k0[b, i]
+    for j in range(model.jint.shape[0]):
+        if model.jint[j, J_LIMROW] >= 0 and work.lim_state[j] != work.lim0[j]:
+            set_limit(model, work, j, work.lim0[j])
+
+
+@_jit
+def _joint_speed(model, x, work, j):
+    """Return the rate of joint ``j``'s limited coordinate: its limit row's ``J u``."""
+    body_derived(model, x, work)
+    joint_rows(model, x, work, True)
+    jint, row = model.jint, model.jint[j, J_LIMROW]
+    s = 0.0
+    for side in range(2):
+        b = jint[j, J_CHILD] if side == 1 else jint[j, J_PARENT]
+        if b >= 0:
+            for i in range(3):
+                s += (work.jac[row, 6 * side + i] * x[b, 7 + i]
+                      + work.jac[row, 6 * side + 3 + i] * work.bd[b, B_OMEGA_W + i])
+    return s
+
+
+@_jit
+def step(model, x, work, h, n_steps, tol, max_iter):
+    """
+    ``n_steps`` classical RK4 steps of the constrained ODE, each followed by the projection.
+
+    A limit crossed inside a step (by more than :data:`CROSS_TOL`) splits it: the crossing
+    time is found by the Illinois method on ``q(RK4(x0, τ)) - bound`` (each trial a full RK4
+    sub-step and projection from the step's start) until ``|q - bound| <= LOCATE_TOL``; there
+    the limit row is made active, the velocity projection stops the joint dead (an equal and
+    opposite impulse: the inelastic stop) and the rest of the step is taken with the row held.
+    ``work.k[0]`` must hold ``ẋ`` at ``x`` (left there by :func:`initialize` and by every
+    step). Return 0, or the step index + 1 at which the position projection failed.
+    """
+    worst = 0.0
+    worst_it = 0
+    work.stats[S_STOPS] = 0.0
+    for s in range(n_steps):
+        left = h
+        for _ in range(2 * model.jint.shape[0] + 2):
+            for b in range(x.shape[0]):
+                for i in range(13):
+                    work.x0[b, i] = x[b, i]
+                    work.k0[b, i] = work.k[0, b, i]
+            for j in range(model.jint.shape[0]):
+                work.lim0[j] = work.lim_state[j]
+            it = _rk4(model, x, work, left, tol, max_iter)
+            if it < 0:
+                work.stats[S_FAIL] = 1.0
+                return s + 1
+            j, side, excess = _crossing(model, x, work)
+            if j < 0:
+                worst = max(worst, work.stats[S_ERR])
+                worst_it = max(worst_it, it)
+                break
+            bound = model.jlim[j, L_UPPER] if side > 0 else model.jlim[j, L_LOWER]
+            # g(τ) = side (q(τ) - bound): g(0) <= 0 < g(left) = excess
+            lo, g_lo = 0.0, side * (limit_coordinate(model, work.x0, j) - bound)
+            hi, g_hi = left, excess
+            tau = left
+            for _ in range(LOCATE_MAX_ITER):
+                tau = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
+                _restore(model, x, work)
+                if _rk4(model, x, work, tau, tol, max_iter) < 0:
+                    work.stats[S_FAIL] = 1.0
+                    return s + 1
+                g = side * (limit_coordinate(model, x, j) - bound)
+                if abs(g) <= LOCATE_TOL or hi - lo <= 1e-15 * h:
+                    break
+                if g > 0.0:
+                    hi, g_hi = tau, g
+                    g_lo *= 0.5   # Illinois: halve the end that stays
+                else:
+                    lo, g_lo = tau, g
+                    g_hi *= 0.5
+            # stop dead: hold the bound as an equality row, project positions onto it,
+            # then the velocity projection takes out the speed into the stop
+            speed = _joint_speed(model, x, work, j)
+            set_limit(model, work, j, side)
+            body_derived(model, x, work)
+            joint_rows(model, x, work, True)
+            factor(model, work)
+            if _project_positions(model, x, work, tol, max_iter, 0) < 0:
+                work.stats[S_FAIL] = 1.0
+                return s + 1
+            _end_of_step(model, x, work)
+            work.stats[S_STOPS] += 1.0
+            work.stats[S_STOP_JOINT] = j
+            work.stats[S_STOP_SPEED] = speed
+            work.stats[S_STOP_TIME] = s * h + (h - left) + tau
+            worst = max(worst, work.stats[S_ERR])
+            left -= tau
+            if left <= 1e-12 * h:
+                break
+    work.stats[S_ERR] = worst
+    work.stats[S_ITER] = worst_it
+    return 0

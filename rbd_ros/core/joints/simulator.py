@@ -1,0 +1,543 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+:class:`ArticulatedSimulator`: bodies joined by joints, stepped exactly (no contact yet).
+
+Every link is a body with its own :class:`~rbd_ros.core.state.BodyState`; a joint is a set of
+constraint rows between two bodies (or a body and the world), see :data:`ROWS`. A step is one
+classical RK4 step of the constrained equations of motion (multipliers from a direct solve,
+:mod:`rbd_ros.core.joints.kernels`), the quaternions renormalised, then a projection: positions
+by Newton with the mass-weighted minimal change until every row's error is at most
+:data:`PROJECTION_TOL`, then velocities onto the joints' allowed motions. The whole step is one
+compiled call that allocates nothing.
+"""
+
+from collections import deque
+import math
+from typing import Sequence
+
+import numpy as np
+
+from rbd_ros.core import jitcache
+from rbd_ros.core.errors import (ConfigError, ConvergenceError, finite_scalar, NonFiniteError,
+                                 whole_number)
+from rbd_ros.core.joints import kernels as jk
+from rbd_ros.core.joints.model import Joint, joint_position, joint_velocity
+from rbd_ros.core.model import BodyModel
+from rbd_ros.core.rotations import quat_to_matrix
+from rbd_ros.core.state import BodyState
+
+#: Constraint rows per kind: ``('lin', k)`` is ``C = e_k · d`` (the anchors' separation on the
+#: parent's joint axis ``u_k``), ``('ang', k, l)`` is ``C = e_k · f_l`` (parent axis ``u_k``
+#: perpendicular to the child's ``w_l``). ``u3 = axis_b``; ``u1 = axis2_b`` for universal and
+#: planar joints, else a fixed perpendicular; ``u2 = u3 × u1``; ``w_l`` the same axes in the
+#: child at the rest pose.
+ROWS = {
+    'fixed': (('lin', 0), ('lin', 1), ('lin', 2), ('ang', 1, 2), ('ang', 2, 0), ('ang', 0, 1)),
+    'revolute': (('lin', 0), ('lin', 1), ('lin', 2), ('ang', 0, 2), ('ang', 1, 2)),
+    'continuous': (('lin', 0), ('lin', 1), ('lin', 2), ('ang', 0, 2), ('ang', 1, 2)),
+    'prismatic': (('lin', 0), ('lin', 1), ('ang', 1, 2), ('ang', 2, 0), ('ang', 0, 1)),
+    'spherical': (('lin', 0), ('lin', 1), ('lin', 2)),
+    'universal': (('lin', 0), ('lin', 1), ('lin', 2), ('ang', 2, 0)),
+    'planar': (('lin', 2), ('ang', 0, 2), ('ang', 1, 2)),
+}
+#: Joint kinds that take a motor (one coordinate).
+MOTOR_KINDS = ('revolute', 'continuous', 'prismatic')
+#: Largest row error left by the projection after every step, m (position rows) or the
+#: cosine of the angle between two axes that must be perpendicular (alignment rows).
+PROJECTION_TOL = 1e-13
+#: Newton iterations allowed per projection before the step is refused.
+PROJECTION_MAX_ITER = 50
+
+
+def _perpendicular(axis):
+    """Return a unit vector perpendicular to ``axis`` (the least aligned coordinate axis)."""
+    pick = np.zeros(3)
+    pick[int(np.argmin(np.abs(axis)))] = 1.0
+    u = np.cross(axis, pick)
+    return u / np.linalg.norm(u)
+
+
+def _basis(joint):
+    u3 = np.asarray(joint.axis_b, dtype=np.float64)
+    u1 = (np.asarray(joint.axis2_b, dtype=np.float64) if joint.kind in ('universal', 'planar')
+          else _perpendicular(u3))
+    u1 = u1 - (u1 @ u3) * u3
+    u1 /= np.linalg.norm(u1)
+    return np.array([u1, np.cross(u3, u1), u3])
+
+
+def _tree(n_bodies, joints):
+    """
+    Return ``(dense, order, node_par)`` for the body-joint graph (bodies 0.., joints n_b..).
+
+    ``dense`` when a component has a loop: a cycle among bodies or two joints to the world.
+    """
+    n_j = len(joints)
+    adj = [[] for _ in range(n_bodies + n_j)]
+    for j, joint in enumerate(joints):
+        for b in (joint.parent, joint.child):
+            if b is not None:
+                adj[n_bodies + j].append(b)
+                adj[b].append(n_bodies + j)
+    seen = [False] * (n_bodies + n_j)
+    par = [-1] * (n_bodies + n_j)
+    order = []
+    for start in range(n_bodies):
+        if seen[start]:
+            continue
+        # the component: bodies and joints reachable from this body
+        comp, queue = [], deque([start])
+        seen[start] = True
+        while queue:
+            i = queue.popleft()
+            comp.append(i)
+            for k in adj[i]:
+                if not seen[k]:
+                    seen[k] = True
+                    queue.append(k)
+        bodies = [i for i in comp if i < n_bodies]
+        links = [i for i in comp if i >= n_bodies]
+        world = [i for i in links if joints[i - n_bodies].parent is None]
+        if len(world) > 1 or len(links) - len(world) > len(bodies) - 1:
+            return True, None, None
+        root = world[0] if world else bodies[0]
+        visited = {root}
+        bfs, queue = [], deque([root])
+        while queue:
+            i = queue.popleft()
+            bfs.append(i)
+            for k in adj[i]:
+                if k not in visited:
+                    visited.add(k)
+                    par[k] = i
+                    queue.append(k)
+        order.extend(reversed(bfs))
+    return False, np.array(order, dtype=np.int64), np.array(par, dtype=np.int64)
+
+
+class ArticulatedSimulator:
+    """
+    Rigid bodies joined by :class:`~rbd_ros.core.joints.model.Joint` values, no contact.
+
+    :param models: one :class:`~rbd_ros.core.model.BodyModel` per body (its gravity and
+        damping act as on a free body; damping enters as the force ``-m c_v v`` and torque
+        ``-c_ω I ω``, integrated by RK4 with the rest).
+    :param states: one :class:`~rbd_ros.core.state.BodyState` per body, all at the same time.
+        They need not satisfy the joints: the constructor projects them, positions first (the
+        mass-weighted smallest change, Newton to :data:`PROJECTION_TOL`), then velocities
+        (the smallest kinetic-energy change that makes every joint's rows still).
+    :param joints: the joints; ``parent=None`` is the world. Trees, branches and loops.
+    :param timestep_ns: the fixed step ``h``, integer ns > 0.
+    :param solver: ``'auto'`` (the tree elimination when no loop closes, else dense) or
+        ``'dense'`` (always the dense factorisation; the same answers, for checking).
+    :raises ConfigError: a bad argument (one line naming the joint or body and field).
+    :raises ConvergenceError: the initial poses could not be projected onto the joints.
+    """
+
+    def __init__(self, models: Sequence[BodyModel], states: Sequence[BodyState],
+                 joints: Sequence[Joint], *, timestep_ns: int = 1_000_000,
+                 solver: str = 'auto'):
+        models, states, joints = list(models), list(states), list(joints)
+        self._timestep_ns = whole_number(timestep_ns, 'timestep_ns', 'ns', positive=True,
+                                         error=ConfigError)
+        if solver not in ('auto', 'dense'):
+            raise ConfigError(f"solver: {solver!r} is not 'auto' or 'dense'")
+        if not models:
+            raise ConfigError('models: empty; an articulated system needs at least one body')
+        if len(states) != len(models):
+            raise ConfigError(f'states: {len(states)} states for {len(models)} models; one '
+                              'state per body')
+        for i, model in enumerate(models):
+            if not isinstance(model, BodyModel):
+                raise ConfigError(f'models[{i}]: {type(model).__name__} is not a BodyModel')
+        for i, state in enumerate(states):
+            if not isinstance(state, BodyState):
+                raise ConfigError(f'states[{i}]: {type(state).__name__} is not a BodyState')
+            if state.time_ns != states[0].time_ns:
+                raise ConfigError(f'states[{i}].time_ns: {state.time_ns} ns differs from '
+                                  f'states[0].time_ns {states[0].time_ns} ns; one time for all')
+        n_b = len(models)
+        names = set()
+        for i, joint in enumerate(joints):
+            if not isinstance(joint, Joint):
+                raise ConfigError(f'joints[{i}]: {type(joint).__name__} is not a Joint')
+            who = f'joint {joint.name!r}'
+            if joint.name in names:
+                raise ConfigError(f'{who}.name: used by two joints; names must be unique')
+            names.add(joint.name)
+            if joint.child >= n_b:
+                raise ConfigError(f'{who}.child: {joint.child} is not a body index (0 to '
+                                  f'{n_b - 1})')
+            if joint.parent is not None and joint.parent >= n_b:
+                raise ConfigError(f'{who}.parent: {joint.parent} is not a body index (0 to '
+                                  f'{n_b - 1}) or None (world)')
+            if joint.parent == joint.child:
+                raise ConfigError(f'{who}.parent: {joint.parent} is its own child')
+        self._models = tuple(models)
+        self._joints = tuple(joints)
+        self._model, self._work = self._arrays(models, joints, solver == 'dense')
+        self._x = np.zeros((n_b, 13))
+        for b, s in enumerate(states):
+            self._x[b] = np.concatenate([s.position_w, s.orientation_wb, s.linear_velocity_w,
+                                         s.angular_velocity_b])
+        self._time_ns = states[0].time_ns
+        self._t_call = self._time_ns
+        jitcache.configured()  # the kernel cache, before a first compile
+        it = jk.initialize(self._model, self._x, self._work, PROJECTION_TOL,
+                           PROJECTION_MAX_ITER)
+        if it < 0 or not np.isfinite(self._x).all():
+            raise ConvergenceError(
+                f'states: the initial poses could not be projected onto the joints in '
+                f'{PROJECTION_MAX_ITER} Newton iterations (error {self._work.stats[0]:.3g} m '
+                'or rad); start them nearer')
+        self._check_finite('the initial projection')
+        self._check_limits()
+        for j, joint in enumerate(joints):
+            if joint.kind == 'continuous':
+                self._work.angle[j] = joint_position(joint, *self._poses(joint))[0]
+        jk._unwrap(self._model, self._x, self._work)
+
+    def _check_limits(self):
+        for j, joint in enumerate(self._joints):
+            if joint.lower is None and joint.upper is None:
+                continue
+            q = jk.limit_coordinate(self._model, self._x, j)
+            unit = 'm' if joint.kind == 'prismatic' else 'rad'
+            if joint.upper is not None and q > joint.upper + jk.CROSS_TOL:
+                raise ConfigError(f'joint {joint.name!r}.upper: the initial position {q!r} {unit}'
+                                  f' is above upper {joint.upper!r} {unit}')
+            if joint.lower is not None and q < joint.lower - jk.CROSS_TOL:
+                raise ConfigError(f'joint {joint.name!r}.lower: the initial position {q!r} {unit}'
+                                  f' is below lower {joint.lower!r} {unit}')
+
+    @staticmethod
+    def _arrays(models, joints, force_dense=False):
+        n_b, n_j = len(models), len(joints)
+        prm = np.zeros((n_b, jk.P_SIZE))
+        for b, m in enumerate(models):
+            prm[b, jk.P_MASS] = m.mass_kg
+            prm[b, jk.P_INERTIA:jk.P_INERTIA + 9] = np.asarray(m.inertia_b).ravel()
+            prm[b, jk.P_INERTIA_INV:jk.P_INERTIA_INV + 9] = np.asarray(m.inertia_inv_b).ravel()
+            prm[b, jk.P_GRAVITY:jk.P_GRAVITY + 3] = m.gravity_w
+            prm[b, jk.P_LIN_DAMP] = m.linear_damping_per_s
+            prm[b, jk.P_ANG_DAMP] = m.angular_damping_per_s
+        jint = np.zeros((n_j, jk.J_INT_SIZE), dtype=np.int64)
+        jprm = np.zeros((n_j, jk.J_PRM_SIZE))
+        jlim = np.zeros((n_j, 4))
+        rows = []
+        for j, joint in enumerate(joints):
+            spec = ROWS[joint.kind]
+            limited = joint.lower is not None or joint.upper is not None
+            limit_row = motor_row = -1
+            if limited:
+                limit_row = len(rows) + len(spec)
+                spec = spec + (('limit', 2),)
+            if joint.kind in MOTOR_KINDS:
+                motor_row = len(rows) + len(spec)
+                spec = spec + (('motor', 2),)
+            jint[j] = (-1 if joint.parent is None else joint.parent, joint.child,
+                       jk.KIND_CODES[joint.kind], len(rows), len(spec), limit_row, motor_row)
+            jlim[j] = (joint.lower or 0.0, joint.upper or 0.0, joint.lower is not None,
+                       joint.upper is not None)
+            basis = _basis(joint)
+            rest = quat_to_matrix(np.asarray(joint.q_rest))
+            jprm[j, jk.J_ORIGIN_P:jk.J_ORIGIN_P + 3] = joint.origin_parent_b
+            jprm[j, jk.J_ORIGIN_C:jk.J_ORIGIN_C + 3] = joint.origin_child_b
+            jprm[j, jk.J_BASIS_P:jk.J_BASIS_P + 9] = basis.ravel()
+            jprm[j, jk.J_BASIS_C:jk.J_BASIS_C + 9] = (basis @ rest).ravel()   # rows Rᵀ u
+            jprm[j, jk.J_QREST:jk.J_QREST + 4] = joint.q_rest
+            code = {'lin': jk.ROW_LIN, 'ang': jk.ROW_ANG, 'limit': jk.ROW_LIMIT,
+                    'motor': jk.ROW_MOTOR}
+            for r in spec:
+                rows.append((j, code[r[0]], r[1], r[2] if len(r) > 2 else 0))
+        rows = np.array(rows, dtype=np.int64).reshape(-1, 4)
+        n_r = rows.shape[0]
+        dense, order, par = _tree(n_b, joints)
+        dense = dense or force_dense
+        n_nodes = n_b + n_j
+        dim = np.array([6] * n_b + [len(ROWS[jt.kind]) for jt in joints], dtype=np.int64)
+        nrow = dim[n_b:].copy()
+        active = np.ones(n_r, dtype=np.int64)
+        for column in (jk.J_LIMROW, jk.J_MOTROW):
+            active[jint[:, column][jint[:, column] >= 0]] = 0
+        if dense:
+            order = np.zeros(0, dtype=np.int64)
+            par = -np.ones(n_nodes, dtype=np.int64)
+        model = jk.ArtModel(prm, jint, jprm, jlim, rows, order, par, dim.copy(), bool(dense))
+        dn = n_r if dense else 1
+        nd = 1 if dense else n_nodes
+        work = jk.ArtWork(
+            bd=np.zeros((n_b, jk.B_SIZE)), jac=np.zeros((max(n_r, 1), 12)),
+            con=np.zeros(n_r), bias=np.zeros(n_r), D=np.zeros((nd, 6, 6)),
+            Hp=np.zeros((nd, 6, 6)), W=np.zeros((nd, 6, 6)), rhs=np.zeros((nd, 6)),
+            y=np.zeros((nd, 6)), A=np.zeros((dn, dn)), mj=np.zeros((max(n_r, 1), 12)),
+            drop=np.zeros(dn, dtype=np.int64), k=np.zeros((4, n_b, 13)),
+            xs=np.zeros((n_b, 13)), yb=np.zeros((n_b, 6)), yj=np.zeros(n_r),
+            lam=np.zeros(n_r), wrench=np.zeros((max(n_j, 1), 6)), angle=np.zeros(max(n_j, 1)),
+            stats=np.zeros(jk.S_SIZE), nrow=nrow, dim=dim, active=active,
+            lim_state=np.zeros(max(n_j, 1), dtype=np.int64),
+            lim0=np.zeros(max(n_j, 1), dtype=np.int64), x0=np.zeros((n_b, 13)),
+            k0=np.zeros((n_b, 13)), jrows=np.zeros((max(n_j, 1), 8), dtype=np.int64),
+            motor=np.zeros((max(n_j, 1), jk.M_SIZE)))
+        for j, joint in enumerate(joints):
+            work.motor[j, jk.M_LIMIT] = (math.inf if joint.effort_limit is None
+                                         else joint.effort_limit)
+            jk.refresh_rows(model, work, j)
+        return model, work
+
+    def _check_finite(self, where):
+        if not np.isfinite(self._x).all():
+            raise NonFiniteError(f'state: not finite after {where} at t = {self._time_ns} ns')
+
+    def step(self, n_steps: int = 1) -> None:
+        """
+        Advance ``n_steps`` fixed steps (one compiled call).
+
+        :raises ConvergenceError: the position projection did not reach
+            :data:`PROJECTION_TOL` in :data:`PROJECTION_MAX_ITER` iterations.
+        :raises NonFiniteError: the state became non-finite.
+        """
+        n = whole_number(n_steps, 'n_steps', 'steps', error=ConfigError)
+        if n == 0:
+            return
+        h = self._timestep_ns * 1e-9
+        self._t_call = self._time_ns
+        failed = jk.step(self._model, self._x, self._work, h, n, PROJECTION_TOL,
+                         PROJECTION_MAX_ITER)
+        if failed:
+            self._time_ns += (failed - 1) * self._timestep_ns
+            raise ConvergenceError(
+                f'joints: the position projection did not converge at step {failed} '
+                f'(error {self._work.stats[0]:.3g} m or rad) at t = {self._time_ns} ns')
+        self._time_ns += n * self._timestep_ns
+        self._check_finite('a step')
+
+    @property
+    def timestep_ns(self) -> int:
+        """Return the fixed step, ns."""
+        return self._timestep_ns
+
+    @property
+    def time_ns(self) -> int:
+        """Return the sim time, integer ns."""
+        return self._time_ns
+
+    @property
+    def models(self):
+        """Return the body models, a tuple."""
+        return self._models
+
+    @property
+    def joints(self):
+        """Return the joints, a tuple."""
+        return self._joints
+
+    @property
+    def solver(self) -> str:
+        """Return ``'tree'`` (Baraff's block elimination) or ``'dense'`` (a loop closes)."""
+        return 'dense' if self._model.dense else 'tree'
+
+    @property
+    def last_projection(self):
+        """Return ``(max row error after the last call's projections, max iterations)``."""
+        return float(self._work.stats[0]), int(self._work.stats[1])
+
+    def set_motor(self, joint_index: int, *, effort=None, velocity=None, position=None,
+                  time_constant_s=None) -> None:
+        """
+        Set (or, with no target, clear) joint ``joint_index``'s motor; held until changed.
+
+        One of: ``effort`` (N m or N along the joint coordinate, clipped by the joint's
+        ``effort_limit``); ``velocity`` (rad/s or m/s: the joint rate is held at it, enforced
+        with the other rows at the end of every step); ``position`` (rad or m) with
+        ``time_constant_s`` ``1/ω``: the joint follows ``ë = -2ω ė - ω² e`` exactly (critically
+        damped, no overshoot, no steady-state error under gravity), an acceleration row. A
+        position or velocity motor needing more than ``effort_limit`` saturates: it pushes with
+        ``±effort_limit`` (:meth:`motor_saturated` says so). A held limit pauses the motor.
+        """
+        n_j = len(self._joints)
+        if isinstance(joint_index, bool) or not isinstance(joint_index, (int, np.integer)) \
+                or not 0 <= joint_index < n_j:
+            raise ConfigError(f'joint_index: {joint_index!r} is not a joint index (0 to '
+                              f'{n_j - 1})')
+        joint = self._joints[joint_index]
+        who = f'joint {joint.name!r}'
+        given = [(name, value) for name, value in (('effort', effort), ('velocity', velocity),
+                                                   ('position', position)) if value is not None]
+        if given and joint.kind not in MOTOR_KINDS:
+            raise ConfigError(f'{who}: a {joint.kind} joint takes no motor (only '
+                              f'{", ".join(MOTOR_KINDS)})')
+        if len(given) > 1:
+            raise ConfigError(f'{who}: give one of effort, velocity, position, not '
+                              f'{" and ".join(name for name, _ in given)}')
+        linear = joint.kind == 'prismatic'
+        units = {'effort': 'N' if linear else 'N m', 'velocity': 'm/s' if linear else 'rad/s',
+                 'position': 'm' if linear else 'rad'}
+        row = self._work.motor[joint_index]
+        mode, value = (given[0] if given else ('off', 0.0))
+        if given:
+            value = finite_scalar(value, f'{who}.{mode}', units[mode], error=ConfigError)
+        if mode == 'position':
+            if time_constant_s is None:
+                raise ConfigError(f'{who}.time_constant_s: None; a position target needs a '
+                                  'time constant in s > 0')
+            tau = finite_scalar(time_constant_s, f'{who}.time_constant_s', 's',
+                                error=ConfigError)
+            if not tau > 0.0:
+                raise ConfigError(f'{who}.time_constant_s: {tau!r} s must be > 0')
+            for bound, ok in (('lower', joint.lower is None or value >= joint.lower),
+                              ('upper', joint.upper is None or value <= joint.upper)):
+                if not ok:
+                    raise ConfigError(f'{who}.position: {value!r} {units[mode]} is beyond '
+                                      f'{bound} {getattr(joint, bound)!r} {units[mode]}')
+            if joint.kind == 'revolute' and not -math.pi < value <= math.pi:
+                raise ConfigError(f'{who}.position: {value!r} rad must be in (-pi, pi] for a '
+                                  'revolute joint (a continuous joint takes any angle)')
+            row[jk.M_OMEGA] = 1.0 / tau
+        elif time_constant_s is not None:
+            raise ConfigError(f'{who}.time_constant_s: {time_constant_s!r}; only a position '
+                              'target takes a time constant')
+        codes = {'off': jk.MOTOR_OFF, 'effort': jk.MOTOR_EFFORT,
+                 'velocity': jk.MOTOR_VELOCITY, 'position': jk.MOTOR_POSITION}
+        row[jk.M_MODE] = codes[mode]
+        row[jk.M_EFFORT] = value if mode == 'effort' else 0.0
+        row[jk.M_VELOCITY] = value if mode == 'velocity' else 0.0
+        row[jk.M_POSITION] = value if mode == 'position' else 0.0
+        jk.refresh_dynamics(self._model, self._x, self._work)
+
+    def joint_efforts(self) -> np.ndarray:
+        """
+        Return (n_joints,): each motor's applied effort now, N m or N (0 without a motor).
+
+        An effort motor: its clipped effort; a position or velocity motor: the force its row
+        applies (the multiplier), or ``±effort_limit`` when saturated.
+        """
+        return np.array([self._work.motor[j, jk.M_APPLIED] for j in range(len(self._joints))])
+
+    def motor_saturated(self):
+        """Return per joint True when its position or velocity motor is at its effort limit."""
+        return [bool(self._work.motor[j, jk.M_SAT] != 0.0) for j in range(len(self._joints))]
+
+    @property
+    def last_stop(self):
+        """
+        Return the last limit stop of the last :meth:`step` call, or None if there was none.
+
+        ``(joint index, time ns (float: inside a step), speed removed rad/s or m/s)``; the
+        speed is the joint rate just before the stop's impulse (it is zero after).
+        """
+        stats = self._work.stats
+        if stats[jk.S_STOPS] == 0:
+            return None
+        return (int(stats[jk.S_STOP_JOINT]), self._t_call + stats[jk.S_STOP_TIME] * 1e9,
+                float(stats[jk.S_STOP_SPEED]))
+
+    @property
+    def held_limits(self):
+        """Return per joint +1 (held at upper), -1 (at lower) or 0 (free)."""
+        return [int(self._work.lim_state[j]) for j in range(len(self._joints))]
+
+    @property
+    def states(self):
+        """Return a tuple of :class:`BodyState`, one per body, at :attr:`time_ns`."""
+        x = self._x
+        return tuple(BodyState(x[b, 0:3], x[b, 3:7], x[b, 7:10], x[b, 10:13], self._time_ns)
+                     for b in range(x.shape[0]))
+
+    def _pose(self, b):
+        if b is None:
+            return None, None
+        return self._x[b, 0:3], self._x[b, 3:7]
+
+    def _poses(self, joint):
+        pp, qp = self._pose(joint.parent)
+        pc, qc = self._pose(joint.child)
+        return pp, qp, pc, qc
+
+    def _twist_w(self, b):
+        if b is None:
+            return None, None
+        rot = quat_to_matrix(self._x[b, 3:7])
+        return self._x[b, 7:10], rot @ self._x[b, 10:13]
+
+    def joint_positions(self):
+        """Return per joint the coordinates of :func:`joint_position` (continuous: unwrapped)."""
+        out = []
+        for j, joint in enumerate(self._joints):
+            q = joint_position(joint, *self._poses(joint))
+            if joint.kind == 'continuous':
+                q = np.array([self._work.angle[j]])
+            out.append(q)
+        return out
+
+    def joint_velocities(self):
+        """Return per joint the rates of :func:`joint_velocity` (rad/s, m/s)."""
+        out = []
+        for joint in self._joints:
+            pp, qp, pc, qc = self._poses(joint)
+            vp, wp = self._twist_w(joint.parent)
+            vc, wc = self._twist_w(joint.child)
+            out.append(joint_velocity(joint, pp, qp, vp, wp, pc, qc, vc, wc))
+        return out
+
+    def joint_wrenches(self) -> np.ndarray:
+        """
+        Return (n_joints, 6): force (N) then torque (N m) the parent exerts on the child.
+
+        The multipliers of the current (end-of-step) state: the torque is about the child's
+        anchor, both in the child's joint frame (axes ``w_1, w_2, w_3``, ``w_3`` the joint
+        axis, see :data:`ROWS`). Redundant rows of a loop (dense solver) carry zero, so a
+        loop's split of an internal force among its joints is one of many valid ones.
+        """
+        out = np.zeros((len(self._joints), 6))
+        for j, joint in enumerate(self._joints):
+            c = joint.child
+            rot = quat_to_matrix(self._x[c, 3:7])
+            basis_w = rot @ self._model.jprm[j, jk.J_BASIS_C:jk.J_BASIS_C + 9].reshape(3, 3).T
+            force = self._work.wrench[j, 0:3]
+            r_c = rot @ joint.origin_child_b
+            torque = self._work.wrench[j, 3:6] - np.cross(r_c, force)
+            out[j, 0:3] = basis_w.T @ force
+            out[j, 3:6] = basis_w.T @ torque
+        return out
+
+    def joint_error(self):
+        """Return ``(max anchor distance m, max axis angle rad)`` over all joints now."""
+        jk.joint_rows(self._model, self._x, self._work, False)
+        con, rows = self._work.con, self._model.rows
+        dist, ang = 0.0, 0.0
+        for j in range(len(self._joints)):
+            r0, n = self._model.jint[j, jk.J_ROW0], self._model.jint[j, jk.J_NROWS]
+            lin = [con[r] for r in range(r0, r0 + n) if rows[r, 1] == jk.ROW_LIN]
+            angs = [abs(con[r]) for r in range(r0, r0 + n) if rows[r, 1] == jk.ROW_ANG]
+            dist = max(dist, math.sqrt(sum(v * v for v in lin)))
+            if angs:
+                ang = max(ang, math.asin(min(1.0, max(angs))))
+        return dist, ang
+
+    def energy(self) -> float:
+        """Return kinetic plus gravitational potential energy, J (zero potential at the origin)."""
+        return float(sum(s.kinetic_energy(m) + s.potential_energy(m)
+                         for m, s in zip(self._models, self.states)))
+
+    def momentum(self):
+        """Return ``(P, L)``: linear (kg m/s), angular about the origin (kg m²/s), world."""
+        lin, ang = np.zeros(3), np.zeros(3)
+        for m, s in zip(self._models, self.states):
+            p = s.linear_momentum_w(m)
+            lin += p
+            ang += np.cross(s.position_w, p) + s.angular_momentum_w(m)
+        return lin, ang
