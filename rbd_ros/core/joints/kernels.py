@@ -532,15 +532,18 @@ def _tree_factor(model, work):
         if p < 0:
             continue
         dp = dim[p]
+        # Z = L⁻¹ H (forward substitution only, into W), then D_p -= Zᵀ diag⁻¹ Z
         for c in range(dp):
             for r in range(di):
-                W[i, r, c] = Hp[i, r, c]
-            _ldl_solve_col(D, i, di, W, i, c)
+                s = Hp[i, r, c]
+                for k in range(r):
+                    s -= D[i, r, k] * W[i, k, c]
+                W[i, r, c] = s
         for a in range(dp):
             for c in range(a + 1):
                 s = 0.0
                 for k in range(di):
-                    s += Hp[i, k, a] * W[i, k, c]
+                    s += W[i, k, a] * W[i, k, c] / D[i, k, k]
                 D[p, a, c] -= s
 
 
@@ -614,7 +617,7 @@ def solve(model, work, rb, rj, yb, yj):
     n_b = model.prm.shape[0]
     jint, rows = model.jint, model.rows
     if not model.dense:
-        rhs, y, W, D = work.rhs, work.y, work.W, work.D
+        rhs, y, D = work.rhs, work.y, work.D
         dim, par = work.dim, model.node_par
         for b in range(n_b):
             for k in range(6):
@@ -623,27 +626,36 @@ def solve(model, work, rb, rj, yb, yj):
             for r in range(work.nrow[j]):
                 rhs[n_b + j, r] = rj[work.jrows[j, r]]
         order = model.order
+        Hp = work.Hp
+        # forward: rhs_p -= Hᵀ D_i⁻¹ rhs_i (z_i = D_i⁻¹ rhs_i kept in y)
         for t in range(order.shape[0]):
             i = order[t]
+            di = dim[i]
+            for k in range(di):
+                y[i, k] = rhs[i, k]
+            _ldl_solve_vec(D, i, di, y, i)
             p = par[i]
             if p >= 0:
                 for a in range(dim[p]):
                     s = 0.0
-                    for k in range(dim[i]):
-                        s += W[i, k, a] * rhs[i, k]
+                    for k in range(di):
+                        s += Hp[i, k, a] * y[i, k]
                     rhs[p, a] -= s
+        # backward, root first: y_i = D_i⁻¹ (rhs_i - H y_p) = z_i - D_i⁻¹ H y_p
         for t in range(order.shape[0] - 1, -1, -1):
             i = order[t]
-            for k in range(dim[i]):
-                y[i, k] = rhs[i, k]
-            _ldl_solve_vec(D, i, dim[i], y, i)
             p = par[i]
-            if p >= 0:
-                for k in range(dim[i]):
-                    s = 0.0
-                    for a in range(dim[p]):
-                        s += W[i, k, a] * y[p, a]
-                    y[i, k] -= s
+            if p < 0:
+                continue
+            di = dim[i]
+            for k in range(di):
+                s = 0.0
+                for a in range(dim[p]):
+                    s += Hp[i, k, a] * y[p, a]
+                rhs[i, k] = s   # rhs_i is spent: reuse it
+            _ldl_solve_vec(D, i, di, rhs, i)
+            for k in range(di):
+                y[i, k] -= rhs[i, k]
         for b in range(n_b):
             for k in range(6):
                 yb[b, k] = y[b, k]
