@@ -647,3 +647,19 @@ def test_body_damping_acts_on_jointed_bodies():
     # a spin about the axle under the torque -c I w alone decays as exp(-c t): RK4's error
     # on that exponential at c h = 5e-4 is ~1e-15 per step
     assert abs(sim.joint_velocities()[0][0] - 2.0 * math.exp(-1.0)) <= 1e-10
+
+
+def test_fixed_joint_wrench_is_a_cantilever():
+    # a 1 m, 2 kg rod welded at one end to the world, horizontal along +x: the weld pushes up
+    # with m g and holds the torque m g L / 2 about the anchor (about -y: it lifts the tip)
+    model = rod_model(mass_kg=2.0, axis=0)
+    weld = Joint('weld', 'fixed', None, 0, origin_parent_b=(0.0, 0.0, 0.0),
+                 origin_child_b=(-0.5, 0.0, 0.0), axis_b=(0.0, 0.0, 1.0))
+    sim = ArticulatedSimulator([model], [BodyState((0.5, 0.0, 0.0))], [weld])
+    sim.step(10)
+    wrench = sim.joint_wrenches()[0]
+    axes = sim.states[0].rotation_wb() @ _child_frame(sim, 0)   # joint axes in the world
+    force_w, torque_w = axes @ wrench[0:3], axes @ wrench[3:6]
+    # statics, to round-off of the solve (a few ulp of m g)
+    assert np.abs(force_w - (0.0, 0.0, 2.0 * G)).max() <= 1e-12 * G
+    assert np.abs(torque_w - (0.0, -2.0 * G * 0.5, 0.0)).max() <= 1e-12 * G
