@@ -714,3 +714,36 @@ def test_heavy_top_on_a_ball_joint_precesses_at_the_slow_root():
     assert abs(math.atan2(com[1], com[0]) / (0.3 * slow) - 1.0) <= 1e-5
     assert abs(math.acos(com[2] / r) - tilt) <= 1e-5
     assert max(sim.joint_error()) <= JOINT_TOL
+
+
+def test_start_beyond_a_limit_is_refused():
+    joint = Joint('pivot', 'revolute', None, 0, origin_child_b=(0.0, 0.0, 0.5),
+                  axis_b=(0.0, 1.0, 0.0), upper=0.2)
+    state = BodyState(-0.5 * np.array([math.sin(0.5), 0.0, math.cos(0.5)]), y_rotation(0.5))
+    with pytest.raises(ConfigError, match=r"joint 'pivot'.upper: the initial position 0.5"):
+        ArticulatedSimulator([rod_model()], [state], [joint])
+
+
+def test_start_turned_over_is_refused():
+    # the hinge rows (child axis perpendicular to two parent axes) also hold with the child's
+    # axis reversed; a start there is refused rather than simulated on the mirror branch
+    joint = Joint('pivot', 'revolute', None, 0, axis_b=(0.0, 0.0, 1.0))
+    flipped = BodyState(orientation_wb=quat_from_axis_angle(np.array([1.0, 0.0, 0.0]),
+                                                            math.pi))
+    with pytest.raises(ConfigError, match="joint 'pivot' starts with its child turned over"):
+        ArticulatedSimulator([rod_model()], [flipped], [joint])
+
+
+@pytest.mark.parametrize('change, message', [
+    ({'solver': 'lu'}, "solver: 'lu' is not 'auto' or 'dense'"),
+])
+def test_bad_solver(change, message):
+    with pytest.raises(ConfigError, match=message):
+        ArticulatedSimulator(**bad(), **change)
+
+
+def test_cone_limit_is_refused_until_simulated():
+    models, states, _ = two_body_case('spherical')
+    cone = Joint('c', 'spherical', None, 0, cone_rad=0.5)
+    with pytest.raises(ConfigError, match="joint 'c'.cone_rad: 0.5 rad; the cone limit is not"):
+        ArticulatedSimulator(models[:1], states[:1], [cone])
