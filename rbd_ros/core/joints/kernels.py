@@ -526,25 +526,34 @@ def _tree_factor(model, work):
                     Hp[i, r, a] = jac[row, off + a]
     for t in range(model.order.shape[0]):
         i = model.order[t]
-        di = dim[i]
-        _ldl(D, i, di)
-        p = par[i]
-        if p < 0:
-            continue
-        dp = dim[p]
-        # Z = L⁻¹ H (forward substitution only, into W), then D_p -= Zᵀ diag⁻¹ Z
-        for c in range(dp):
-            for r in range(di):
-                s = Hp[i, r, c]
-                for k in range(r):
-                    s -= D[i, r, k] * W[i, k, c]
-                W[i, r, c] = s
-        for a in range(dp):
-            for c in range(a + 1):
-                s = 0.0
-                for k in range(di):
-                    s += W[i, k, a] * W[i, k, c] / D[i, k, k]
-                D[p, a, c] -= s
+        if i < n_b:
+            _eliminate(D, Hp, W, i, 6, par[i], dim)   # a body: size 6, unrolled
+        else:
+            _eliminate(D, Hp, W, i, dim[i], par[i], dim)
+
+
+@_inl
+def _eliminate(D, Hp, W, i, di, p, dim):
+    """Factor node ``i`` (LDLᵀ of its block) and subtract its Schur complement from ``p``'s."""
+    _ldl(D, i, di)
+    if p < 0:
+        return
+    dp = dim[p]
+    # Z = L⁻¹ H (forward substitution only, into W), then D_p -= Zᵀ diag⁻¹ Z
+    for c in range(dp):
+        for r in range(di):
+            s = Hp[i, r, c]
+            for k in range(r):
+                s -= D[i, r, k] * W[i, k, c]
+            W[i, r, c] = s
+    for k in range(di):
+        W[i, k, 6] = 1.0 / D[i, k, k]
+    for a in range(dp):
+        for c in range(a + 1):
+            s = 0.0
+            for k in range(di):
+                s += W[i, k, a] * W[i, k, c] * W[i, k, 6]
+            D[p, a, c] -= s
 
 
 @_jit
@@ -633,7 +642,10 @@ def solve(model, work, rb, rj, yb, yj):
             di = dim[i]
             for k in range(di):
                 y[i, k] = rhs[i, k]
-            _ldl_solve_vec(D, i, di, y, i)
+            if i < n_b:
+                _ldl_solve_vec(D, i, 6, y, i)   # a body: size 6, unrolled
+            else:
+                _ldl_solve_vec(D, i, di, y, i)
             p = par[i]
             if p >= 0:
                 for a in range(dim[p]):
@@ -653,7 +665,10 @@ def solve(model, work, rb, rj, yb, yj):
                 for a in range(dim[p]):
                     s += Hp[i, k, a] * y[p, a]
                 rhs[i, k] = s   # rhs_i is spent: reuse it
-            _ldl_solve_vec(D, i, di, rhs, i)
+            if i < n_b:
+                _ldl_solve_vec(D, i, 6, rhs, i)
+            else:
+                _ldl_solve_vec(D, i, di, rhs, i)
             for k in range(di):
                 y[i, k] -= rhs[i, k]
         for b in range(n_b):

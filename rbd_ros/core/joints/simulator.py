@@ -305,7 +305,7 @@ class ArticulatedSimulator:
         work = jk.ArtWork(
             bd=np.zeros((n_b, jk.B_SIZE)), jac=np.zeros((max(n_r, 1), 12)),
             con=np.zeros(n_r), bias=np.zeros(n_r), D=np.zeros((nd, 6, 6)),
-            Hp=np.zeros((nd, 6, 6)), W=np.zeros((nd, 6, 6)), rhs=np.zeros((nd, 6)),
+            Hp=np.zeros((nd, 6, 6)), W=np.zeros((nd, 6, 7)), rhs=np.zeros((nd, 6)),
             y=np.zeros((nd, 6)), A=np.zeros((dn, dn)), mj=np.zeros((max(n_r, 1), 12)),
             drop=np.zeros(dn, dtype=np.int64), k=np.zeros((4, n_b, 13)),
             xs=np.zeros((n_b, 13)), yb=np.zeros((n_b, 6)), yj=np.zeros(n_r),
