@@ -526,22 +526,34 @@ def _tree_factor(model, work):
                     Hp[i, r, a] = jac[row, off + a]
     for t in range(model.order.shape[0]):
         i = model.order[t]
-        di = dim[i]
-        _ldl(D, i, di)
-        p = par[i]
-        if p < 0:
-            continue
-        dp = dim[p]
-        for c in range(dp):
-            for r in range(di):
-                W[i, r, c] = Hp[i, r, c]
-            _ldl_solve_col(D, i, di, W, i, c)
-        for a in range(dp):
-            for c in range(a + 1):
-                s = 0.0
-                for k in range(di):
-                    s += Hp[i, k, a] * W[i, k, c]
-                D[p, a, c] -= s
+        if i < n_b:
+            _eliminate(D, Hp, W, i, 6, par[i], dim)   # a body: size 6, unrolled
+        else:
+            _eliminate(D, Hp, W, i, dim[i], par[i], dim)
+
+
+@_inl
+def _eliminate(D, Hp, W, i, di, p, dim):
+    """Factor node ``i`` (LDLᵀ of its block) and subtract its Schur complement from ``p``'s."""
+    _ldl(D, i, di)
+    if p < 0:
+        return
+    dp = dim[p]
+    # Z = L⁻¹ H (forward substitution only, into W), then D_p -= Zᵀ diag⁻¹ Z
+    for c in range(dp):
+        for r in range(di):
+            s = Hp[i, r, c]
+            for k in range(r):
+                s -= D[i, r, k] * W[i, k, c]
+            W[i, r, c] = s
+    for k in range(di):
+        W[i, k, 6] = 1.0 / D[i, k, k]
+    for a in range(dp):
+        for c in range(a + 1):
+            s = 0.0
+            for k in range(di):
+                s += W[i, k, a] * W[i, k, c] * W[i, k, 6]
+            D[p, a, c] -= s
 
 
 @_jit
@@ -614,7 +626,7 @@ def solve(model, work, rb, rj, yb, yj):
     n_b = model.prm.shape[0]
     jint, rows = model.jint, model.rows
     if not model.dense:
-        rhs, y, W, D = work.rhs, work.y, work.W, work.D
+        rhs, y, D = work.rhs, work.y, work.D
         dim, par = work.dim, model.node_par
         for b in range(n_b):
             for k in range(6):
@@ -623,27 +635,42 @@ def solve(model, work, rb, rj, yb, yj):
             for r in range(work.nrow[j]):
                 rhs[n_b + j, r] = rj[work.jrows[j, r]]
         order = model.order
+        Hp = work.Hp
+        # forward: rhs_p -= Hᵀ D_i⁻¹ rhs_i (z_i = D_i⁻¹ rhs_i kept in y)
         for t in range(order.shape[0]):
             i = order[t]
+            di = dim[i]
+            for k in range(di):
+                y[i, k] = rhs[i, k]
+            if i < n_b:
+                _ldl_solve_vec(D, i, 6, y, i)   # a body: size 6, unrolled
+            else:
+                _ldl_solve_vec(D, i, di, y, i)
             p = par[i]
             if p >= 0:
                 for a in range(dim[p]):
                     s = 0.0
-                    for k in range(dim[i]):
-                        s += W[i, k, a] * rhs[i, k]
+                    for k in range(di):
+                        s += Hp[i, k, a] * y[i, k]
                     rhs[p, a] -= s
+        # backward, root first: y_i = D_i⁻¹ (rhs_i - H y_p) = z_i - D_i⁻¹ H y_p
         for t in range(order.shape[0] - 1, -1, -1):
             i = order[t]
-            for k in range(dim[i]):
-                y[i, k] = rhs[i, k]
-            _ldl_solve_vec(D, i, dim[i], y, i)
             p = par[i]
-            if p >= 0:
-                for k in range(dim[i]):
-                    s = 0.0
-                    for a in range(dim[p]):
-                        s += W[i, k, a] * y[p, a]
-                    y[i, k] -= s
+            if p < 0:
+                continue
+            di = dim[i]
+            for k in range(di):
+                s = 0.0
+                for a in range(dim[p]):
+                    s += Hp[i, k, a] * y[p, a]
+                rhs[i, k] = s   # rhs_i is spent: reuse it
+            if i < n_b:
+                _ldl_solve_vec(D, i, 6, rhs, i)
+            else:
+                _ldl_solve_vec(D, i, di, rhs, i)
+            for k in range(di):
+                y[i, k] -= rhs[i, k]
         for b in range(n_b):
             for k in range(6):
                 yb[b, k] = y[b, k]

@@ -186,6 +186,9 @@ class ArticulatedSimulator:
                                   f'{n_b - 1}) or None (world)')
             if joint.parent == joint.child:
                 raise ConfigError(f'{who}.parent: {joint.parent} is its own child')
+            if joint.cone_rad is not None:
+                raise ConfigError(f'{who}.cone_rad: {joint.cone_rad!r} rad; the cone limit is '
+                                  'not simulated yet (leave it None)')
         self._models = tuple(models)
         self._joints = tuple(joints)
         self._model, self._work = self._arrays(models, joints, solver == 'dense')
@@ -204,11 +207,31 @@ class ArticulatedSimulator:
                 f'{PROJECTION_MAX_ITER} Newton iterations (error {self._work.stats[0]:.3g} m '
                 'or rad); start them nearer')
         self._check_finite('the initial projection')
+        self._check_branch()
         self._check_limits()
         for j, joint in enumerate(joints):
             if joint.kind == 'continuous':
                 self._work.angle[j] = joint_position(joint, *self._poses(joint))[0]
         jk._unwrap(self._model, self._x, self._work)
+
+    def _check_branch(self):
+        """Refuse a start on a joint's mirror branch (rows satisfied with an axis reversed)."""
+        for j, joint in enumerate(self._joints):
+            if joint.kind in ('spherical', 'universal'):
+                continue
+            rot_p = (np.eye(3) if joint.parent is None
+                     else quat_to_matrix(self._x[joint.parent, 3:7]))
+            rot_c = quat_to_matrix(self._x[joint.child, 3:7])
+            basis_p = rot_p @ self._model.jprm[j, jk.J_BASIS_P:jk.J_BASIS_P + 9].reshape(3, 3).T
+            basis_c = rot_c @ self._model.jprm[j, jk.J_BASIS_C:jk.J_BASIS_C + 9].reshape(3, 3).T
+            cosines = np.sum(basis_p * basis_c, axis=0)
+            # the axis kinds need u3 on w3; the orientation-locking kinds every axis on its own
+            bad = cosines[2] <= 0.0 if joint.kind in ('revolute', 'continuous', 'planar') \
+                else bool(np.any(cosines <= 0.0))
+            if bad:
+                raise ConfigError(f'states: joint {joint.name!r} starts with its child turned '
+                                  "over (an axis reversed against the parent's); start it near "
+                                  'its rest orientation q_rest')
 
     def _check_limits(self):
         for j, joint in enumerate(self._joints):
@@ -282,7 +305,7 @@ class ArticulatedSimulator:
         work = jk.ArtWork(
             bd=np.zeros((n_b, jk.B_SIZE)), jac=np.zeros((max(n_r, 1), 12)),
             con=np.zeros(n_r), bias=np.zeros(n_r), D=np.zeros((nd, 6, 6)),
-            Hp=np.zeros((nd, 6, 6)), W=np.zeros((nd, 6, 6)), rhs=np.zeros((nd, 6)),
+            Hp=np.zeros((nd, 6, 6)), W=np.zeros((nd, 6, 7)), rhs=np.zeros((nd, 6)),
             y=np.zeros((nd, 6)), A=np.zeros((dn, dn)), mj=np.zeros((max(n_r, 1), 12)),
             drop=np.zeros(dn, dtype=np.int64), k=np.zeros((4, n_b, 13)),
             xs=np.zeros((n_b, 13)), yb=np.zeros((n_b, 6)), yj=np.zeros(n_r),

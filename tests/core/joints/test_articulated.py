@@ -23,7 +23,8 @@ from rbd_ros.core import BodyModel, BodyState, ConfigError
 from rbd_ros.core.joints import ArticulatedSimulator, Joint, JOINT_KINDS
 from rbd_ros.core.rotations import quat_from_axis_angle
 from tests.core.joints.closed_forms import (cartpole_omega, chain_joint_forces,
-                                            compound_pendulum_l_eq, G, limit_stop,
+                                            compound_pendulum_l_eq, G,
+                                            heavy_top_precession, limit_stop,
                                             pendulum_period)
 
 STEPS_NS = (1_000_000, 10_000_000)
@@ -647,3 +648,102 @@ def test_body_damping_acts_on_jointed_bodies():
     # a spin about the axle under the torque -c I w alone decays as exp(-c t): RK4's error
     # on that exponential at c h = 5e-4 is ~1e-15 per step
     assert abs(sim.joint_velocities()[0][0] - 2.0 * math.exp(-1.0)) <= 1e-10
+
+
+def test_fixed_joint_wrench_is_a_cantilever():
+    # a 1 m, 2 kg rod welded at one end to the world, horizontal along +x: the weld pushes up
+    # with m g and holds the torque m g L / 2 about the anchor (about -y: it lifts the tip)
+    model = rod_model(mass_kg=2.0, axis=0)
+    weld = Joint('weld', 'fixed', None, 0, origin_parent_b=(0.0, 0.0, 0.0),
+                 origin_child_b=(-0.5, 0.0, 0.0), axis_b=(0.0, 0.0, 1.0))
+    sim = ArticulatedSimulator([model], [BodyState((0.5, 0.0, 0.0))], [weld])
+    sim.step(10)
+    wrench = sim.joint_wrenches()[0]
+    axes = sim.states[0].rotation_wb() @ _child_frame(sim, 0)   # joint axes in the world
+    force_w, torque_w = axes @ wrench[0:3], axes @ wrench[3:6]
+    # statics, to round-off of the solve (a few ulp of m g)
+    assert np.abs(force_w - (0.0, 0.0, 2.0 * G)).max() <= 1e-12 * G
+    assert np.abs(torque_w - (0.0, -2.0 * G * 0.5, 0.0)).max() <= 1e-12 * G
+
+
+@pytest.mark.parametrize('step_ns, rise_tol', [(1_000_000, 1e-10), (10_000_000, 1e-5)])
+def test_elbow_limit_between_two_bodies(step_ns, rise_tol):
+    # the double pendulum from horizontal with its elbow limited to +-0.5 rad: it hits the
+    # stops again and again (8 stops in 10 s measured)
+    joints = [Joint('shoulder', 'revolute', None, 0, origin_child_b=(-0.5, 0.0, 0.0),
+                    axis_b=(0.0, 1.0, 0.0)),
+              Joint('elbow', 'revolute', 0, 1, origin_parent_b=(0.5, 0.0, 0.0),
+                    origin_child_b=(-0.5, 0.0, 0.0), axis_b=(0.0, 1.0, 0.0),
+                    lower=-0.5, upper=0.5)]
+    sim = ArticulatedSimulator([rod_model(axis=0), rod_model(axis=0)],
+                               [BodyState((0.5, 0.0, 0.0)), BodyState((1.5, 0.0, 0.0))],
+                               joints, timestep_ns=step_ns)
+    energy, stops, worst, elbow = sim.energy(), 0, 0.0, []
+    for _ in range(10_000_000_000 // step_ns):
+        sim.step()
+        stops += sim.last_stop is not None
+        worst = max(worst, *sim.joint_error())
+        elbow.append(sim.joint_positions()[1][0])
+        # stops only take energy out: between them it is kept to RK4's error per step
+        # (4e-12 J at 1 ms, 2.5e-7 J at 10 ms measured)
+        assert sim.energy() - energy <= rise_tol
+        energy = sim.energy()
+    assert stops >= 3
+    assert worst <= JOINT_TOL
+    assert min(elbow) >= -0.5 - 1e-12 and max(elbow) <= 0.5 + 1e-12
+
+
+def test_heavy_top_on_a_ball_joint_precesses_at_the_slow_root():
+    # a symmetric top (m 1 kg, COM 0.1 m from its tip, I3 = 0.002, I1 = 0.011 kg m^2 about
+    # the tip) spinning at w3 = 100 rad/s, tilted 0.5 rad, started in steady precession
+    mass, r, i3, i1_com, w3, tilt = 1.0, 0.1, 0.002, 0.001, 100.0, 0.5
+    slow, _ = heavy_top_precession(mass, G, r, i1_com + mass * r * r, i3, w3, tilt)
+    axis_w = np.array([math.sin(tilt), 0.0, math.cos(tilt)])
+    omega_w = slow * np.array([0.0, 0.0, 1.0]) + (w3 - slow * math.cos(tilt)) * axis_w
+    q = y_rotation(tilt)
+    state = BodyState(r * axis_w, q, np.cross(omega_w, r * axis_w),
+                      BodyState(orientation_wb=q).rotation_wb().T @ omega_w)
+    model = BodyModel(mass, np.diag([i1_com, i1_com, i3]), gravity_w=GRAVITY)
+    ball = Joint('tip', 'spherical', None, 0, origin_child_b=(0.0, 0.0, -r))
+    sim = ArticulatedSimulator([model], [state], [ball], timestep_ns=1_000_000)
+    sim.step(300)
+    com = sim.states[0].position_w
+    # 0.3 s of precession (2.4 rad): the azimuth advances at the slow root and the tilt
+    # stays, to RK4's error at w3 h = 0.1 rad a step (8e-7 and 1.8e-6 rad measured; 40x
+    # smaller at h / 2). Only at 1 ms: at 10 ms the spin turns 1 rad a step.
+    assert abs(math.atan2(com[1], com[0]) / (0.3 * slow) - 1.0) <= 1e-5
+    assert abs(math.acos(com[2] / r) - tilt) <= 1e-5
+    assert max(sim.joint_error()) <= JOINT_TOL
+
+
+def test_start_beyond_a_limit_is_refused():
+    joint = Joint('pivot', 'revolute', None, 0, origin_child_b=(0.0, 0.0, 0.5),
+                  axis_b=(0.0, 1.0, 0.0), upper=0.2)
+    state = BodyState(-0.5 * np.array([math.sin(0.5), 0.0, math.cos(0.5)]), y_rotation(0.5))
+    with pytest.raises(ConfigError, match=r"joint 'pivot'.upper: the initial position 0.5"):
+        ArticulatedSimulator([rod_model()], [state], [joint])
+
+
+def test_start_turned_over_is_refused():
+    # the hinge rows (child axis perpendicular to two parent axes) also hold with the child's
+    # axis reversed; a start there is refused rather than simulated on the mirror branch
+    joint = Joint('pivot', 'revolute', None, 0, axis_b=(0.0, 0.0, 1.0))
+    flipped = BodyState(orientation_wb=quat_from_axis_angle(np.array([1.0, 0.0, 0.0]),
+                                                            math.pi))
+    with pytest.raises(ConfigError, match="joint 'pivot' starts with its child turned over"):
+        ArticulatedSimulator([rod_model()], [flipped], [joint])
+
+
+@pytest.mark.parametrize('change, message', [
+    ({'solver': 'lu'}, "solver: 'lu' is not 'auto' or 'dense'"),
+])
+def test_bad_solver(change, message):
+    with pytest.raises(ConfigError, match=message):
+        ArticulatedSimulator(**bad(), **change)
+
+
+def test_cone_limit_is_refused_until_simulated():
+    models, states, _ = two_body_case('spherical')
+    cone = Joint('c', 'spherical', None, 0, cone_rad=0.5)
+    with pytest.raises(ConfigError, match="joint 'c'.cone_rad: 0.5 rad; the cone limit is not"):
+        ArticulatedSimulator(models[:1], states[:1], [cone])
