@@ -137,6 +137,23 @@ class RigidBodyNode(Node):
         self._pacer = pacing.Pacer(config.real_time_factor)
 
         self._recorder = None
+        self._create_outputs()
+        self._create_inputs()
+        self.create_service(Trigger, '~/reset', self._on_reset)
+        self.create_service(SetBool, '~/pause', self._on_pause)
+        self.create_service(Trigger, '~/step', self._on_step)
+        if config.record_path:
+            self._open_recording()
+        try:
+            self._start()
+        except BaseException:  # a signal or an error after the recording opened: finalise it
+            self.ended_by = self.ended_by or 'start-up interrupted'
+            self._close_recording()
+            raise
+
+    def _create_outputs(self):
+        """Create a publisher per output kind, diagnostics and, with contact, markers."""
+        config = self.config
         self._builder = outputs.SampleBuilder(config)
         self._columns = self.session.columns
         # One publisher per output kind: pose, twist, odom (per body in a world: <body>/pose,
@@ -157,12 +174,16 @@ class RigidBodyNode(Node):
                                                            endpoints.STATE_QOS)
         self._sample_pubs = [(kind, self._pubs[kind].publish, self._pubs[kind].topic_name)
                              for kind in self._builder.kinds]
+        if config.publish_tf and 'tf' not in self._builder.kinds:
+            self.get_logger().info('tf2_msgs is not importable: not broadcasting /tf')
+
+    def _create_inputs(self):
+        """Subscribe the wrench inputs, the drags and /clicked_point; check qos_overrides."""
+        config, overrides = self.config, self._overrides
         self._input_subs = [endpoints.subscription(
             self, overrides, conv.WrenchStamped, spec.topic,
             lambda msg, name=spec.name: self._on_wrench(name, msg))
             for spec in config.wrench_inputs]
-        if config.publish_tf and 'tf' not in self._builder.kinds:
-            self.get_logger().info('tf2_msgs is not importable: not broadcasting /tf')
         # Drags: drag (<body>/drag in a world) and /clicked_point (RViz, Foxglove).
         drag_topics = {name: name for name in self.session.drags.input_names}
         drag_topics[CLICKED_POINT] = '/clicked_point'
@@ -182,17 +203,6 @@ class RigidBodyNode(Node):
                     f'ignoring {name}: no endpoint of this node has that topic and policy '
                     '(qos_overrides.<absolute topic>.publisher|subscription.history|depth|'
                     'reliability|durability)')
-        self.create_service(Trigger, '~/reset', self._on_reset)
-        self.create_service(SetBool, '~/pause', self._on_pause)
-        self.create_service(Trigger, '~/step', self._on_step)
-        if config.record_path:
-            self._open_recording()
-        try:
-            self._start()
-        except BaseException:  # a signal or an error after the recording opened: finalise it
-            self.ended_by = self.ended_by or 'start-up interrupted'
-            self._close_recording()
-            raise
 
     def _start(self):
         config = self.config

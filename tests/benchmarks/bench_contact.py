@@ -27,13 +27,12 @@ timing runs, and the cost per body at 100 and 1000 boxes only. Timings are media
 runs; the load average printed with them says how busy the shared machine was.
 """
 
-import argparse
 import math
 import os
 import sys
 import time
 
-from bench_env import REPO  # noqa: F401, I100 (first: puts the source tree on sys.path)
+from bench_env import engine_arguments  # noqa: I100 (first: puts the source tree on sys.path)
 import contact_refs  # noqa: I100
 import numpy as np
 from rbd_ros.core import layout
@@ -179,17 +178,7 @@ def print_case(case, cols, quick):
 
 
 def main():
-    parser = argparse.ArgumentParser(description='contact benchmark: ours, MuJoCo, PyBullet')
-    parser.add_argument('--quick', action='store_true', help='shorter runs (a smoke run)')
-    parser.add_argument('--only', choices=list(contact_refs.CASES), action='append',
-                        help='run only these cases (repeatable)')
-    parser.add_argument('--pybullet-no-damping', action='store_true',
-                        help='add a PyBullet column with its default damping 0.04 set to 0')
-    args = parser.parse_args()
-    load = os.getloadavg()
-    print(f'contact benchmark, g = {contact_refs.G} m/s^2; load average {load[0]:.2f} '
-          f'{load[1]:.2f} {load[2]:.2f} on {os.cpu_count()} CPUs; one thread per engine'
-          f'{"; --quick" if args.quick else ""}')
+    args = engine_arguments('contact', contact_refs.G, contact_refs.CASES)
     cols = columns(args.pybullet_no_damping)
     for name, (module, world_cls) in contact_refs.ENGINES.items():
         if contact_refs.installed(module):

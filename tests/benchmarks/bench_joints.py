@@ -28,12 +28,11 @@ says ``n/a`` and why. The cost tables add each engine's ratio to MuJoCo's (Euler
 ``--quick``: shorter runs (a smoke run; the figures are not the issue's).
 """
 
-import argparse
 import math
 import os
 import time
 
-from bench_env import REPO  # noqa: F401, I100 (first: puts the source tree on sys.path)
+from bench_env import engine_arguments  # noqa: I100 (first: puts the source tree on sys.path)
 import joint_anchors  # noqa: I100
 import numpy as np
 from rbd_ros.core.model import BodyModel
@@ -190,17 +189,7 @@ def print_case(case, cols, quick):
 
 
 def main():
-    parser = argparse.ArgumentParser(description='joint benchmark: ours, MuJoCo, PyBullet, Drake')
-    parser.add_argument('--quick', action='store_true', help='shorter runs (a smoke run)')
-    parser.add_argument('--only', choices=list(joint_anchors.CASES), action='append',
-                        help='run only these cases (repeatable)')
-    parser.add_argument('--pybullet-no-damping', action='store_true',
-                        help='add a PyBullet column with its default damping 0.04 set to 0')
-    args = parser.parse_args()
-    load = os.getloadavg()
-    print(f'joint benchmark, g = {joint_anchors.G} m/s^2; load average {load[0]:.2f} '
-          f'{load[1]:.2f} {load[2]:.2f} on {os.cpu_count()} CPUs; one thread per engine'
-          f'{"; --quick" if args.quick else ""}')
+    args = engine_arguments('joint', joint_anchors.G, joint_anchors.CASES)
     cols = columns(args.pybullet_no_damping)
     reason = _ours_unavailable()
     print(f'  ours: {reason or OursWorld.notes}')
