@@ -58,7 +58,7 @@ from lxml import etree
 import numpy as np
 from rbd_ros.core import BodyModel, BodyState
 from rbd_ros.core.contact.shapes import CollisionShape, load_mesh, primitive_shape
-from rbd_ros.core.errors import ConfigError, ModelError, RbdError
+from rbd_ros.core.errors import ConfigError, finite_vector, ModelError, RbdError
 from rbd_ros.core.inertia import validate_inertia, validate_mass
 from rbd_ros.core.joints import Joint
 from rbd_ros.core.rotations import matrix_to_quat, quat_to_matrix
@@ -529,16 +529,22 @@ def place_robot(robot: Robot, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0
     + q̇ a_w`` (prismatic) at the link origin. ``link_poses_w`` maps each link name to its
     frame's ``(position_w, q_wl)``.
 
-    :raises ConfigError: a wrong number of values, a non-finite one, or one beyond a limit.
+    :raises ConfigError: a wrong number of values, a non-finite one, or one beyond a limit;
+        a root pose that is not finite or a zero quaternion.
     """
     source = robot.source
     q_values = _values(source, robot, joint_positions, 'initial_joint_positions', 'rad or m')
     qd_values = _values(source, robot, joint_velocities, 'initial_joint_velocities',
                         'rad/s or m/s')
-    position = np.asarray(position_w, dtype=np.float64)
+    position = finite_vector(position_w, 'initial_position', 'm', error=ConfigError)
+    quat = finite_vector(orientation_wb, 'initial_orientation', 'quaternion (w, x, y, z)', 4,
+                         error=ConfigError)
+    norm = float(np.linalg.norm(quat))
+    if not norm > 1e-9:
+        _fail(ConfigError, source, 'initial_orientation', f'{quat.tolist()} has zero norm, '
+              'not a rotation', quat.tolist())
     root_pose = np.eye(4)
-    root_pose[:3, :3] = quat_to_matrix(np.asarray(orientation_wb, dtype=np.float64)
-                                       / np.linalg.norm(orientation_wb))
+    root_pose[:3, :3] = quat_to_matrix(quat / norm)
     root_pose[:3, 3] = position
     coordinate = dict(zip(robot.moving_joints, zip(q_values, qd_values)))
     for k, name in enumerate(robot.moving_joints):

@@ -346,6 +346,10 @@ def test_wrong_number_of_initial_joint_values():
             joint_velocities=[0.0] * 4)
     refused(ConfigError, PENDULUM, 'initial_joint_positions[0]', '3.5', 'limits',
             joint_positions=[3.5])
+    refused(ConfigError, FREE_BODY, 'initial_orientation', 'zero norm',
+            orientation_wb=(0.0, 0.0, 0.0, 0.0))
+    refused(ConfigError, FREE_BODY, 'initial_position', 'finite',
+            position_w=(0.0, math.nan, 0.0))
 
 
 def test_missing_file_and_bad_xacro(tmp_path):
