@@ -36,6 +36,9 @@ install_requires = [
     'PyYAML>=6.0.3',
     'trimesh>=5.2.0',
     'charset-normalizer>=3.4.7',
+    'yourdfpy>=0.0.60',
+    'lxml>=6.2.0',
+    'xacro>=2.1.1',
 ]
 
 setup(
@@ -47,6 +50,7 @@ setup(
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/msg_config', sorted(glob('msg_config/*.yaml'))),
         ('share/' + package_name + '/msg_config/meshes', sorted(glob('msg_config/meshes/*'))),
+        ('share/' + package_name + '/msg_config/urdf', sorted(glob('msg_config/urdf/*'))),
         ('share/' + package_name + '/launch', sorted(glob('launch/*.launch.py'))),
         ('share/' + package_name + '/rviz', sorted(glob('rviz/*.rviz'))),
     ],

@@ -62,7 +62,8 @@ ROS_PACKAGES = ('ament_index_python', 'builtin_interfaces', 'diagnostic_msgs', '
 ROSDEP_KEYS = {'numpy': 'python3-numpy', 'numba': 'python3-numba', 'yaml': 'python3-yaml',
                'matplotlib': 'python3-matplotlib', 'mpl_toolkits': 'python3-matplotlib',
                'trimesh': 'python3-trimesh-pip', 'mcap': 'mcap-ros2-support',
-               'mcap_ros2': 'mcap-ros2-support', 'rosbags': 'python3-rosbags-pip'}
+               'mcap_ros2': 'mcap-ros2-support', 'rosbags': 'python3-rosbags-pip',
+               'yourdfpy': 'python3-yourdfpy-pip', 'lxml': 'python3-lxml', 'xacro': 'xacro'}
 LAUNCH_ARGUMENTS = {'params_file', 'namespace', 'record_path', 'use_sim_time', 'rviz'}
 
 

@@ -1,0 +1,616 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Robots from URDF: :func:`load_urdf` reads one, :func:`place_robot` puts it in the world.
+
+The XML is parsed strictly by lxml (a malformed file is refused, not recovered) and read by
+``yourdfpy``; a ``.xacro`` file is expanded by the ``xacro`` package first. Conventions:
+
+* **Bodies.** Every moving link with an ``<inertial>`` is one body. Its body frame is the
+  link's centre of mass with the **link frame's axes** (``R_wb = R_w,link``), so the inertia of
+  ``<inertial>`` is rotated by the inertial origin's rpy into link axes:
+  ``I_b = R_io I_io R_ioᵀ``.
+* **The world.** A root link named ``world`` is the world frame (placed by the root pose); the
+  links joined to it by fixed joints are part of the world (no body, no ``<inertial>`` needed)
+  and every joint from them has ``parent=None``. Any other root floats.
+* **Frames.** A link without ``<inertial>`` on a fixed joint to a moving link is a frame of
+  that link's body (its collisions go to that body); a moving link (any other joint type, or
+  the floating root) without ``<inertial>`` is refused.
+* **Joints.** revolute, continuous, prismatic, planar and fixed become
+  :class:`rbd_ros.core.joints.Joint` values (the child's joint frame at zero is the child link
+  frame, so ``q_rest`` is the joint origin's rotation in the parent body); ``floating`` joins
+  nothing: its child is a free body starting at the joint origin. Planar normal = ``<axis>``.
+* **Joint order.** :attr:`Robot.moving_joints` are the revolute, continuous and prismatic
+  joints in the order of the URDF's joint elements: the ``joint_states`` order and the order of
+  ``joint_positions``. Planar and floating joints start at zero and are not listed (as
+  robot_state_publisher, which treats them as fixed).
+* **Kept as data, not simulated yet:** ``<limit velocity>``, ``<dynamics damping friction>``
+  and ``<mimic>`` (a mimic joint moves freely).
+* **Collisions.** Every ``<collision>`` (box, cylinder, sphere, mesh with scale) becomes a
+  :class:`RobotCollision`: the shape centred in its own frame and that frame's pose in the body
+  frame. The core has no compound shape or shape offset yet; all elements are kept.
+
+Every error is one line that names the file (or ``robot_description``), the link or joint and
+the field with its value and unit.
+"""
+
+from dataclasses import dataclass
+import io
+import math
+import os
+from pathlib import Path
+from typing import Optional, Tuple
+import warnings
+
+from lxml import etree
+import numpy as np
+from rbd_ros.core import BodyModel, BodyState
+from rbd_ros.core.contact.shapes import CollisionShape, load_mesh, primitive_shape
+from rbd_ros.core.errors import ConfigError, finite_vector, ModelError, RbdError
+from rbd_ros.core.inertia import validate_inertia, validate_mass
+from rbd_ros.core.joints import Joint
+from rbd_ros.core.rotations import matrix_to_quat, quat_to_matrix
+from rbd_ros.sim.meshes import resolve_mesh_path
+import yourdfpy
+
+#: Every URDF joint type.
+URDF_JOINT_TYPES = ('revolute', 'continuous', 'prismatic', 'fixed', 'floating', 'planar')
+#: The joint types with one coordinate: the entries of ``joint_states``.
+MOVING_TYPES = ('revolute', 'continuous', 'prismatic')
+#: The source name of a URDF given as XML text (the ROS parameter's name).
+DESCRIPTION = 'robot_description'
+
+
+@dataclass(frozen=True)
+class RobotCollision:
+    """One ``<collision>``: a shape centred in its frame, and that frame in the body frame."""
+
+    shape: CollisionShape
+    position_b: np.ndarray
+    orientation_b: np.ndarray
+
+
+@dataclass(frozen=True)
+class RobotLink:
+    """
+    One URDF link.
+
+    :param body: index of the body that carries it (into :attr:`Robot.body_links`), or None
+        when it is part of the world.
+    :param position_b, orientation_b: the link frame in that body's frame (m; ``w, x, y, z``);
+        for a world link, in the root link's frame.
+    :param mass_kg, com_m, inertia_b: its ``<inertial>`` (COM in link coordinates; inertia
+        about the COM in link axes, kg m²), or None when it has none.
+    """
+
+    name: str
+    body: Optional[int]
+    position_b: np.ndarray
+    orientation_b: np.ndarray
+    mass_kg: Optional[float]
+    com_m: Optional[np.ndarray]
+    inertia_b: Optional[np.ndarray]
+    collisions: Tuple[RobotCollision, ...]
+
+
+@dataclass(frozen=True)
+class RobotJoint:
+    """
+    One URDF joint as written (SI units; ``origin`` in the parent link, ``axis`` unit, in it).
+
+    ``velocity`` (the ``<limit>`` velocity), ``damping``, ``friction`` (``<dynamics>``) and
+    ``mimic`` (``(joint, multiplier, offset)``) are data for later; ``core`` is the index of its
+    :class:`Joint` in :attr:`Placement.joints`, or None (folded fixed joints, floating).
+    """
+
+    name: str
+    kind: str
+    parent: str
+    child: str
+    origin: np.ndarray
+    axis: np.ndarray
+    lower: Optional[float]
+    upper: Optional[float]
+    effort: Optional[float]
+    velocity: Optional[float]
+    damping: float
+    friction: float
+    mimic: Optional[tuple]
+    core: Optional[int]
+
+
+@dataclass(frozen=True)
+class Robot:
+    """
+    A robot read from URDF: links and joints in document order, plus what the core needs.
+
+    :param urdf: the XML as loaded (after xacro): what ``robot_description`` publishes.
+    :param body_links: the link of each body, in body order (URDF link order).
+    :param moving_joints: the joint_states order (see the module docstring).
+    :param fixed_to_world: the root link is ``world``.
+    """
+
+    name: str
+    source: str
+    urdf: str
+    links: Tuple[RobotLink, ...]
+    joints: Tuple[RobotJoint, ...]
+    body_links: Tuple[str, ...]
+    moving_joints: Tuple[str, ...]
+    fixed_to_world: bool
+    root: str
+
+    def link(self, name: str) -> RobotLink:
+        """Return the link called ``name``."""
+        return next(link for link in self.links if link.name == name)
+
+    def joint(self, name: str) -> RobotJoint:
+        """Return the joint called ``name``."""
+        return next(joint for joint in self.joints if joint.name == name)
+
+
+@dataclass(frozen=True)
+class Placement:
+    """What :class:`rbd_ros.core.joints.ArticulatedSimulator` takes, and each link's pose."""
+
+    models: Tuple[BodyModel, ...]
+    states: Tuple[BodyState, ...]
+    joints: Tuple[Joint, ...]
+    link_poses_w: dict
+
+
+def _fail(error, source, field, detail, value=None, unit=None):
+    """Raise ``error('<source>: <field>: <detail>')`` carrying field, value and unit."""
+    raise error(f'{source}: {field}: {detail}', field=field, value=value, unit=unit,
+                detail=detail)
+
+
+def _read(path=None, xml=None):
+    """Return ``(source, xml bytes)``: the file (xacro expanded) or the text."""
+    if xml is not None:
+        return DESCRIPTION, xml.encode() if isinstance(xml, str) else bytes(xml)
+    path = resolve_mesh_path(str(path), 'urdf_path')
+    source = str(path)
+    if not os.path.isfile(path):
+        raise ConfigError(f'urdf_path: {source!r} does not exist or is not a file',
+                          field='urdf_path', value=source)
+    if source.endswith('.xacro'):
+        try:
+            import xacro
+        except ImportError:
+            raise ConfigError(f'urdf_path: {source!r}: the xacro package is not installed '
+                              '(pip install xacro), so a .xacro file cannot be expanded',
+                              field='urdf_path', value=source) from None
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter('ignore')
+                return source, xacro.process_file(source).toxml().encode()
+        except Exception as exc:  # xacro raises XacroException, ExpatError, OSError, ...
+            reason = ' '.join(str(exc).split()) or type(exc).__name__
+            raise ConfigError(f'{source}: xacro failed: {reason}', field='urdf_path',
+                              value=source) from None
+    return source, Path(path).read_bytes()
+
+
+def _parse(source, data):
+    """Return the yourdfpy robot of ``data``, refusing malformed XML with its line."""
+    try:
+        root = etree.fromstring(data, etree.XMLParser(remove_blank_text=True))
+    except etree.XMLSyntaxError as exc:
+        _fail(ConfigError, source, 'xml', f'malformed XML: {exc}')
+    if root.tag != 'robot':
+        _fail(ConfigError, source, 'xml', f'the root element is <{root.tag}>, not <robot>')
+    for element in root.iter('link', 'joint'):
+        if not element.get('name'):
+            _fail(ModelError, source, f'<{element.tag}> (line {element.sourceline})',
+                  'has no name attribute')
+    for element in root.iter('joint'):
+        for tag in ('parent', 'child'):
+            found = element.find(tag)
+            if found is None or not found.get('link'):
+                _fail(ModelError, source, f'joint {element.get("name")!r}.{tag}',
+                      f'missing (line {element.sourceline}): a joint needs <{tag} link=...>')
+    try:
+        return yourdfpy.URDF.load(io.BytesIO(data), build_scene_graph=False,
+                                  build_collision_scene_graph=False, load_meshes=False,
+                                  load_collision_meshes=False).robot
+    except (KeyError, ValueError, TypeError, AttributeError, IndexError) as exc:
+        _fail(ConfigError, source, 'xml', f'not a valid URDF ({type(exc).__name__}: {exc})')
+
+
+def _number(value, source, field, unit, default=None):
+    if value is None:
+        return default
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        _fail(ModelError, source, field, f'{value!r} is not a number in {unit}', value, unit)
+    if not math.isfinite(number):
+        _fail(ModelError, source, field, f'{number!r} {unit} must be finite', value, unit)
+    return number
+
+
+def _matrix(origin):
+    """Return the 4x4 of a yourdfpy origin (None: identity)."""
+    return np.eye(4) if origin is None else np.asarray(origin, dtype=np.float64)
+
+
+def _pose(matrix):
+    """Return ``(position, quaternion w x y z)`` of a 4x4, frozen."""
+    position = np.array(matrix[:3, 3])
+    quat = matrix_to_quat(matrix[:3, :3])
+    position.flags.writeable = quat.flags.writeable = False
+    return position, quat
+
+
+def _translation(vector):
+    out = np.eye(4)
+    out[:3, 3] = vector
+    return out
+
+
+def _inertial(source, link):
+    """Return ``(mass, com in link, inertia about com in link axes)`` or None."""
+    inertial = link.inertial
+    if inertial is None:
+        return None
+    who = f'link {link.name!r}'
+    if inertial.mass is None:
+        _fail(ModelError, source, f'{who}.inertial.mass', 'missing; <inertial> needs <mass>')
+    try:
+        mass = validate_mass(inertial.mass, 'mass')
+    except RbdError as exc:
+        _fail(ModelError, source, f'{who}.inertial.mass', exc.detail or str(exc),
+              inertial.mass, 'kg')
+    frame = _matrix(inertial.origin)
+    raw = np.asarray(inertial.inertia if inertial.inertia is not None else np.zeros((3, 3)))
+    try:
+        validate_inertia(raw, 'inertia')
+    except RbdError as exc:
+        _fail(ModelError, source, f'{who}.inertial.inertia', exc.detail or str(exc),
+              raw.tolist(), 'kg m²')
+    rot = frame[:3, :3]
+    inertia = rot @ raw @ rot.T
+    inertia = 0.5 * (inertia + inertia.T)
+    return mass, np.array(frame[:3, 3]), inertia
+
+
+def _collision(source, link, index, element, base_dir, to_body):
+    """Return the :class:`RobotCollision` of one ``<collision>`` (pose ``to_body`` · origin)."""
+    who = f'link {link.name!r}.collision[{index}]'
+    geometry = element.geometry
+    try:
+        if geometry is None:
+            _fail(ModelError, source, who, 'has no <geometry>')
+        if geometry.box is not None:
+            shape = primitive_shape('box', geometry.box.size, field=f'{who}.box.')
+        elif geometry.cylinder is not None:
+            shape = primitive_shape('cylinder', (geometry.cylinder.radius,
+                                                 geometry.cylinder.length),
+                                    field=f'{who}.cylinder.')
+        elif geometry.sphere is not None:
+            shape = primitive_shape('sphere', (geometry.sphere.radius,), field=f'{who}.sphere.')
+        elif geometry.mesh is not None:
+            filename = geometry.mesh.filename or ''
+            path = filename[len('file://'):] if filename.startswith('file://') else filename
+            path = resolve_mesh_path(path, f'{who}.mesh.filename')
+            if not os.path.isabs(path):
+                path = os.path.join(base_dir, path)
+            if not os.path.isfile(path):
+                _fail(ModelError, source, f'{who}.mesh.filename',
+                      f'{filename!r} ({path}) does not exist or is not a file', filename)
+            scale = geometry.mesh.scale
+            scale = (1.0, 1.0, 1.0) if scale is None else np.broadcast_to(scale, 3)
+            shape = load_mesh(path, scale, centre=False, field=f'{who}.mesh.')
+        else:
+            _fail(ModelError, source, who, 'has no box, cylinder, sphere or mesh')
+    except RbdError as exc:
+        if str(exc).startswith(source):
+            raise
+        raise type(exc)(f'{source}: {exc}', field=exc.field, value=exc.value,
+                        unit=exc.unit, detail=exc.detail) from None
+    position, quat = _pose(to_body @ _matrix(element.origin))
+    return RobotCollision(shape, position, quat)
+
+
+def _check_tree(source, robot):
+    """Return ``(root name, parent joint of each link)``; refuse unknown links and loops."""
+    names = [link.name for link in robot.links]
+    for kind, items in (('link', robot.links), ('joint', robot.joints)):
+        seen = set()
+        for item in items:
+            if item.name in seen:
+                _fail(ModelError, source, f'{kind} {item.name!r}', 'named twice; names must be '
+                      'unique')
+            seen.add(item.name)
+    parent_of = {}
+    for joint in robot.joints:
+        who = f'joint {joint.name!r}'
+        if joint.type not in URDF_JOINT_TYPES:
+            _fail(ModelError, source, f'{who}.type', f'{joint.type!r} is not one of '
+                  f'{", ".join(URDF_JOINT_TYPES)}', joint.type)
+        for field in ('parent', 'child'):
+            if getattr(joint, field) not in names:
+                _fail(ModelError, source, f'{who}.{field}', f'link {getattr(joint, field)!r} '
+                      'is not a link of the robot', getattr(joint, field))
+        if joint.child in parent_of:
+            _fail(ModelError, source, f'{who}.child', f'link {joint.child!r} is already the '
+                  f'child of joint {parent_of[joint.child].name!r}: a link with two parents '
+                  'is a loop, and a URDF is a tree', joint.child)
+        parent_of[joint.child] = joint
+    roots = [name for name in names if name not in parent_of]
+    if len(roots) != 1:
+        detail = ('every link is a child: the joints form a loop' if not roots else
+                  f'{len(roots)} root links ({", ".join(map(repr, roots))}); a URDF is one tree')
+        _fail(ModelError, source, 'links', detail)
+    # a loop not through the root leaves links unreached from it
+    reached, frontier = {roots[0]}, [roots[0]]
+    while frontier:
+        name = frontier.pop()
+        for joint in robot.joints:
+            if joint.parent == name and joint.child not in reached:
+                reached.add(joint.child)
+                frontier.append(joint.child)
+    loose = [name for name in names if name not in reached]
+    if loose:
+        _fail(ModelError, source, f'link {loose[0]!r}', 'is on a loop of joints not reached '
+              f'from the root {roots[0]!r}; a URDF is a tree')
+    return roots[0], parent_of
+
+
+def _joint_values(source, joint):
+    """Return the checked number fields of one joint."""
+    who = f'joint {joint.name!r}'
+    rotary = joint.type in ('revolute', 'continuous')
+    unit = 'rad' if rotary else 'm'
+    limit, dynamics = joint.limit, joint.dynamics
+    lower = upper = effort = velocity = None
+    if limit is not None:
+        lower = _number(limit.lower, source, f'{who}.limit.lower', unit)
+        upper = _number(limit.upper, source, f'{who}.limit.upper', unit)
+        effort = _number(limit.effort, source, f'{who}.limit.effort',
+                         'N m' if rotary else 'N')
+        velocity = _number(limit.velocity, source, f'{who}.limit.velocity',
+                           'rad/s' if rotary else 'm/s')
+        for name, value in (('effort', effort), ('velocity', velocity)):
+            if value is not None and value < 0.0:
+                _fail(ModelError, source, f'{who}.limit.{name}', f'{value!r} must be >= 0',
+                      value)
+    if joint.type not in ('revolute', 'prismatic'):
+        lower = upper = None   # URDF: continuous and the others ignore lower and upper
+    if lower is not None and upper is not None and lower > upper:
+        _fail(ModelError, source, f'{who}.limit.lower', f'{lower!r} {unit} is above upper '
+              f'{upper!r} {unit}', lower, unit)
+    damping = friction = 0.0
+    if dynamics is not None:
+        damping = _number(dynamics.damping, source, f'{who}.dynamics.damping', 'SI', 0.0)
+        friction = _number(dynamics.friction, source, f'{who}.dynamics.friction', 'SI', 0.0)
+    mimic = None
+    if joint.mimic is not None:
+        mimic = (joint.mimic.joint, _number(joint.mimic.multiplier, source,
+                                            f'{who}.mimic.multiplier', '', 1.0),
+                 _number(joint.mimic.offset, source, f'{who}.mimic.offset', unit, 0.0))
+    axis = np.asarray(joint.axis if joint.axis is not None else (1.0, 0.0, 0.0), float)
+    norm = float(np.linalg.norm(axis)) if axis.shape == (3,) else 0.0
+    if joint.type != 'fixed' and joint.type != 'floating' and not (
+            math.isfinite(norm) and norm > 1e-12):
+        _fail(ModelError, source, f'{who}.axis', f'{axis.tolist()} is not a direction',
+              axis.tolist())
+    axis = axis / norm if norm > 0.0 else np.array([1.0, 0.0, 0.0])
+    return lower, upper, effort, velocity, damping, friction, mimic, axis
+
+
+def load_urdf(path=None, *, xml=None) -> Robot:
+    """
+    Return the :class:`Robot` of a URDF file (``.urdf``, ``.xacro``) or of its XML text.
+
+    :param path: a file path or ``package://`` URI; relative meshes are relative to its folder.
+    :param xml: the XML itself (``robot_description``); relative meshes are relative to the
+        working directory. Give exactly one of the two.
+    :raises ConfigError: the file is missing, not XML, not a URDF, or xacro fails.
+    :raises ModelError: a link, joint or collision is wrong (see the module docstring).
+    """
+    if (path is None) == (xml is None):
+        raise ConfigError('urdf: give a urdf_path or a robot_description, exactly one')
+    source, data = _read(path, xml)
+    base_dir = os.path.dirname(os.path.abspath(source)) if xml is None else os.getcwd()
+    parsed = _parse(source, data)
+    root, parent_of = _check_tree(source, parsed)
+    by_name = {link.name: link for link in parsed.links}
+    fixed_to_world = root == 'world'
+    # carrier of each link: (body index or None, 4x4 of the link in the carrier's frame)
+    carriers, body_links = {}, []
+
+    def new_body(link):
+        if inertials[link.name] is None:
+            joint = parent_of.get(link.name)
+            how = 'the floating root' if joint is None else f'on {joint.type} joint ' \
+                f'{joint.name!r}'
+            _fail(ModelError, source, f'link {link.name!r}.inertial', f'missing: a moving '
+                  f'link ({how}) needs <inertial> with mass and inertia')
+        body_links.append(link.name)
+        return len(body_links) - 1, _translation(-inertials[link.name][1])
+
+    inertials = {link.name: _inertial(source, link) for link in parsed.links}
+    order = [root]
+    for name in order:
+        order.extend(j.child for j in parsed.joints if j.parent == name)
+    for name in order:
+        joint = parent_of.get(name)
+        if joint is None:
+            carriers[name] = (None, np.eye(4)) if fixed_to_world else new_body(by_name[name])
+        elif joint.type == 'fixed' and (carriers[joint.parent][0] is None
+                                        or inertials[name] is None):
+            body, pose = carriers[joint.parent]
+            carriers[name] = (body, pose @ _matrix(joint.origin))
+        else:
+            carriers[name] = new_body(by_name[name])
+    # bodies in URDF link order (the tree order built them parent first)
+    link_order = [link.name for link in parsed.links if link.name in body_links]
+    renumber = {body_links.index(name): k for k, name in enumerate(link_order)}
+    links = []
+    for link in parsed.links:
+        body, pose = carriers[link.name]
+        position, quat = _pose(pose)
+        collisions = tuple(_collision(source, link, k, element, base_dir, pose)
+                           for k, element in enumerate(link.collisions))
+        inertial = inertials[link.name]
+        mass, com, inertia = inertial if inertial is not None else (None, None, None)
+        links.append(RobotLink(link.name, None if body is None else renumber[body], position,
+                               quat, mass, com, inertia, collisions))
+    joints, core = [], 0
+    for joint in parsed.joints:
+        values = _joint_values(source, joint)
+        child_body = carriers[joint.child][0]
+        owns = child_body is not None and body_links[child_body] == joint.child
+        index = None
+        if owns and joint.type != 'floating':
+            index, core = core, core + 1
+        origin = _matrix(joint.origin)
+        origin.flags.writeable = False
+        joints.append(RobotJoint(joint.name, joint.type, joint.parent, joint.child, origin,
+                                 values[7], *values[:7], index))
+    moving = tuple(j.name for j in joints if j.kind in MOVING_TYPES)
+    return Robot(parsed.name, source, data.decode(), tuple(links), tuple(joints),
+                 tuple(link_order), moving, fixed_to_world, root)
+
+
+def _perpendicular(axis):
+    """Return a unit vector perpendicular to ``axis`` (crossed with its least aligned axis)."""
+    other = np.zeros(3)
+    other[int(np.argmin(np.abs(axis)))] = 1.0
+    out = np.cross(axis, other)
+    return out / np.linalg.norm(out)
+
+
+def _values(source, robot, values, name, unit):
+    """Return ``values`` as one finite number per moving joint (zeros for None)."""
+    n = len(robot.moving_joints)
+    if values is None:
+        return np.zeros(n)
+    try:
+        array = np.array(values, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        _fail(ConfigError, source, name, f'{values!r} is not a list of numbers in {unit}',
+              values, unit)
+    if array.size != n:
+        _fail(ConfigError, source, name, f'{array.size} values for {n} moving joints '
+              f'({", ".join(robot.moving_joints)}); one per joint in URDF order, fixed '
+              'joints skipped', list(values), unit)
+    if not np.all(np.isfinite(array)):
+        _fail(ConfigError, source, name, f'{array.tolist()} {unit} must be finite',
+              list(values), unit)
+    return array
+
+
+def place_robot(robot: Robot, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0.0, 0.0, 0.0),
+                joint_positions=None, joint_velocities=None, gravity_w=(0.0, 0.0, -9.81),
+                time_ns: int = 0) -> Placement:
+    """
+    Return the bodies, states and joints of ``robot`` placed in the world.
+
+    Forward kinematics from the root link's frame at ``position_w`` (m) and ``orientation_wb``
+    (``w, x, y, z``; the ``world`` link when fixed to the world), at rest, through every joint
+    at ``joint_positions`` (rad or m) and ``joint_velocities`` (rad/s or m/s), one value each
+    per :attr:`Robot.moving_joints` (None: zeros). A link's velocity is its parent's rigid
+    motion plus the joint rate: ``ω_c = ω_p + q̇ a_w`` (rotary), ``v_c = v_p + ω_p × r
+    + q̇ a_w`` (prismatic) at the link origin. ``link_poses_w`` maps each link name to its
+    frame's ``(position_w, q_wl)``.
+
+    :raises ConfigError: a wrong number of values, a non-finite one, or one beyond a limit;
+        a root pose that is not finite or a zero quaternion.
+    """
+    source = robot.source
+    q_values = _values(source, robot, joint_positions, 'initial_joint_positions', 'rad or m')
+    qd_values = _values(source, robot, joint_velocities, 'initial_joint_velocities',
+                        'rad/s or m/s')
+    position = finite_vector(position_w, 'initial_position', 'm', error=ConfigError)
+    quat = finite_vector(orientation_wb, 'initial_orientation', 'quaternion (w, x, y, z)', 4,
+                         error=ConfigError)
+    norm = float(np.linalg.norm(quat))
+    if not norm > 1e-9:
+        _fail(ConfigError, source, 'initial_orientation', f'{quat.tolist()} has zero norm, '
+              'not a rotation', quat.tolist())
+    root_pose = np.eye(4)
+    root_pose[:3, :3] = quat_to_matrix(quat / norm)
+    root_pose[:3, 3] = position
+    coordinate = dict(zip(robot.moving_joints, zip(q_values, qd_values)))
+    for k, name in enumerate(robot.moving_joints):
+        joint = robot.joint(name)
+        value = q_values[k]
+        if (joint.lower is not None and value < joint.lower) or \
+                (joint.upper is not None and value > joint.upper):
+            _fail(ConfigError, source, f'initial_joint_positions[{k}]',
+                  f'{value!r} for joint {name!r} is outside its limits [{joint.lower!r}, '
+                  f'{joint.upper!r}]', value, 'rad' if joint.kind == 'revolute' else 'm')
+    # forward kinematics, parents first: pose (4x4), v at the link origin, omega (world)
+    frames = {robot.root: (root_pose, np.zeros(3), np.zeros(3))}
+    pending = list(robot.joints)
+    while pending:
+        joint = next(j for j in pending if j.parent in frames)
+        pending.remove(joint)
+        pose_p, vel_p, omega_p = frames[joint.parent]
+        frame_j = pose_p @ joint.origin
+        axis_w = frame_j[:3, :3] @ joint.axis
+        q, qd = coordinate.get(joint.name, (0.0, 0.0))
+        motion = np.eye(4)
+        omega, vel = omega_p.copy(), vel_p + np.cross(omega_p, frame_j[:3, 3] - pose_p[:3, 3])
+        if joint.kind in ('revolute', 'continuous'):
+            motion[:3, :3] = quat_to_matrix(np.concatenate(
+                ([math.cos(0.5 * q)], math.sin(0.5 * q) * joint.axis)))
+            omega = omega + qd * axis_w
+        elif joint.kind == 'prismatic':
+            motion[:3, 3] = q * joint.axis
+            vel = vel + qd * axis_w + np.cross(omega_p, q * axis_w)
+        frames[joint.child] = (frame_j @ motion, vel, omega)
+    models, states = [], []
+    for name in robot.body_links:
+        link = robot.link(name)
+        pose, vel, omega = frames[name]
+        rot = pose[:3, :3]
+        offset_w = rot @ link.com_m
+        models.append(BodyModel(link.mass_kg, link.inertia_b, gravity_w=gravity_w))
+        states.append(BodyState(pose[:3, 3] + offset_w, matrix_to_quat(rot),
+                                vel + np.cross(omega, offset_w), rot.T @ omega,
+                                time_ns=time_ns))
+    links = {link.name: link for link in robot.links}
+    joints = []
+    for joint in robot.joints:
+        if joint.core is None:
+            continue
+        parent = links[joint.parent]
+        if parent.body is None:
+            carrier = frames[joint.parent][0]
+            parent_frame = carrier
+        else:
+            parent_frame = np.eye(4)
+            parent_frame[:3, :3] = quat_to_matrix(parent.orientation_b)
+            parent_frame[:3, 3] = parent.position_b
+        frame_j = parent_frame @ joint.origin
+        rot = frame_j[:3, :3]
+        child = links[joint.child]
+        kind = joint.kind
+        extra = {}
+        if kind in ('revolute', 'prismatic'):
+            extra = {'lower': joint.lower, 'upper': joint.upper}
+        if kind in MOVING_TYPES:
+            extra['effort_limit'] = joint.effort
+        if kind == 'planar':
+            extra['axis2_b'] = rot @ _perpendicular(joint.axis)
+        joints.append(Joint(joint.name, kind, parent.body, child.body,
+                            origin_parent_b=frame_j[:3, 3], origin_child_b=-child.com_m,
+                            axis_b=rot @ joint.axis, q_rest=matrix_to_quat(rot), **extra))
+    poses = {name: _pose(frame[0]) for name, frame in frames.items()}
+    return Placement(tuple(models), tuple(states), tuple(joints), poses)
