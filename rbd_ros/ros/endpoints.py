@@ -18,7 +18,9 @@ The node's endpoints: the QoS of each topic, ``qos_overrides`` checked, input to
 pose, twist and odom: reliable, transient local, keep last 1: a subscriber that arrives while
 the node is paused (``ros2 topic echo pose --once``) gets the latest sample. The other topics:
 depth 10, reliable, volatile (rclpy's default). Every endpoint takes
-``qos_overrides.<topic>.<kind>.<policy>``; a bad value is one line naming it.
+``qos_overrides.<topic>.<kind>.<policy>``; a bad value is one line naming it. Every topic and
+service name is resolved before any endpoint is created (:func:`check_names`), so a name past
+rcl's limit is one line naming the parameter that made it, not an rcl traceback.
 """
 
 import re
@@ -40,6 +42,11 @@ QOS_OVERRIDES = QoSOverridingOptions(policy_kinds=(
 OTHER_OUTPUT_TOPICS = ('markers', 'static_markers', '/clock', '/diagnostics', '/tf')
 #: Every output topic of a single-body node (a world's are under each body's prefix).
 OUTPUT_TOPICS = ('pose', 'twist', 'odom', 'contact_wrench') + OTHER_OUTPUT_TOPICS
+#: The node's own services (``~/reset``, ...), relative to its name.
+SERVICES = ('~/reset', '~/pause', '~/step')
+#: rcl's longest resolved topic or service name, characters: RMW_TOPIC_MAX_NAME_LENGTH, 255
+#: minus 8 for the prefix DDS adds (``rt/``, ``rq/``, ``rr/`` and the request/reply suffixes).
+TOPIC_NAME_MAX_CHARS = 255 - 8
 
 
 def rcl_text(exc):
@@ -87,6 +94,59 @@ def output_topics(config):
     kinds = outputs.SampleBuilder(config, tf=False).kinds
     return ([outputs.topic_of(kind) for kind in kinds]
             + [f'{b.prefix}contact_wrench' for b in config.bodies] + list(OTHER_OUTPUT_TOPICS))
+
+
+def shown_name(name):
+    """Return ``repr(name)``, or of its last 40 characters after '...' when longer than 60."""
+    return repr(name) if len(name) <= 60 else repr('...' + name[-40:])
+
+
+def _too_long(node, name, service=False):
+    """Return None if ``name`` resolves, else ``'<name> resolves past ...'`` (one clause)."""
+    try:
+        (node.resolve_service_name if service else node.resolve_topic_name)(name)
+        return None
+    except (RuntimeError, NameValidationException) as exc:  # rclpy raises RCLError
+        text = rcl_text(exc)
+    namespace = node.get_namespace().rstrip('/')
+    full = name if name.startswith('/') else f'{namespace}/{name}'.replace(
+        '~', f'{namespace}/{node.get_name()}', 1)
+    if 'length should not exceed' in text:
+        return (f'makes the {"service" if service else "topic"} {shown_name(full)} '
+                f"{len(full)} characters long, past rcl's limit of {TOPIC_NAME_MAX_CHARS}")
+    return f'makes {sim_params.fmt(full)} not a valid topic name ({text})'
+
+
+def check_names(node, config):
+    """
+    Resolve every topic and service name the node will create, before it creates any.
+
+    A name past :data:`TOPIC_NAME_MAX_CHARS` or invalid is refused naming what made it: the
+    node's namespace (the topics of every node), ``body_names`` (a body's topics), or the
+    ``wrench_inputs`` topic parameter. Frame ids and parameter names have no length limit in
+    rcl (``bodies.<name>.*`` parameters of any length declare).
+
+    :raises ConfigError: one line naming the parameter, its value (cut) and the limit.
+    """
+    namespace = node.get_namespace()
+    for name in OUTPUT_TOPICS + ('drag', '/clicked_point') + SERVICES:
+        why = _too_long(node, name, service=name in SERVICES)
+        if why:
+            raise ConfigError(f'namespace {sim_params.fmt(namespace)} ({len(namespace)} '
+                              f'characters): {why}')
+    names = config.parameters.get('body_names') or []
+    for body in config.bodies:
+        for kind in outputs.BODY_KINDS + ('drag',):
+            why = body.prefix and _too_long(node, body.prefix + kind)
+            if why:
+                raise ConfigError(f'parameter body_names = {sim_params.fmt(list(names))}: '
+                                  f'body {names.index(body.name)} {why}')
+    for spec in config.wrench_inputs:
+        why = _too_long(node, spec.topic)
+        if why:
+            body, _, name = spec.name.rpartition('/')
+            field = f'bodies.{body}.wrench_inputs.{name}' if body else f'wrench_inputs.{name}'
+            raise ConfigError(f'parameter {field}.topic = {sim_params.fmt(spec.topic)}: {why}')
 
 
 def check_input_topics(node, config):

@@ -61,6 +61,7 @@ from rbd_ros.sim.session import SimSession
 from rcl_interfaces.msg import SetParametersResult
 import rclpy
 from rclpy.clock import Clock, ClockType
+from rclpy.exceptions import NameValidationException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.serialization import serialize_message
@@ -102,7 +103,16 @@ class RigidBodyNode(Node):
 
         The other keyword arguments are :class:`rclpy.node.Node`'s.
         """
-        super().__init__('rigid_body_node', **kwargs)
+        try:
+            super().__init__('rigid_body_node', **kwargs)
+        except NameValidationException as exc:  # a namespace too long for rclpy's services
+            lines = str(exc).splitlines()  # 'Invalid <what>: <why>:', '  <name>', '  ^'
+            name = lines[1].strip().strip("'") if len(lines) > 1 else ''
+            reason = lines[0].rstrip(':')
+            raise ConfigError(f"the node's name or namespace (-r __ns:=...) makes "
+                              f'{endpoints.shown_name(name)} ({len(name)} characters): '
+                              f"{reason}; rcl's limit is "
+                              f'{endpoints.TOPIC_NAME_MAX_CHARS} characters') from None
         # Validate the overrides ourselves first so that a bad value gives our one-line message
         # (rclpy would reject an out-of-range value with its own), then declare the validated
         # values. rclpy has no public accessor for the overrides before declaration: they are
@@ -115,6 +125,7 @@ class RigidBodyNode(Node):
             elif not parameters.is_rclpys(name):
                 self.get_logger().warning(f'ignoring unknown parameter {name} = {value!r}')
         self.config = config = cfg.NodeConfig.from_parameters(params)
+        endpoints.check_names(self, config)  # before any endpoint: a name past rcl's limit
         endpoints.check_input_topics(self, config)
         self._warm_up()
         # The slow part of start-up is over (meshes loaded, kernels compiled and run once): from

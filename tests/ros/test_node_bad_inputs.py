@@ -55,6 +55,13 @@ def _sparse(tmp):
     return str(path)
 
 
+def _long_name(tmp, chars=233):
+    """Return a world of one body whose ``<name>/contact_wrench`` is past rcl's 247."""
+    name = 'n' * chars
+    return {'body_names': [name], f'bodies.{name}.initial_position': [0.0, 0.0, 0.5],
+            'ground.enabled': True, 'record_path': str(tmp / 'bag')}
+
+
 def _stack_with_spin(tmp):
     params = yaml.safe_load(STACK.read_text())['/**']['ros__parameters']
     return {**params, 'bodies.middle.initial_angular_velocity': [1e200, 0.0, 0.0]}
@@ -97,10 +104,25 @@ CASES = [  # (base params file, params from tmp_path, what the one line must con
      ['parameter mesh_scale = [1e+100, 1e+100, 1e+100]']),
     (None, lambda tmp: {'body_names': [f'b{i}' for i in range(15000)]},
      ['parameter body_names = ', f'15000 bodies exceed the limit of {sim_params.MAX_BODIES}']),
+    (None, _long_name,  # '/' + 233 + '/contact_wrench' = 249 characters resolved
+     ["parameter body_names = ['nnnn", '(233 characters)', "nnnn/contact_wrench' 249 "
+      "characters long, past rcl's limit of 247"]),
+    (None, lambda tmp: {'wrench_input_names': ['a'], 'wrench_inputs.a.topic': 't' * 250},
+     ["parameter wrench_inputs.a.topic = 'ttt", '(250 characters)', 'past rcl']),
     (None, _stack_with_spin,
      ['parameter bodies.middle.initial_angular_velocity = [1e+200, 0.0, 0.0] rad/s',
       'not finite']),
 ]
+
+
+def test_a_namespace_too_long_for_the_node_names_it(start_node):
+    # 231 + 2 slashes + rigid_body_node/describe_parameters (35) = 268 > 247 characters
+    node = start_node(namespace='/' + 'n' * 231)
+    assert node.wait(120) == 2, node.stderr
+    lines = [line for line in node.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and len(lines[0]) <= MAX_LINE, lines
+    assert "name or namespace (-r __ns:=...) makes '...nnnn/rigid_body_node/" in lines[0]
+    assert '(268 characters)' in lines[0] and "rcl's limit is 247" in lines[0], lines[0]
 
 
 @pytest.fixture
