@@ -72,7 +72,10 @@ class OursWorld:
             else:
                 origin_parent = (np.asarray(link.origin_m, float)
                                  - np.asarray(mech.links[link.parent].com_m, float))
-            joints.append(Joint(link.name, link.kind, None if link.parent < 0 else link.parent,
+            # an unlimited hinge is 'continuous' (as in URDF): its angle is read unwrapped
+            kind = ('continuous' if link.kind == 'revolute' and link.lower is None
+                    else link.kind)
+            joints.append(Joint(link.name, kind, None if link.parent < 0 else link.parent,
                                 k, origin_parent_b=tuple(origin_parent),
                                 origin_child_b=tuple(-np.asarray(link.com_m, float)),
                                 axis_b=link.axis, lower=link.lower, upper=link.upper))
