@@ -526,19 +526,52 @@ def _tree_factor(model, work):
                     Hp[i, r, a] = jac[row, off + a]
     for t in range(model.order.shape[0]):
         i = model.order[t]
-        if i < n_b:
-            _eliminate(D, Hp, W, i, 6, par[i], dim)   # a body: size 6, unrolled
-        else:
-            _eliminate(D, Hp, W, i, dim[i], par[i], dim)
+        p = par[i]
+        _eliminate_sized(D, Hp, W, i, dim[i], p, dim[p] if p >= 0 else 0)
 
 
 @_inl
-def _eliminate(D, Hp, W, i, di, p, dim):
-    """Factor node ``i`` (LDLᵀ of its block) and subtract its Schur complement from ``p``'s."""
+def _eliminate_sized(D, Hp, W, i, di, p, dp):
+    """
+    :func:`_eliminate` with the common block sizes as constants, so that its loops unroll.
+
+    A body (6) next to a joint of 3 to 6 rows, either way round; other sizes take the loops.
+    The arithmetic is the same in every branch: only the loop bounds become constants.
+    """
+    if di == 6:
+        if dp == 5:
+            _eliminate(D, Hp, W, i, 6, p, 5)
+        elif dp == 6:
+            _eliminate(D, Hp, W, i, 6, p, 6)
+        elif dp == 4:
+            _eliminate(D, Hp, W, i, 6, p, 4)
+        elif dp == 3:
+            _eliminate(D, Hp, W, i, 6, p, 3)
+        else:
+            _eliminate(D, Hp, W, i, 6, p, dp)
+    elif dp == 6:
+        if di == 5:
+            _eliminate(D, Hp, W, i, 5, p, 6)
+        elif di == 4:
+            _eliminate(D, Hp, W, i, 4, p, 6)
+        elif di == 3:
+            _eliminate(D, Hp, W, i, 3, p, 6)
+        else:
+            _eliminate(D, Hp, W, i, di, p, 6)
+    else:
+        _eliminate(D, Hp, W, i, di, p, dp)
+
+
+@_inl
+def _eliminate(D, Hp, W, i, di, p, dp):
+    """
+    Factor node ``i`` (LDLᵀ of its ``di`` block) and subtract its Schur complement from ``p``'s.
+
+    ``dp`` is the size of parent ``p``'s block (unused when ``p < 0``, a root).
+    """
     _ldl(D, i, di)
     if p < 0:
         return
-    dp = dim[p]
     # Z = L⁻¹ H (forward substitution only, into W), then D_p -= Zᵀ diag⁻¹ Z
     for c in range(dp):
         for r in range(di):
