@@ -1187,6 +1187,7 @@ def step(model, x, work, h, n_steps, tol, max_iter):
                 work.lim0[j] = work.lim_state[j]
             it = _rk4(model, x, work, left, tol, max_iter)
             if it < 0:
+                _restore(model, x, work)  # stays finite: back to the sub-step start
                 work.stats[S_FAIL] = 1.0
                 return s + 1
             j, side, excess = _crossing(model, x, work)
@@ -1203,6 +1204,7 @@ def step(model, x, work, h, n_steps, tol, max_iter):
                 tau = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
                 _restore(model, x, work)
                 if _rk4(model, x, work, tau, tol, max_iter) < 0:
+                    _restore(model, x, work)  # stays finite: back to the sub-step start
                     work.stats[S_FAIL] = 1.0
                     return s + 1
                 g = side * (limit_coordinate(model, x, j) - bound)
@@ -1222,6 +1224,7 @@ def step(model, x, work, h, n_steps, tol, max_iter):
             joint_rows(model, x, work, True)
             factor(model, work)
             if _project_positions(model, x, work, tol, max_iter, 0) < 0:
+                _restore(model, x, work)  # stays finite: back to the sub-step start
                 work.stats[S_FAIL] = 1.0
                 return s + 1
             _end_of_step(model, x, work)
@@ -1233,6 +1236,12 @@ def step(model, x, work, h, n_steps, tol, max_iter):
             left -= tau
             if left <= 1e-12 * h:
                 break
+        for b in range(x.shape[0]):  # a step that is not finite is refused, not kept
+            for i in range(13):
+                if not math.isfinite(x[b, i]):
+                    _restore(model, x, work)
+                    work.stats[S_FAIL] = 2.0
+                    return s + 1
     work.stats[S_ERR] = worst
     work.stats[S_ITER] = worst_it
     return 0

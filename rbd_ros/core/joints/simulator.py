@@ -331,7 +331,10 @@ class ArticulatedSimulator:
 
         :raises ConvergenceError: the position projection did not reach
             :data:`PROJECTION_TOL` in :data:`PROJECTION_MAX_ITER` iterations.
-        :raises NonFiniteError: the state became non-finite.
+        :raises NonFiniteError: a step would have made the state non-finite.
+
+        Either way the state and time stay where the failing step began (after a limit stop
+        inside that step: where the sub-step after the stop began), finite.
         """
         n = whole_number(n_steps, 'n_steps', 'steps', error=ConfigError)
         if n == 0:
@@ -340,8 +343,12 @@ class ArticulatedSimulator:
         self._t_call = self._time_ns
         failed = jk.step(self._model, self._x, self._work, h, n, PROJECTION_TOL,
                          PROJECTION_MAX_ITER)
-        if failed:
+        if failed:  # the kernel left the state where the failing step (or sub-step) began
             self._time_ns += (failed - 1) * self._timestep_ns
+            if self._work.stats[jk.S_FAIL] == 2.0:
+                raise NonFiniteError(
+                    f'joints: step {failed} would make the state non-finite at t = '
+                    f'{self._time_ns} ns; the state stays at its last finite value')
             raise ConvergenceError(
                 f'joints: the position projection did not converge at step {failed} '
                 f'(error {self._work.stats[0]:.3g} m or rad) at t = {self._time_ns} ns')
