@@ -156,6 +156,16 @@ def _rot_from_q(qw, qx, qy, qz, out, i, off):
 
 
 @_inl
+def _rot_of(x, b):
+    """Return the 9 entries of ``R(q/|q|)`` of body ``b``, row-major (as :func:`_rot_from_q`)."""
+    qw, qx, qy, qz = x[b, 3], x[b, 4], x[b, 5], x[b, 6]
+    s = 2.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
+    return (1.0 - s * (qy * qy + qz * qz), s * (qx * qy - qw * qz), s * (qx * qz + qw * qy),
+            s * (qx * qy + qw * qz), 1.0 - s * (qx * qx + qz * qz), s * (qy * qz - qw * qx),
+            s * (qx * qz - qw * qy), s * (qy * qz + qw * qx), 1.0 - s * (qx * qx + qy * qy))
+
+
+@_inl
 def _mv(m, i, off, x0, x1, x2):
     """Return ``A v`` for the row-major 3×3 ``A`` in ``m[i, off:off + 9]``."""
     return (m[i, off] * x0 + m[i, off + 1] * x1 + m[i, off + 2] * x2,
@@ -294,29 +304,9 @@ def joint_rows(model, x, work, full):
         c = jint[j, J_CHILD]
         row0 = jint[j, J_ROW0]
         # child rotation
-        qw, qx, qy, qz = x[c, 3], x[c, 4], x[c, 5], x[c, 6]
-        s = 2.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
-        c00 = 1.0 - s * (qy * qy + qz * qz)
-        c01 = s * (qx * qy - qw * qz)
-        c02 = s * (qx * qz + qw * qy)
-        c10 = s * (qx * qy + qw * qz)
-        c11 = 1.0 - s * (qx * qx + qz * qz)
-        c12 = s * (qy * qz - qw * qx)
-        c20 = s * (qx * qz - qw * qy)
-        c21 = s * (qy * qz + qw * qx)
-        c22 = 1.0 - s * (qx * qx + qy * qy)
+        c00, c01, c02, c10, c11, c12, c20, c21, c22 = _rot_of(x, c)
         if par >= 0:
-            qw, qx, qy, qz = x[par, 3], x[par, 4], x[par, 5], x[par, 6]
-            s = 2.0 / (qw * qw + qx * qx + qy * qy + qz * qz)
-            p00 = 1.0 - s * (qy * qy + qz * qz)
-            p01 = s * (qx * qy - qw * qz)
-            p02 = s * (qx * qz + qw * qy)
-            p10 = s * (qx * qy + qw * qz)
-            p11 = 1.0 - s * (qx * qx + qz * qz)
-            p12 = s * (qy * qz - qw * qx)
-            p20 = s * (qx * qz - qw * qy)
-            p21 = s * (qy * qz + qw * qx)
-            p22 = 1.0 - s * (qx * qx + qy * qy)
+            p00, p01, p02, p10, p11, p12, p20, p21, p22 = _rot_of(x, par)
             pp0, pp1, pp2 = x[par, 0], x[par, 1], x[par, 2]
             vp0, vp1, vp2 = x[par, 7], x[par, 8], x[par, 9]
             wb0, wb1, wb2 = x[par, 10], x[par, 11], x[par, 12]
