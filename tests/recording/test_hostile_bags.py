@@ -55,7 +55,7 @@ REFUSE_CPU_S = 1.0
 PEAK_MB = 300
 ADDRESS_SPACE = 2 << 30
 
-LAUNCHER = '''
+LAUNCHER = """
 import importlib, json, sys, time
 tool, report, argv = sys.argv[1], sys.argv[2], sys.argv[3:]
 module = importlib.import_module('rbd_ros.bag.' + tool)
@@ -69,7 +69,7 @@ finally:
         json.dump({'cpu_s': time.process_time() - cpu, 'wall_s': time.perf_counter() - wall,
                    'peak_mb': int(hwm.split()[1]) / 1024}, f)
 sys.exit(status)
-'''
+"""
 
 
 def craft(src, dst, params=None, attachments=None):
@@ -114,7 +114,8 @@ def _limited():
 def run_tool(tool, bag, tmp_path):
     """Run ``tool`` on ``bag``; return ``(status, error lines, report)``."""
     report = tmp_path / f'{tool}_report.json'
-    args = [str(bag)] + (['--no-progress'] if tool == 'replay' else ['-o', str(tmp_path / 'o.png')])
+    out = ['--no-progress'] if tool == 'replay' else ['-o', str(tmp_path / 'o.png')]
+    args = [str(bag)] + out
     proc = subprocess.run([sys.executable, '-c', LAUNCHER, tool, str(report)] + args,
                           capture_output=True, text=True, timeout=300, preexec_fn=_limited,
                           cwd=str(tmp_path), env=dict(os.environ, PYTHONPATH=str(REPO)))
@@ -123,14 +124,14 @@ def run_tool(tool, bag, tmp_path):
 
 
 def _stl_attachment():
-    """The L block's own attachment, under the name the config records."""
+    """Return the L block's own attachment, under the name its config records."""
     with open(L_BLOCK, 'rb') as f:
         (attachment,) = list(make_reader(f).iter_attachments())
     return attachment.name, attachment.data
 
 
 def _zip_bomb():
-    """A zip of one 3 GiB member of zeros (~3 MB compressed), written in 64 MiB pieces."""
+    """Return a zip of one 3 GiB member of zeros (~3 MB compressed), written in 64 MiB pieces."""
     buffer = io.BytesIO()
     piece = bytes(64 << 20)
     with zipfile.ZipFile(buffer, 'w', zipfile.ZIP_DEFLATED) as archive:
@@ -141,7 +142,7 @@ def _zip_bomb():
 
 
 def _bz2_bomb():
-    """bzip2 of 3 GiB of zeros (~2 kB compressed), compressed in 64 MiB pieces."""
+    """Return bzip2 of 3 GiB of zeros (~2 kB compressed), compressed in 64 MiB pieces."""
     compressor = bz2.BZ2Compressor(9)
     piece = bytes(64 << 20)
     return b''.join(compressor.compress(piece) for _ in range(48)) + compressor.flush()
@@ -182,7 +183,8 @@ CASES = {  # id: (source, (tmp_path -> craft params, attachments), words of the 
               ['is 524288000 bytes, more than the limit of', 'MAX_MESH_BYTES']),
     'bz2-bomb': (L_BLOCK, lambda tmp: ({'mesh_path': 'hull.stl.bz2'},
                                        [('hull.stl.bz2', _bz2_bomb())]),
-                 ["'hull.stl.bz2' is bzip2-compressed data, not a mesh", 'nothing is decompressed']),
+                 ["'hull.stl.bz2' is bzip2-compressed data, not a mesh",
+                  'nothing is decompressed']),
     'zip-bomb': (L_BLOCK, lambda tmp: ({'mesh_path': 'hull.zip'}, [('hull.zip', _zip_bomb())]),
                  ["'hull.zip' is zip-compressed data, not a mesh", 'nothing is decompressed']),
 }
@@ -202,8 +204,8 @@ def crafted(request, tmp_path_factory):
 def test_a_crafted_bag_is_refused_in_one_line_fast_and_small(crafted, tool, tmp_path):
     case, bag, words = crafted
     status, errors, report = run_tool(tool, bag, tmp_path)
-    print(f'{tool} {case}: exit {status}, {report["cpu_s"]:.3f} s CPU and {report["wall_s"]:.3f} s '
-          f'after start-up, peak {report["peak_mb"]:.0f} MB')
+    print(f'{tool} {case}: exit {status}, {report["cpu_s"]:.3f} s CPU and '
+          f'{report["wall_s"]:.3f} s after start-up, peak {report["peak_mb"]:.0f} MB')
     assert status == 2, errors
     assert len(errors) == 1 and errors[0].startswith(f'{tool}: error: '), errors
     assert len(errors[0]) < 1000, errors[0]
