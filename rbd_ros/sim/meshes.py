@@ -53,6 +53,8 @@ _COMPRESSED = ((b'\x1f\x8b', 'gzip'), (b'BZh', 'bzip2'), (b'\xfd7zXZ\x00', 'xz')
 _FACET = np.dtype([('normal', '<f4', 3), ('vertices', '<f4', (3, 3)), ('attribute', '<u2')])
 _NUMBER = rb'([^\s]+)'
 _STL_VERTEX = re.compile(rb'vertex\s+' + rb'\s+'.join([_NUMBER] * 3))
+_OBJ_VERTEX = re.compile(rb'^v[ \t]+' + rb'[ \t]+'.join([_NUMBER] * 3), re.MULTILINE)
+_OBJ_FACE = re.compile(rb'^f[ \t]([^\r\n]*)', re.MULTILINE)
 
 
 def _not_finite(values):
@@ -89,16 +91,12 @@ def _stl_problem(data):
 def _obj_problem(data):
     """Return ``(triangles, problem)`` of OBJ bytes: its faces' triangles, its vertices."""
     triangles = 0
-    coordinates = []
-    for line in data.splitlines():
-        words = line.split()
-        if not words:
-            continue
-        if words[0] == b'f':
-            triangles += max(0, len(words) - 3)
-        elif words[0] == b'v':
-            coordinates.extend(words[1:4])
-    if _not_finite(coordinates):
+    for face in _OBJ_FACE.finditer(data):  # one line at a time: no list of all the lines
+        triangles += max(0, len(face.group(1).split()) - 2)
+        if triangles > MAX_MESH_TRIANGLES:  # refused for its count: the rest is not read
+            return triangles, (f'has at least {triangles} triangles, more than the limit of '
+                               f'{MAX_MESH_TRIANGLES} (rbd_ros.sim.limits.MAX_MESH_TRIANGLES)')
+    if _not_finite([v for m in _OBJ_VERTEX.finditer(data) for v in m.groups()]):
         return triangles, 'has non-finite vertex coordinates'
     return triangles, None
 
