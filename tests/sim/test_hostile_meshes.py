@@ -23,7 +23,10 @@ resolve their meshes; the same file could name any absolute path): that run is r
 the mesh attached and replays from the attachment.
 """
 
+import bz2
+import gzip
 import io
+import lzma
 import struct
 import time
 import zipfile
@@ -34,7 +37,7 @@ import pytest
 from rbd_ros.bag.reader import open_bag
 from rbd_ros.bag.replay import replay_bag
 from rbd_ros.sim import limits
-from rbd_ros.sim.meshes import MIN_MESH_SCALE
+from rbd_ros.sim.meshes import mesh_data_problem, MIN_MESH_SCALE
 from rbd_ros.sim.params import MAX_MESH_FILE_BYTES
 import trimesh
 
@@ -218,3 +221,30 @@ def test_a_relative_path_may_leave_the_params_directory(start_node, tmp_path):
     assert bag.attachments() == {name: open(mesh, 'rb').read()}
     (tmp_path / 'box.stl').unlink()  # replay reads the attachment, not the file it names
     assert replay_bag(bag).match
+
+
+def _compressed(kind):
+    data = trimesh.exchange.stl.export_stl(_box())
+    return {'gzip': gzip.compress, 'bzip2': bz2.compress, 'xz': lzma.compress}[kind](data)
+
+
+@pytest.mark.parametrize('name, data, problem', [
+    ('box.stl', trimesh.exchange.stl.export_stl(_box()), None),
+    ('box.STL', trimesh.exchange.stl.export_stl_ascii(_box()).encode(), None),
+    ('box.obj', trimesh.exchange.obj.export_obj(_box()).encode(), None),
+    ('box.stl', _compressed('gzip'), 'is gzip-compressed data, not a mesh'),
+    ('box.stl', _compressed('bzip2'), 'is bzip2-compressed data, not a mesh'),
+    ('box.stl', _compressed('xz'), 'is xz-compressed data, not a mesh'),
+    ('box.ply', b'ply\nformat ascii 1.0\n', "is a '.ply' file; a mesh is an STL or OBJ file"),
+    ('box', b'solid x\n', "is a 'suffix-less' file"),
+    ('box.stl', b'solid x\nendsolid x\n', 'holds no triangles'),
+    ('box.stl', b'solid x\nfacet normal 0 0 1\nouter loop\nvertex 1e999 0 0\n', 'non-finite'),
+    ('box.obj', b'v 0 0 0\nv 1 0 0\nv 0 1 inf\nf 1 2 3\n', 'non-finite'),
+    ('box.obj', b'v 0 0 0\n', 'holds no triangles'),
+    ('box.obj', b'f ' + b' '.join(b'%d' % i for i in range(1, 200_004)) + b'\n',
+     'has at least 200001 triangles, more than the limit of 200000'),
+], ids=['binary-stl', 'ascii-stl', 'obj', 'gzip', 'bzip2', 'xz', 'ply', 'no-suffix',
+        'ascii-empty', 'stl-overflow', 'obj-inf', 'obj-no-face', 'obj-count'])
+def test_mesh_bytes_are_judged_before_the_mesh_library_reads_them(name, data, problem):
+    found = mesh_data_problem(name, data)
+    assert (found is None) if problem is None else (problem in found), found
