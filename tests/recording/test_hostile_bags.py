@@ -38,7 +38,8 @@ import zipfile
 from mcap.reader import make_reader
 from mcap.writer import Writer
 import pytest
-from rbd_ros.bag.format import CONFIG_METADATA_NAME, MAX_YAML_ITEMS
+from rbd_ros.bag.format import CONFIG_METADATA_NAME, load_yaml, MAX_YAML_ITEMS
+from rbd_ros.core.errors import RecordingError
 from rbd_ros.sim import limits
 from rbd_ros.sim.params import MAX_BODIES, MAX_MESH_FILE_BYTES
 import trimesh
@@ -228,3 +229,19 @@ def test_the_documented_bounds():
     assert limits.MAX_MESH_BYTES == MAX_MESH_FILE_BYTES == 64 << 20
     assert limits.MAX_MESH_TRIANGLES == 200_000
     assert MAX_YAML_ITEMS == 50 * MAX_BODIES
+
+
+def test_yaml_collections_past_the_item_limit_are_refused_while_parsing():
+    """A list or map of MAX_YAML_ITEMS items is read; one more is refused, naming its key."""
+    at_limit = yaml.safe_dump({'body_names': [f'b{i}' for i in range(MAX_YAML_ITEMS)]})
+    assert len(load_yaml(at_limit, 'doc')['body_names']) == MAX_YAML_ITEMS
+    over = yaml.safe_dump({'x': 1, 'nested': {'body_names': list(range(MAX_YAML_ITEMS + 1))}})
+    with pytest.raises(RecordingError, match=r"^doc: the list 'body_names' has more than "
+                                             f'{MAX_YAML_ITEMS} items'):
+        load_yaml(over, 'doc')
+    flat = {f'k{i}': i for i in range(MAX_YAML_ITEMS + 1)}
+    with pytest.raises(RecordingError, match=f'^doc: the map has more than {MAX_YAML_ITEMS}'):
+        load_yaml(yaml.safe_dump(flat), 'doc')
+    # Parsed by libyaml, read as PyYAML's safe loader reads it.
+    text = (REPO / 'msg_config' / 'stack.yaml').read_text()
+    assert load_yaml(text, 'doc') == yaml.safe_load(text)
