@@ -150,14 +150,16 @@ def _state_series(rows: Dict[int, dict], times: List[int]) -> Dict[str, np.ndarr
 
 
 def _body_model(bag: Bag) -> Tuple[Optional[BodyModel], float]:
-    """Return the body model and the wrench timeout (s) of the stored configuration."""
+    """
+    Return the body model and the wrench timeout (s) of the stored configuration.
+
+    :raises RbdError: the stored configuration is invalid or names a mesh it does not hold
+        (a crafted bag is refused, as by replay, not plotted without its model).
+    """
     if bag.config is None:
         return None, 0.0
     from rbd_ros.bag.replay import config_from_bag  # the stored config, its meshes attached
-    try:
-        config = config_from_bag(bag)
-    except RbdError:
-        return None, 0.0
+    config = config_from_bag(bag)
     model = config.bodies[0].model if len(config.bodies) == 1 else None
     return model, config.wrench_timeout_ns / NS_PER_S
 

@@ -217,7 +217,10 @@ def _use_attached_meshes(bag, params):
 
     The copies go to ``bag_meshes/<sha256>`` in the cache folder (:mod:`rbd_ros.core.cachedir`:
     content-addressed, so shared and never stale; a temporary folder if the cache folder is not
-    this user's alone); a bag without the attachment keeps the path as recorded.
+    this user's alone). A recording is replayed from its own attachments only, never from a
+    local file it names: a mesh path with no attachment of that name is refused.
+
+    :raises ReplayError: naming the parameter and the path that has no attachment.
     """
     names = [k for k, v in params.items() if k.endswith('mesh_path') and v]
     if not names:
@@ -232,7 +235,10 @@ def _use_attached_meshes(bag, params):
     for name in names:
         data = attached.get(params[name])
         if data is None:
-            continue
+            raise ReplayError(
+                f'{bag.mcap_path}: parameter {name} = {params[name]!r}: the recording has no '
+                'attachment of that name; a recording is replayed from its own attachments, '
+                'never from a local file it names')
         suffix = Path(params[name]).suffix
         target = folder / (hashlib.sha256(data).hexdigest() + suffix)
         if not target.is_file():

@@ -38,9 +38,12 @@ MAX_REPLAY_BODY_STEPS = 1_000_000_000
 #: Largest uncompressed size a chunk of a recording may declare, bytes (the node writes chunks
 #: of 1 MiB of message data; 64 MiB leaves room for big worlds' samples).
 MAX_CHUNK_BYTES = 64 << 20
-#: Largest attached mesh, bytes (a binary STL of 200,000 triangles is 10 MB).
-MAX_MESH_BYTES = 16 << 20
-#: Largest number of triangles of an attached STL mesh (loading costs ~0.5 ms a face).
+#: Largest attached mesh, bytes: the largest mesh file the node reads
+#: (:data:`rbd_ros.sim.params.MAX_MESH_FILE_BYTES`; an ASCII STL of 200,000 triangles is ~50 MB),
+#: checked in the attachment's record header before its bytes are read.
+MAX_MESH_BYTES = 64 << 20
+#: Largest number of triangles of a mesh file or an attached mesh, counted in its bytes before
+#: it is built (building costs ~0.6 ms a triangle here: ~2 min at the limit, then cached).
 MAX_MESH_TRIANGLES = 200_000
 #: A node with more endpoints (publishers, subscriptions, services) than this leaves without
 #: deleting them one by one once its recording is final (Fast DDS deletes them in superlinear
@@ -51,6 +54,7 @@ STEP_CHUNK_BODY_STEPS = 100_000
 
 _MAGIC = b'\x89MCAP0\r\n'
 _CHUNK = 0x06
+_ATTACHMENT = 0x09
 _RECORD = struct.Struct('<BQ')
 _CHUNK_HEAD = struct.Struct('<QQQ')  # message start, message end, uncompressed size
 
@@ -70,12 +74,16 @@ def mcap_files(path):
 
 def check_mcap_chunks(path):
     """
-    Refuse an MCAP file with a chunk that declares more than :data:`MAX_CHUNK_BYTES`.
+    Refuse an MCAP file with a chunk or an attachment over the limits, from its record headers.
 
-    Reads only the record headers (opcode, length and a chunk's first 24 bytes), seeking over
-    the contents, so it costs a few reads per chunk whatever the chunks declare.
+    A chunk may declare at most :data:`MAX_CHUNK_BYTES` uncompressed, an attachment hold at
+    most :data:`MAX_MESH_BYTES`.
 
-    :raises RecordingError: naming the file, the chunk's offset and its declared size.
+    Reads only the record headers (opcode, length, a chunk's first 24 bytes, an attachment's
+    name and data length), seeking over the contents, so it costs a few reads per record
+    whatever the records declare, and nothing is decompressed or read whole.
+
+    :raises RecordingError: naming the file, the record's offset and its declared size.
     """
     for name in mcap_files(path):
         try:
@@ -101,17 +109,29 @@ def _check_chunks(f, name, size):
                     f'{name}: the chunk at byte {offset} declares an uncompressed size of '
                     f'{uncompressed} bytes, more than the limit of {MAX_CHUNK_BYTES} bytes '
                     '(rbd_ros.sim.limits.MAX_CHUNK_BYTES)')
+        if opcode == _ATTACHMENT and length > MAX_MESH_BYTES:
+            _check_attachment(f, name, offset, length)
         if opcode == 0x02 or length > size:  # the footer, or a length past the end
             return
         offset += _RECORD.size + length
 
 
-def stl_triangles(data):
-    """Return the triangles of STL bytes: a binary file's declared count, an ASCII's facets."""
-    declared = struct.unpack_from('<I', data, 80)[0] if len(data) >= 84 else 0
-    if data[:5].lower() == b'solid' and 84 + 50 * declared != len(data):
-        return data.count(b'facet normal')
-    return declared
+def _check_attachment(f, name, offset, length):
+    """Refuse the attachment record of ``length`` bytes at ``offset`` if its data is too big."""
+    f.seek(offset + _RECORD.size + 16)  # past the log and create times
+    try:
+        (name_len,) = struct.unpack('<I', f.read(4))
+        shown = f.read(min(name_len, 200)).decode('utf-8', 'replace')
+        f.seek(offset + _RECORD.size + 20 + name_len)
+        (media_len,) = struct.unpack('<I', f.read(4))
+        f.seek(offset + _RECORD.size + 24 + name_len + media_len)
+        (size,) = struct.unpack('<Q', f.read(8))
+    except struct.error:
+        return  # cut off: the reader reports it in its own words
+    if size > MAX_MESH_BYTES:
+        raise RecordingError(
+            f'{name}: attached mesh {shown!r} (the record at byte {offset}) is {size} bytes, '
+            f'more than the limit of {MAX_MESH_BYTES} bytes (rbd_ros.sim.limits.MAX_MESH_BYTES)')
 
 
 def check_steps(bag):
@@ -141,7 +161,9 @@ def check_bag(bag, steps=True):
     """
     Refuse a recording that asks for more work than the limits allow, before doing any.
 
-    Checks the attached meshes' sizes and triangle counts and, with ``steps``, the steps to
+    Checks every attachment: a mesh (:func:`rbd_ros.sim.meshes.mesh_data_problem`: STL or
+    OBJ, not compressed, finite, at most :data:`MAX_MESH_TRIANGLES`) of at most
+    :data:`MAX_MESH_BYTES`; and, with ``steps``, the steps to
     replay (:func:`check_steps`; replay checks them after its own time checks, which say more
     precisely what is wrong with a log time).
 
@@ -150,15 +172,12 @@ def check_bag(bag, steps=True):
     """
     if steps:
         check_steps(bag)
+    from rbd_ros.sim.meshes import mesh_data_problem  # meshes imports this module
     for name, data in bag.attachments().items():
         if len(data) > MAX_MESH_BYTES:
             raise RecordingError(
                 f'{bag.mcap_path}: attached mesh {name!r} is {len(data)} bytes, more than the '
                 f'limit of {MAX_MESH_BYTES} bytes (rbd_ros.sim.limits.MAX_MESH_BYTES)')
-        if name.lower().endswith('.stl'):
-            triangles = stl_triangles(data)
-            if triangles > MAX_MESH_TRIANGLES:
-                raise RecordingError(
-                    f'{bag.mcap_path}: attached mesh {name!r} has {triangles} triangles, more '
-                    f'than the limit of {MAX_MESH_TRIANGLES} '
-                    '(rbd_ros.sim.limits.MAX_MESH_TRIANGLES)')
+        problem = mesh_data_problem(name, data)
+        if problem is not None:
+            raise RecordingError(f'{bag.mcap_path}: attached mesh {name!r} {problem}')

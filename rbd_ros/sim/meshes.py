@@ -19,16 +19,115 @@ A path is a file path or a ``package://`` URI (resolved through the ament index)
 be a regular file of at most :data:`rbd_ros.sim.params.MAX_MESH_FILE_BYTES`, opened without
 following a swap of the file between the check and the read. Every failure names the
 parameter and the file.
+
+Its bytes are checked before the mesh library reads them (:func:`mesh_data_problem`, also
+for a recording's attachments): an STL or OBJ file (by its name), not compressed data (nothing
+is ever decompressed: trimesh would expand a ``.zip`` or ``.bz2`` whatever its size), whose
+triangle count (read from the file without building anything) is at most
+:data:`rbd_ros.sim.limits.MAX_MESH_TRIANGLES`, with finite vertex coordinates.
 """
 
 import math
 import os
+import re
 import stat
+import struct
 import sys
 
+import numpy as np
 from rbd_ros.core import ModelError
 from rbd_ros.core.contact.shapes import load_mesh
+from rbd_ros.sim.limits import MAX_MESH_TRIANGLES
 from rbd_ros.sim.params import fail, MAX_MESH_FILE_BYTES, MAX_SIZE
+
+#: The mesh file types read (by the name's suffix, any case): STL (binary or ASCII) and OBJ.
+MESH_SUFFIXES = ('.stl', '.obj')
+#: Smallest ``mesh_scale`` factor: below it a mesh of a metre becomes smaller than 1e-6 m, where
+#: the degenerate-face test's ``extent²`` (and the inertia, ``m d²``) lose double precision.
+MIN_MESH_SCALE = 1e-6
+# The first bytes of compressed or archive data, the mesh library would expand them.
+_COMPRESSED = ((b'\x1f\x8b', 'gzip'), (b'BZh', 'bzip2'), (b'\xfd7zXZ\x00', 'xz'),
+               (b'\x28\xb5\x2f\xfd', 'zstd'), (b'PK\x03\x04', 'zip'), (b'PK\x05\x06', 'zip'),
+               (b"7z\xbc\xaf'\x1c", '7z'), (b'\x04\x22\x4d\x18', 'lz4'))
+# One binary STL facet: normal, three vertices (float32), attribute byte count.
+_FACET = np.dtype([('normal', '<f4', 3), ('vertices', '<f4', (3, 3)), ('attribute', '<u2')])
+_NUMBER = rb'([^\s]+)'
+_STL_VERTEX = re.compile(rb'vertex\s+' + rb'\s+'.join([_NUMBER] * 3))
+_OBJ_VERTEX = re.compile(rb'^v[ \t]+' + rb'[ \t]+'.join([_NUMBER] * 3), re.MULTILINE)
+_OBJ_FACE = re.compile(rb'^f[ \t]([^\r\n]*)', re.MULTILINE)
+
+
+def _not_finite(values):
+    """Return True when some of ``values`` (an array, or number tokens as bytes) is not finite."""
+    try:
+        array = np.asarray(values, dtype=np.float64)
+    except ValueError:
+        return True  # a token that is no number at all
+    return not np.all(np.isfinite(array))
+
+
+def _stl_problem(data):
+    """Return ``(triangles, problem)`` of STL bytes: binary if its size matches, else ASCII."""
+    if len(data) >= 84:
+        (declared,) = struct.unpack_from('<I', data, 80)
+        if 84 + 50 * declared == len(data):
+            facets = np.frombuffer(data, _FACET, count=declared, offset=84)
+            if _not_finite(facets['vertices']):
+                return declared, 'has non-finite vertex coordinates'
+            return declared, None
+    else:
+        declared = None
+    if not data.lstrip()[:5].lower() == b'solid':
+        size = ('' if declared is None else
+                f', not the 84 + 50 x {declared} its header declares for a binary STL')
+        return 0, f'is not an STL file ({len(data)} bytes{size}; no ASCII "solid" at the start)'
+    triangles = data.count(b'facet')  # 'facet normal' opens one, 'endfacet' closes it
+    triangles //= 2
+    if _not_finite([v for m in _STL_VERTEX.finditer(data) for v in m.groups()]):
+        return triangles, 'has non-finite vertex coordinates'
+    return triangles, None
+
+
+def _obj_problem(data):
+    """Return ``(triangles, problem)`` of OBJ bytes: its faces' triangles, its vertices."""
+    triangles = 0
+    for face in _OBJ_FACE.finditer(data):  # one line at a time: no list of all the lines
+        triangles += max(0, len(face.group(1).split()) - 2)
+        if triangles > MAX_MESH_TRIANGLES:  # refused for its count: the rest is not read
+            return triangles, (f'has at least {triangles} triangles, more than the limit of '
+                               f'{MAX_MESH_TRIANGLES} (rbd_ros.sim.limits.MAX_MESH_TRIANGLES)')
+    if _not_finite([v for m in _OBJ_VERTEX.finditer(data) for v in m.groups()]):
+        return triangles, 'has non-finite vertex coordinates'
+    return triangles, None
+
+
+def mesh_data_problem(name, data):
+    """
+    Return why the bytes ``data`` of the mesh file ``name`` cannot be read, or None.
+
+    Refused before the mesh library sees them: empty; compressed or archive data (gzip,
+    bzip2, xz, zstd, lz4, zip, 7z: never decompressed); a name not ending in one of
+    :data:`MESH_SUFFIXES`; an STL that is neither binary (84 + 50 bytes a triangle) nor ASCII;
+    no triangles, more than :data:`MAX_MESH_TRIANGLES`, or a non-finite vertex coordinate.
+    Costs one pass over the bytes; nothing is built.
+    """
+    if not data:
+        return 'is empty (0 bytes)'
+    for magic, kind in _COMPRESSED:
+        if data.startswith(magic):
+            return (f'is {kind}-compressed data, not a mesh (compressed meshes are refused: '
+                    'nothing is decompressed)')
+    suffix = os.path.splitext(str(name))[1].lower()
+    if suffix not in MESH_SUFFIXES:
+        return (f'is a {suffix or "suffix-less"!r} file; a mesh is an STL or OBJ file '
+                f'({", ".join(MESH_SUFFIXES)})')
+    triangles, problem = (_stl_problem if suffix == '.stl' else _obj_problem)(data)
+    if problem is None and triangles == 0:
+        problem = 'holds no triangles'
+    elif problem is None and triangles > MAX_MESH_TRIANGLES:
+        problem = (f'has {triangles} triangles, more than the limit of {MAX_MESH_TRIANGLES} '
+                   '(rbd_ros.sim.limits.MAX_MESH_TRIANGLES)')
+    return problem
 
 
 def resolve_mesh_path(path, field):
@@ -95,24 +194,32 @@ def mesh_file(value, field):
     Return the resolved file of the ``*mesh_path`` parameter ``field = value`` after checking it.
 
     It must be a regular file (never a FIFO, a device such as ``/dev/zero``, a directory) of at
-    most :data:`MAX_MESH_FILE_BYTES` bytes.
+    most :data:`MAX_MESH_FILE_BYTES` bytes, whose bytes pass :func:`mesh_data_problem`.
 
     :raises ModelError: one line naming ``field``, its value and the reason.
     """
-    path, fd = _open_mesh_file(value, field)
-    os.close(fd)
+    path, data = _read(value, field)
+    problem = mesh_data_problem(path, data)
+    if problem is not None:
+        raise ModelError(f'parameter {field} = {value!r}: {path!r} {problem}', field=field,
+                         value=value)
     return path
 
 
-def read_mesh_file(value, field):
-    """Return the bytes of the ``*mesh_path`` parameter ``field`` (checked as by mesh_file)."""
-    _, fd = _open_mesh_file(value, field)
+def _read(value, field):
+    """Return ``(resolved path, bytes)`` of the ``*mesh_path`` parameter ``field = value``."""
+    path, fd = _open_mesh_file(value, field)
     with os.fdopen(fd, 'rb') as stream:
         data = stream.read(MAX_MESH_FILE_BYTES + 1)
     if len(data) > MAX_MESH_FILE_BYTES:
         raise ModelError(f'parameter {field} = {value!r}: more than the limit of '
                          f'{MAX_MESH_FILE_BYTES} bytes', field=field, value=value)
-    return data
+    return path, data
+
+
+def read_mesh_file(value, field):
+    """Return the bytes of the ``*mesh_path`` parameter ``field`` (checked as by mesh_file)."""
+    return _read(value, field)[1]
 
 
 def mesh_shape(spec_path, spec_scale, path, scale):
@@ -120,11 +227,12 @@ def mesh_shape(spec_path, spec_scale, path, scale):
     file_path = mesh_file(path, spec_path.name)
     field = spec_path.name[:-len('mesh_path')]
     try:
-        return load_mesh(file_path, scale, field=field)
+        shape = load_mesh(file_path, scale, field=field)
     except ModelError as exc:
         blamed = spec_scale if exc.field == field + 'mesh_scale' else spec_path
         value = scale if blamed is spec_scale else path
         fail(blamed, value, str(exc) if exc.detail is None else exc.detail)
+    return shape
 
 
 def check_sizes(dims_spec, dims, scale_spec, scale):
@@ -132,5 +240,6 @@ def check_sizes(dims_spec, dims, scale_spec, scale):
     if any(not math.isfinite(v) or abs(v) > MAX_SIZE for v in dims):
         fail(dims_spec, dims, f'every size must be finite and at most {MAX_SIZE:g} m',
              ModelError)
-    if len(scale) != 3 or any(not (0.0 < v <= MAX_SIZE) for v in scale):
-        fail(scale_spec, scale, f'must be 3 factors in (0, {MAX_SIZE:g}]', ModelError)
+    if len(scale) != 3 or any(not (MIN_MESH_SCALE <= v <= MAX_SIZE) for v in scale):
+        fail(scale_spec, scale, f'must be 3 factors in [{MIN_MESH_SCALE:g}, {MAX_SIZE:g}]',
+             ModelError)

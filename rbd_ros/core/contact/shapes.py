@@ -87,6 +87,10 @@ _SDF_VERSION = b'rbd_ros-sdf-1'
 # largest extent) is degenerate; float64 round-off on coordinates of size L is ~1e-16 L, so
 # real geometry is many orders of magnitude above these floors.
 _DEGENERATE_RTOL = 1e-12
+# Vertex nudge of the second self-intersection test, relative to the largest extent: far above
+# round-off (1e-16), far below any gap between faces of a real mesh that does not share a
+# vertex (a mesh with faces closer than 1e-7 x extent is refused as crossing).
+_NUDGE_RTOL = 1e-7
 _GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))
 
 
@@ -517,6 +521,15 @@ def _check_mesh(mesh, where, field, where_field):
     order = np.argsort(low[:, 0], kind='stable').astype(np.int64)
     jitcache.configured()  # the kernel cache, before a first compile
     s, t = k.first_self_intersection(vertices, faces, order, low, high)
+    if s < 0:
+        # Strict signs miss crossings along an edge or a diagonal of the other's faces (a box
+        # and its copy offset by half its size): again with every vertex nudged by a fixed
+        # pseudo-random _NUDGE_RTOL x extent, which makes those crossings proper ones.
+        nudge = np.random.default_rng(20261203).uniform(-1.0, 1.0, vertices.shape)
+        moved = np.ascontiguousarray(vertices + _NUDGE_RTOL * extent * nudge)
+        low, high = moved[faces].min(axis=1), moved[faces].max(axis=1)
+        order = np.argsort(low[:, 0], kind='stable').astype(np.int64)
+        s, t = k.first_self_intersection(moved, faces, order, low, high)
     if s >= 0:
         raise ModelError(f'{where}: self-intersecting: faces {s} and {t} cross each other',
                          field=where_field)
