@@ -29,7 +29,8 @@ from rbd_ros.core import ConfigError
 from rbd_ros.msgs import outputs
 from rbd_ros.sim import params as sim_params
 from rbd_ros.sim.drag import CLICKED_POINT
-from rclpy.exceptions import NameValidationException, ParameterException
+from rclpy.exceptions import (NameValidationException, ParameterException,
+                              ParameterUninitializedException)
 from rclpy.qos import DurabilityPolicy, QoSPolicyKind, QoSProfile, ReliabilityPolicy
 from rclpy.qos_overriding_options import QoSOverridingOptions
 
@@ -49,6 +50,13 @@ SERVICES = ('~/reset', '~/pause', '~/step')
 TOPIC_NAME_MAX_CHARS = 255 - 8
 
 
+# The type of each qos_overrides policy the node takes, and the values of the string ones.
+_POLICY_TYPES = {'history': str, 'depth': int, 'reliability': str, 'durability': str}
+_POLICY_VALUES = {'history': ('keep_last', 'keep_all', 'system_default'),
+                  'reliability': ('reliable', 'best_effort', 'system_default'),
+                  'durability': ('volatile', 'transient_local', 'system_default')}
+
+
 def rcl_text(exc):
     """Return an rcl error message without its source locations (``, at file.c:123``)."""
     text = re.sub(r', at [^,]*:\d+', '', str(exc)).strip()
@@ -64,15 +72,45 @@ def qos_checked(node, overrides, topic, kind, create, *args, **kwargs):
     :raises ConfigError: a bad ``qos_overrides.<topic>.<kind>.*`` value, named.
     """
     prefix = f'qos_overrides.{node.resolve_topic_name(topic)}.{kind}.'
+    _check_policy_types(prefix, overrides)
     depth = overrides.get(prefix + 'depth')
     if isinstance(depth, int) and depth < 0:
         raise ConfigError(f'parameter {prefix}depth = {depth}: must be >= 0')
     try:
         return create(*args, **kwargs)
-    except (RuntimeError, ParameterException) as exc:  # rclpy's RCLError among them
+    except (RuntimeError, ParameterException, AssertionError, AttributeError) as exc:
+        # rclpy's RCLError among them; an assert or attribute error: a value of no type (an
+        # empty YAML mapping) that rclpy declared without reading it as we do, so check what
+        # it declared.
+        _check_policy_types(prefix, {prefix + policy: _declared(node, prefix + policy)
+                                     for policy in _POLICY_TYPES
+                                     if node.has_parameter(prefix + policy)})
         given = {name[len(prefix):]: value for name, value in overrides.items()
                  if name.startswith(prefix)}
         raise ConfigError(f'parameters {prefix}* = {given}: {rcl_text(exc)}') from None
+
+
+def _declared(node, name):
+    """Return the value of the declared parameter ``name``; None if it has none."""
+    try:
+        return node.get_parameter(name).value
+    except ParameterUninitializedException:
+        return None
+
+
+def _check_policy_types(prefix, values):
+    """Refuse a ``<prefix><policy>`` value of the wrong type (or none), naming it."""
+    for policy, want in _POLICY_TYPES.items():
+        if prefix + policy not in values:
+            continue
+        value = values[prefix + policy]
+        if isinstance(value, bool) or not isinstance(value, want):
+            given = (' has no value (an empty {} or [] in a params file sets none)'
+                     if value in (None, [], {}, ()) else
+                     f' = {sim_params.fmt(value)}: a {type(value).__name__}')
+            rule = ('an integer >= 0 (messages kept)' if want is int else
+                    f'a string: {" | ".join(_POLICY_VALUES[policy])}')
+            raise ConfigError(f'parameter {prefix}{policy}{given}; it must be {rule}')
 
 
 def publisher(node, overrides, msg_type, topic, qos):

@@ -21,6 +21,11 @@ throw-away simulator, so a configuration whose first step is not finite is refus
 with one line naming the parameters that most likely caused it.
 """
 
+from dataclasses import replace as dataclass_replace
+import math
+
+import numpy as np
+
 from rbd_ros.core import ConfigError, ModelError, NonFiniteError, Simulator
 from rbd_ros.core.contact.simulator import WorldBody, WorldSimulator
 from rbd_ros.sim.config import NodeConfig
@@ -67,8 +72,47 @@ def make_simulator(config):
         integrator=config.integrator, timestep_ns=config.timestep_ns)
 
 
+def _quantities(state, model):
+    """
+    Return ``(parameter, what)`` pairs of a body's published quantities that are not finite.
+
+    The kinetic energy ``½ M vᵀv`` (blamed on the linear velocity), ``½ ωᵀ I ω`` and the
+    angular momentum ``I ω`` (on the angular velocity): ``/diagnostics`` sums them every second,
+    and ``|v|`` above ~1e154 m/s overflows ``vᵀv`` although each component is finite.
+    """
+    with np.errstate(over='ignore', invalid='ignore'):
+        linear = state.kinetic_energy_linear(model)
+        rotational = state.kinetic_energy_rotational(model)
+        momentum = state.angular_momentum_w(model)
+    out = []
+    if not math.isfinite(linear):
+        out.append(('initial_linear_velocity', 'its kinetic energy ½ m vᵀv overflows'))
+    if not (math.isfinite(rotational) and np.all(np.isfinite(momentum))):
+        out.append(('initial_angular_velocity',
+                    'its rotational energy ½ ωᵀIω or angular momentum Iω overflows'))
+    return out
+
+
+def _check_initial_quantities(config):
+    """Refuse, naming the body's parameter, an initial state whose energies overflow."""
+    for body in config.bodies:
+        for base, what in _quantities(body.initial_state, body.model):
+            spec = PARAMETERS_BY_NAME[base]
+            name = f'{body.parameter_prefix}{base}'
+            who = f'body {body.name!r}: ' if body.parameter_prefix else ''
+            fail(dataclass_replace(spec, name=name), config.parameters[name],
+                 f'the first physics step is not finite ({who}{what})', ConfigError)
+
+
 def _step_once(config):
-    make_simulator(config).step(1)
+    """Take one step on a new simulator; raise NonFiniteError if any body's energy is not."""
+    simulator = make_simulator(config)
+    simulator.step(1)
+    for i, body in enumerate(config.bodies):
+        wrong = _quantities(simulator.body_state(i), body.model)
+        if wrong:
+            raise NonFiniteError(f'state: after the first step body {body.name!r}: '
+                                 f'{wrong[0][1]}')
 
 
 def _finite_with(params, overrides):
@@ -111,9 +155,14 @@ def check_first_step(config):
     [1e200, 0.0, 0.0]`` overflows); the node refuses them at start instead of pausing on its
     first step. This also compiles the physics kernel.
 
-    :raises ConfigError: naming the parameter that makes the step non-finite: the first of
-        :data:`_FIRST_STEP_SUSPECTS` whose default value makes the step finite.
+    Every body of a world is checked: its initial kinetic energy and angular momentum first
+    (named without a trial step), then the step, then each body's energies after it.
+
+    :raises ConfigError: naming the parameter that makes the step non-finite: the body's
+        velocity whose energy overflows, else the first of :data:`_FIRST_STEP_SUSPECTS` whose
+        default value makes the step finite (in a world, the body found by halving).
     """
+    _check_initial_quantities(config)
     try:
         _step_once(config)
         return

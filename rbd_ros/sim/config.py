@@ -50,12 +50,14 @@ from rbd_ros.core.contact.world import (check_overlaps, ground_plane, is_valid_n
                                         obstacle, StaticWorld, validate_material)
 from rbd_ros.core.inertia import from_shape, inertia_from_components, SHAPES
 from rbd_ros.sim.meshes import check_sizes, mesh_file, mesh_shape
-from rbd_ros.sim.params import (body_parameter_specs, BODY_PARAMETERS, check_range,
-                                check_real_time_factor, coerce, DEFAULT_DIMENSIONS_M,
-                                DEFAULT_SHAPE, DOUBLE, fail, fmt, FRAME_KEYWORDS,
-                                input_parameter_specs, INTEGER, MAIN_INPUT, MAX_BODIES,
+from rbd_ros.sim.params import (body_parameter_specs, BODY_PARAMETERS, check_min_size,
+                                check_range, check_real_time_factor, coerce,
+                                DEFAULT_DIMENSIONS_M, DEFAULT_SHAPE, DOUBLE, fail, fmt,
+                                FRAME_KEYWORDS, input_parameter_specs, INTEGER, MAIN_INPUT,
+                                MAX_BODIES,
                                 MIN_PUBLISH_RATE_HZ, NS_PER_S, obstacle_parameter_specs,
-                                PARAMETERS, PARAMETERS_BY_NAME, refuse_old_names, to_ns, vector3)
+                                PARAMETERS, PARAMETERS_BY_NAME, position3, refuse_old_names,
+                                to_ns, vector3)
 
 
 @dataclass(frozen=True)
@@ -368,15 +370,19 @@ def _world_bodies(values, body_inputs, static_world, integrator):
              'cannot take contact (a world of bodies): use one of '
              + ', '.join(CONTACT_INTEGRATORS))
     bodies = []
+    # Each body's values are the table's with its own on top: a copy of the table only (the
+    # whole of ``values`` holds every body's parameters, so copying it made start-up quadratic).
+    table = {spec.name: values[spec.name] for spec in PARAMETERS}
+    shapes = {}  # one CollisionShape for equal primitives (read-only arrays, shared)
     for name, inputs in body_inputs.items():
-        sub = dict(values)
+        sub = dict(table)
         for base in BODY_PARAMETERS:
             sub[base] = values[f'bodies.{name}.{base}']
         for input_name in inputs:
             for spec in input_parameter_specs(input_name):
                 sub[spec.name] = values[f'bodies.{name}.{spec.name}']
         try:
-            collision = _collision_shape(sub)
+            collision = _collision_shape(sub, shapes)
             model = _model(sub, collision)
             state = _initial_state(sub)
             if collision is None:
@@ -421,12 +427,18 @@ def _single_body(values, static_world, integrator):
                       values['drag_point_b'])
 
 
-def _collision_shape(values):
-    """Return the body's collision shape: the mesh, the (default) primitive, or None."""
+def _collision_shape(values, cache=None):
+    """
+    Return the body's collision shape: the mesh, the (default) primitive, or None.
+
+    :param cache: a dict that keeps the primitives built, by shape and dimensions, so that
+        bodies of one size share one shape (its surface points); None: no sharing.
+    """
     p = PARAMETERS_BY_NAME
     shape, path = values['shape'], values['mesh_path']
     check_sizes(p['dimensions_m'], values['dimensions_m'], p['mesh_scale'],
                 values['mesh_scale'])
+    check_min_size(p['dimensions_m'], values['dimensions_m'])
     if path:
         if values['inertia']:
             raise ModelError(
@@ -449,10 +461,16 @@ def _collision_shape(values):
         dims = values['dimensions_m']
     if shape not in SHAPES:
         return None  # _model names the shape
+    key = (shape, tuple(dims))
+    if cache is not None and key in cache:
+        return cache[key]
     try:
-        return primitive_shape(shape, dims)
+        collision = primitive_shape(shape, dims)
     except ModelError:
         return None  # _model names the dimensions, as it did before shapes could collide
+    if cache is not None:
+        cache[key] = collision
+    return collision
 
 
 def _model(values, collision=None):
@@ -502,7 +520,8 @@ def _static_world(values, obstacle_names):
         q_wxyz = _unit_quaternion(specs['orientation'], get['orientation'])
         check_sizes(specs['dimensions_m'], get['dimensions_m'], specs['mesh_scale'],
                     get['mesh_scale'])
-        vector3(specs['position'], get['position'])
+        check_min_size(specs['dimensions_m'], get['dimensions_m'])
+        position3(specs['position'], get['position'])
         if get['shape'] == 'mesh':
             if not get['mesh_path']:
                 fail(specs['mesh_path'], '', "must be a mesh file when shape is 'mesh'")
@@ -575,7 +594,7 @@ def xyzw_to_wxyz(q_xyzw):
 def _initial_state(values):
     """Build the :class:`BodyState` at time 0 (``initial_orientation`` is [x, y, z, w])."""
     p = PARAMETERS_BY_NAME
-    position = vector3(p['initial_position'], values['initial_position'])
+    position = position3(p['initial_position'], values['initial_position'])
     q_wxyz = _unit_quaternion(p['initial_orientation'], values['initial_orientation'])
     velocity = vector3(p['initial_linear_velocity'], values['initial_linear_velocity'])
     omega_b = vector3(p['initial_angular_velocity'], values['initial_angular_velocity'])

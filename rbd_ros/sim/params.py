@@ -61,6 +61,16 @@ MAX_BODIES = 5000
 #: inertia (``m d²``) and contact tolerances leave double precision's useful range.
 MAX_SIZE = 1e6
 
+#: Smallest ``dimensions_m`` value accepted, m: over 500 times the float64 spacing of
+#: coordinates at :data:`MAX_POSITION_M` (1.9e-9 m), so a body's faces stay apart after
+#: ``R x_b + p``; a size of 1e-300 m would put both faces of a plate on one coordinate.
+MIN_SIZE = 1e-6
+
+#: Largest ``|initial_position|`` and obstacle ``position`` component accepted, m: there
+#: float64 coordinates are 1.9e-9 m apart, six orders below the 1 mm start-overlap tolerance;
+#: at 1e300 m a body's surface points all round to its centre.
+MAX_POSITION_M = 1e7
+
 _FMT_ITEMS = 8  # a listed value longer than this is cut in messages (one bounded line)
 _FMT_CHARS = 200
 
@@ -475,3 +485,20 @@ def vector3(spec, values):
     if len(values) != 3:
         fail(spec, list(values), 'must have 3 values')
     return values
+
+
+def position3(spec, values):
+    """Return ``values`` if it is a position of 3 values within :data:`MAX_POSITION_M`."""
+    vector3(spec, values)
+    if any(not abs(v) <= MAX_POSITION_M for v in values):
+        fail(spec, list(values), f'every component must be within ±{MAX_POSITION_M:g} m '
+             '(float64 coordinates keep sub-micrometre resolution there)')
+    return values
+
+
+def check_min_size(spec, dims):
+    """Refuse a ``dimensions_m`` value below :data:`MIN_SIZE` (finite, > 0 is the core's)."""
+    small = [v for v in dims if 0.0 < v < MIN_SIZE]
+    if small:
+        fail(spec, list(dims), f'{small[0]!r} m is below the smallest size {MIN_SIZE:g} m '
+             '(faces closer than float64 resolves at the largest positions)', ModelError)

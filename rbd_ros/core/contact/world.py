@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 import math
 import numbers
 import re
+from typing import NamedTuple
 
 import numpy as np
 
@@ -268,65 +269,311 @@ def phi_error_bound(shape):
     return 0.0
 
 
-def _one_way(shape_a, rot_a, pos_a, shape_b, rot_b, pos_b):
-    """Deepest ``-φ_B`` over A's surface points (m) and that point in world coordinates."""
-    if shape_a.points_b.shape[0] == 0:
+class _Posed(NamedTuple):
+    """A shape at a pose: ``x_w = rot_wb x_b + position_w``."""
+
+    shape: CollisionShape
+    rot_wb: np.ndarray
+    position_w: np.ndarray
+
+
+def _posed(shape, position_w, orientation_wb):
+    rot = quat_to_matrix(np.asarray(orientation_wb, dtype=np.float64))
+    return _Posed(shape, rot, np.asarray(position_w, dtype=np.float64).reshape(3))
+
+
+def _phi_w(posed, points_w):
+    """Return φ (n,) and ∇φ (n, 3), world axes, of a posed shape at world points (n, 3)."""
+    points_b = (np.asarray(points_w) - posed.position_w) @ posed.rot_wb
+    phi, grad_b = posed.shape.signed_distance(points_b)
+    return phi, grad_b @ posed.rot_wb.T
+
+
+def _support_b(shape, u_b):
+    """
+    Return ``(h, point_b)``: the support ``h(u) = max_{x in S} u·x`` and a point attaining it.
+
+    Closed forms per primitive (``u`` a unit vector in body axes); a mesh's maximum is at a
+    vertex.
+    """
+    p = shape.params
+    if shape.kind == k.KIND_SPHERE:
+        return float(p[0]), p[0] * u_b
+    if shape.kind == k.KIND_BOX:
+        point = np.where(u_b < 0.0, -1.0, 1.0) * p[:3]
+        return float(u_b @ point), point
+    if shape.kind in (k.KIND_CYLINDER, k.KIND_CAPSULE):
+        r, hl = float(p[0]), float(p[1])
+        rho = math.hypot(u_b[0], u_b[1])
+        z = math.copysign(hl, u_b[2])
+        if shape.kind == k.KIND_CYLINDER:
+            rim = (r * u_b[:2] / rho) if rho > 0.0 else np.zeros(2)
+            point = np.array([rim[0], rim[1], z])
+        else:
+            point = np.array([0.0, 0.0, z]) + r * u_b
+        return float(u_b @ point), point
+    if shape.kind == k.KIND_ELLIPSOID:
+        scaled = p[:3] * u_b
+        h = float(np.linalg.norm(scaled))
+        return h, p[:3] * scaled / h
+    index = int(np.argmax(shape.vertices_b @ u_b))
+    return float(shape.vertices_b[index] @ u_b), shape.vertices_b[index]
+
+
+def _plane_depth(plane, other):
+    """
+    Depth of a shape below a plane, exact: ``d − n·c + h(−Rᵀ n)`` (the support function).
+
+    The plane's solid side is ``n·x <= d``; the deepest point of the other shape is where its
+    support in the direction ``−n`` is attained.
+    """
+    n_w = plane.shape.params[:3]
+    offset = float(plane.shape.params[3])
+    h, point_b = _support_b(other.shape, -(other.rot_wb.T @ n_w))
+    depth = offset - float(n_w @ other.position_w) + h
+    return depth, other.rot_wb @ point_b + other.position_w
+
+
+def _core_segment(posed):
+    """Return ``(p0_w, p1_w, radius)``: a sphere's or capsule's core segment and radius."""
+    r, hl = float(posed.shape.params[0]), 0.0
+    if posed.shape.kind == k.KIND_CAPSULE:
+        hl = float(posed.shape.params[1])
+    axis = posed.rot_wb[:, 2] * hl
+    return posed.position_w - axis, posed.position_w + axis, r
+
+
+def _closest_on_segments(p1, q1, p2, q2):
+    """
+    Return the closest points of segments ``p1 q1`` and ``p2 q2``, points included.
+
+    Ericson, Real-Time Collision Detection (2005), 5.1.9.
+    """
+    d1, d2, r = q1 - p1, q2 - p2, p1 - p2
+    a, e, f = float(d1 @ d1), float(d2 @ d2), float(d2 @ r)
+    tiny = 1e-300
+    if a <= tiny and e <= tiny:
+        return p1, p2
+    if a <= tiny:
+        s, t = 0.0, min(max(f / e, 0.0), 1.0)
+    else:
+        c = float(d1 @ r)
+        if e <= tiny:
+            s, t = min(max(-c / a, 0.0), 1.0), 0.0
+        else:
+            b = float(d1 @ d2)
+            denom = a * e - b * b
+            s = min(max((b * f - c * e) / denom, 0.0), 1.0) if denom > 0.0 else 0.0
+            t = (b * s + f) / e
+            if t < 0.0:
+                s, t = min(max(-c / a, 0.0), 1.0), 0.0
+            elif t > 1.0:
+                s, t = min(max((b - c) / a, 0.0), 1.0), 1.0
+    return p1 + s * d1, p2 + t * d2
+
+
+def _rounded_pair_depth(a, b):
+    """Depth of two spheres/capsules, exact: ``r_a + r_b − |closest points of the cores|``."""
+    pa, qa, ra = _core_segment(a)
+    pb, qb, rb = _core_segment(b)
+    ca, cb = _closest_on_segments(pa, qa, pb, qb)
+    gap = float(np.linalg.norm(cb - ca))
+    direction = (cb - ca) / gap if gap > 0.0 else np.zeros(3)
+    # The middle of the overlap along the line of the closest points.
+    return ra + rb - gap, ca + direction * 0.5 * (ra + gap - rb)
+
+
+def _rounded_depth(rounded, other):
+    """
+    Depth of a sphere or capsule (core segment S, radius r) in another shape X, a lower bound.
+
+    ``r − min_{p in S} φ_X(p)``: the ball of radius r about any core point lies in the
+    capsule, and φ_X is 1-Lipschitz, so moving it out of X takes at least ``r − φ_X(p)``.  It
+    is the exact penetration depth for a sphere in a convex X and whenever S is outside X.
+    φ_X is convex for convex X, so a golden-section search along S finds its minimum; a mesh
+    is sampled first (33 points) and refined about the best.
+    """
+    p0, p1, r = _core_segment(rounded)
+    err = phi_error_bound(other.shape)
+
+    def phi(t):
+        return float(_phi_w(other, (p0 + t * (p1 - p0))[None, :])[0][0])
+
+    if not np.any(p1 != p0):
+        return r - phi(0.0) - err, p0.copy()
+    ts = np.linspace(0.0, 1.0, 33)
+    values = _phi_w(other, p0 + ts[:, None] * (p1 - p0))[0]
+    i = int(np.argmin(values))
+    lo, hi = ts[max(i - 1, 0)], ts[min(i + 1, 32)]
+    ratio = 0.5 * (math.sqrt(5.0) - 1.0)
+    x1, x2 = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
+    f1, f2 = phi(x1), phi(x2)
+    for _ in range(60):  # the bracket shrinks by 0.618 a round: 1e-13 of the segment
+        if f1 <= f2:
+            hi, x2, f2 = x2, x1, f1
+            x1 = hi - ratio * (hi - lo)
+            f1 = phi(x1)
+        else:
+            lo, x1, f1 = x1, x2, f2
+            x2 = lo + ratio * (hi - lo)
+            f2 = phi(x2)
+    best_t, best = min(((ts[i], float(values[i])), (x1, f1), (x2, f2)), key=lambda v: v[1])
+    return r - best - err, p0 + best_t * (p1 - p0)
+
+
+def _box_sat(a, b):
+    """
+    Penetration depth of two boxes by the separating-axis test, exact.
+
+    Along a unit axis L the boxes' projections overlap by ``Σ h_a|L·a_i| + Σ h_b|L·b_i| −
+    |L·(c_b − c_a)|``; moving one box by that much along L separates them, and the least
+    translation that separates two boxes is along one of the 15 axes (3 + 3 face normals,
+    9 edge cross products; Gottschalk, Lin and Manocha 1996), so the depth is the least
+    overlap (negative: separated).  Cross products of parallel edges are skipped (their
+    directions are covered by the face normals).
+    """
+    axes_a, axes_b = a.rot_wb.T, b.rot_wb.T  # rows: each box's axes in world coordinates
+    cross = np.cross(axes_a[:, None, :], axes_b[None, :, :]).reshape(9, 3)
+    norms = np.linalg.norm(cross, axis=1)
+    keep = norms > 1e-9
+    axes = np.vstack([axes_a, axes_b, cross[keep] / norms[keep, None]])
+    half_a, half_b = a.shape.params[:3], b.shape.params[:3]
+    delta = b.position_w - a.position_w
+    overlap = (np.abs(axes @ axes_a.T) @ half_a + np.abs(axes @ axes_b.T) @ half_b
+               - np.abs(axes @ delta))
+    i = int(np.argmin(overlap))
+    axis = axes[i] if axes[i] @ delta >= 0.0 else -axes[i]
+    reach = float(np.abs(axes_a @ axis) @ half_a)  # box a's extent along the axis
+    return float(overlap[i]), a.position_w + axis * (reach - 0.5 * float(overlap[i]))
+
+
+# Directions of the pattern search in _deepest_point: the 26 neighbours of a cube's centre.
+_PATTERN = np.array([(x, y, z) for x in (-1, 0, 1) for y in (-1, 0, 1) for z in (-1, 0, 1)
+                     if (x, y, z) != (0, 0, 0)], dtype=np.float64)
+_PATTERN /= np.linalg.norm(_PATTERN, axis=1)[:, None]
+
+
+def _deepest_point(a, b):
+    """
+    Depth of two shapes as ``max_p −(φ_a(p) + φ_b(p))`` less the φ error bounds: a lower bound.
+
+    The ball of radius ``−φ_a(p)`` about p lies in a, and φ_b is 1-Lipschitz, so separating
+    it from b takes a translation of at least ``−φ_a(p) − φ_b(p)``: for every p this is at
+    most the penetration depth, and when the shapes are apart (or touch) it is at most minus
+    their distance, so bodies placed exactly in contact are never refused.  For convex shapes
+    ``φ_a + φ_b`` is convex; its minimum is sought from the best of both shapes' surface
+    points, their origins and the midpoint of the origins, by a pattern search (26 directions
+    and the descent direction, the step halved down to 1e-9 of the smaller bounding radius).
+    """
+    points = np.vstack([a.shape.points_b @ a.rot_wb.T + a.position_w,
+                        b.shape.points_b @ b.rot_wb.T + b.position_w,
+                        a.position_w, b.position_w, 0.5 * (a.position_w + b.position_w)])
+
+    def f(pts):
+        phi_a, grad_a = _phi_w(a, pts)
+        phi_b, grad_b = _phi_w(b, pts)
+        return phi_a + phi_b, grad_a + grad_b
+
+    values, grads = f(points)
+    i = int(np.argmin(values))
+    point, best, grad = points[i], float(values[i]), grads[i]
+    scale = min(a.shape.bounding_radius_m, b.shape.bounding_radius_m)
+    step = 0.25 * scale
+    for _ in range(400):
+        if step < 1e-9 * scale:
+            break
+        length = float(np.linalg.norm(grad))
+        dirs = _PATTERN if length == 0.0 else np.vstack([_PATTERN, -grad / length])
+        trial = point + step * dirs
+        values, grads = f(trial)
+        j = int(np.argmin(values))
+        if values[j] < best:
+            point, best, grad = trial[j], float(values[j]), grads[j]
+        else:
+            step *= 0.5
+    return -best - phi_error_bound(a.shape) - phi_error_bound(b.shape), point
+
+
+_ROUNDED = (k.KIND_SPHERE, k.KIND_CAPSULE)
+
+
+def _pair_depth(a, b):
+    """Return ``(depth_m, point_w)`` of two posed shapes (see :func:`penetration_depth`)."""
+    gap = float(np.linalg.norm(a.position_w - b.position_w))
+    if gap > (a.shape.bounding_radius_m + b.shape.bounding_radius_m) * (1.0 + 1e-12):
         return -math.inf, None
-    rot_ba = np.ascontiguousarray(rot_b.T @ rot_a)
-    trans_ba = np.ascontiguousarray(rot_b.T @ (pos_a - pos_b))
-    jitcache.configured()  # the kernel cache, before a first compile
-    phi, index = k.min_phi_posed(shape_b.kind, shape_b.params, shape_b.grid, rot_ba, trans_ba,
-                                 shape_a.points_b)
-    return -phi - phi_error_bound(shape_b), rot_a @ shape_a.points_b[index] + pos_a
+    kind_a, kind_b = a.shape.kind, b.shape.kind
+    if kind_a == k.KIND_PLANE:
+        return _plane_depth(a, b)
+    if kind_b == k.KIND_PLANE:
+        return _plane_depth(b, a)
+    if kind_a in _ROUNDED and kind_b in _ROUNDED:
+        return _rounded_pair_depth(a, b)
+    if kind_a == k.KIND_BOX and kind_b == k.KIND_BOX:
+        return _box_sat(a, b)
+    if kind_a in _ROUNDED:
+        return _rounded_depth(a, b)
+    if kind_b in _ROUNDED:
+        return _rounded_depth(b, a)
+    return _deepest_point(a, b)
 
 
 def penetration_depth(shape_a, position_a, orientation_a, shape_b, position_b, orientation_b):
     """
     Return ``(depth_m, point_w)``: how deep the two posed shapes overlap, and where.
 
-    The depth is the largest ``-φ`` of either shape at the other's surface points, less the φ
-    error bound of the shape evaluated (:func:`phi_error_bound`), so a mesh resting on a
-    surface is not reported as overlapping because of its grid; ``depth <= 0`` means no
-    overlap was found.  Being measured at surface points, the depth can underestimate the
-    true overlap of curved or sharp parts by up to about the point spacing.  Bounding balls
-    cull far pairs first (the depth is then ``-inf``).
+    The depth is the penetration depth (the shortest translation that separates them), exact
+    for a shape against a plane (its support function), two boxes (separating axes), two
+    spheres or capsules (the distance of their core segments) and a sphere in a convex shape
+    (``r − φ``); for the other pairs (cylinders, ellipsoids, meshes, a capsule in a shape)
+    it is a lower bound, the depth of the deepest ball inside both (see
+    :func:`_deepest_point`), exact when they are apart or touch and for coincident or
+    crossing shapes.  A mesh's φ error bound (:func:`phi_error_bound`) is taken off, so a mesh
+    resting on a surface is not reported as overlapping because of its grid.  ``depth <= 0``
+    means no overlap; bounding balls cull far pairs first (the depth is then ``-inf``).  No
+    pair placed exactly in contact gets a depth above round-off.
     """
-    rot_a = quat_to_matrix(np.asarray(orientation_a, dtype=np.float64))
-    rot_b = quat_to_matrix(np.asarray(orientation_b, dtype=np.float64))
-    pos_a = np.asarray(position_a, dtype=np.float64)
-    pos_b = np.asarray(position_b, dtype=np.float64)
-    gap = float(np.linalg.norm(pos_a - pos_b))
-    if gap > shape_a.bounding_radius_m + shape_b.bounding_radius_m:
-        return -math.inf, None
-    depth_a, point_a = _one_way(shape_a, rot_a, pos_a, shape_b, rot_b, pos_b)
-    depth_b, point_b = _one_way(shape_b, rot_b, pos_b, shape_a, rot_a, pos_a)
-    if depth_b > depth_a:
-        depth_a, point_a = depth_b, point_b
-    for centre in (_centre_depth(shape_a, rot_a, pos_a, shape_b, rot_b, pos_b),
-                   _centre_depth(shape_b, rot_b, pos_b, shape_a, rot_a, pos_a)):
-        if centre[0] > depth_a:
-            depth_a, point_a = centre
-    return depth_a, point_a
+    return _pair_depth(_posed(shape_a, position_a, orientation_a),
+                       _posed(shape_b, position_b, orientation_b))
 
 
-def _centre_depth(shape_a, rot_a, pos_a, shape_b, rot_b, pos_b):
+def _near_pairs(centres, radii):
     """
-    Overlap depth (m) proven by A's origin, and that point: ``min(-φ_A(o_A), -φ_B(o_A))``.
+    Return, per body ``i``, the sorted bodies ``j > i`` whose bounding balls meet body i's.
 
-    Surface points miss coincident or nested shapes (on coincident surfaces φ reads 0): a ball
-    of that radius about A's origin lies inside both shapes (less the φ error bounds).
+    Sort and sweep along the axis of the largest spread of the centres (``O(n log n)`` plus
+    the overlapping intervals), then the balls' test on the candidates; a relative slack of
+    1e-12 allows for the round-off of the two norms.
     """
-    if shape_a.kind == k.KIND_PLANE:
-        return -math.inf, None
-    inside_a = -float(shape_a.signed_distance(np.zeros(3))[0]) - phi_error_bound(shape_a)
-    in_b = rot_b.T @ (pos_a - pos_b)
-    inside_b = -float(shape_b.signed_distance(in_b)[0]) - phi_error_bound(shape_b)
-    return min(inside_a, inside_b), pos_a.copy()
+    n = len(radii)
+    near = [[] for _ in range(n)]
+    if n < 2:
+        return near
+    axis = int(np.argmax(np.ptp(centres, axis=0)))
+    slack = 1e-9 * (radii + np.abs(centres[:, axis]))
+    lo = centres[:, axis] - radii - slack
+    hi = centres[:, axis] + radii + slack
+    order = np.argsort(lo, kind='stable')
+    ends = np.searchsorted(lo[order], hi[order], side='right')
+    for rank in range(n):
+        i = order[rank]
+        others = order[rank + 1:ends[rank]]
+        if others.size == 0:
+            continue
+        gap = np.linalg.norm(centres[others] - centres[i], axis=1)
+        for j in others[gap <= (radii[i] + radii[others]) * (1.0 + 1e-12)]:
+            near[min(i, j)].append(max(i, j))
+    return [sorted(js) for js in near]
 
 
 def check_overlaps(bodies, world=None, tolerance_m=DEFAULT_OVERLAP_TOLERANCE_M):
     """
     Refuse bodies that start inside a static object or inside each other.
+
+    Each pair's depth is :func:`penetration_depth`'s; far pairs are culled by a sort and
+    sweep of the bounding balls (near-linear in the number of bodies when they are spread
+    out).  The first overlap in body order is named: the body, then the static objects, then
+    the later bodies.
 
     :param bodies: ``(name, shape, position_w, orientation_wb)`` per body.
     :param world: a :class:`StaticWorld`, or None.
@@ -335,7 +582,7 @@ def check_overlaps(bodies, world=None, tolerance_m=DEFAULT_OVERLAP_TOLERANCE_M):
         ``bodies.<name>.position_w``, its value, the depth in m and the other object.
     """
     tolerance = _coefficient(tolerance_m, 'tolerance_m', 0.0, math.inf, 'finite and >= 0 m')
-    posed = []
+    names, posed = [], []
     for name, shape, position_w, orientation_wb in bodies:
         if not is_valid_name(name):
             raise ModelError(
@@ -345,24 +592,21 @@ def check_overlaps(bodies, world=None, tolerance_m=DEFAULT_OVERLAP_TOLERANCE_M):
             raise ModelError(
                 f'bodies.{name}.shape: a {type(shape).__name__} is not a CollisionShape')
         position, quat = _pose(position_w, orientation_wb, f'bodies.{name}.')
-        posed.append((name, shape, position, quat))
+        names.append(name)
+        posed.append(_Posed(shape, quat_to_matrix(quat), position))
     statics = [] if world is None else world.objects()
-    statics = [(label, o.shape, o.position_w, o.orientation_wb) for label, o in statics]
-    centres = np.array([p for _, _, p, _ in posed]).reshape(-1, 3)
-    radii = np.array([s.bounding_radius_m for _, s, _, _ in posed])
-    for i, (name, shape, position, quat) in enumerate(posed):
-        # Bounding balls cull far bodies first, all at once (a 10 000-body world has 5e7
-        # pairs): only bodies whose balls meet (with a relative slack of 1e-12 for the
-        # round-off of the two norms) go on to penetration_depth, which checks them exactly.
-        gap = np.linalg.norm(centres[i + 1:] - centres[i], axis=1)
-        near = i + 1 + np.flatnonzero(gap <= (radii[i] + radii[i + 1:]) * (1.0 + 1e-12))
-        others = statics + [(f'bodies.{posed[j][0]}',) + posed[j][1:] for j in near]
-        for label, other, other_position, other_quat in others:
-            depth, point = penetration_depth(shape, position, quat, other, other_position,
-                                             other_quat)
+    statics = [(label, _posed(o.shape, o.position_w, o.orientation_wb)) for label, o in statics]
+    centres = np.array([p.position_w for p in posed]).reshape(-1, 3)
+    radii = np.array([p.shape.bounding_radius_m for p in posed])
+    near = _near_pairs(centres, radii)
+    for i, body in enumerate(posed):
+        others = statics + [(f'bodies.{names[j]}', posed[j]) for j in near[i]]
+        for label, other in others:
+            depth, point = _pair_depth(body, other)
             if depth > tolerance:
                 rule = (f'puts the body {depth:.6g} m deep inside {label} (at '
                         f'{np.round(point, 6).tolist()} m; tolerance {tolerance:g} m)')
-                raise ModelError(f'bodies.{name}.position_w: {position.tolist()} m {rule}',
-                                 field=f'bodies.{name}.position_w', value=position.tolist(),
-                                 unit='m', rule=rule)
+                position = body.position_w
+                raise ModelError(f'bodies.{names[i]}.position_w: {position.tolist()} m {rule}',
+                                 field=f'bodies.{names[i]}.position_w',
+                                 value=position.tolist(), unit='m', rule=rule)

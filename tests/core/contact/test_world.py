@@ -28,7 +28,7 @@ from rbd_ros.core.contact import (check_overlaps, ground_plane, Material, mesh_s
                                   penetration_depth, primitive_shape, StaticObject, StaticWorld,
                                   validate_material)
 from rbd_ros.core.errors import ModelError
-from rbd_ros.core.rotations import quat_from_axis_angle
+from rbd_ros.core.rotations import quat_from_axis_angle, quat_to_matrix
 import trimesh
 
 ROUND_OFF = 1e-12
@@ -131,9 +131,9 @@ def test_a_small_body_wholly_inside_a_big_one_is_found():
     small = primitive_shape('sphere', [0.1])
     depth, _ = penetration_depth(small, [0.0, 0.0, 0.0], IDENTITY, big, [0.0, 0.0, 0.0],
                                  IDENTITY)
-    # The sphere's deepest surface points are 0.9 m from the big box's faces, whichever
-    # body is named first (the big box's own points are all outside the small sphere).
-    assert 0.9 - ROUND_OFF <= depth <= 1.0 + ROUND_OFF
+    # Pushing the sphere out of the box takes the centre's 1.0 m to the nearest face plus its
+    # radius 0.1 m (r − φ_box(c)), whichever body is named first.
+    assert depth == pytest.approx(1.1, abs=ROUND_OFF)
     swapped, _ = penetration_depth(big, [0.0, 0.0, 0.0], IDENTITY, small, [0.0, 0.0, 0.0],
                                    IDENTITY)
     assert swapped == depth
@@ -141,16 +141,18 @@ def test_a_small_body_wholly_inside_a_big_one_is_found():
 
 @pytest.mark.parametrize('shape, dimensions, inner_m', [
     ('box', [0.2, 0.2, 0.2], 0.1), ('sphere', [0.5], 0.5), ('capsule', [0.1, 0.4], 0.1),
-    ('cylinder', [0.2, 0.1], 0.05)])
-def test_coincident_identical_bodies_overlap_by_their_inner_radius(shape, dimensions, inner_m):
+    ('cylinder', [0.2, 0.1], 0.05), ('ellipsoid', [0.3, 0.2, 0.1], 0.1)])
+def test_coincident_identical_bodies_overlap_by_their_inner_diameter(shape, dimensions, inner_m):
     # Issue 25 item 7: on coincident surfaces every surface point reads φ = 0, so the surface
-    # test found no overlap; the origins prove one as deep as the distance from the origin
-    # to the nearest face (the ball of that radius lies in both).
+    # test found no overlap. Separating two identical convex bodies at one pose takes a shift
+    # of twice the distance from the origin to the nearest face (the thinner way out).
     body = primitive_shape(shape, dimensions)
     q = quat_from_axis_angle([0.0, 1.0, 0.0], 0.3)
     depth, point = penetration_depth(body, [1.0, 2.0, 3.0], q, body, [1.0, 2.0, 3.0], q)
-    assert depth == pytest.approx(inner_m, abs=ROUND_OFF)
-    np.testing.assert_allclose(point, [1.0, 2.0, 3.0])
+    assert depth == pytest.approx(2.0 * inner_m, abs=ROUND_OFF)
+    # The point named is inside the body (for coincident cores any point of them is).
+    inside = quat_to_matrix(q).T @ (point - np.array([1.0, 2.0, 3.0]))
+    assert body.signed_distance(inside)[0] <= ROUND_OFF
     with pytest.raises(ModelError, match=r'^bodies\.a\.position_w: \[1\.0, 2\.0, 3\.0\] m puts '
                                          r'the body .* deep inside bodies\.b'):
         check_overlaps([('a', body, [1.0, 2.0, 3.0], q), ('b', body, [1.0, 2.0, 3.0], q)])
