@@ -34,7 +34,8 @@ from rbd_ros.core import jitcache
 from rbd_ros.core.errors import (ConfigError, ConvergenceError, finite_scalar, NonFiniteError,
                                  whole_number)
 from rbd_ros.core.joints import kernels as jk
-from rbd_ros.core.joints.model import Joint, joint_position, joint_velocity
+from rbd_ros.core.joints.model import (check_position_target, Joint, joint_position,
+                                       joint_velocity)
 from rbd_ros.core.model import BodyModel
 from rbd_ros.core.rotations import quat_to_matrix
 from rbd_ros.core.state import BodyState
@@ -428,14 +429,7 @@ class ArticulatedSimulator:
                                 error=ConfigError)
             if not tau > 0.0:
                 raise ConfigError(f'{who}.time_constant_s: {tau!r} s must be > 0')
-            for bound, ok in (('lower', joint.lower is None or value >= joint.lower),
-                              ('upper', joint.upper is None or value <= joint.upper)):
-                if not ok:
-                    raise ConfigError(f'{who}.position: {value!r} {units[mode]} is beyond '
-                                      f'{bound} {getattr(joint, bound)!r} {units[mode]}')
-            if joint.kind == 'revolute' and not -math.pi < value <= math.pi:
-                raise ConfigError(f'{who}.position: {value!r} rad must be in (-pi, pi] for a '
-                                  'revolute joint (a continuous joint takes any angle)')
+            check_position_target(joint, value, ConfigError)
             row[jk.M_OMEGA] = 1.0 / tau
         elif time_constant_s is not None:
             raise ConfigError(f'{who}.time_constant_s: {time_constant_s!r}; only a position '
