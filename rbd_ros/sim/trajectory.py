@@ -137,6 +137,10 @@ class Trajectory:
         """Return the sim time of the last point, after which its positions are held."""
         return self.times_ns[-1]
 
+    def point_positions(self, point: int) -> np.ndarray:
+        """Return the positions of point ``point`` in the group's order."""
+        return self._knots[point + 1][0].copy()
+
     def kind(self, segment: int) -> int:
         """Return a segment's spline: :data:`LINEAR`, :data:`CUBIC` or :data:`QUINTIC`."""
         return self._kinds[segment]
@@ -149,6 +153,11 @@ class Trajectory:
             self._coefficients[i] = _segment(kind, q0, v0, a0, q1, v1, a1,
                                              (self.times_ns[i] - t0) * _NS)
         return self._coefficients[i]
+
+    @property
+    def knots(self):
+        """Return the start state then each point, as ``(q, q̇, q̈)`` arrays (group order)."""
+        return tuple(self._knots)
 
     def sample(self, time_ns: int) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
         """
