@@ -451,7 +451,7 @@ class RigidBodyNode(Node):
         level, message = diagnostics_status(s, values)
         self._publish('diagnostics', conv.diagnostics_to_msg(
             s.time_ns, f'{self.get_fully_qualified_name()}: rigid body',
-            self.get_fully_qualified_name() if self.config.named else
+            self.get_fully_qualified_name() if self.config.named or self.config.robots else
             self.config.body.body_frame,
             level, message, values), s.time_ns)
 

@@ -38,14 +38,12 @@ RCLPY_PARAMETERS = ('use_sim_time', 'start_type_description_service')
 # Parameters whose names depend on a list (wrench_input_names, obstacle_names, body_names):
 # wrench_inputs.<name>.*, obstacles.<name>.*, bodies.<name>.*
 _DYNAMIC_PREFIXES = ('wrench_inputs.', 'obstacles.', 'bodies.', 'robots.', 'command_groups.')
-#: The robots' list parameters (their specs live in rbd_ros.sim.robots).
-_ROBOT_LISTS = ('robot_names', 'command_group_names')
 
 
 def is_ours(name):
     """Return whether ``name`` is for the config (a renamed one too: it refuses it by name)."""
     return (name in sim_params.PARAMETERS_BY_NAME or name.startswith(_DYNAMIC_PREFIXES)
-            or name in _ROBOT_LISTS or name in sim_params.RENAMED_PARAMETERS)
+            or name in sim_params.RENAMED_PARAMETERS)
 
 
 def is_rclpys(name):

@@ -273,7 +273,6 @@ class NodeConfig:
             specs.extend(body_parameter_specs(body_name))
             for input_name in self.parameters[f'bodies.{body_name}.wrench_input_names']:
                 specs.extend(_body_input_specs(body_name, input_name))
-        specs += [robot_params.ROBOT_NAMES_SPEC, robot_params.GROUP_NAMES_SPEC]
         for robot in self.robots:
             specs.extend(robot.specs)
         for group in self.command_groups:
@@ -434,13 +433,13 @@ def _robot_values(values, params):
     A ``robots.*`` or ``command_groups.*`` name that no robot or group declares stays in
     ``params`` (an unknown parameter).
     """
-    names = (robot_params.ROBOT_NAMES, robot_params.GROUP_NAMES)
     given = {name: value for name, value in params.items()
-             if name in names or name.startswith(('robots.', 'command_groups.'))}
+             if name.startswith(('robots.', 'command_groups.'))}
+    for name in (robot_params.ROBOT_NAMES, robot_params.GROUP_NAMES):  # from the table
+        given[name] = values[name]
     robots = robot_params.read_robots(given, values['gravity'])
     groups = robot_params.read_command_groups(given, robots)
-    specs = [robot_params.ROBOT_NAMES_SPEC, robot_params.GROUP_NAMES_SPEC]
-    specs += [spec for item in robots + groups for spec in item.specs]
+    specs = [spec for item in robots + groups for spec in item.specs]
     for spec in specs:
         values[spec.name] = coerce(spec, params.pop(spec.name, spec.default))
     return robots, groups

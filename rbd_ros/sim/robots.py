@@ -47,29 +47,20 @@ from typing import Dict, Tuple
 from rbd_ros.core import ConfigError, RbdError
 from rbd_ros.core.contact.world import is_valid_name, NAME_RULE
 from rbd_ros.sim.joint_commands import INTERFACES, JointSpec
-from rbd_ros.sim.params import (check_range, coerce, DOUBLE, DOUBLE_ARRAY, fail, ParamSpec,
-                                STRING, STRING_ARRAY)
+from rbd_ros.sim.params import (check_range, coerce, DOUBLE, DOUBLE_ARRAY, fail,
+                                PARAMETERS_BY_NAME, ParamSpec, STRING, STRING_ARRAY)
 from rbd_ros.sim.urdf import load_urdf, place_robot, Placement, Robot
 
-#: The robots' list parameter.
+#: The robots' and the command groups' list parameters (in the table of rbd_ros.sim.params).
 ROBOT_NAMES = 'robot_names'
+GROUP_NAMES = 'command_group_names'
 #: Default ``position_time_constant_s`` of every joint, s.
 DEFAULT_POSITION_TIME_CONSTANT_S = 0.05
 #: At most this many robots a file (a bound on start-up work).
 MAX_ROBOTS = 100
 
-#: The command groups' list parameter.
-GROUP_NAMES = 'command_group_names'
-
-ROBOT_NAMES_SPEC = ParamSpec(
-    ROBOT_NAMES, STRING_ARRAY, (), '', 'Robots read from URDF, each with robots.<name>.*.',
-    rule=f'unique; {NAME_RULE}')
-
-
-GROUP_NAMES_SPEC = ParamSpec(
-    GROUP_NAMES, STRING_ARRAY, (), '', 'Joint groups commanded as forward_command_controller '
-    'and joint_trajectory_controller are, each with command_groups.<name>.*.',
-    rule=f'unique; {NAME_RULE}')
+ROBOT_NAMES_SPEC = PARAMETERS_BY_NAME[ROBOT_NAMES]
+GROUP_NAMES_SPEC = PARAMETERS_BY_NAME[GROUP_NAMES]
 
 
 def group_parameter_specs(name: str) -> Tuple[ParamSpec, ...]:
