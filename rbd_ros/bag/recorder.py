@@ -49,6 +49,20 @@ def mesh_media_type(path):
     return 'model/stl' if path.lower().endswith('.stl') else 'application/octet-stream'
 
 
+def recorded_configuration(config):
+    """
+    Return the parameters a recording stores: ``config``'s, each robot's URDF inlined.
+
+    A robot read from ``urdf_path`` is recorded with its XML as loaded (after xacro) in
+    ``robot_description`` and ``urdf_path`` empty, so replay needs neither the file nor xacro.
+    """
+    params = config.to_parameters()
+    for robot in config.robots:
+        params[f'robots.{robot.name}.robot_description'] = robot.robot.urdf
+        params[f'robots.{robot.name}.urdf_path'] = ''
+    return params
+
+
 class RunRecorder:
     """
     One run's recording: the bag writer, the digest of the applied inputs, the run record.
@@ -60,7 +74,7 @@ class RunRecorder:
     def __init__(self, config, serialize, path=None, **writer_options):
         """Open ``path`` (default ``config.record_path``) to record ``config``, a NodeConfig."""
         self.writer = BagWriter(config.record_path if path is None else path,
-                                config=config.to_parameters(), **writer_options)
+                                config=recorded_configuration(config), **writer_options)
         self._serialize = serialize
         self.digest = AppliedDigest()  # what the run applied, for replay to compare
         self.failure = None  # (sim time ns, message) of a non-finite step

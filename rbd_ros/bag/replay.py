@@ -65,7 +65,7 @@ from rbd_ros.bag import recorder as run_record
 from rbd_ros.bag.cli import open_bag_with_notes, run_on_bag
 from rbd_ros.bag.recording import Bag, open_bag, RawMessage
 from rbd_ros.core import cachedir, NonFiniteError
-from rbd_ros.core.errors import RbdError
+from rbd_ros.core.errors import InputError, RbdError
 from rbd_ros.core.rotations import quat_angle_between
 from rbd_ros.msgs import conversions
 from rbd_ros.msgs import outputs
@@ -118,6 +118,9 @@ class TopicResult:
     max_angular_velocity_error_rad_s: Optional[float] = None
     max_force_error_n: Optional[float] = None
     max_torque_error_nm: Optional[float] = None
+    max_joint_position_error: Optional[float] = None  # rad or m, norm over the joints
+    max_joint_velocity_error: Optional[float] = None  # rad/s or m/s
+    max_joint_effort_error: Optional[float] = None  # N m or N
     first_mismatch: Optional[str] = None
 
     def take_error(self, name: str, value: float) -> None:
@@ -256,9 +259,34 @@ def _compared_kinds(config, builder):
     ``tf`` repeat the poses.
     """
     kinds = [kind for kind in builder.kinds if builder.body_index(kind) is not None]
-    if 'clock' in builder.kinds and not config.named:
+    if 'clock' in builder.kinds and not config.named and not config.robots:
         kinds.append('clock')
-    return {kind: outputs.TYPE_NAMES[kind.rsplit('/', 1)[-1]] for kind in kinds}
+    compared = {kind: outputs.TYPE_NAMES[kind.rsplit('/', 1)[-1]] for kind in kinds}
+    compared.update({robot.kind: types.JOINT_STATE for robot in builder.robots})
+    return compared
+
+
+#: The message types of the robots' command inputs.
+COMMAND_TYPES = (types.JOINT_STATE, types.FLOAT64_MULTI_ARRAY, types.JOINT_TRAJECTORY)
+
+
+def _command_for_topic(session, topic):
+    """Map a recorded command topic to its input (``<robot>/joint_command``, ...), or None."""
+    if session.commands is None:
+        return None
+    for name in sorted(session.commands.inputs, key=len, reverse=True):
+        if topic == '/' + name or topic.endswith('/' + name):
+            return name
+    return None
+
+
+def command_payload(msg):
+    """Return the :meth:`SimSession.submit_command` payload of a decoded command message."""
+    if hasattr(msg, 'points'):  # trajectory_msgs/JointTrajectory
+        return conversions.trajectory_from_msg(msg)
+    if hasattr(msg, 'data'):  # std_msgs/Float64MultiArray
+        return list(msg.data)
+    return conversions.joint_command_from_msg(msg)
 
 
 def _output_kind(kinds, topic, type_name):
@@ -371,6 +399,10 @@ def _fields(kind, msg):
     if kind == 'contact_wrench':
         return stamp, (msg.header.frame_id,), {
             'force': vec(msg.wrench.force), 'torque': vec(msg.wrench.torque)}
+    if kind == 'joint_states':
+        return stamp, (msg.header.frame_id, tuple(msg.name)), {
+            'joint_position': tuple(msg.position), 'joint_velocity': tuple(msg.velocity),
+            'joint_effort': tuple(msg.effort)}
     return stamp, (msg.header.frame_id, msg.child_frame_id), {
         'position': vec(msg.pose.pose.position), 'orientation': quat(msg.pose.pose.orientation),
         'linear': vec(msg.twist.twist.linear), 'angular': vec(msg.twist.twist.angular)}
@@ -384,7 +416,8 @@ def expected_message(kind, state, config, contact_wrench=None):
 #: The compared fields of each output kind (see :func:`_fields`).
 _KIND_FIELDS = {'pose': ('position', 'orientation'), 'twist': ('linear', 'angular'),
                 'odom': ('position', 'orientation', 'linear', 'angular'),
-                'contact_wrench': ('force', 'torque'), 'clock': ()}
+                'contact_wrench': ('force', 'torque'), 'clock': (),
+                'joint_states': ('joint_position', 'joint_velocity', 'joint_effort')}
 _ERROR_FIELDS = {
     'position': 'max_position_error_m',
     'orientation': 'max_orientation_error_rad',
@@ -392,6 +425,9 @@ _ERROR_FIELDS = {
     'angular': 'max_angular_velocity_error_rad_s',
     'force': 'max_force_error_n',
     'torque': 'max_torque_error_nm',
+    'joint_position': 'max_joint_position_error',
+    'joint_velocity': 'max_joint_velocity_error',
+    'joint_effort': 'max_joint_effort_error',
 }
 
 
@@ -522,6 +558,8 @@ class Replayer:
                 self.inputs[topic] = _input_for_topic(self.config, topic)
             elif info.type_name == POINT_TYPE:
                 self.inputs[topic] = _drag_for_topic(self.session, topic)
+            elif info.type_name in COMMAND_TYPES and _command_for_topic(self.session, topic):
+                self.inputs[topic] = _command_for_topic(self.session, topic)
         self.result = ReplayResult(
             bag=str(bag.path), finalised=bag.finalised, notes=[],
             integrator=self.config.integrator, timestep_ns=self.config.timestep_ns,
@@ -669,6 +707,16 @@ class Replayer:
         if self.session.time_ns != t and not self.study:
             self._wrench_mismatch(f'the wrench recorded at {t} ns is not on the '
                                   f'{self.config.timestep_ns} ns step grid')
+        name = self.inputs[raw.topic]
+        if self.session.commands is not None and name in self.session.commands.inputs:
+            try:
+                self.session.submit_command(name, command_payload(msg))
+            except InputError as exc:
+                self._wrench_mismatch(f'the command recorded at {t} ns is rejected on replay: '
+                                      f'{exc}')
+            else:
+                self._pending.append((self.session.time_ns, name))
+            return
         try:
             if hasattr(msg, 'point'):  # a drag point (PointStamped)
                 self.session.submit_point(self.inputs[raw.topic], msg.header.frame_id,
@@ -694,8 +742,9 @@ class Replayer:
         if self.session.time_ns != t:
             return False
         if self._expected_time_ns != t:
+            robots = self.session.simulator if self.config.robots else None
             self._expected = dict(self._builder.serialize(
-                t, self.session.columns, self.session.contact_wrenches_w))
+                t, self.session.columns, self.session.contact_wrenches_w, robots))
             self._expected_time_ns = t
         kind = self.kinds[raw.topic]
         if self._expected.get(kind) != raw.data:
@@ -709,6 +758,13 @@ class Replayer:
     def compare_sample(self, raw: RawMessage, msg) -> bool:
         """Compare the recorded output sample ``msg`` with the one recomputed now."""
         kind, t = self.kinds[raw.topic], raw.log_time_ns
+        if kind.endswith('/joint_states'):
+            expected = self._builder.robot_message(kind, self.session.time_ns,
+                                                   self.session.simulator)
+            if self.session.time_ns != t:
+                expected.header.stamp = conversions.time_to_msg(t)
+            return _compare(self.result.topics[raw.topic], 'joint_states', t, expected, msg,
+                            self.tolerance)
         index = self._builder.body_index(kind) or 0  # clock: body 0's time
         wrenches = self.session.contact_wrenches_w
         wrench = None if wrenches is None else (wrenches[index][:3].tolist(),

@@ -25,6 +25,7 @@ from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Quaternion, WrenchStamped
 from rbd_ros.sim.params import NS_PER_S
+from rbd_ros.sim.trajectory import TrajectoryPoint
 
 
 def time_to_msg(time_ns):
@@ -103,3 +104,21 @@ def diagnostics_to_msg(stamp_ns, name, hardware_id, level, message, values):
     msg = DiagnosticArray(status=[status])
     msg.header.stamp = time_to_msg(stamp_ns)
     return msg
+
+
+def trajectory_from_msg(msg):
+    """
+    Return ``(joint_names, stamp_ns, points)`` of a ``trajectory_msgs/JointTrajectory``.
+
+    ``points`` are :class:`rbd_ros.sim.trajectory.TrajectoryPoint` values (``time_from_start``
+    in int ns): what :meth:`rbd_ros.sim.session.SimSession.submit_command` takes.
+    """
+    points = [TrajectoryPoint(time_from_msg(p.time_from_start), tuple(p.positions),
+                              tuple(p.velocities), tuple(p.accelerations), tuple(p.effort))
+              for p in msg.points]
+    return list(msg.joint_names), time_from_msg(msg.header.stamp), points
+
+
+def joint_command_from_msg(msg):
+    """Return ``(names, position, velocity, effort)`` of a ``sensor_msgs/JointState`` command."""
+    return (list(msg.name), list(msg.position), list(msg.velocity), list(msg.effort))

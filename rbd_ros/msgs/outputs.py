@@ -54,7 +54,6 @@ so two serialisations of one message could differ there).
 import collections
 import functools
 import math
-import struct
 
 from geometry_msgs.msg import (PoseArray, PoseStamped, TransformStamped, TwistStamped,
                                WrenchStamped)
@@ -63,8 +62,12 @@ import numpy as np
 from rbd_ros.core import BodyState, layout
 from rbd_ros.msgs import conversions as conv
 from rbd_ros.msgs import type_names as types
+from rbd_ros.msgs.cdr import cdr_string as _cdr_string, layout as _layout
+from rbd_ros.msgs.robot_outputs import RobotOutputs
 from rbd_ros.sim.params import NS_PER_S
 from rosgraph_msgs.msg import Clock
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Header
 
 try:  # tf2_msgs is on every Jazzy install but not in the PyPI wheels.
     from tf2_msgs.msg import TFMessage
@@ -86,37 +89,6 @@ _COVARIANCE_BYTES = 36 * 8  # float64[36] of zeros
 # |q|² this close to 1 keeps a simulator's quaternion as BodyState keeps it (BodyState allows
 # 8 eps; half of that leaves room for a different summation order there).
 _UNIT_NORM_SQ_TOL = 4 * np.finfo(np.float64).eps
-
-
-def _layout(*fields):
-    """
-    Return a ``struct`` format for CDR fields (after the encapsulation header).
-
-    :param fields: ``'i'``/``'I'`` (4 bytes, 4-aligned), ``'d'`` (8 bytes, 8-aligned),
-        ``bytes`` (a constant string: its uint32 length and its bytes with the NUL are packed
-        from the arguments) or an int ``n`` (n zero bytes).
-    """
-    fmt, offset = ['<4s'], 0
-    for field in fields:
-        if isinstance(field, bytes):
-            field = ('I', len(field))
-        if isinstance(field, int):
-            fmt.append(f'{field}x')
-            offset += field
-            continue
-        code, size = (field, 0) if isinstance(field, str) else field
-        align = 8 if code == 'd' else 4
-        pad = -offset % align
-        fmt.append(f'{pad}x{code}' if pad else code)
-        offset += pad + 4 + (4 if code == 'd' else 0)
-        if size:
-            fmt.append(f'{size}s')
-            offset += size
-    return struct.Struct(''.join(fmt))
-
-
-def _cdr_string(text):
-    return text.encode('utf-8') + b'\x00'
 
 
 class BodyOutputs:
@@ -252,6 +224,8 @@ class BodyOutputs:
 
 def sample_builder(config, tf=True):
     """Return a (shared) :class:`SampleBuilder` for ``config``."""
+    if config.robots:  # not shared: a robot's outputs are built from its URDF
+        return SampleBuilder(config, tf)
     bodies = tuple((b.prefix, b.body_frame) for b in config.bodies)
     return _cached_builder(config.world_frame, config.twist_frame, config.publish_clock,
                            config.publish_tf and tf, config.contact, config.named, bodies)
@@ -270,6 +244,8 @@ def type_of(kind):
     """Return the message class of an output kind (``<body>/pose`` is a ``pose``)."""
     if kind == 'poses':
         return PoseArray
+    if kind.endswith('/joint_states'):
+        return JointState
     return MESSAGE_TYPES[kind.rsplit('/', 1)[-1]]
 
 
@@ -294,8 +270,11 @@ class SampleBuilder:
         self.bodies = tuple(BodyOutputs(_Frames(
             config.world_frame, body.body_frame, config.twist_frame, False, False,
             config.contact)) for body in config.bodies)
+        self.robots = tuple(RobotOutputs(robot, r, config.world_frame)
+                            for r, robot in enumerate(getattr(config, 'robots', ())))
         self.kinds = tuple(prefix + kind for prefix, body in zip(self.prefixes, self.bodies)
                            for kind in body.kinds) \
+            + tuple(robot.kind for robot in self.robots) \
             + (('poses',) if config.named else ()) \
             + (('clock',) if config.publish_clock else ()) \
             + (('tf',) if tf and config.publish_tf and TFMessage is not None else ())
@@ -307,7 +286,10 @@ class SampleBuilder:
         fields = ['I']
         for body in config.bodies:
             fields += [*header, world, _cdr_string(body.body_frame), *'d' * 7]
+        for robot in self.robots:
+            fields += robot.tf_fields()
         self._tf = _layout(*fields)
+        self._tf_count = n + sum(len(robot.transforms) for robot in self.robots)
         self._world = world
         self._frames = [_cdr_string(body.body_frame) for body in config.bodies]
         # What serialize needs on its hot path, decided once.
@@ -334,7 +316,7 @@ class SampleBuilder:
             return None
         return self.prefixes.index(prefix)
 
-    def serialize(self, time_ns, columns, wrenches=None):
+    def serialize(self, time_ns, columns, wrenches=None, robots=None):
         """
         Return ``[(kind, CDR bytes)]`` of one sample, in :attr:`kinds` order.
 
@@ -342,6 +324,7 @@ class SampleBuilder:
         :param wrenches: (N, 6) contact force and torque per body (N, N·m; world, about COMs),
             or None without contact
             (:attr:`rbd_ros.sim.session.SimSession.contact_wrenches_w`).
+        :param robots: the :class:`rbd_ros.sim.robot_world.RobotWorld` of a robot file.
         """
         single = self._single
         if single is not None:
@@ -376,14 +359,28 @@ class SampleBuilder:
                     frame = self._frames[i]
                     tf += (sec, nanosec, len(world), world, len(frame), frame, px, py, pz, qx,
                            qy, qz, qw)
+        for robot in self.robots:
+            out.append((robot.kind, robot.joint_states(time_ns, robots)))
+            if tf is not None:
+                tf += robot.tf_values(sec, nanosec, robots.link_poses(robot.index))
         if poses is not None:
             out.append(('poses', self._poses.pack(_ENCAPSULATION, sec, nanosec, len(world),
                                                   world, len(self.bodies), *poses)))
         if self._has_clock:
             out.append(('clock', self._clock.pack(_ENCAPSULATION, sec, nanosec)))
         if tf is not None:
-            out.append(('tf', self._tf.pack(_ENCAPSULATION, len(self.bodies), *tf)))
+            out.append(('tf', self._tf.pack(_ENCAPSULATION, self._tf_count, *tf)))
         return out
+
+    def robot_message(self, kind, time_ns, robots):
+        """Return a new ``JointState`` of the robot kind ``<robot>/joint_states`` now."""
+        robot = next(robot for robot in self.robots if robot.kind == kind)
+        r = robot.index
+        return JointState(header=Header(stamp=conv.time_to_msg(time_ns), frame_id=''),
+                          name=list(robot.joint_names),
+                          position=robots.joint_positions(r).tolist(),
+                          velocity=robots.joint_velocities(r).tolist(),
+                          effort=robots.joint_efforts(r).tolist())
 
     def message(self, kind, state, contact_wrench=None):
         """

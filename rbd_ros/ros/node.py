@@ -57,6 +57,7 @@ from rbd_ros.sim.diagnostics import Diagnostics
 from rbd_ros.sim.diagnostics import status as diagnostics_status
 from rbd_ros.sim.drag import CLICKED_POINT
 from rbd_ros.sim.inputs import WrenchRejected
+from rbd_ros.sim.joint_commands import CommandRejected
 from rbd_ros.sim.session import SimSession
 from rcl_interfaces.msg import SetParametersResult
 import rclpy
@@ -66,7 +67,10 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.serialization import serialize_message
 from rclpy.signals import SignalHandlerOptions
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray, String
 from std_srvs.srv import SetBool, Trigger
+from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
 START_UP_POLL_S = 0.05  # how often the main thread looks for a signal during start-up
@@ -185,6 +189,12 @@ class RigidBodyNode(Node):
                                                            endpoints.STATE_QOS)
         self._sample_pubs = [(kind, self._pubs[kind].publish, self._pubs[kind].topic_name)
                              for kind in self._builder.kinds]
+        self._robots = self.session.simulator if config.robots else None
+        # Each robot's URDF as loaded (after xacro), once, transient local: RViz's RobotModel
+        # and every late subscriber get it.
+        for robot in config.robots:
+            self._pubs[f'{robot.name}/robot_description'] = self._publisher(
+                String, f'{robot.name}/robot_description', endpoints.STATE_QOS)
         if config.publish_tf and 'tf' not in self._builder.kinds:
             self.get_logger().info('tf2_msgs is not importable: not broadcasting /tf')
 
@@ -206,6 +216,7 @@ class RigidBodyNode(Node):
         self._input_topics.update({name: sub.topic_name
                                    for name, sub in zip(drag_topics, point_subs)})
         self._input_subs += point_subs
+        self._create_command_inputs()
         # After every endpoint (the drag and /clicked_point subscriptions included): an
         # override that rclpy declared as a parameter was applied to one of them.
         for name in overrides:
@@ -214,6 +225,31 @@ class RigidBodyNode(Node):
                     f'ignoring {name}: no endpoint of this node has that topic and policy '
                     '(qos_overrides.<absolute topic>.publisher|subscription.history|depth|'
                     'reliability|durability)')
+
+    def _create_command_inputs(self):
+        """Subscribe each robot's joint_command and each group's commands and trajectory."""
+        commands = self.session.commands
+        if commands is None:
+            return
+        kinds = {'joint_command': JointState, 'commands': Float64MultiArray,
+                 'joint_trajectory': JointTrajectory}
+        for name, spec in commands.inputs.items():
+            sub = endpoints.subscription(
+                self, self._overrides, kinds[spec.kind], name,
+                lambda msg, name=name: self._on_command(name, msg))
+            self._input_subs.append(sub)
+            self._input_topics[name] = sub.topic_name
+
+    def _on_command(self, name, msg):
+        kind = self.session.commands.inputs[name].kind
+        if kind == 'joint_trajectory':
+            payload = conv.trajectory_from_msg(msg)
+        elif kind == 'commands':
+            payload = list(msg.data)
+        else:
+            payload = conv.joint_command_from_msg(msg)
+        self._on_input(name, msg, lambda: self.session.submit_command(name, payload, tag=msg),
+                       'command')
 
     def _start(self):
         config = self.config
@@ -224,6 +260,8 @@ class RigidBodyNode(Node):
         if self._markers is not None:
             self._publish('static_markers', markers.static_markers(
                 config.static_world, config.world_frame, 0), 0)
+        for robot in config.robots:
+            self._publish(f'{robot.name}/robot_description', String(data=robot.robot.urdf), 0)
         self._publish_sample()
         self._anchor()  # sim time 0 = now: pacing starts when the node is ready
         self._diagnostics = Diagnostics(self.session, self._pacer)
@@ -381,7 +419,8 @@ class RigidBodyNode(Node):
     def _publish_sample(self):
         """Publish the current sample; record the same CDR bytes."""
         t = self.session.time_ns
-        samples = self._builder.serialize(t, self._columns, self.session.contact_wrenches_w)
+        samples = self._builder.serialize(t, self._columns, self.session.contact_wrenches_w,
+                                          self._robots)
         for (_, publish, topic), (_, data) in zip(self._sample_pubs, samples):
             publish(data)
             if self._recorder is not None:
@@ -412,7 +451,7 @@ class RigidBodyNode(Node):
         level, message = diagnostics_status(s, values)
         self._publish('diagnostics', conv.diagnostics_to_msg(
             s.time_ns, f'{self.get_fully_qualified_name()}: rigid body',
-            self.get_fully_qualified_name() if self.config.named else
+            self.get_fully_qualified_name() if self.config.named or self.config.robots else
             self.config.body.body_frame,
             level, message, values), s.time_ns)
 
@@ -451,7 +490,7 @@ class RigidBodyNode(Node):
     def _on_input(self, name, msg, submit, what):
         try:
             submit()
-        except WrenchRejected as exc:
+        except (WrenchRejected, CommandRejected) as exc:
             self._warn_rejected(what, exc)
             return
         if self._pacer.real_time_factor > 0:  # run a step due since the last tick now

@@ -45,10 +45,11 @@ type, and rclpy reads the first filled slot in the order bool, integer, double, 
 bool/integer/double/string array), and an empty list ``[]`` fills no slot (alone, the value is
 NOT_SET: ``None``).
 
-One addition of ours: a relative ``mesh_path`` (any name ending so) read from a params file is
-made relative to that file's directory (as URDF and SDF resolve their meshes), so a world file
-and its meshes move together; ``package://`` and absolute paths, and ``-p`` values (relative
-to the working directory), are kept as given.
+One addition of ours: a relative path (a name ending in one of :data:`PATH_PARAMETER_ENDINGS`:
+``mesh_path``, ``urdf_path``) read from a params file is made relative to that file's
+directory (as URDF and SDF resolve their meshes), so a world file and its meshes move
+together; ``package://`` and absolute paths, and ``-p`` values (relative to the working
+directory), are kept as given.
 """
 
 from fractions import Fraction
@@ -58,6 +59,9 @@ import re
 import sys
 
 import yaml
+
+#: A params file's relative value of a parameter ending so is relative to that file.
+PATH_PARAMETER_ENDINGS = ('mesh_path', 'urdf_path')
 
 PARAM_FLAGS = ('-p', '--param')
 PARAMS_FILE_FLAG = '--params-file'
@@ -189,8 +193,9 @@ class ParameterStore:
         self._base_dir = None  # directory of the params file being read, else None
 
     def _resolve(self, name, value):
-        """Make a params file's relative ``*mesh_path`` value relative to that file."""
-        if (self._base_dir is not None and name.endswith('mesh_path') and isinstance(value, str)
+        """Make a params file's relative ``*mesh_path`` or ``*urdf_path`` relative to it."""
+        if (self._base_dir is not None and name.endswith(PATH_PARAMETER_ENDINGS)
+                and isinstance(value, str)
                 and value and not value.startswith('package://') and not os.path.isabs(value)):
             return os.path.join(self._base_dir, value)
         return value

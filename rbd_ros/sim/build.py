@@ -30,6 +30,7 @@ from rbd_ros.core import ConfigError, ModelError, NonFiniteError, Simulator
 from rbd_ros.core.contact.simulator import WorldBody, WorldSimulator
 from rbd_ros.sim.config import NodeConfig
 from rbd_ros.sim.params import fail, fmt, PARAMETERS_BY_NAME
+from rbd_ros.sim.robot_world import RobotWorld
 
 _FIRST_STEP_SUSPECTS = ('initial_angular_velocity', 'initial_linear_velocity',
                         'initial_position', 'gravity', 'mass_kg', 'inertia', 'dimensions_m',
@@ -57,11 +58,15 @@ def make_simulator(config):
     """
     Return the simulator of ``config``: the one place that chooses it.
 
+    With robots, a :class:`rbd_ros.sim.robot_world.RobotWorld` of them (no free bodies yet).
+
     With contact (named bodies, a ground or obstacles) a :class:`WorldSimulator` of every body
     of ``config.bodies`` and the static world; else the free-body simulator of the one body.
     Both answer ``time_ns``, ``arrays``, ``body_state(i)``, ``set_body_loads(i, ...)``,
     ``step``, ``reset``, ``contact_wrench_w`` and ``contacts`` (None without contact).
     """
+    if config.robots:
+        return RobotWorld(config.robots, config.timestep_ns)
     if not config.contact:
         (body,) = config.bodies
         return _FreeBodySimulator(body.model, body.initial_state, integrator=config.integrator,

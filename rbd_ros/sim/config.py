@@ -49,6 +49,7 @@ from rbd_ros.core.contact.simulator import CONTACT_INTEGRATORS
 from rbd_ros.core.contact.world import (check_overlaps, ground_plane, is_valid_name, NAME_RULE,
                                         obstacle, StaticWorld, validate_material)
 from rbd_ros.core.inertia import from_shape, inertia_from_components, SHAPES
+from rbd_ros.sim import robots as robot_params
 from rbd_ros.sim.meshes import check_sizes, mesh_file, mesh_shape
 from rbd_ros.sim.params import (body_parameter_specs, BODY_PARAMETERS, check_min_size,
                                 check_range, check_real_time_factor, coerce,
@@ -138,6 +139,10 @@ class NodeConfig:
     :ivar wrench_timeout_ns: hold time of a received wrench in sim ns; 0 = until replaced.
     :ivar parameters: the validated parameter values (a name → value dict, arrays as tuples).
     :ivar static_world: the :class:`rbd_ros.core.contact.StaticWorld`, or None.
+    :ivar robots: the :class:`rbd_ros.sim.robots.RobotConfig` tuple (``robot_names`` order).
+        A file with robots has no free bodies (:attr:`bodies` is empty), ground or obstacles
+        yet: robots do not touch anything until contact and joints share one step.
+    :ivar command_groups: the :class:`rbd_ros.sim.robots.CommandGroup` tuple.
     """
 
     bodies: tuple
@@ -161,6 +166,8 @@ class NodeConfig:
     record_on_error: str
     parameters: dict
     static_world: object = None
+    robots: tuple = ()
+    command_groups: tuple = ()
 
     @property
     def named(self):
@@ -221,6 +228,7 @@ class NodeConfig:
         input_names = _input_values(values, params)
         obstacle_names = _obstacle_values(values, params)
         body_inputs = _body_values(values, params)
+        robots, groups = _robot_values(values, params)
         if params:
             unknown = sorted(params)[0]
             raise ConfigError(
@@ -230,6 +238,14 @@ class NodeConfig:
         time_settings = _time_settings(values)
         static_world = _static_world(values, obstacle_names)
         integrator = time_settings['integrator']
+        if robots:
+            _refuse_with_robots(values, body_inputs, obstacle_names)
+            return cls(bodies=(), **time_settings, **_frame_settings(values),
+                       **_limits_and_recording(values), parameters=values, static_world=None,
+                       robots=robots, command_groups=groups)
+        if groups:
+            fail(robot_params.GROUP_NAMES_SPEC, list(values[robot_params.GROUP_NAMES]),
+                 'command groups need robots (robot_names is empty)')
         if body_inputs:
             bodies = _world_bodies(values, body_inputs, static_world, integrator)
             settings = {**_frame_settings(values, bodies), **_limits_and_recording(values)}
@@ -259,6 +275,10 @@ class NodeConfig:
             specs.extend(body_parameter_specs(body_name))
             for input_name in self.parameters[f'bodies.{body_name}.wrench_input_names']:
                 specs.extend(_body_input_specs(body_name, input_name))
+        for robot in self.robots:
+            specs.extend(robot.specs)
+        for group in self.command_groups:
+            specs.extend(group.specs)
         return tuple(specs)
 
 
@@ -410,6 +430,40 @@ def _world_bodies(values, body_inputs, static_world, integrator):
         raise ModelError(f'parameter {field} = {exc.detail}', field=field, value=exc.value,
                          unit=exc.unit, detail=exc.detail, rule=exc.rule) from None
     return tuple(bodies)
+
+
+def _robot_values(values, params):
+    """
+    Read the robots and command groups; move their parameters from ``params`` to ``values``.
+
+    A ``robots.*`` or ``command_groups.*`` name that no robot or group declares stays in
+    ``params`` (an unknown parameter).
+    """
+    given = {name: value for name, value in params.items()
+             if name.startswith(('robots.', 'command_groups.'))}
+    for name in (robot_params.ROBOT_NAMES, robot_params.GROUP_NAMES):  # from the table
+        given[name] = values[name]
+    robots = robot_params.read_robots(given, values['gravity'])
+    groups = robot_params.read_command_groups(given, robots)
+    specs = [spec for item in robots + groups for spec in item.specs]
+    for spec in specs:
+        values[spec.name] = coerce(spec, params.pop(spec.name, spec.default))
+    return robots, groups
+
+
+def _refuse_with_robots(values, body_inputs, obstacle_names):
+    """Refuse what a robot file cannot have yet: free bodies, a ground, obstacles."""
+    spec = robot_params.ROBOT_NAMES_SPEC
+    names = list(values[robot_params.ROBOT_NAMES])
+    why = ('robots do not touch anything yet (contact and joints in one step is the next '
+           'step of the joint work); leave it out')
+    if body_inputs:
+        fail(spec, names, f'body_names is not empty: a file with robots has no free bodies '
+             f'yet: {why}')
+    if values['ground.enabled']:
+        fail(spec, names, f'ground.enabled is true: {why}')
+    if obstacle_names:
+        fail(spec, names, f'obstacle_names is not empty: {why}')
 
 
 def _single_body(values, static_world, integrator):

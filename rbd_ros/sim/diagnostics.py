@@ -25,6 +25,10 @@ import time
 
 def energy_and_momentum(session):
     """Return the kinetic energy (J) and angular momentum (N·m·s, world) of all bodies."""
+    if session.config.robots:  # every link of every robot (the articulated simulator's bodies)
+        sim = session.simulator.articulated
+        energy = sum(float(s.kinetic_energy(m)) for m, s in zip(sim.models, sim.states))
+        return energy, [float(v) for v in sim.momentum()[1]]
     energy, momentum = 0.0, [0.0, 0.0, 0.0]
     for i, body in enumerate(session.config.bodies):
         state = session.body_state(i)
@@ -37,9 +41,10 @@ def status(session, values):
     """Return ``(level, message)`` of ``values``: 'error', 'warn' or 'ok', and why."""
     non_finite = [key for key, value in values.items()
                   if isinstance(value, float) and not math.isfinite(value)]
+    commands = session.commands.rejected_total if session.commands is not None else 0
     level = 'error' if session.error else (
-        'warn' if session.inputs.rejected_total or session.drags.rejected_total or non_finite
-        else 'ok')
+        'warn' if (session.inputs.rejected_total or session.drags.rejected_total or commands
+                   or non_finite) else 'ok')
     message = session.error or ('paused' if session.paused else 'running')
     if non_finite:
         message += '; not finite: ' + ', '.join(non_finite)
@@ -65,6 +70,13 @@ class Diagnostics:
         wall0, sim0, _ = self._last
         self._last = (now, s.time_ns, s.steps_total)
         energy, momentum = energy_and_momentum(s)
+        commands = {}
+        if s.commands is not None:
+            commands = {'commands_received': s.commands.received_total,
+                        'commands_rejected': s.commands.rejected_total,
+                        **{f'commands_rejected_{k}': v for k, v in s.commands.rejected.items()}}
+            joint_error = s.simulator.articulated.joint_error()
+            commands['joint_error_max_m'], commands['joint_error_max_rad'] = joint_error
         return {
             'sim_time_s': s.time_ns * 1e-9,
             'real_time_factor': (s.time_ns - sim0) / max(1, now - wall0),
@@ -77,4 +89,4 @@ class Diagnostics:
             'kinetic_energy_j': energy,
             'angular_momentum_norm_nms': math.hypot(*momentum),
             'wall_time_dropped_s': self.pacer.dropped_ns * 1e-9, 'resets': s.resets,
-            'pacing_lag_max_ms': self.pacer.take_lag_max() * 1e-6}
+            'pacing_lag_max_ms': self.pacer.take_lag_max() * 1e-6, **commands}

@@ -226,6 +226,13 @@ PARAMETERS = (
               'Names of the bodies of a world, each with bodies.<name>.* (the per-body '
               'parameters above); [] = one body from the parameters above.',
               rule='distinct names of letters, digits and _; not with per-body parameters'),
+    ParamSpec('robot_names', STRING_ARRAY, (), '',
+              'Robots read from URDF, each with robots.<name>.* (see doc/robots.md).',
+              rule='distinct names of letters, digits and _'),
+    ParamSpec('command_group_names', STRING_ARRAY, (), '',
+              'Joint groups commanded as forward_command_controller and '
+              'joint_trajectory_controller are, each with command_groups.<name>.*.',
+              rule='distinct names of letters, digits and _'),
     ParamSpec('publish_markers', BOOL, True, '',
               'With contact: publish markers (bodies, contacts) and static_markers (ground, '
               'obstacles) for RViz and Foxglove.'),

@@ -60,6 +60,7 @@ from rbd_ros.core import layout, NonFiniteError
 from rbd_ros.sim.build import make_simulator
 from rbd_ros.sim.drag import DragInputs
 from rbd_ros.sim.inputs import WorldInputs
+from rbd_ros.sim.joint_commands import CommandEvent, RobotInputs
 from rbd_ros.sim.limits import step_chunk
 
 
@@ -96,12 +97,37 @@ class AppliedDigest:
         self.count = 0
 
     def update(self, event):
-        """Add one :class:`rbd_ros.sim.inputs.AppliedEvent`."""
+        """Add one :class:`rbd_ros.sim.inputs.AppliedEvent` (or robot command event)."""
+        if isinstance(event, CommandEvent):
+            self._command(event)
+            return
         name = event.input_name.encode('utf-8')
         frame = event.frame_id.encode('utf-8')
         self._sha.update(struct.pack('<qI', event.time_ns, len(name)) + name
                          + struct.pack('<I', len(frame)) + frame
                          + struct.pack('<6d', *event.force, *event.torque))
+        self.count += 1
+
+    def _command(self, event):
+        """
+        Add a :class:`rbd_ros.sim.joint_commands.CommandEvent`.
+
+        The effect time (int64), the input name (uint32 length, UTF-8), then per target its
+        joint index (int32), mode (its first letter) and value (float64); for a trajectory its
+        start and point times (int64) and every knot's positions, rates and accelerations
+        (float64), all little endian.
+        """
+        name = event.input_name.encode('utf-8')
+        data = struct.pack('<qI', event.time_ns, len(name)) + name
+        for target in event.targets:
+            data += struct.pack('<ic d', target.joint, target.mode[0].encode(), target.value)
+        if event.trajectory is not None:
+            traj = event.trajectory
+            data += struct.pack(f'<{1 + len(traj.times_ns)}q', traj.start_ns, *traj.times_ns)
+            for knot in traj.knots:
+                for values in knot:
+                    data += struct.pack(f'<{len(values)}d', *values)
+        self._sha.update(data)
         self.count += 1
 
     def hexdigest(self):
@@ -140,6 +166,9 @@ class SimSession:
             config.bodies, world_frame=config.world_frame, timeout_ns=config.wrench_timeout_ns,
             max_force_n=config.max_force_n, max_torque_nm=config.max_torque_nm)
         self.drags = _drag_inputs(config)
+        #: The robots' command inputs (:mod:`rbd_ros.sim.joint_commands`), None without robots.
+        self.commands = (RobotInputs(config.robots, config.command_groups,
+                                     config.wrench_timeout_ns) if config.robots else None)
         self.paused = config.start_paused
         # Steps per compiled call: a signal is seen between calls (rbd_ros.sim.limits.step_chunk).
         self._chunk_max = step_chunk(len(config.bodies))
@@ -230,6 +259,22 @@ class SimSession:
         """
         return self.drags.submit(input_name, frame_id, point, tag)
 
+    def submit_command(self, input_name, payload, tag=None):
+        """
+        Queue a received robot command for the start of the next step.
+
+        :param input_name: its topic (``<robot>/joint_command``, ``<group>/commands``,
+            ``<group>/joint_trajectory``).
+        :param payload: see :meth:`rbd_ros.sim.joint_commands.RobotInputs.submit`.
+        :raises rbd_ros.sim.joint_commands.CommandRejected: counted; nothing queued.
+        """
+        spec = self.commands.inputs.get(input_name) if self.commands else None
+        state = None
+        if spec is not None and spec.kind == 'joint_trajectory':
+            world = self.simulator
+            state = (world.joint_positions(spec.robot), world.joint_velocities(spec.robot))
+        return self.commands.submit(input_name, payload, tag, state)
+
     def advance(self, max_steps, until_ns=None):
         """
         Take up to ``max_steps`` steps; stop early when a sample is due or at the duration.
@@ -254,6 +299,8 @@ class SimSession:
         self.simulator.reset()
         self.inputs.clear()
         self.drags.clear()
+        if self.commands is not None:
+            self.commands.clear()
         self._set_loads()
         self.resets += 1
         self.error = None
@@ -267,6 +314,16 @@ class SimSession:
         x = self.simulator.arrays[0]
         return (x[layout.POS, index], x[layout.QUAT, index], x[layout.VEL, index],
                 x[layout.OMEGA, index])
+
+    def _commands_at(self, t):
+        """Expire, apply and follow the robot commands at step start ``t``."""
+        if self.commands is None:
+            return (), False
+        world = self.simulator
+        self.commands.expire(t, world)
+        applied = self.commands.apply_pending(t, world)
+        self.commands.follow(t, self.config.timestep_ns, world)
+        return applied, self.commands.following
 
     def _steps_to_next_sample(self, time_ns):
         period = self.config.publish_period_ns
@@ -287,6 +344,11 @@ class SimSession:
             expired = self.inputs.expire(t)
             applied = self.inputs.apply_pending(t)
             dragged, _ = self.drags.apply_pending(t, self._state_of)
+            commands, following = self._commands_at(t)
+            if commands:
+                events.extend(commands)
+                if self.on_applied is not None:
+                    self.on_applied(list(commands))
             if applied or expired or dragged:
                 self._set_loads()
                 events.extend(applied)
@@ -294,9 +356,12 @@ class SimSession:
                 if self.on_applied is not None and (applied or dragged):
                     self.on_applied(list(applied) + list(dragged))
             chunk = min(max_steps - done, self._steps_to_next_sample(t), self._chunk_max)
-            expiry = self.inputs.next_expiry_ns()
-            if expiry is not None:
-                chunk = min(chunk, max(1, _ceil_div(expiry - t, h)))
+            if following:
+                chunk = 1  # a trajectory's reference is set at every step start
+            for expiry in (self.inputs.next_expiry_ns(),
+                           self.commands.next_expiry_ns() if self.commands else None):
+                if expiry is not None:
+                    chunk = min(chunk, max(1, _ceil_div(expiry - t, h)))
             if duration and not ignore_duration:
                 chunk = min(chunk, max(1, _ceil_div(duration - t, h)))
             if until_ns is not None:

@@ -549,7 +549,7 @@ def place_robot(robot: Robot, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0
     coordinate = dict(zip(robot.moving_joints, zip(q_values, qd_values)))
     for k, name in enumerate(robot.moving_joints):
         joint = robot.joint(name)
-        value = q_values[k]
+        value = float(q_values[k])
         if (joint.lower is not None and value < joint.lower) or \
                 (joint.upper is not None and value > joint.upper):
             _fail(ConfigError, source, f'initial_joint_positions[{k}]',

@@ -28,6 +28,7 @@ from rbd_ros.core import inertia as inertia_mod
 from rbd_ros.ros import ros_args
 from rbd_ros.sim import build
 from rbd_ros.sim import params as sim_params
+from rbd_ros.sim import robots as robot_params
 from rbd_ros.sim.config import NodeConfig
 import yaml
 
@@ -220,7 +221,10 @@ def test_config_and_session_do_not_import_rclpy():
 def test_the_docs_document_every_parameter():
     reference = (REPO / 'doc' / 'parameters.md').read_text()
     for spec in (sim_params.PARAMETERS + sim_params.input_parameter_specs('<name>')
-                 + sim_params.obstacle_parameter_specs('<name>')):
+                 + sim_params.obstacle_parameter_specs('<name>')
+                 + robot_params.robot_parameter_specs('<name>')
+                 + robot_params.joint_parameter_specs('<name>', '<joint>')
+                 + robot_params.group_parameter_specs('<name>')):
         assert f'| `{spec.name}` |' in reference, spec.name
 
 
@@ -252,7 +256,10 @@ def test_the_documented_parameter_table_is_the_parameter_table():
                           if spec.kind == sim_params.STRING else spec.default)
         for spec in sim_params.input_parameter_specs('x')] + [
         dataclass_replace(spec, name=spec.name.replace('.x.', '.<name>.'))
-        for spec in sim_params.obstacle_parameter_specs('x')]
+        for spec in sim_params.obstacle_parameter_specs('x')] + list(
+        robot_params.robot_parameter_specs('<name>')
+        + robot_params.joint_parameter_specs('<name>', '<joint>')
+        + robot_params.group_parameter_specs('<name>'))
     assert sorted(rows) == sorted(spec.name for spec in specs)
     for spec in specs:
         kind, default, unit = rows[spec.name]

@@ -63,7 +63,9 @@ MOTOR_EFFORT = 1
 MOTOR_VELOCITY = 2
 MOTOR_POSITION = 3
 # work.motor columns: mode, effort (N m or N), velocity target, position target, omega (1/s),
-# effort limit (inf for none), saturation sign (-1, 0, 1), applied effort (the readout)
+# effort limit (inf for none), saturation sign (-1, 0, 1), applied effort (the readout), and a
+# position target's reference rate and acceleration at its time M_TREF (s): the target moves
+# as q* + q̇* s + q̈* s²/2, s the time since M_TREF (a followed trajectory's feed-forward)
 M_MODE = 0
 M_EFFORT = 1
 M_VELOCITY = 2
@@ -72,7 +74,10 @@ M_OMEGA = 4
 M_LIMIT = 5
 M_SAT = 6
 M_APPLIED = 7
-M_SIZE = 8
+M_VREF = 8
+M_AREF = 9
+M_TREF = 10
+M_SIZE = 11
 #: A limit is crossed when the joint is beyond its bound by more than this (rad or m); the
 #: crossing is then located inside the step to :data:`LOCATE_TOL`.
 CROSS_TOL = 1e-13
@@ -124,7 +129,8 @@ L_HAS_LOWER = 2
 L_HAS_UPPER = 3
 # stats: 0 max |C| after the last projection, 1 projection iterations (max), 2 failure flag,
 # 3 number of stops in the last call, 4 joint of the last stop, 5 the speed it removed
-# (rad/s or m/s, signed), 6 its time from the start of the call (s)
+# (rad/s or m/s, signed), 6 its time from the start of the call (s), 8 the sim time (s) of the
+# current sub-step's start, 9 the time (s) of the state being evaluated (an RK4 stage's)
 S_ERR = 0
 S_ITER = 1
 S_FAIL = 2
@@ -132,7 +138,9 @@ S_STOPS = 3
 S_STOP_JOINT = 4
 S_STOP_SPEED = 5
 S_STOP_TIME = 6
-S_SIZE = 8
+S_TIME = 8
+S_TSTAGE = 9
+S_SIZE = 10
 
 
 @_inl
@@ -416,9 +424,13 @@ def joint_rows(model, x, work, full):
                 # not a position row: the projection leaves the motor's coordinate alone
                 con[row] = 0.0
                 if full and work.motor[j, M_MODE] == MOTOR_POSITION:
-                    # q'' = -2 w q' - w^2 (q - q*): the exact critically damped response
+                    # e'' = -2 w e' - w^2 e, e = q - q*(t): the exact critically damped
+                    # response about the (moving) target
                     w = work.motor[j, M_OMEGA]
-                    bias[row] += 2.0 * w * rate + w * w * (coord - work.motor[j, M_POSITION])
+                    vr, ar = work.motor[j, M_VREF], work.motor[j, M_AREF]
+                    ds = work.stats[S_TSTAGE] - work.motor[j, M_TREF]
+                    qr = work.motor[j, M_POSITION] + (vr + 0.5 * ar * ds) * ds
+                    bias[row] += 2.0 * w * (rate - vr - ar * ds) + w * w * (coord - qr) - ar
             if work.active[row] == 0:
                 con[row] = 0.0
                 if full:
@@ -1088,11 +1100,13 @@ def _rk4(model, x, work, h, tol, max_iter):
     """One RK4 step of size ``h`` from ``x`` (``work.k[0]`` = ``ẋ``) and the projections."""
     k, xs = work.k, work.xs
     n_b = x.shape[0]
+    t0 = work.stats[S_TIME]
     for stage in range(1, 4):
         c = 0.5 * h if stage < 3 else h
         for b in range(n_b):
             for i in range(13):
                 xs[b, i] = x[b, i] + c * k[stage - 1, b, i]
+        work.stats[S_TSTAGE] = t0 + c
         _accelerations(model, xs, work, k[stage])
     for b in range(n_b):
         for i in range(13):
@@ -1100,6 +1114,7 @@ def _rk4(model, x, work, h, tol, max_iter):
         qw, qx, qy, qz = x[b, 3], x[b, 4], x[b, 5], x[b, 6]
         q = 1.0 / math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
         x[b, 3], x[b, 4], x[b, 5], x[b, 6] = qw * q, qx * q, qy * q, qz * q
+    work.stats[S_TSTAGE] = t0 + h
     it = _project_positions(model, x, work, tol, max_iter, 3)
     if it < 0:
         return it
@@ -1125,6 +1140,7 @@ def _crossing(model, x, work):
 
 @_jit
 def _restore(model, x, work):
+    work.stats[S_TSTAGE] = work.stats[S_TIME]
     for b in range(x.shape[0]):
         for i in range(13):
             x[b, i] = work.x0[b, i]
@@ -1182,6 +1198,7 @@ def step(model, x, work, h, n_steps, tol, max_iter):
                 return s + 1
             j, side, excess = _crossing(model, x, work)
             if j < 0:
+                work.stats[S_TIME] += left
                 worst = max(worst, work.stats[S_ERR])
                 worst_it = max(worst_it, it)
                 break
@@ -1222,6 +1239,8 @@ def step(model, x, work, h, n_steps, tol, max_iter):
             work.stats[S_STOP_JOINT] = j
             work.stats[S_STOP_SPEED] = speed
             work.stats[S_STOP_TIME] = s * h + (h - left) + tau
+            work.stats[S_TIME] += tau
+            work.stats[S_TSTAGE] = work.stats[S_TIME]
             worst = max(worst, work.stats[S_ERR])
             left -= tau
             if left <= 1e-12 * h:

@@ -241,3 +241,27 @@ def joint_velocity(joint: Joint, pos_p_w, q_wp, vel_p_w, omega_p_w, pos_c_w, q_w
 def unwrap_angle(previous_rad: float, reading_rad: float) -> float:
     """Return the running angle nearest ``previous_rad`` equal to ``reading_rad`` mod 2 pi."""
     return previous_rad + math.remainder(reading_rad - previous_rad, 2.0 * math.pi)
+
+
+def check_position_target(joint: Joint, value: float, error=ModelError) -> None:
+    """
+    Refuse a position target the joint cannot hold: beyond a limit, or out of ``(-π, π]``.
+
+    A revolute angle must be in ``(-π, π]``; a continuous joint takes any angle.
+
+    The one rule of a position target:
+    :meth:`~rbd_ros.core.joints.ArticulatedSimulator.set_motor` applies it, and
+    the node's joint commands check it when a command arrives.
+
+    :raises error: one line naming the joint, the value and its unit.
+    """
+    unit = 'm' if joint.kind == 'prismatic' else 'rad'
+    who = f'joint {joint.name!r}'
+    for bound, ok in (('lower', joint.lower is None or value >= joint.lower),
+                      ('upper', joint.upper is None or value <= joint.upper)):
+        if not ok:
+            raise error(f'{who}.position: {value!r} {unit} is beyond {bound} '
+                        f'{getattr(joint, bound)!r} {unit}')
+    if joint.kind == 'revolute' and not -math.pi < value <= math.pi:
+        raise error(f'{who}.position: {value!r} rad must be in (-pi, pi] for a revolute '
+                    'joint (a continuous joint takes any angle)')

@@ -31,10 +31,11 @@ from typing import Sequence
 import numpy as np
 
 from rbd_ros.core import jitcache
-from rbd_ros.core.errors import (ConfigError, ConvergenceError, finite_scalar, NonFiniteError,
-                                 whole_number)
+from rbd_ros.core.errors import (ConfigError, ConvergenceError, finite_scalar, finite_vector,
+                                 NonFiniteError, whole_number)
 from rbd_ros.core.joints import kernels as jk
-from rbd_ros.core.joints.model import Joint, joint_position, joint_velocity
+from rbd_ros.core.joints.model import (check_position_target, Joint, joint_position,
+                                       joint_velocity)
 from rbd_ros.core.model import BodyModel
 from rbd_ros.core.rotations import quat_to_matrix
 from rbd_ros.core.state import BodyState
@@ -341,6 +342,7 @@ class ArticulatedSimulator:
             return
         h = self._timestep_ns * 1e-9
         self._t_call = self._time_ns
+        self._work.stats[jk.S_TIME] = self._work.stats[jk.S_TSTAGE] = self._time_ns * 1e-9
         failed = jk.step(self._model, self._x, self._work, h, n, PROJECTION_TOL,
                          PROJECTION_MAX_ITER)
         if failed:  # the kernel left the state where the failing step (or sub-step) began
@@ -386,7 +388,7 @@ class ArticulatedSimulator:
         return float(self._work.stats[0]), int(self._work.stats[1])
 
     def set_motor(self, joint_index: int, *, effort=None, velocity=None, position=None,
-                  time_constant_s=None) -> None:
+                  time_constant_s=None, reference_rates=None, refresh=True) -> None:
         """
         Set (or, with no target, clear) joint ``joint_index``'s motor; held until changed.
 
@@ -397,6 +399,12 @@ class ArticulatedSimulator:
         damped, no overshoot, no steady-state error under gravity), an acceleration row. A
         position or velocity motor needing more than ``effort_limit`` saturates: it pushes with
         ``±effort_limit`` (:meth:`motor_saturated` says so). A held limit pauses the motor.
+
+        ``reference_rates=(q̇*, q̈*)`` makes a position target move: ``q*(t) = q* + q̇* s +
+        q̈* s²/2`` with ``s`` the time since now, and ``e = q - q*(t)`` follows the same exact
+        response, so a joint that starts on a trajectory stays on it to the step's accuracy
+        (a followed trajectory's feed-forward: set it again every step). ``refresh=False``
+        leaves the dynamics of the new targets to the caller (:meth:`set_motors`).
         """
         n_j = len(self._joints)
         if isinstance(joint_index, bool) or not isinstance(joint_index, (int, np.integer)) \
@@ -428,24 +436,43 @@ class ArticulatedSimulator:
                                 error=ConfigError)
             if not tau > 0.0:
                 raise ConfigError(f'{who}.time_constant_s: {tau!r} s must be > 0')
-            for bound, ok in (('lower', joint.lower is None or value >= joint.lower),
-                              ('upper', joint.upper is None or value <= joint.upper)):
-                if not ok:
-                    raise ConfigError(f'{who}.position: {value!r} {units[mode]} is beyond '
-                                      f'{bound} {getattr(joint, bound)!r} {units[mode]}')
-            if joint.kind == 'revolute' and not -math.pi < value <= math.pi:
-                raise ConfigError(f'{who}.position: {value!r} rad must be in (-pi, pi] for a '
-                                  'revolute joint (a continuous joint takes any angle)')
+            check_position_target(joint, value, ConfigError)
             row[jk.M_OMEGA] = 1.0 / tau
         elif time_constant_s is not None:
             raise ConfigError(f'{who}.time_constant_s: {time_constant_s!r}; only a position '
                               'target takes a time constant')
+        rates = (0.0, 0.0)
+        if reference_rates is not None:
+            if mode != 'position':
+                raise ConfigError(f'{who}.reference_rates: {reference_rates!r}; only a '
+                                  'position target takes reference rates')
+            rates = finite_vector(reference_rates, f'{who}.reference_rates',
+                                  f'{units[mode]}/s and {units[mode]}/s²', 2, error=ConfigError)
         codes = {'off': jk.MOTOR_OFF, 'effort': jk.MOTOR_EFFORT,
                  'velocity': jk.MOTOR_VELOCITY, 'position': jk.MOTOR_POSITION}
         row[jk.M_MODE] = codes[mode]
         row[jk.M_EFFORT] = value if mode == 'effort' else 0.0
         row[jk.M_VELOCITY] = value if mode == 'velocity' else 0.0
         row[jk.M_POSITION] = value if mode == 'position' else 0.0
+        row[jk.M_VREF], row[jk.M_AREF] = rates
+        row[jk.M_TREF] = self._work.stats[jk.S_TSTAGE] = self._time_ns * 1e-9
+        if refresh:
+            jk.refresh_dynamics(self._model, self._x, self._work)
+
+    def set_motors(self, targets) -> None:
+        """
+        Set several motors at once, as :meth:`set_motor` each (one refresh of the dynamics).
+
+        :param targets: ``(joint_index, keyword arguments of set_motor)`` pairs. A bad one is
+            refused before any is set.
+        """
+        saved = self._work.motor.copy()
+        try:
+            for joint_index, kwargs in targets:
+                self.set_motor(joint_index, refresh=False, **kwargs)
+        except ConfigError:
+            self._work.motor[:] = saved
+            raise
         jk.refresh_dynamics(self._model, self._x, self._work)
 
     def joint_efforts(self) -> np.ndarray:

@@ -1,0 +1,131 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+A robot's output messages of one sample: ``<robot>/joint_states`` and its links on ``/tf``.
+
+A part of :class:`rbd_ros.msgs.outputs.SampleBuilder` (which publishes and records the same
+bytes, and which replay rebuilds), written the same way: CDR packed by ``struct`` with zeroed
+padding, the floats computed in plain Python arithmetic (no BLAS) so the bytes are the same on
+every machine.
+
+- ``sensor_msgs/JointState`` on ``<robot>/joint_states``: stamped with sim time, ``frame_id``
+  empty (as joint_state_broadcaster), the moving joints in URDF order with position (rad or m),
+  velocity and effort (the motor's, applied over the last step; 0 without a motor).
+- ``/tf``: one transform per URDF joint, parent link → child link (fixed joints included), as
+  robot_state_publisher gives them, plus world frame → root link for a floating robot. A link's
+  frame id is its URDF name; the URDF's ``world`` link is the node's world frame. The
+  transform is the parent's frame pose inverted times the child's, from the simulated link
+  poses (:meth:`rbd_ros.sim.robot_world.RobotWorld.link_poses`), so it agrees with
+  ``joint_states`` through the URDF's kinematics to the joints' projection tolerance.
+"""
+
+from rbd_ros.msgs.cdr import cdr_string, layout
+from rbd_ros.sim.params import NS_PER_S
+
+ENCAPSULATION = b'\x00\x01\x00\x00'
+
+
+def _conj_mul(a, b):
+    """Return ``a* ⊗ b`` for unit quaternions ``(w, x, y, z)``."""
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    ax, ay, az = -ax, -ay, -az
+    return (aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw)
+
+
+def _rotate_inv(q, v):
+    """Return ``R(q)ᵀ v`` for a unit quaternion ``q = (w, x, y, z)``."""
+    w, x, y, z = q
+    vx, vy, vz = v
+    # t = 2 (q_v × v); v' = v + w t + q_v × t, with q conjugated
+    x, y, z = -x, -y, -z
+    tx = 2.0 * (y * vz - z * vy)
+    ty = 2.0 * (z * vx - x * vz)
+    tz = 2.0 * (x * vy - y * vx)
+    return (vx + w * tx + (y * tz - z * ty),
+            vy + w * ty + (z * tx - x * tz),
+            vz + w * tz + (x * ty - y * tx))
+
+
+def relative_pose(parent, child):
+    """Return the child frame in the parent frame: ``(translation, (w, x, y, z))``."""
+    (pp, qp), (pc, qc) = parent, child
+    d = (pc[0] - pp[0], pc[1] - pp[1], pc[2] - pp[2])
+    return _rotate_inv(qp, d), _conj_mul(qp, qc)
+
+
+class RobotOutputs:
+    """
+    One robot's joint_states and link transforms, as CDR bytes.
+
+    :param robot: its :class:`rbd_ros.sim.robots.RobotConfig`.
+    :param index: its index in the node's robots (the :class:`RobotWorld`'s).
+    :param world_frame: the node's world frame id.
+    """
+
+    def __init__(self, robot, index, world_frame):
+        self.index = index
+        self.kind = f'{robot.name}/joint_states'
+        urdf = robot.robot
+        self.joint_names = urdf.moving_joints
+        names = [cdr_string(name) for name in self.joint_names]
+        n = len(names)
+        self._joint_states = layout('i', 'I', cdr_string(''), 'I', *names, 'I', *'d' * n, 'I',
+                                    *'d' * n, 'I', *'d' * n)
+        self._names = [v for name in names for v in (len(name), name)]
+        frame = {link.name: (world_frame if link.name == 'world' and urdf.fixed_to_world
+                             else link.name) for link in urdf.links}
+        link_index = {link.name: k for k, link in enumerate(urdf.links)}
+        #: (parent link index or None for the world frame, child link index, frame bytes)
+        self.transforms = []
+        if not urdf.fixed_to_world:
+            self.transforms.append((None, link_index[urdf.root], cdr_string(world_frame),
+                                    cdr_string(frame[urdf.root])))
+        for joint in urdf.joints:
+            self.transforms.append((link_index[joint.parent], link_index[joint.child],
+                                    cdr_string(frame[joint.parent]),
+                                    cdr_string(frame[joint.child])))
+
+    def tf_fields(self):
+        """Return the ``layout`` fields of this robot's transforms (appended to ``/tf``'s)."""
+        fields = []
+        for _, _, parent, child in self.transforms:
+            fields += ['i', 'I', parent, child, *'d' * 7]
+        return fields
+
+    def tf_values(self, sec, nanosec, poses):
+        """Return the values of :meth:`tf_fields` at ``poses`` (``link_poses`` of the robot)."""
+        out = []
+        for parent, child, parent_frame, child_frame in self.transforms:
+            if parent is None:
+                (px, py, pz), (qw, qx, qy, qz) = poses[child]
+            else:
+                (px, py, pz), (qw, qx, qy, qz) = relative_pose(poses[parent], poses[child])
+            out += (sec, nanosec, len(parent_frame), parent_frame, len(child_frame),
+                    child_frame, px, py, pz, qx, qy, qz, qw)
+        return out
+
+    def joint_states(self, time_ns, world):
+        """Return the CDR bytes of this robot's ``JointState`` now."""
+        sec, nanosec = divmod(time_ns, NS_PER_S)
+        q = world.joint_positions(self.index).tolist()
+        qd = world.joint_velocities(self.index).tolist()
+        effort = world.joint_efforts(self.index).tolist()
+        n = len(q)
+        return self._joint_states.pack(ENCAPSULATION, sec, nanosec, 1, b'\x00', n, *self._names,
+                                       n, *q, n, *qd, n, *effort)

@@ -1,0 +1,193 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+:class:`RobotWorld`: the robots of a params file, stepped together, read out per robot (no rclpy).
+
+Every robot's bodies and joints go into one :class:`rbd_ros.core.joints.ArticulatedSimulator`
+(no contact yet: a robot file has no free bodies, ground or obstacles; see
+:mod:`rbd_ros.sim.config`). Core joint names are ``<robot>/<joint>``, so two robots may use the
+same joint names. It answers what :class:`rbd_ros.sim.session.SimSession` asks of a simulator
+(``time_ns``, ``arrays`` of the free bodies: none, ``step``, ``reset``, no contact) and, per
+robot, the joint readouts and every link frame's pose.
+
+**Link frames.** A moving link's frame is its body's pose composed with the link's fixed
+offset in that body (:class:`rbd_ros.sim.urdf.RobotLink`); a link that is part of the world
+keeps its pose at time 0. The URDF's ``world`` link is the node's world frame.
+"""
+
+import dataclasses
+
+import numpy as np
+
+from rbd_ros.core import layout
+from rbd_ros.core.joints import ArticulatedSimulator
+
+
+def _multiply(a, b):
+    """Return ``a ⊗ b`` of quaternions ``(w, x, y, z)``, plain floats."""
+    aw, ax, ay, az = a
+    bw, bx, by, bz = b
+    return (aw * bw - ax * bx - ay * by - az * bz,
+            aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx,
+            aw * bz + ax * by - ay * bx + az * bw)
+
+
+def _rotate(q, v):
+    """Return ``R(q) v`` for a unit quaternion ``(w, x, y, z)``, plain floats."""
+    w, x, y, z = q
+    vx, vy, vz = v
+    tx = 2.0 * (y * vz - z * vy)
+    ty = 2.0 * (z * vx - x * vz)
+    tz = 2.0 * (x * vy - y * vx)
+    return (vx + w * tx + (y * tz - z * ty),
+            vy + w * ty + (z * tx - x * tz),
+            vz + w * tz + (x * ty - y * tx))
+
+
+class RobotWorld:
+    """
+    The robots of ``config`` in one articulated simulator.
+
+    :param robots: the :class:`rbd_ros.sim.robots.RobotConfig` tuple.
+    :param timestep_ns: the fixed step, int ns.
+    """
+
+    def __init__(self, robots, timestep_ns):
+        self.robots = tuple(robots)
+        self._timestep_ns = timestep_ns
+        models, states, joints = [], [], []
+        self._moving = []   # per robot: the core joint index of each moving joint
+        self._bodies = []   # per robot: (first body index, number of bodies)
+        for robot in self.robots:
+            placement = robot.placement
+            b0, j0 = len(models), len(joints)
+            models += placement.models
+            states += placement.states
+            for joint in placement.joints:
+                joints.append(dataclasses.replace(
+                    joint, name=f'{robot.name}/{joint.name}', child=joint.child + b0,
+                    parent=None if joint.parent is None else joint.parent + b0))
+            self._moving.append(tuple(j0 + robot.robot.joint(name).core
+                                      for name in robot.joint_names))
+            self._bodies.append((b0, len(placement.models)))
+        self._args = (models, states, joints)
+        self._sim = ArticulatedSimulator(models, states, joints, timestep_ns=timestep_ns)
+        self._no_bodies = (np.zeros((layout.N_STATE, 0)), np.zeros(0, dtype=np.int64))
+        # Each link's carrier: (body index or None, position_b, q_bl), or its fixed world pose.
+        self._links = []
+        for robot, (b0, _) in zip(self.robots, self._bodies):
+            links = []
+            for link in robot.robot.links:
+                if link.body is None:
+                    p, q = robot.placement.link_poses_w[link.name]
+                    links.append((link.name, None, tuple(np.asarray(p).tolist()),
+                                  tuple(np.asarray(q).tolist())))
+                else:
+                    links.append((link.name, b0 + link.body,
+                                  tuple(np.asarray(link.position_b).tolist()),
+                                  tuple(np.asarray(link.orientation_b).tolist())))
+            self._links.append(tuple(links))
+
+    # --- what SimSession asks of a simulator -----------------------------------------------
+
+    @property
+    def time_ns(self) -> int:
+        """Return the sim time, int ns."""
+        return self._sim.time_ns
+
+    @property
+    def arrays(self):
+        """Return the free bodies' packed states and times: none in a robot file."""
+        return self._no_bodies
+
+    contact_wrench_w = None
+    contacts = None
+
+    def step(self, n: int = 1) -> None:
+        """Advance ``n`` steps (see :meth:`ArticulatedSimulator.step`)."""
+        self._sim.step(n)
+
+    def reset(self) -> None:
+        """Back to every robot's placement at time 0, every motor off."""
+        self._sim = ArticulatedSimulator(*self._args, timestep_ns=self._timestep_ns)
+
+    # --- per robot ---------------------------------------------------------------------------
+
+    def joint_positions(self, r: int) -> np.ndarray:
+        """Return robot ``r``'s moving joint positions (rad or m), ``joint_states`` order."""
+        q = self._sim.joint_positions()
+        return np.array([float(q[j][0]) for j in self._moving[r]])
+
+    def joint_velocities(self, r: int) -> np.ndarray:
+        """Return robot ``r``'s moving joint velocities (rad/s or m/s)."""
+        qd = self._sim.joint_velocities()
+        return np.array([float(qd[j][0]) for j in self._moving[r]])
+
+    def joint_efforts(self, r: int) -> np.ndarray:
+        """Return robot ``r``'s motor efforts applied over the last step (N m or N)."""
+        efforts = self._sim.joint_efforts()
+        return np.array([float(efforts[j]) for j in self._moving[r]])
+
+    def set_target(self, r: int, joint: int, mode: str, value: float,
+                   reference_rates=None) -> None:
+        """Hold a motor target on moving joint ``joint`` of robot ``r`` (see set_motor)."""
+        self.set_targets(r, [(joint, mode, value, reference_rates)])
+
+    def set_targets(self, r: int, targets) -> None:
+        """
+        Hold several targets of robot ``r`` at once: ``(joint, mode, value, rates or None)``.
+
+        A position target takes the joint's ``position_time_constant_s``; ``rates`` are a
+        position target's reference rate and acceleration (a followed trajectory).
+        """
+        motors = []
+        for joint, mode, value, rates in targets:
+            kwargs = {mode: value}
+            if mode == 'position':
+                kwargs['time_constant_s'] = self.robots[r].time_constants_s[joint]
+                if rates is not None:
+                    kwargs['reference_rates'] = rates
+            motors.append((self._moving[r][joint], kwargs))
+        self._sim.set_motors(motors)
+
+    def release(self, r: int, joint: int) -> None:
+        """Turn the motor of moving joint ``joint`` of robot ``r`` off (the joint is free)."""
+        self._sim.set_motor(self._moving[r][joint])
+
+    def link_poses(self, r: int):
+        """
+        Return ``[(position_w, q_wl)]`` of every link of robot ``r``, URDF link order.
+
+        Plain float tuples computed in plain Python (no BLAS), so a recording's ``/tf`` bytes
+        are the same on every machine.
+        """
+        states = self._sim.states
+        out = []
+        for _, body, p, q in self._links[r]:
+            if body is None:
+                out.append((p, q))
+                continue
+            state = states[body]
+            qb = tuple(state.orientation_wb.tolist())
+            pb = state.position_w.tolist()
+            dx, dy, dz = _rotate(qb, p)
+            out.append(((pb[0] + dx, pb[1] + dy, pb[2] + dz), _multiply(qb, q)))
+        return out
+
+    @property
+    def articulated(self) -> ArticulatedSimulator:
+        """Return the core simulator (joint errors, energy, momentum, wrenches)."""
+        return self._sim

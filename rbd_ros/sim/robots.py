@@ -1,0 +1,285 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Robots of a params file: ``robot_names`` and ``robots.<name>.*``, read into :class:`RobotConfig`.
+
+The parameters (these names exactly; a list parameter is never the prefix of its items', so
+``ros2 param dump`` can nest them):
+
+- ``robot_names`` (string[]): the robots, each named like a body (:data:`NAME_RULE`).
+- ``robots.<name>.urdf_path``: a ``.urdf`` or ``.xacro`` file; relative to the params file
+  (made absolute when the file is read), absolute, or ``package://`` through the ament index.
+- ``robots.<name>.robot_description``: the URDF XML itself. Exactly one of the two.
+- ``robots.<name>.initial_position`` (m) and ``.initial_orientation`` ([x, y, z, w]): the root
+  link's frame in the world frame (the ``world`` link's, for a robot fixed to the world).
+- ``robots.<name>.initial_joint_positions`` (rad or m) and ``.initial_joint_velocities`` (rad/s
+  or m/s): one value per moving joint in ``joint_states`` order (the URDF's revolute,
+  continuous and prismatic joints, in document order), or ``[]`` for zeros.
+- ``robots.<name>.joints.<joint>.position_time_constant_s`` (s, > 0, default
+  :data:`DEFAULT_POSITION_TIME_CONSTANT_S`): the time constant of that joint's position
+  commands (the exact critically damped response, see :mod:`rbd_ros.core.joints`).
+- ``command_group_names`` (string[]) with ``command_groups.<g>.robot``, ``.joints`` (string[],
+  the group's joints in its order; ``[]`` = every moving joint of the robot) and
+  ``.interface`` (``position``, ``velocity`` or ``effort``): a ``Float64MultiArray`` on
+  ``<g>/commands`` and a ``JointTrajectory`` on ``<g>/joint_trajectory``
+  (:mod:`rbd_ros.sim.joint_commands`, :mod:`rbd_ros.sim.trajectory`).
+
+A joint's parameters are known only once its URDF is read, so :func:`read_robots` reads the
+robots first and then the joints' values. With no command a joint is free: there is no hidden
+motor.
+"""
+
+from dataclasses import dataclass
+from typing import Dict, Tuple
+
+from rbd_ros.core import ConfigError, RbdError
+from rbd_ros.core.contact.world import is_valid_name, NAME_RULE
+from rbd_ros.sim.joint_commands import INTERFACES, JointSpec
+from rbd_ros.sim.params import (check_range, coerce, DOUBLE, DOUBLE_ARRAY, fail,
+                                PARAMETERS_BY_NAME, ParamSpec, STRING, STRING_ARRAY)
+from rbd_ros.sim.urdf import load_urdf, place_robot, Placement, Robot
+
+#: The robots' and the command groups' list parameters (in the table of rbd_ros.sim.params).
+ROBOT_NAMES = 'robot_names'
+GROUP_NAMES = 'command_group_names'
+#: Default ``position_time_constant_s`` of every joint, s.
+DEFAULT_POSITION_TIME_CONSTANT_S = 0.05
+#: At most this many robots a file (a bound on start-up work).
+MAX_ROBOTS = 100
+
+ROBOT_NAMES_SPEC = PARAMETERS_BY_NAME[ROBOT_NAMES]
+GROUP_NAMES_SPEC = PARAMETERS_BY_NAME[GROUP_NAMES]
+
+
+def group_parameter_specs(name: str) -> Tuple[ParamSpec, ...]:
+    """Return the :class:`ParamSpec` of command group ``name`` (``command_groups.<name>.*``)."""
+    prefix = f'command_groups.{name}.'
+    return (
+        ParamSpec(prefix + 'robot', STRING, '', '', f'Group {name!r}: its robot.',
+                  rule='one of robot_names'),
+        ParamSpec(prefix + 'joints', STRING_ARRAY, (), '',
+                  f'Group {name!r}: its joints in command order; [] = every moving joint.',
+                  rule="moving joints of the group's robot, each once"),
+        ParamSpec(prefix + 'interface', STRING, 'position', '',
+                  f"Group {name!r}: what <group>/commands values are: 'position', "
+                  "'velocity' or 'effort'.", rule='one of position, velocity, effort'),
+    )
+
+
+@dataclass(frozen=True)
+class CommandGroup:
+    """
+    One command group: a robot's joints, commanded together.
+
+    :ivar name: its name in ``command_group_names`` (its topics: ``<name>/commands``,
+        ``<name>/joint_trajectory``).
+    :ivar robot: the index of its robot in :func:`read_robots`' tuple.
+    :ivar joints: its joints, as indices into that robot's moving joints, in command order.
+    :ivar interface: one of :data:`~rbd_ros.sim.joint_commands.INTERFACES`.
+    :ivar specs: its parameters.
+    """
+
+    name: str
+    robot: int
+    joints: Tuple[int, ...]
+    interface: str
+    specs: Tuple[ParamSpec, ...]
+
+
+def read_command_groups(params, robots) -> Tuple[CommandGroup, ...]:
+    """
+    Return the :class:`CommandGroup` of every group of ``params``, checked against ``robots``.
+
+    :raises ConfigError: one line naming the parameter and its value.
+    """
+    names = _names(params, GROUP_NAMES_SPEC, MAX_ROBOTS)
+    by_name = {robot.name: k for k, robot in enumerate(robots)}
+    groups = []
+    for name in names:
+        specs = group_parameter_specs(name)
+        robot_spec, joints_spec, interface_spec = specs
+        robot_name = _value(params, robot_spec)
+        if robot_name not in by_name:
+            fail(robot_spec, robot_name, f'must be one of robot_names ({", ".join(by_name)})')
+        robot = robots[by_name[robot_name]]
+        joints = _value(params, joints_spec) or robot.joint_names
+        index = []
+        for joint in joints:
+            if joint not in robot.joint_names:
+                fail(joints_spec, list(joints), f'{joint!r} is not a moving joint of robot '
+                     f'{robot_name!r} ({", ".join(robot.joint_names)})')
+            if robot.joint_names.index(joint) in index:
+                fail(joints_spec, list(joints), f'{joint!r} is listed twice')
+            index.append(robot.joint_names.index(joint))
+        interface = _value(params, interface_spec)
+        if interface not in INTERFACES:
+            fail(interface_spec, interface, f'must be one of {", ".join(INTERFACES)}')
+        groups.append(CommandGroup(name, by_name[robot_name], tuple(index), interface, specs))
+    return tuple(groups)
+
+
+def robot_parameter_specs(name: str) -> Tuple[ParamSpec, ...]:
+    """Return the :class:`ParamSpec` of robot ``name`` (``robots.<name>.*``), joints aside."""
+    prefix = f'robots.{name}.'
+    return (
+        ParamSpec(prefix + 'urdf_path', STRING, '', '',
+                  f'Robot {name!r}: its .urdf or .xacro file (relative to the params file, '
+                  'absolute, or package://).', rule='not with robot_description'),
+        ParamSpec(prefix + 'robot_description', STRING, '', '',
+                  f'Robot {name!r}: its URDF XML itself.', rule='not with urdf_path'),
+        ParamSpec(prefix + 'initial_position', DOUBLE_ARRAY, (0.0, 0.0, 0.0), 'm',
+                  f"Robot {name!r}: its root link's frame origin, world frame.",
+                  rule='3 finite values'),
+        ParamSpec(prefix + 'initial_orientation', DOUBLE_ARRAY, (0.0, 0.0, 0.0, 1.0), '',
+                  f"Robot {name!r}: its root link's orientation [x, y, z, w], world frame.",
+                  rule='4 finite values, norm within 1e-3 of 1 (then normalised)'),
+        ParamSpec(prefix + 'initial_joint_positions', DOUBLE_ARRAY, (), 'rad or m',
+                  f'Robot {name!r}: one position per moving joint (joint_states order); '
+                  '[] = zeros.', rule='one value per moving joint, within its limits'),
+        ParamSpec(prefix + 'initial_joint_velocities', DOUBLE_ARRAY, (), 'rad/s or m/s',
+                  f'Robot {name!r}: one velocity per moving joint (joint_states order); '
+                  '[] = zeros.', rule='one value per moving joint'),
+    )
+
+
+def joint_parameter_specs(robot: str, joint: str) -> Tuple[ParamSpec, ...]:
+    """Return the :class:`ParamSpec` of moving joint ``joint`` of ``robot``."""
+    return (ParamSpec(f'robots.{robot}.joints.{joint}.position_time_constant_s', DOUBLE,
+                      DEFAULT_POSITION_TIME_CONSTANT_S, 's',
+                      f'Robot {robot!r}, joint {joint!r}: time constant of its position '
+                      'commands (critically damped).', (0.0, 1e6), rule='> 0'),)
+
+
+@dataclass(frozen=True)
+class RobotConfig:
+    """
+    One robot: its URDF as read, its placement at time 0 and its joints' settings.
+
+    :ivar name: its name in ``robot_names``.
+    :ivar robot: the :class:`rbd_ros.sim.urdf.Robot` (``robot.urdf`` is what
+        ``<name>/robot_description`` publishes).
+    :ivar placement: the :class:`rbd_ros.sim.urdf.Placement` at time 0 (bodies, states, joints).
+    :ivar time_constants_s: per moving joint (``joint_states`` order), its position time
+        constant, s.
+    :ivar specs: every parameter of this robot, its joints' included.
+    """
+
+    name: str
+    robot: Robot
+    placement: Placement
+    time_constants_s: Tuple[float, ...]
+    specs: Tuple[ParamSpec, ...]
+
+    @property
+    def joint_names(self) -> Tuple[str, ...]:
+        """Return the moving joints, in ``joint_states`` order."""
+        return self.robot.moving_joints
+
+    def joint_specs(self) -> Tuple[JointSpec, ...]:
+        """Return each moving joint's :class:`~rbd_ros.sim.joint_commands.JointSpec`."""
+        joints = self.placement.joints
+        return tuple(JointSpec(name, joints[self.robot.joint(name).core],
+                               self.robot.joint(name).velocity)
+                     for name in self.robot.moving_joints)
+
+    def units(self, joint: str) -> Tuple[str, str, str]:
+        """Return ``(position, velocity, effort)`` units of a moving joint."""
+        linear = self.robot.joint(joint).kind == 'prismatic'
+        return ('m', 'm/s', 'N') if linear else ('rad', 'rad/s', 'N m')
+
+
+def _value(params, spec):
+    """Return the coerced value of ``spec`` in ``params`` (its default when absent)."""
+    value = params.get(spec.name, spec.default)
+    value = coerce(spec, value)
+    if spec.kind == DOUBLE:
+        check_range(spec, value)
+    return value
+
+
+def _renamed(prefix, exc):
+    """Return ``exc`` naming its field under ``prefix`` (``robots.arm.urdf_path``)."""
+    field = getattr(exc, 'field', None)
+    if field in ('urdf_path', 'initial_position', 'initial_orientation') or (
+            field and field.startswith(('initial_joint_positions', 'initial_joint_velocities'))):
+        return exc.renamed(prefix + field)
+    return exc
+
+
+def _quaternion_wxyz(spec, q_xyzw):
+    if len(q_xyzw) != 4:
+        fail(spec, list(q_xyzw), 'must have 4 values [x, y, z, w]')
+    norm = sum(v * v for v in q_xyzw) ** 0.5
+    if abs(norm - 1.0) > 1e-3:
+        fail(spec, list(q_xyzw), f'must be a unit quaternion [x, y, z, w] (norm {norm:.6g})')
+    x, y, z, w = (v / norm for v in q_xyzw)
+    return (w, x, y, z)
+
+
+def _read_robot(params, name, gravity_w):
+    specs = robot_parameter_specs(name)
+    by_base = {spec.name.rsplit('.', 1)[1]: spec for spec in specs}
+    values = {base: _value(params, spec) for base, spec in by_base.items()}
+    prefix = f'robots.{name}.'
+    path, xml = values['urdf_path'], values['robot_description']
+    if bool(path) == bool(xml):
+        given = 'both' if path else 'neither'
+        raise ConfigError(f'parameter {prefix}urdf_path / {prefix}robot_description: {given} '
+                          'given; give exactly one (a URDF file, or its XML)',
+                          field=prefix + 'urdf_path', value=path)
+    position = values['initial_position']
+    if len(position) != 3:
+        fail(by_base['initial_position'], list(position), 'must have 3 values')
+    orientation = _quaternion_wxyz(by_base['initial_orientation'],
+                                   values['initial_orientation'])
+    try:
+        robot = load_urdf(path) if path else load_urdf(xml=xml)
+        placement = place_robot(
+            robot, position, orientation,
+            values['initial_joint_positions'] or None, values['initial_joint_velocities'] or None,
+            gravity_w=gravity_w)
+    except RbdError as exc:
+        raise _renamed(prefix, exc) from None
+    joint_specs = tuple(s for joint in robot.moving_joints
+                        for s in joint_parameter_specs(name, joint))
+    constants = tuple(_value(params, spec) for spec in joint_specs)
+    return RobotConfig(name, robot, placement, constants, specs + joint_specs)
+
+
+def read_robots(params: Dict[str, object], gravity_w=(0.0, 0.0, 0.0)) -> Tuple[RobotConfig, ...]:
+    """
+    Return the :class:`RobotConfig` of every robot of ``params`` (a dict name → value).
+
+    :param gravity_w: the world's gravity (m/s²), on every link.
+    :raises ConfigError, ModelError: one line naming the parameter (or the URDF's file, link,
+        joint and field), its value and unit.
+    """
+    names = _names(params, ROBOT_NAMES_SPEC, MAX_ROBOTS)
+    return tuple(_read_robot(params, name, gravity_w) for name in names)
+
+
+def _names(params, spec, most):
+    """Return the names of list parameter ``spec``: at most ``most``, valid, unique."""
+    names = coerce(spec, params.get(spec.name, ()))
+    if len(names) > most:
+        fail(spec, list(names), f'{len(names)} names; at most {most}')
+    seen = set()
+    for name in names:
+        if not is_valid_name(name):
+            fail(spec, list(names), f'{name!r}: {NAME_RULE}')
+        if name in seen:
+            fail(spec, list(names), f'{name!r} is listed twice')
+        seen.add(name)
+    return names

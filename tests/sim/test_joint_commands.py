@@ -1,0 +1,115 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Joint commands (JointState by name, Float64MultiArray by group) and command groups.
+
+The arm of ``msg_config/urdf/arm3.urdf`` (three revolute joints, limits [-3, 3] rad, velocity
+limit 3 rad/s, effort 60 N m) is commanded as topic_based_ros2_control and
+forward_command_controller would; every refusal is one line naming the field.
+"""
+
+import math
+import os
+
+import pytest
+
+from rbd_ros.core import ConfigError
+from rbd_ros.sim.joint_commands import (CommandRejected, group_targets, joint_state_targets,
+                                        JointTarget)
+from rbd_ros.sim.robots import read_command_groups, read_robots
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+ARM = os.path.join(ROOT, 'msg_config', 'urdf', 'arm3.urdf')
+NAN = math.nan
+TOPIC = 'arm/joint_command'
+
+
+@pytest.fixture(scope='module')
+def arm():
+    (robot,) = read_robots({'robot_names': ['arm'], 'robots.arm.urdf_path': ARM})
+    return robot
+
+
+def test_each_joint_takes_its_first_finite_field(arm):
+    targets = joint_state_targets(TOPIC, arm.joint_specs(), ['wrist', 'shoulder', 'elbow'],
+                                  position=[NAN, 0.5, NAN], velocity=[1.0, 2.0, NAN],
+                                  effort=[NAN, NAN, 4.0])
+    assert targets == (JointTarget(2, 'velocity', 1.0), JointTarget(0, 'position', 0.5),
+                       JointTarget(1, 'effort', 4.0))
+
+
+def test_nan_and_absent_fields_leave_the_joint_alone(arm):
+    assert joint_state_targets(TOPIC, arm.joint_specs(), ['elbow'], position=[NAN]) == ()
+    assert joint_state_targets(TOPIC, arm.joint_specs(), ['elbow']) == ()
+
+
+def test_a_velocity_beyond_the_urdf_limit_is_clipped_to_it(arm):
+    (target,) = joint_state_targets(TOPIC, arm.joint_specs(), ['elbow'], velocity=[-10.0])
+    assert target == JointTarget(1, 'velocity', -3.0)  # <limit velocity="3"/> in arm3.urdf
+
+
+@pytest.mark.parametrize('names, fields, reason, words', [
+    (['knee'], {'position': [0.0]}, 'unknown_joint', "name[0]: 'knee' is not a moving joint"),
+    (['elbow', 'elbow'], {'position': [0.0, 0.0]}, 'duplicate_joint', 'name[1]'),
+    (['elbow', 'wrist'], {'position': [0.0]}, 'length', 'position: 1 values for 2 names'),
+    (['elbow'], {'effort': [math.inf]}, 'non_finite', 'effort[0]: inf is not finite'),
+    (['elbow'], {'position': [3.5]}, 'limit', "joint 'elbow'.position: 3.5 rad is beyond upper"),
+])
+def test_bad_joint_state_commands_are_refused_whole(arm, names, fields, reason, words):
+    with pytest.raises(CommandRejected) as caught:
+        joint_state_targets(TOPIC, arm.joint_specs(), names, **fields)
+    assert caught.value.reason == reason
+    assert str(caught.value).startswith(TOPIC + ': ') and words in str(caught.value)
+
+
+def test_a_group_command_maps_values_to_its_joints_in_order(arm):
+    (group,) = read_command_groups({'command_group_names': ['g'], 'command_groups.g.robot': 'arm',
+                                    'command_groups.g.joints': ['wrist', 'shoulder']}, [arm])
+    assert group.joints == (2, 0) and group.interface == 'position'
+    targets = group_targets('g/commands', arm.joint_specs(), group.joints, group.interface,
+                            [0.1, -0.2])
+    assert targets == (JointTarget(2, 'position', 0.1), JointTarget(0, 'position', -0.2))
+
+
+def test_a_group_without_joints_takes_every_moving_joint(arm):
+    (group,) = read_command_groups({'command_group_names': ['g'], 'command_groups.g.robot': 'arm',
+                                    'command_groups.g.interface': 'effort'}, [arm])
+    assert group.joints == (0, 1, 2) and group.interface == 'effort'
+
+
+@pytest.mark.parametrize('data, reason, words', [
+    ([0.1], 'length', 'data: 1 values for the 3 joints'),
+    ([0.1, NAN, 0.0], 'non_finite', 'data[1] (elbow): nan is not a finite position'),
+    ([0.1, 0.0, -4.0], 'limit', "data[2] (wrist): joint 'wrist'.position: -4.0 rad"),
+])
+def test_bad_group_commands_are_refused_whole(arm, data, reason, words):
+    with pytest.raises(CommandRejected) as caught:
+        group_targets('g/commands', arm.joint_specs(), (0, 1, 2), 'position', data)
+    assert caught.value.reason == reason and words in str(caught.value)
+
+
+@pytest.mark.parametrize('extra, words', [
+    ({'command_groups.g.robot': 'leg'}, "command_groups.g.robot = 'leg': must be one of"),
+    ({'command_groups.g.robot': 'arm', 'command_groups.g.joints': ['knee']},
+     "'knee' is not a moving joint of robot 'arm'"),
+    ({'command_groups.g.robot': 'arm', 'command_groups.g.joints': ['elbow', 'elbow']},
+     "'elbow' is listed twice"),
+    ({'command_groups.g.robot': 'arm', 'command_groups.g.interface': 'torque'},
+     "command_groups.g.interface = 'torque': must be one of position, velocity, effort"),
+])
+def test_bad_groups_are_refused_at_start(arm, extra, words):
+    with pytest.raises(ConfigError) as caught:
+        read_command_groups({'command_group_names': ['g'], **extra}, [arm])
+    assert words in str(caught.value) and '\n' not in str(caught.value)

@@ -1,0 +1,122 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Robots of a params file (``robot_names``, ``robots.<name>.*``): read, placed, refused.
+
+The placement is checked against forward kinematics written here from the URDF's numbers (the
+arm hangs straight down at zero, so each link's COM sits at the mount height minus the link
+lengths above it); every refusal is one line naming the parameter.
+"""
+
+import math
+import os
+
+import numpy as np
+import pytest
+
+from rbd_ros.core import ConfigError, ModelError
+from rbd_ros.sim.robots import (DEFAULT_POSITION_TIME_CONSTANT_S, MAX_ROBOTS, read_robots,
+                                robot_parameter_specs)
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+URDF = os.path.join(os.path.dirname(os.path.dirname(HERE)), 'msg_config', 'urdf')
+ARM = os.path.join(URDF, 'arm3.urdf')
+G = (0.0, 0.0, -9.81)
+
+
+def _arm(**extra):
+    params = {'robot_names': ['arm'], 'robots.arm.urdf_path': ARM}
+    params.update({f'robots.arm.{k}': v for k, v in extra.items()})
+    return params
+
+
+def test_an_arm_is_read_placed_and_given_its_joint_parameters():
+    (arm,) = read_robots(_arm(**{'joints.elbow.position_time_constant_s': 0.2}), G)
+    assert arm.name == 'arm' and arm.joint_names == ('shoulder', 'elbow', 'wrist')
+    assert arm.time_constants_s == (DEFAULT_POSITION_TIME_CONSTANT_S, 0.2,
+                                    DEFAULT_POSITION_TIME_CONSTANT_S)
+    names = {spec.name for spec in arm.specs}
+    assert 'robots.arm.joints.wrist.position_time_constant_s' in names
+    assert 'robots.arm.urdf_path' in names and 'robot_names' not in names
+    # Hanging straight down from the mount at z = 2 m: COMs at 1.75, 1.25, 0.75 m.
+    z = [s.position_w[2] for s in arm.placement.states]
+    np.testing.assert_allclose(z, (1.75, 1.25, 0.75), atol=1e-12)
+    assert all(m.gravity_w.tolist() == list(G) for m in arm.placement.models)
+    assert arm.units('shoulder') == ('rad', 'rad/s', 'N m')
+
+
+def test_the_root_pose_and_joint_positions_place_the_links():
+    quarter = [0.0, 0.0, math.sin(math.pi / 4), math.cos(math.pi / 4)]  # 90 deg about z
+    (arm,) = read_robots(_arm(initial_position=[1.0, 0.0, 0.0], initial_orientation=quarter,
+                              initial_joint_positions=[math.pi / 2, 0.0, 0.0]), G)
+    # The shoulder (about the mount's y, which the root turned to world -x) at +90 deg swings
+    # the hanging arm from -z to the horizontal: COMs in a line 0.25, 0.75, 1.25 m out.
+    p = np.array([s.position_w for s in arm.placement.states])
+    np.testing.assert_allclose(p[:, 2], 2.0, atol=1e-12)
+    out = p[:, :2] - (1.0, 0.0)
+    np.testing.assert_allclose(np.linalg.norm(out, axis=1), (0.25, 0.75, 1.25), atol=1e-12)
+
+
+def test_robot_description_takes_the_xml_itself():
+    with open(os.path.join(URDF, 'pendulum.urdf')) as f:
+        xml = f.read()
+    (pendulum,) = read_robots({'robot_names': ['p'], 'robots.p.robot_description': xml}, G)
+    assert pendulum.robot.source == 'robot_description'
+    assert len(pendulum.joint_names) == 1
+
+
+@pytest.mark.parametrize('params, error, words', [
+    ({'robot_names': ['arm']}, ConfigError,
+     'robots.arm.urdf_path / robots.arm.robot_description: neither given'),
+    (_arm(robot_description='<robot name="x"/>'), ConfigError, 'both given'),
+    ({'robot_names': ['arm', 'arm'], 'robots.arm.urdf_path': ARM}, ConfigError,
+     "'arm' is listed twice"),
+    ({'robot_names': ['9arm']}, ConfigError, "'9arm': letters, digits"),
+    ({'robot_names': [f'r{k}' for k in range(MAX_ROBOTS + 1)]}, ConfigError,
+     f'names; at most {MAX_ROBOTS}'),
+    (_arm(urdf_path='/nonexistent/arm.urdf'), ConfigError,
+     "robots.arm.urdf_path: '/nonexistent/arm.urdf' does not exist"),
+    (_arm(initial_position=[0.0, 0.0]), ConfigError,
+     'parameter robots.arm.initial_position = [0.0, 0.0] m: must have 3 values'),
+    (_arm(initial_orientation=[0.0, 0.0, 0.0, 2.0]), ConfigError, 'unit quaternion'),
+    (_arm(initial_joint_positions=[0.1]), ConfigError, 'robots.arm.initial_joint_positions'),
+    (_arm(initial_joint_positions=[5.0, 0.0, 0.0]), ConfigError,
+     'robots.arm.initial_joint_positions[0]: 5.0'),
+    (_arm(**{'joints.elbow.position_time_constant_s': 0.0}), ConfigError,
+     'parameter robots.arm.joints.elbow.position_time_constant_s = 0.0 s: must be > 0'),
+    (_arm(initial_position='up'), ConfigError, 'must be a list of numbers'),
+])
+def test_bad_robot_parameters_are_refused_in_one_line(params, error, words):
+    with pytest.raises(error) as caught:
+        read_robots(params, G)
+    message = str(caught.value)
+    assert words in message, message
+    assert '\n' not in message
+
+
+def test_a_moving_link_without_inertial_names_the_file_and_link(tmp_path):
+    bad = tmp_path / 'bad.urdf'
+    bad.write_text('<robot name="b"><link name="world"/><link name="l"/>'
+                   '<joint name="j" type="revolute"><parent link="world"/><child link="l"/>'
+                   '<axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/>'
+                   '</joint></robot>')
+    with pytest.raises(ModelError) as caught:
+        read_robots({'robot_names': ['b'], 'robots.b.urdf_path': str(bad)}, G)
+    assert str(bad) in str(caught.value) and "'l'" in str(caught.value)
+
+
+def test_every_robot_parameter_has_a_unit_or_none_and_a_description():
+    for spec in robot_parameter_specs('arm'):
+        assert spec.name.startswith('robots.arm.') and spec.description
