@@ -49,7 +49,6 @@ from rbd_ros.core.contact.world import is_valid_name, NAME_RULE
 from rbd_ros.sim.joint_commands import INTERFACES, JointSpec
 from rbd_ros.sim.params import (check_range, coerce, DOUBLE, DOUBLE_ARRAY, fail,
                                 PARAMETERS_BY_NAME, ParamSpec, STRING, STRING_ARRAY)
-from rbd_ros.sim.urdf import load_urdf, place_robot, Placement, Robot
 
 #: The robots' and the command groups' list parameters (in the table of rbd_ros.sim.params).
 ROBOT_NAMES = 'robot_names'
@@ -177,8 +176,8 @@ class RobotConfig:
     """
 
     name: str
-    robot: Robot
-    placement: Placement
+    robot: object  # rbd_ros.sim.urdf.Robot
+    placement: object  # rbd_ros.sim.urdf.Placement
     time_constants_s: Tuple[float, ...]
     specs: Tuple[ParamSpec, ...]
 
@@ -244,6 +243,8 @@ def _read_robot(params, name, gravity_w):
         fail(by_base['initial_position'], list(position), 'must have 3 values')
     orientation = _quaternion_wxyz(by_base['initial_orientation'],
                                    values['initial_orientation'])
+    # Imported here: yourdfpy, lxml and trimesh cost ~0.5 s, paid only by files with robots.
+    from rbd_ros.sim.urdf import load_urdf, place_robot
     try:
         robot = load_urdf(path) if path else load_urdf(xml=xml)
         placement = place_robot(
