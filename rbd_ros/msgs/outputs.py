@@ -228,7 +228,8 @@ def sample_builder(config, tf=True):
         return SampleBuilder(config, tf)
     bodies = tuple((b.prefix, b.body_frame) for b in config.bodies)
     return _cached_builder(config.world_frame, config.twist_frame, config.publish_clock,
-                           config.publish_tf and tf, config.contact, config.named, bodies)
+                           config.publish_tf and tf, config.contact, config.named, bodies,
+                           getattr(config, 'per_body_topics', True))
 
 
 #: Per-body output kinds, in publishing order (topics ``<prefix>pose``, ...).
@@ -262,6 +263,8 @@ class SampleBuilder:
     :param config: a :class:`rbd_ros.sim.config.NodeConfig`.
     :param tf: False leaves ``/tf`` out whatever ``publish_tf`` says (tf2_msgs missing, or a
         caller that does not output it).
+
+    With ``per_body_topics`` off (a world only), :attr:`kinds` has no per-body kinds.
     """
 
     def __init__(self, config, tf=True):
@@ -272,8 +275,9 @@ class SampleBuilder:
             config.contact)) for body in config.bodies)
         self.robots = tuple(RobotOutputs(robot, r, config.world_frame)
                             for r, robot in enumerate(getattr(config, 'robots', ())))
+        self.per_body = getattr(config, 'per_body_topics', True) or not config.named
         self.kinds = tuple(prefix + kind for prefix, body in zip(self.prefixes, self.bodies)
-                           for kind in body.kinds) \
+                           for kind in body.kinds if self.per_body) \
             + tuple(robot.kind for robot in self.robots) \
             + (('poses',) if config.named else ()) \
             + (('clock',) if config.publish_clock else ()) \
@@ -307,6 +311,8 @@ class SampleBuilder:
             assert self._single.kinds == self.kinds, (self._single.kinds, self.kinds)
         self._prefixed = tuple(tuple(prefix + kind for kind in body.kinds) if prefix else None
                                for prefix, body in zip(self.prefixes, self.bodies))
+        self._body_kinds = frozenset(kind for kinds in self._prefixed if kinds
+                                     for kind in kinds) if self.per_body else frozenset()
 
     def body_index(self, kind):
         """Return the index of the body of a per-body kind (``<prefix>pose``), or None."""
@@ -316,7 +322,7 @@ class SampleBuilder:
             return None
         return self.prefixes.index(prefix)
 
-    def serialize(self, time_ns, columns, wrenches=None, robots=None):
+    def serialize(self, time_ns, columns, wrenches=None, robots=None, wanted=None):
         """
         Return ``[(kind, CDR bytes)]`` of one sample, in :attr:`kinds` order.
 
@@ -325,32 +331,63 @@ class SampleBuilder:
             or None without contact
             (:attr:`rbd_ros.sim.session.SimSession.contact_wrenches_w`).
         :param robots: the :class:`rbd_ros.sim.robot_world.RobotWorld` of a robot file.
+        :param wanted: the kinds to build (a set; the others are neither built nor returned),
+            or None for every kind. The bytes of a kind do not depend on which others are built.
         """
         single = self._single
         if single is not None:
-            return single.serialize(time_ns, single.list_values(columns[:, 0].tolist()), None
-                                    if wrenches is None else (wrenches[0, :3].tolist(),
-                                                              wrenches[0, 3:].tolist()))
+            out = single.serialize(time_ns, single.list_values(columns[:, 0].tolist()), None
+                                   if wrenches is None else (wrenches[0, :3].tolist(),
+                                                             wrenches[0, 3:].tolist()))
+            return out if wanted is None else [item for item in out if item[0] in wanted]
         out = []
-        poses = [] if self._has_poses else None
-        tf = [] if self._has_tf else None
+        has = self._has_poses, self._has_tf, self.per_body
+        if wanted is not None:
+            has = ('poses' in wanted and has[0], 'tf' in wanted and has[1],
+                   has[2] and not wanted.isdisjoint(self._body_kinds))
+        poses = [] if has[0] else None
+        tf = [] if has[1] else None
         sec, nanosec = divmod(time_ns, NS_PER_S)
         world = self._world
-        rows = wrenches.tolist() if wrenches is not None else None
+        if has[2] or poses is not None or tf is not None:
+            rows = wrenches.tolist() if wrenches is not None and has[2] else None
+            self._bodies_sample(time_ns, columns, rows, wanted if has[2] else (), out, poses,
+                                tf)
+        for robot in self.robots:
+            if wanted is None or robot.kind in wanted:
+                out.append((robot.kind, robot.joint_states(time_ns, robots)))
+            if tf is not None:
+                tf += robot.tf_values(sec, nanosec, robots.link_poses(robot.index))
+        if poses is not None:
+            out.append(('poses', self._poses.pack(_ENCAPSULATION, sec, nanosec, len(world),
+                                                  world, len(self.bodies), *poses)))
+        if self._has_clock and (wanted is None or 'clock' in wanted):
+            out.append(('clock', self._clock.pack(_ENCAPSULATION, sec, nanosec)))
+        if tf is not None:
+            out.append(('tf', self._tf.pack(_ENCAPSULATION, self._tf_count, *tf)))
+        return out
+
+    def _bodies_sample(self, time_ns, columns, rows, wanted, out, poses, tf):
+        """
+        Append each body's wanted kinds to ``out``, its pose to ``poses`` and its ``tf`` fields.
+
+        :param wanted: None (every kind) or the per-body kinds to build (empty: none).
+        """
+        sec, nanosec = divmod(time_ns, NS_PER_S)
+        world = self._world
         wrench = None
         # One list of 13 floats per body, taken at once (a column view per body costs more).
         for i, x in enumerate(columns.T.tolist()):
             builder = self.bodies[i]
             values = builder.list_values(x)
-            if rows is not None:
-                row = rows[i]
-                wrench = (row[:3], row[3:])
-            prefixed = self._prefixed[i]
-            if prefixed is None:
-                out += builder.serialize(time_ns, values, wrench)
-            else:
+            prefixed = self._prefixed[i] or builder.kinds
+            if wanted is None or (wanted and not wanted.isdisjoint(prefixed)):
+                if rows is not None:
+                    row = rows[i]
+                    wrench = (row[:3], row[3:])
                 out += [(kind, data) for kind, (_, data)
-                        in zip(prefixed, builder.serialize(time_ns, values, wrench))]
+                        in zip(prefixed, builder.serialize(time_ns, values, wrench))
+                        if wanted is None or kind in wanted]
             if tf is not None or poses is not None:
                 (px, py, pz), (qw, qx, qy, qz) = values[0], values[1]
                 if poses is not None:
@@ -359,18 +396,6 @@ class SampleBuilder:
                     frame = self._frames[i]
                     tf += (sec, nanosec, len(world), world, len(frame), frame, px, py, pz, qx,
                            qy, qz, qw)
-        for robot in self.robots:
-            out.append((robot.kind, robot.joint_states(time_ns, robots)))
-            if tf is not None:
-                tf += robot.tf_values(sec, nanosec, robots.link_poses(robot.index))
-        if poses is not None:
-            out.append(('poses', self._poses.pack(_ENCAPSULATION, sec, nanosec, len(world),
-                                                  world, len(self.bodies), *poses)))
-        if self._has_clock:
-            out.append(('clock', self._clock.pack(_ENCAPSULATION, sec, nanosec)))
-        if tf is not None:
-            out.append(('tf', self._tf.pack(_ENCAPSULATION, self._tf_count, *tf)))
-        return out
 
     def robot_message(self, kind, time_ns, robots):
         """Return a new ``JointState`` of the robot kind ``<robot>/joint_states`` now."""
@@ -401,14 +426,15 @@ class SampleBuilder:
 
 @functools.lru_cache(maxsize=16)
 def _cached_builder(world_frame, twist_frame, publish_clock, publish_tf, contact, named,
-                    bodies):
+                    bodies, per_body_topics):
     config = _Config(world_frame, twist_frame, publish_clock, publish_tf, contact, named,
-                     tuple(_Body(prefix, frame) for prefix, frame in bodies))
+                     tuple(_Body(prefix, frame) for prefix, frame in bodies), per_body_topics)
     return SampleBuilder(config)
 
 
 _Config = collections.namedtuple(
-    '_Config', 'world_frame twist_frame publish_clock publish_tf contact named bodies')
+    '_Config',
+    'world_frame twist_frame publish_clock publish_tf contact named bodies per_body_topics')
 _Body = collections.namedtuple('_Body', 'prefix body_frame')
 _Frames = collections.namedtuple(
     '_Frames', 'world_frame body_frame twist_frame publish_clock publish_tf contact')

@@ -29,6 +29,7 @@ from rbd_ros.core import ConfigError
 from rbd_ros.msgs import outputs
 from rbd_ros.sim import params as sim_params
 from rbd_ros.sim.drag import CLICKED_POINT
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.exceptions import (NameValidationException, ParameterException,
                               ParameterUninitializedException)
 from rclpy.qos import DurabilityPolicy, QoSPolicyKind, QoSProfile, ReliabilityPolicy
@@ -113,18 +114,49 @@ def _check_policy_types(prefix, values):
             raise ConfigError(f'parameter {prefix}{policy}{given}; it must be {rule}')
 
 
-def publisher(node, overrides, msg_type, topic, qos):
-    """Create a publisher; ``qos`` a profile dict (a profile of its own) or a depth."""
+def publisher(node, overrides, msg_type, topic, qos, light=False):
+    """
+    Create a publisher; ``qos`` a profile dict (a profile of its own) or a depth.
+
+    :param light: a per-body endpoint of a world (:func:`light_options`).
+    """
     # A profile of its own for each publisher: rclpy writes the overrides into it.
     qos = QoSProfile(**qos) if isinstance(qos, dict) else qos
+    options, events = light_options(node, overrides, topic, 'publisher', light)
     return qos_checked(node, overrides, topic, 'publisher', node.create_publisher, msg_type,
-                       topic, qos, qos_overriding_options=QOS_OVERRIDES)
+                       topic, qos, qos_overriding_options=options,
+                       event_callbacks=PublisherEventCallbacks(use_default_callbacks=False)
+                       if events else None)
 
 
-def subscription(node, overrides, msg_type, topic, callback):
-    """Create a subscription of depth 10 that takes ``qos_overrides``."""
+def subscription(node, overrides, msg_type, topic, callback, light=False):
+    """Create a subscription of depth 10 that takes ``qos_overrides`` (``light``: see below)."""
+    options, events = light_options(node, overrides, topic, 'subscription', light)
     return qos_checked(node, overrides, topic, 'subscription', node.create_subscription,
-                       msg_type, topic, callback, 10, qos_overriding_options=QOS_OVERRIDES)
+                       msg_type, topic, callback, 10, qos_overriding_options=options,
+                       event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False)
+                       if events else None)
+
+
+def light_options(node, overrides, topic, kind, light):
+    """
+    Return ``(qos overriding options, events off)`` of an endpoint.
+
+    rclpy gives every endpoint a waitable of QoS event handlers (incompatible QoS and type
+    warnings), which every executor wake-up adds to its wait set (400 of them: 6 ms a
+    wake-up), and declares four read-only ``qos_overrides.<topic>.<kind>.*`` parameters.
+    A ``light`` endpoint (each body's of a world: thousands) has no event handlers and
+    declares its ``qos_overrides`` parameters only when one of them is overridden (its
+    overrides apply either way: they are read when the parameters are declared).
+
+    :param overrides: the ``qos_overrides.*`` ones at least (the node passes only those: this
+        looks at each).
+    """
+    if not light:
+        return QOS_OVERRIDES, False
+    prefix = f'qos_overrides.{node.resolve_topic_name(topic)}.{kind}.'
+    return (QOS_OVERRIDES if any(name.startswith(prefix) for name in overrides) else None,
+            True)
 
 
 def output_topics(config):

@@ -180,6 +180,11 @@ class NodeConfig:
         return bool(self.parameters['body_names'])
 
     @property
+    def per_body_topics(self):
+        """Return whether each body of a world has its own output topics (``per_body_topics``)."""
+        return self.parameters['per_body_topics']
+
+    @property
     def contact(self):
         """Return True when a body can touch something: named bodies, a ground or an obstacle."""
         return self.static_world is not None or self.named
@@ -250,6 +255,10 @@ class NodeConfig:
             bodies = _world_bodies(values, body_inputs, static_world, integrator)
             settings = {**_frame_settings(values, bodies), **_limits_and_recording(values)}
         else:
+            if not values['per_body_topics']:  # a single body's topics are its only outputs
+                fail(PARAMETERS_BY_NAME['per_body_topics'], False,
+                     'only a world (body_names) can turn its per-body topics off: a single '
+                     "body's pose, twist and odom are its only state outputs")
             body = _single_body(values, static_world, integrator)
             settings = {**_frame_settings(values), **_limits_and_recording(values)}
             bodies = (dataclass_replace(

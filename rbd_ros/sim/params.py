@@ -236,6 +236,10 @@ PARAMETERS = (
     ParamSpec('publish_markers', BOOL, True, '',
               'With contact: publish markers (bodies, contacts) and static_markers (ground, '
               'obstacles) for RViz and Foxglove.'),
+    ParamSpec('per_body_topics', BOOL, True, '',
+              "A world's per-body output topics (<body>/pose, twist, odom, contact_wrench); "
+              'false leaves poses, /tf, markers and the inputs.',
+              rule='true without body_names'),
     ParamSpec('publish_clock', BOOL, False, '', 'Publish /clock (sim time).'),
     ParamSpec('publish_tf', BOOL, True, '',
               'Broadcast world -> body on /tf (only when tf2_msgs is importable).'),
