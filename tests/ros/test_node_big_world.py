@@ -1,0 +1,150 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+A world's outputs as the node scales (issue 29, item 1), through real DDS.
+
+Two balls falling from 10 m and 8 m onto a floor (g = 9.81 m/s², h = 1 ms): before either
+touches (t < 1.26 s), ``z(t) = z0 − g t²/2`` exactly up to round-off (the default integrator
+integrates a constant force exactly). ``per_body_topics: false`` leaves no per-body output
+topic on the graph while ``poses`` and ``/tf`` carry those poses; by default every per-body
+topic is there, and a subscriber that comes late, while paused or running, gets its samples
+(the node builds a kind only for its subscribers).
+"""
+
+from conftest import FIRST_START_S, wait_until
+from geometry_msgs.msg import PoseArray, PoseStamped, TwistStamped
+import pytest
+from rbd_ros.msgs import conversions
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from ros_context import ros_fixture  # noqa: F401 (the ros fixture)
+from std_srvs.srv import SetBool
+from tf2_msgs.msg import TFMessage
+
+G = 9.81
+HEIGHTS_M = {'high': 10.0, 'low': 8.0}
+BODY_KINDS = ('pose', 'twist', 'odom', 'contact_wrench')
+# Round-off of ~1,000 kick-drift-kick steps on values of ~10 m: ~1e-12 m; the bound leaves room.
+FALL_TOL_M = 1e-9
+FREE_FALL_NS = 1_200_000_000  # the low ball (r = 0.1 m) touches at sqrt(2 * 7.9 / g) = 1.27 s
+LATE_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def _world(**extra):
+    params = {'gravity': [0.0, 0.0, -G], 'ground.enabled': True, 'timestep_s': 0.001,
+              'publish_rate_hz': 100.0, 'body_names': list(HEIGHTS_M)}
+    for i, (name, z0) in enumerate(HEIGHTS_M.items()):
+        params[f'bodies.{name}.shape'] = 'sphere'
+        params[f'bodies.{name}.dimensions_m'] = [0.1]
+        params[f'bodies.{name}.initial_position'] = [float(i), 0.0, z0]
+    params.update(extra)
+    return params
+
+
+def _node_topics(ros, ns, timeout_s, want):
+    """Return the node's (publisher topics, subscription topics) once ``want(pubs, subs)``."""
+    node, executor = ros
+    found = []
+
+    def look():
+        try:
+            pubs = {t for t, _ in node.get_publisher_names_and_types_by_node(
+                'rigid_body_node', ns)}
+            subs = {t for t, _ in node.get_subscriber_names_and_types_by_node(
+                'rigid_body_node', ns)}
+        except Exception:  # NodeNameNonExistentError until discovered
+            return False
+        found[:] = [pubs, subs]
+        return want(pubs, subs)
+    wait_until(look, timeout_s, spin=lambda: executor.spin_once(timeout_sec=0.05),
+               what='the node on the graph')
+    return found
+
+
+def _fall_z(name, t_ns):
+    t = t_ns * 1e-9
+    return HEIGHTS_M[name] - 0.5 * G * t * t
+
+
+def test_per_body_topics_false_leaves_poses_and_tf_right(ros, start_node):
+    node_proc = start_node(_world(per_body_topics=False, real_time_factor=0.5,
+                                  duration_s=0.8), namespace=True)
+    ns = node_proc.namespace
+    node, executor = ros
+    poses, tfs = {}, {}
+    node.create_subscription(PoseArray, f'{ns}/poses', lambda m: poses.__setitem__(
+        conversions.time_from_msg(m.header.stamp), m), 1000)
+    node.create_subscription(TFMessage, '/tf', lambda m: tfs.__setitem__(
+        conversions.time_from_msg(m.transforms[0].header.stamp), m), 1000)
+    pubs, subs = _node_topics(ros, ns, FIRST_START_S, lambda p, s: f'{ns}/poses' in p)
+    wait_until(lambda: node_proc.process.poll() is not None, 60.0,
+               spin=lambda: executor.spin_once(timeout_sec=0.02), what='the end of the run')
+    assert node_proc.wait(5.0) == 0, node_proc.stderr
+    for _ in range(20):  # what DDS still holds
+        executor.spin_once(timeout_sec=0.02)
+    # No per-body output topic; the world's outputs and every input are there.
+    assert not {t for t in pubs if t.rsplit('/', 1)[-1] in BODY_KINDS}, pubs
+    assert {f'{ns}/poses', '/tf', f'{ns}/markers'} <= pubs, pubs
+    assert {f'{ns}/{b}/{i}' for b in HEIGHTS_M for i in ('wrench', 'drag')} <= subs, subs
+    # poses and /tf: every body's free fall, and the same values at every stamp.
+    stamps = sorted(set(poses) & set(tfs))
+    assert len(stamps) >= 10, (len(poses), len(tfs))  # the run publishes 81 in 1.6 s
+    for t_ns in stamps:
+        assert t_ns < FREE_FALL_NS
+        transforms = {tr.child_frame_id: tr.transform.translation
+                      for tr in tfs[t_ns].transforms}
+        for name, pose in zip(HEIGHTS_M, poses[t_ns].poses):
+            assert pose.position.z == pytest.approx(_fall_z(name, t_ns), abs=FALL_TOL_M)
+            assert (transforms[name].x, transforms[name].y, transforms[name].z) == (
+                pose.position.x, pose.position.y, pose.position.z)
+
+
+def test_default_topics_and_late_subscribers_paused_and_running(ros, start_node):
+    node_proc = start_node(_world(start_paused=True, real_time_factor=0.25), namespace=True)
+    ns = node_proc.namespace
+    node, executor = ros
+    spin = lambda: executor.spin_once(timeout_sec=0.02)  # noqa: E731
+    expected = {f'{ns}/{b}/{k}' for b in HEIGHTS_M for k in BODY_KINDS} | {
+        f'{ns}/poses', '/tf', f'{ns}/markers', f'{ns}/static_markers', '/diagnostics'}
+    pubs, subs = _node_topics(ros, ns, FIRST_START_S, lambda p, s: expected <= p)
+    # Today's outputs exactly (plus rclpy's own), and every input.
+    assert pubs - expected == {'/rosout', '/parameter_events'}, pubs - expected
+    assert {f'{ns}/{b}/{i}' for b in HEIGHTS_M for i in ('wrench', 'drag')} | {
+        '/clicked_point'} <= subs, subs
+    # Paused at t = 0, nobody had subscribed to high/pose: a late subscriber still gets it.
+    late = {}
+    node.create_subscription(PoseStamped, f'{ns}/high/pose', lambda m: late.__setitem__(
+        conversions.time_from_msg(m.header.stamp), m), LATE_QOS)
+    wait_until(lambda: 0 in late, 30.0, spin=spin, what='the paused sample on high/pose')
+    assert late[0].pose.position.z == HEIGHTS_M['high']  # the initial state, exactly
+    pause = node.create_client(SetBool, f'{ns}/rigid_body_node/pause')
+    wait_until(pause.service_is_ready, 30.0, spin=spin, what='~/pause')
+    future = pause.call_async(SetBool.Request(data=False))
+    wait_until(future.done, 30.0, spin=spin, what='~/pause')
+    wait_until(lambda: len(late) >= 5, 30.0, spin=spin, what='high/pose while running')
+    # Running: another topic nobody listened to answers from the next sample on.
+    twists = {}
+    node.create_subscription(TwistStamped, f'{ns}/low/twist', lambda m: twists.__setitem__(
+        conversions.time_from_msg(m.header.stamp), m), 100)
+    wait_until(lambda: len(twists) >= 5, 30.0, spin=spin, what='low/twist, subscribed late')
+    # At a factor of 0.25 the fall lasts 4.8 s of wall time: these samples are of it.
+    assert min(twists) < FREE_FALL_NS, sorted(twists)
+    for t_ns, msg in twists.items():
+        if t_ns < FREE_FALL_NS:  # falling freely: v_z = -g t (round-off: ~1e-12 m/s)
+            assert msg.twist.linear.z == pytest.approx(-G * t_ns * 1e-9, abs=FALL_TOL_M)
+    for t_ns, msg in late.items():
+        if t_ns < FREE_FALL_NS:
+            assert msg.pose.position.z == pytest.approx(_fall_z('high', t_ns), abs=FALL_TOL_M)
+    assert node_proc.stop() == 0, node_proc.stderr
