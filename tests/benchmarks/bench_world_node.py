@@ -15,7 +15,8 @@
 """
 Benchmark of a world in ``rigid_body_node`` (issue 10's speed targets; not collected by pytest).
 
-``.venv/bin/python tests/benchmarks/bench_world_node.py [--bodies 100 1000] [--runs 3]``
+``.venv/bin/python tests/benchmarks/bench_world_node.py [--bodies 100 1000] [--runs 3]
+[--set per_body_topics:=false]``
 
 N boxes (side 0.1 m, 1 kg, 0.2 m apart in a square grid) resting on a floor, h = 1 ms, 100 Hz
 publishing (every body's pose, twist, odom and contact wrench, ``poses``, ``/tf``), as the
@@ -57,12 +58,13 @@ def world_params(count):
     return params
 
 
-def node_wall_s(params_file, sim_s):
+def node_wall_s(params_file, sim_s, extra=()):
     """Run the node as fast as possible for ``sim_s``; return the wall seconds it took."""
     start = time.monotonic()
     run = subprocess.run(
         [sys.executable, '-m', 'rbd_ros.node', '--ros-args', '--params-file', params_file,
-         '-p', f'duration_s:={sim_s}', '-p', 'real_time_factor:=0.0'],
+         '-p', f'duration_s:={sim_s}', '-p', 'real_time_factor:=0.0']
+        + [arg for setting in extra for arg in ('-p', setting)],
         capture_output=True, text=True, cwd=REPO, timeout=3600)
     if run.returncode != 0:
         raise SystemExit(run.stderr)
@@ -87,10 +89,12 @@ def main(argv=None):
     parser.add_argument('--runs', type=int, default=3)
     parser.add_argument('--short-s', type=float, default=0.2)
     parser.add_argument('--long-s', type=float, default=2.2)
+    parser.add_argument('--set', action='append', default=[], metavar='NAME:=VALUE',
+                        help='a node parameter for every run (per_body_topics:=false)')
     args = parser.parse_args(argv)
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     os.environ.setdefault('ROS_DOMAIN_ID', str(90 + os.getpid() % 10))
-    print(f'load average {os.getloadavg()}')
+    print(f'load average {os.getloadavg()}; parameters {args.set}; nobody subscribed')
     print('bodies  as-fast factor (target >= 1 at 100)  node µs/step  core µs/step  '
           'core µs/body-step')
     for count in args.bodies:
@@ -99,8 +103,8 @@ def main(argv=None):
             yaml.safe_dump({'/**': {'ros__parameters': params}}, f)
         factors, node_us, core_us = [], [], []
         for _ in range(args.runs):
-            short = node_wall_s(f.name, args.short_s)
-            long = node_wall_s(f.name, args.long_s)
+            short = node_wall_s(f.name, args.short_s, args.set)
+            long = node_wall_s(f.name, args.long_s, args.set)
             sim = args.long_s - args.short_s
             factors.append(sim / max(long - short, 1e-9))
             node_us.append((long - short) / (sim * 1000) * 1e6)

@@ -16,8 +16,9 @@
 Every way a run of the real node ends is in its bag, and replay reports a failed run as failed.
 
 Issue 31: a world on ``msg_config/stack.yaml`` whose step goes non-finite (a drag to
-(1e300, 1e300) m did it; the drag limits now refuse that, so here the striker is thrown at
-1.7e308 m/s): the ``rbd_ros.run`` record must say how the run ended, and replay must exit non-zero
+(1e300, 1e300) m did it; the drag limits now refuse that, and a body thrown at 1.7e308 m/s is
+refused at start since its kinetic energy overflows, so here a drag spring far too stiff for
+the step blows the striker up): the ``rbd_ros.run`` record must say how the run ended, and replay must exit non-zero
 (3: the replay matches, but the recorded run failed), never ``MATCH``. With ``duration_s`` set
 the node cannot reach its end: it stops with status 1 instead of pausing for ever.
 """
@@ -26,20 +27,39 @@ from pathlib import Path
 import signal
 
 from conftest import wait_until
+from geometry_msgs.msg import PointStamped
 from rbd_ros.bag.recording import open_bag
 from rbd_ros.bag.replay import EXIT_RUN_FAILED, main
+from ros_context import ros_fixture  # noqa: F401 (the ros fixture)
 from sim_recorder import record_scripted_run
 
 REPO = Path(__file__).resolve().parents[2]
 STACK = REPO / 'msg_config' / 'stack.yaml'
 
 
-#: The striker thrown at nearly the largest double: the first step is finite (the start-up
-#: check passes), and its position overflows about a second of sim time later (1.7e308 m/s x
-#: 1 ms a step reaches the largest double, 1.8e308 m, after ~1060 steps). Drags and wrenches
-#: can no longer do this (their limits, max_drag_point_m and max_force_n, reject the issue's
-#: drag to (1e300, 1e300) m: tests/ros/test_node_drag_limits.py).
-THROWN = {'bodies.striker.initial_linear_velocity': [1.7e308, 0.0, 0.0]}
+#: A drag spring of 1e12 N/m on the 2 kg striker: ω = sqrt(k/m) = 7e5 rad/s, h ω = 700 at
+#: h = 1 ms, so the explicit kicks multiply its oscillation by ~(h ω)² a step and overflow
+#: within a few dozen steps. Every start-up check passes (the drag comes later), and the drag
+#: itself is within every limit: a point 1e-7 m from the striker pulls with 1e5 N, under
+#: max_force_n = 1e6 N (a force of its own cannot do it: tests/ros/test_node_drag_limits.py).
+STIFF = {'drag_stiffness_n_per_m': 1e12}
+STRIKER_AT = (-0.8 + 1e-7, 0.0, 0.1)
+
+
+def _blow_up(ros, ns, proc, until):
+    """Drag the striker on the stiff spring until ``until()`` (the step went non-finite)."""
+    node, executor = ros
+    pub = node.create_publisher(PointStamped, f'{ns}/striker/drag', 10)
+
+    def dragged():
+        if pub.get_subscription_count():
+            msg = PointStamped()
+            msg.header.frame_id = 'world'
+            msg.point.x, msg.point.y, msg.point.z = STRIKER_AT
+            pub.publish(msg)
+        executor.spin_once(timeout_sec=0.05)
+        return until()
+    wait_until(dragged, 120.0, what='the step to go non-finite under the stiff drag')
 
 
 def _check_bag_and_replay(bag_path, ended_by, capsys):
@@ -57,25 +77,24 @@ def _check_bag_and_replay(bag_path, ended_by, capsys):
 
 
 def test_a_non_finite_run_is_in_the_bag_and_replay_reports_the_failure(
-        start_node, tmp_path, capsys):
+        ros, start_node, tmp_path, capsys):
     bag_path = tmp_path / 'thrown'
-    proc = start_node(params={'record_path': str(bag_path), 'real_time_factor': 0.0, **THROWN},
+    proc = start_node(params={'record_path': str(bag_path), 'real_time_factor': 1.0, **STIFF},
                       params_file=STACK, namespace=True)
-    wait_until(lambda: 'paused (call ~/reset)' in proc.stderr, 120.0,
-               what='the node to pause on the non-finite step')
+    _blow_up(ros, proc.namespace, proc, lambda: 'paused (call ~/reset)' in proc.stderr)
     assert 'would be non-finite' in proc.stderr
     assert proc.stop(signal.SIGINT, timeout_s=30.0) == 0, proc.stderr
     _check_bag_and_replay(bag_path, 'SIGINT', capsys)
 
 
-def test_non_finite_step_with_duration_exits_1_and_says_why(start_node, tmp_path, capsys):
+def test_non_finite_step_with_duration_exits_1_and_says_why(ros, start_node, tmp_path,
+                                                            capsys):
     bag_path = tmp_path / 'thrown_duration'
     # 600 s of sim time: the step fails long before the end, which the run can never reach.
     proc = start_node(params={'record_path': str(bag_path), 'duration_s': 600.0,
-                              'real_time_factor': 0.0, **THROWN},
+                              'real_time_factor': 1.0, **STIFF},
                       params_file=STACK, namespace=True)
-    wait_until(lambda: proc.process.poll() is not None, 120.0,
-               what='the node to exit after the non-finite step')
+    _blow_up(ros, proc.namespace, proc, lambda: proc.process.poll() is not None)
     assert proc.process.returncode == 1, proc.stderr
     assert 'stopping (duration_s is set): exit 1' in proc.stderr
     _check_bag_and_replay(bag_path, 'non-finite step', capsys)

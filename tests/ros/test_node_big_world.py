@@ -20,11 +20,15 @@ touches (t < 1.26 s), ``z(t) = z0 − g t²/2`` exactly up to round-off (the def
 integrates a constant force exactly). ``per_body_topics: false`` leaves no per-body output
 topic on the graph while ``poses`` and ``/tf`` carry those poses; by default every per-body
 topic is there, and a subscriber that comes late, while paused or running, gets its samples
-(the node builds a kind only for its subscribers).
+(the node builds a kind only for its subscribers). A flood of bad inputs on a world is
+counted and changes nothing.
 """
 
+import math
+import time
+
 from conftest import FIRST_START_S, wait_until
-from geometry_msgs.msg import PoseArray, PoseStamped, TwistStamped
+from geometry_msgs.msg import PointStamped, PoseArray, PoseStamped, TwistStamped
 import pytest
 from rbd_ros.msgs import conversions
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -37,6 +41,7 @@ HEIGHTS_M = {'high': 10.0, 'low': 8.0}
 BODY_KINDS = ('pose', 'twist', 'odom', 'contact_wrench')
 # Round-off of ~1,000 kick-drift-kick steps on values of ~10 m: ~1e-12 m; the bound leaves room.
 FALL_TOL_M = 1e-9
+FLOOD_S = 1.0  # of wall time; the node runs at real time, so the fall lasts beyond it
 FREE_FALL_NS = 1_200_000_000  # the low ball (r = 0.1 m) touches at sqrt(2 * 7.9 / g) = 1.27 s
 LATE_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                       durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -153,3 +158,71 @@ def test_default_topics_and_late_subscribers_paused_and_running(ros, start_node)
         if t_ns < FREE_FALL_NS:
             assert msg.pose.position.z == pytest.approx(_fall_z('high', t_ns), abs=FALL_TOL_M)
     assert node_proc.stop() == 0, node_proc.stderr
+
+
+def _counters(msg):
+    return {kv.key: float(kv.value) for kv in msg.status[0].values
+            if kv.key.startswith(('wrenches_', 'drags_'))}
+
+
+def test_a_flood_of_bad_inputs_on_a_world_is_counted_and_changes_nothing(ros, start_node):
+    # Issue 30, item 3, briefly: /clicked_point, <body>/drag and <body>/wrench flooded with
+    # NaN, out-of-frame and out-of-range values as fast as one publisher can; every one is bad.
+    # Without gravity the balls rest where they start: any input that took effect moves one.
+    node_proc = start_node(_world(real_time_factor=1.0, gravity=[0.0, 0.0, 0.0]),
+                           namespace=True)
+    ns = node_proc.namespace
+    node, executor = ros
+    spin = lambda: executor.spin_once(timeout_sec=0.01)  # noqa: E731
+    poses, diagnostics = {}, []
+    node.create_subscription(PoseArray, f'{ns}/poses', lambda m: poses.__setitem__(
+        conversions.time_from_msg(m.header.stamp), m), 1000)
+    node.create_subscription(
+        conversions.DiagnosticArray, '/diagnostics', lambda m: diagnostics.append(m)
+        if m.status and m.status[0].name.startswith(f'{ns}/rigid_body_node:') else None, 100)
+    wrench = node.create_publisher(conversions.WrenchStamped, f'{ns}/high/wrench', 10)
+    drag = node.create_publisher(PointStamped, f'{ns}/low/drag', 10)
+    click = node.create_publisher(PointStamped, '/clicked_point', 10)
+    wait_until(lambda: min(p.get_subscription_count() for p in (wrench, drag, click)) > 0
+               and len(diagnostics) >= 2 and poses, FIRST_START_S, spin=spin,
+               what='the world node')
+    before = _counters(diagnostics[-1])
+    before_ns = max(poses)
+    nan = float('nan')
+    bad_wrenches = [conversions.wrench_to_msg('not_a_frame', (1.0, 0.0, 0.0), (0.0,) * 3),
+                    conversions.wrench_to_msg('world', (nan, 0.0, 0.0), (0.0,) * 3),
+                    conversions.wrench_to_msg('world', (1e300, 0.0, 0.0), (0.0,) * 3)]
+    bad_points = []
+    for frame, point in (('not_a_frame', (0.0, 0.0, 8.0)), ('world', (nan, 0.0, 8.0)),
+                         ('world', (1e12, 0.0, 0.0))):
+        msg = PointStamped()
+        msg.header.frame_id = frame
+        msg.point.x, msg.point.y, msg.point.z = point
+        bad_points.append(msg)
+    sent, end = 0, time.monotonic() + FLOOD_S
+    while time.monotonic() < end:
+        for i in range(3):
+            wrench.publish(bad_wrenches[i])
+            drag.publish(bad_points[i])
+            click.publish(bad_points[i])
+        sent += 9
+        if sent % 900 == 0:
+            spin()
+    # The counters settle once the node has worked off what DDS kept (keep last 10).
+    wait_until(lambda: len(diagnostics) >= 2 and _counters(diagnostics[-1]) == _counters(
+        diagnostics[-2]) != before, 30.0, spin=spin, what='the counters to settle')
+    after = _counters(diagnostics[-1])
+    assert node_proc.stop() == 0, node_proc.stderr
+    delta = {key: after[key] - before[key] for key in after}
+    # Every input taken was bad and counted as rejected (received <= sent: DDS drops the rest).
+    assert 0 < delta['wrenches_received'] <= sent, delta
+    assert delta['wrenches_rejected'] == delta['wrenches_received'], delta
+    assert 0 < delta['drags_received'] <= sent, delta
+    assert delta['drags_rejected'] == delta['drags_received'], delta
+    # The state stayed finite and exactly at rest, through the flood (no bad input took effect).
+    assert max(poses) > before_ns + FLOOD_S * 1e9 * 0.5, (before_ns, max(poses))
+    for msg in poses.values():
+        for i, (name, pose) in enumerate(zip(HEIGHTS_M, msg.poses)):
+            position = (pose.position.x, pose.position.y, pose.position.z)
+            assert all(map(math.isfinite, position)) and position == (
+                float(i), 0.0, HEIGHTS_M[name]), (name, position)
