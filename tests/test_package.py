@@ -55,8 +55,8 @@ EXEC_DEPENDS = {e.text.strip() for e in PACKAGE_XML.iter('exec_depend')}
 # Imported by rbd_ros, provided by ROS (rosdep keys = package names, or the ros-jazzy-* wheels),
 # so not in install_requires but exec_depends of package.xml.
 ROS_PACKAGES = ('ament_index_python', 'builtin_interfaces', 'diagnostic_msgs', 'geometry_msgs',
-                'nav_msgs', 'rcl_interfaces', 'rclpy', 'rosgraph_msgs', 'std_msgs', 'std_srvs',
-                'tf2_msgs', 'visualization_msgs')
+                'nav_msgs', 'rcl_interfaces', 'rclpy', 'rosgraph_msgs', 'sensor_msgs', 'std_msgs',
+                'std_srvs', 'tf2_msgs', 'trajectory_msgs', 'visualization_msgs')
 # Every other module rbd_ros imports → its key in ros/rosdistro rosdep/python.yaml (each key
 # checked to exist there; mcap has none of its own: mcap-ros2-support's pip package brings it).
 ROSDEP_KEYS = {'numpy': 'python3-numpy', 'numba': 'python3-numba', 'yaml': 'python3-yaml',

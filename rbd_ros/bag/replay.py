@@ -280,7 +280,7 @@ def _command_for_topic(session, topic):
     return None
 
 
-def command_payload(msg):
+def command_payload(msg) -> Union[list, tuple]:
     """Return the :meth:`SimSession.submit_command` payload of a decoded command message."""
     if hasattr(msg, 'points'):  # trajectory_msgs/JointTrajectory
         return conversions.trajectory_from_msg(msg)

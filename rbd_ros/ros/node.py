@@ -465,7 +465,10 @@ class RigidBodyNode(Node):
         """
         t = self.session.time_ns
         recording = self._recorder is not None
-        wanted = None if recording else {kind for kind, count in self._subscribed if count()}
+        # Paused (a ~/step, a ~/reset) every kind is built: a transient-local subscriber that
+        # comes later must get this sample, not an older one still held by the publisher.
+        wanted = None if recording or self.session.paused else {
+            kind for kind, count in self._subscribed if count()}
         samples = self._builder.serialize(t, self._columns, self.session.contact_wrenches_w,
                                           self._robots, wanted)
         pubs = self._sample_pubs

@@ -162,7 +162,7 @@ BAD_ARGS = [  # (--ros-args, or a params dict; what the one line must contain)
      ['qos_overrides./pose.publisher.*', 'banana']),
     ({'qos_overrides./pose.publisher.depth': -1}, ['qos_overrides./pose.publisher.depth = -1']),
     ({'qos_overrides./wrench.subscription.depth': 'abc'},
-     ['qos_overrides./wrench.subscription.*', "'abc'"]),
+     ['qos_overrides./wrench.subscription.depth', "'abc'", 'an integer >= 0']),
     ({'real_time_factor': 1e-5}, ['parameter real_time_factor = 1e-05', 'or in [0.001, 1e+06]']),
 ]
 
@@ -320,18 +320,12 @@ def test_real_time_factor_bounds_live(start_node):
     assert node.stop() == 0, node.stderr
 
 
-def test_non_finite_diagnostics_are_at_least_warn(start_node):
-    # Item 17: a finite state whose kinetic energy overflows (|v| = 1e160 m/s: 1e320 J) is
-    # reported at WARN level naming the value, never OK.
+def test_a_state_whose_energy_overflows_is_refused_at_start(start_node):
+    # Item 17 said a finite state whose kinetic energy overflows (|v| = 1e160 m/s: 1e320 J)
+    # must never be reported OK; since issue 30 such a start is refused, for one body as for
+    # every body of a world, naming the parameter (a world of them used to hang).
     node = start_node({'start_paused': True, 'initial_linear_velocity': [1e160, 0.0, 0.0]},
                       namespace=True)
-    probe = Probe(node.namespace, outputs=('diagnostics',))
-    try:
-        values = probe.diagnostic_values()
-        assert values['kinetic_energy_j'] == 'inf'
-        status = probe.diagnostics[-1].status[0]
-        assert status.level >= status.WARN, status
-        assert 'kinetic_energy_j' in status.message, status.message
-    finally:
-        probe.close()
-    assert node.stop() == 0, node.stderr
+    assert node.wait(120) == 2, node.stderr
+    assert 'parameter initial_linear_velocity = [1e+160, 0.0, 0.0] m/s' in node.stderr
+    assert 'overflows' in node.stderr and 'Traceback' not in node.stderr
