@@ -33,40 +33,17 @@ every machine.
 
 from rbd_ros.msgs.cdr import cdr_string, layout
 from rbd_ros.sim.params import NS_PER_S
+from rbd_ros.sim.robot_world import multiply, rotate
 
 ENCAPSULATION = b'\x00\x01\x00\x00'
-
-
-def _conj_mul(a, b):
-    """Return ``a* ⊗ b`` for unit quaternions ``(w, x, y, z)``."""
-    aw, ax, ay, az = a
-    bw, bx, by, bz = b
-    ax, ay, az = -ax, -ay, -az
-    return (aw * bw - ax * bx - ay * by - az * bz,
-            aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw)
-
-
-def _rotate_inv(q, v):
-    """Return ``R(q)ᵀ v`` for a unit quaternion ``q = (w, x, y, z)``."""
-    w, x, y, z = q
-    vx, vy, vz = v
-    # t = 2 (q_v × v); v' = v + w t + q_v × t, with q conjugated
-    x, y, z = -x, -y, -z
-    tx = 2.0 * (y * vz - z * vy)
-    ty = 2.0 * (z * vx - x * vz)
-    tz = 2.0 * (x * vy - y * vx)
-    return (vx + w * tx + (y * tz - z * ty),
-            vy + w * ty + (z * tx - x * tz),
-            vz + w * tz + (x * ty - y * tx))
 
 
 def relative_pose(parent, child):
     """Return the child frame in the parent frame: ``(translation, (w, x, y, z))``."""
     (pp, qp), (pc, qc) = parent, child
+    qp_inv = (qp[0], -qp[1], -qp[2], -qp[3])
     d = (pc[0] - pp[0], pc[1] - pp[1], pc[2] - pp[2])
-    return _rotate_inv(qp, d), _conj_mul(qp, qc)
+    return rotate(qp_inv, d), multiply(qp_inv, qc)
 
 
 class RobotOutputs:

@@ -57,7 +57,6 @@ from rbd_ros.sim.diagnostics import Diagnostics
 from rbd_ros.sim.diagnostics import status as diagnostics_status
 from rbd_ros.sim.drag import CLICKED_POINT
 from rbd_ros.sim.inputs import WrenchRejected
-from rbd_ros.sim.joint_commands import CommandRejected
 from rbd_ros.sim.session import SimSession
 from rcl_interfaces.msg import SetParametersResult
 import rclpy
@@ -554,7 +553,7 @@ class RigidBodyNode(Node):
     def _on_input(self, name, msg, submit, what):
         try:
             submit()
-        except (WrenchRejected, CommandRejected) as exc:
+        except WrenchRejected as exc:  # a wrench, drag or robot command (CommandRejected)
             self._warn_rejected(what, exc)
             return
         if self._pacer.real_time_factor > 0:  # run a step due since the last tick now

@@ -42,8 +42,10 @@ from dataclasses import dataclass
 import math
 from typing import Optional, Sequence, Tuple
 
-from rbd_ros.core import InputError, RbdError
+from rbd_ros.core import RbdError
 from rbd_ros.core.joints.model import check_position_target
+from rbd_ros.sim.inputs import WrenchRejected
+from rbd_ros.sim.trajectory import parse_trajectory
 
 #: Rejection reasons, in the order they are checked.
 REJECT_REASONS = ('unknown_joint', 'duplicate_joint', 'length', 'non_finite', 'limit')
@@ -51,12 +53,8 @@ REJECT_REASONS = ('unknown_joint', 'duplicate_joint', 'length', 'non_finite', 'l
 INTERFACES = ('position', 'velocity', 'effort')
 
 
-class CommandRejected(InputError):
+class CommandRejected(WrenchRejected):
     """A command was rejected whole; :attr:`reason` is one of :data:`REJECT_REASONS`."""
-
-    def __init__(self, reason, message):
-        super().__init__(message)
-        self.reason = reason
 
 
 @dataclass(frozen=True)
@@ -274,10 +272,8 @@ class RobotInputs:
         self.received[input_name] += 1
         try:
             value = self._check(spec, payload, state)
-        except CommandRejected as exc:
+        except WrenchRejected as exc:  # a CommandRejected or TrajectoryRejected
             self._reject(exc)
-        except InputError as exc:  # a TrajectoryRejected
-            self._reject(CommandRejected(getattr(exc, 'reason', 'length'), str(exc)))
         self._pending.append((spec, payload, value, tag))
 
     def _check(self, spec, payload, state, effect_ns=0):
@@ -286,7 +282,6 @@ class RobotInputs:
             return joint_state_targets(spec.name, specs, *payload)
         if spec.kind == 'commands':
             return group_targets(spec.name, specs, spec.group, spec.interface, payload)
-        from rbd_ros.sim.trajectory import parse_trajectory
         names, stamp_ns, points = payload
         q, qd = state
         group_names = [specs[j].name for j in spec.group]

@@ -35,8 +35,13 @@ from rbd_ros.core import layout
 from rbd_ros.core.joints import ArticulatedSimulator
 
 
-def _multiply(a, b):
-    """Return ``a ⊗ b`` of quaternions ``(w, x, y, z)``, plain floats."""
+def multiply(a, b):
+    """
+    Return ``a ⊗ b`` of quaternions ``(w, x, y, z)``, plain floats.
+
+    Plain Python, no BLAS: the link poses and their ``/tf`` transforms (rbd_ros.msgs.robot_outputs)
+    are the same bits on every machine.
+    """
     aw, ax, ay, az = a
     bw, bx, by, bz = b
     return (aw * bw - ax * bx - ay * by - az * bz,
@@ -45,7 +50,7 @@ def _multiply(a, b):
             aw * bz + ax * by - ay * bx + az * bw)
 
 
-def _rotate(q, v):
+def rotate(q, v):
     """Return ``R(q) v`` for a unit quaternion ``(w, x, y, z)``, plain floats."""
     w, x, y, z = q
     vx, vy, vz = v
@@ -183,8 +188,8 @@ class RobotWorld:
             state = states[body]
             qb = tuple(state.orientation_wb.tolist())
             pb = state.position_w.tolist()
-            dx, dy, dz = _rotate(qb, p)
-            out.append(((pb[0] + dx, pb[1] + dy, pb[2] + dz), _multiply(qb, q)))
+            dx, dy, dz = rotate(qb, p)
+            out.append(((pb[0] + dx, pb[1] + dy, pb[2] + dz), multiply(qb, q)))
         return out
 
     @property

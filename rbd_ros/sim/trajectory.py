@@ -44,7 +44,7 @@ from typing import Sequence, Tuple
 
 import numpy as np
 
-from rbd_ros.core import InputError
+from rbd_ros.sim.inputs import WrenchRejected
 
 #: Rejection reasons, in the order they are checked.
 REJECT_REASONS = ('empty', 'unknown_joint', 'duplicate_joint', 'missing_joint', 'length',
@@ -54,12 +54,8 @@ LINEAR, CUBIC, QUINTIC = 1, 3, 5
 _NS = 1e-9
 
 
-class TrajectoryRejected(InputError):
+class TrajectoryRejected(WrenchRejected):
     """A trajectory was rejected whole; :attr:`reason` is one of :data:`REJECT_REASONS`."""
-
-    def __init__(self, reason, message):
-        super().__init__(message)
-        self.reason = reason
 
 
 @dataclass(frozen=True)

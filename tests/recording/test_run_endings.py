@@ -18,9 +18,10 @@ Every way a run of the real node ends is in its bag, and replay reports a failed
 Issue 31: a world on ``msg_config/stack.yaml`` whose step goes non-finite (a drag to
 (1e300, 1e300) m did it; the drag limits now refuse that, and a body thrown at 1.7e308 m/s is
 refused at start since its kinetic energy overflows, so here a drag spring far too stiff for
-the step blows the striker up): the ``rbd_ros.run`` record must say how the run ended, and replay must exit non-zero
-(3: the replay matches, but the recorded run failed), never ``MATCH``. With ``duration_s`` set
-the node cannot reach its end: it stops with status 1 instead of pausing for ever.
+the step blows the striker up): the ``rbd_ros.run`` record must say how the run ended, and
+replay must exit non-zero (3: the replay matches, but the recorded run failed), never
+``MATCH``. With ``duration_s`` set the node cannot reach its end: it stops with status 1
+instead of pausing for ever.
 """
 
 from pathlib import Path
