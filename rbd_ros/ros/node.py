@@ -62,7 +62,8 @@ from rcl_interfaces.msg import SetParametersResult
 import rclpy
 from rclpy.clock import Clock, ClockType
 from rclpy.exceptions import NameValidationException
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException, ShutdownException
+from rclpy.executors import SingleThreadedExecutor, TimeoutException
 from rclpy.node import Node
 from rclpy.serialization import serialize_message
 from rclpy.signals import SignalHandlerOptions
@@ -556,8 +557,6 @@ class RigidBodyNode(Node):
         except WrenchRejected as exc:  # a wrench, drag or robot command (CommandRejected)
             self._warn_rejected(what, exc)
             return
-        if self._pacer.real_time_factor > 0:  # run a step due since the last tick now
-            self.tick()
 
     def _warn_rejected(self, what, exc):
         """Warn of a rejected input (already counted by the session), at most once a second."""
@@ -665,12 +664,24 @@ def _init_rclpy(args):
 
 
 def _serve(executor, node):
-    """One wake-up of the spin loop: the callbacks ready (or waiting), then the steps due."""
+    """
+    One wake-up of the spin loop: one ready callback (or a wait for one), then the steps due.
+
+    What ``executor.spin_once`` does, with the wait timed apart from the callback: the cost of
+    a wake-up is the wait set's, not the callback's (a callback that takes long, or an input
+    followed by a tick, would otherwise grow the tick budget, and with it the next wait).
+    """
     timeout_s = node.seconds_to_next_step()
     start_ns = time.monotonic_ns()
-    executor.spin_once(timeout_sec=timeout_s)
+    try:
+        handler, _, _ = executor.wait_for_ready_callbacks(timeout_sec=timeout_s)
+    except (TimeoutException, ShutdownException):
+        handler = None
     if timeout_s == 0:  # no waiting in it: what a wake-up costs
         node.note_wake_up(time.monotonic_ns() - start_ns)
+    if handler is not None:
+        handler()
+        handler.result()  # raises what the callback raised
     node.tick()
 
 
