@@ -39,7 +39,6 @@ array parameters.
 """
 
 from dataclasses import dataclass, replace as dataclass_replace
-import math
 
 import numpy as np
 
@@ -58,7 +57,7 @@ from rbd_ros.sim.params import (body_parameter_specs, BODY_PARAMETERS, check_min
                                 MAX_BODIES,
                                 MIN_PUBLISH_RATE_HZ, NS_PER_S, obstacle_parameter_specs,
                                 PARAMETERS, PARAMETERS_BY_NAME, position3, refuse_old_names,
-                                to_ns, vector3)
+                                to_ns, unit_quaternion, vector3)
 
 
 @dataclass(frozen=True)
@@ -639,13 +638,8 @@ def _check_contact(values, collision, static_world, initial_state, integrator):
 
 
 def _unit_quaternion(spec, q_xyzw):
-    """Return ``q_xyzw`` ([x, y, z, w], norm within 1e-3 of 1) as a unit (w, x, y, z) array."""
-    if len(q_xyzw) != 4:
-        fail(spec, q_xyzw, 'must have 4 values [x, y, z, w]')
-    norm = math.hypot(*q_xyzw)  # scaled: the norm of [1e300, 0, 0, 1e300] is not inf
-    if abs(norm - 1.0) > 1e-3:
-        fail(spec, q_xyzw, f'norm {norm:.6g} must be within 1e-3 of 1 ([x, y, z, w] order)')
-    return np.asarray(xyzw_to_wxyz(q_xyzw)) / norm
+    """Return ``q_xyzw`` as a unit (w, x, y, z) array (:func:`params.unit_quaternion`)."""
+    return np.asarray(unit_quaternion(spec, q_xyzw))
 
 
 def xyzw_to_wxyz(q_xyzw):

@@ -507,6 +507,22 @@ def position3(spec, values):
     return values
 
 
+def unit_quaternion(spec, q_xyzw):
+    """
+    Return ``q_xyzw`` ([x, y, z, w], norm within 1e-3 of 1) as a unit ``(w, x, y, z)`` tuple.
+
+    The one check of every orientation parameter (bodies, obstacles, robots' roots).
+    """
+    if len(q_xyzw) != 4:
+        fail(spec, list(q_xyzw), 'must have 4 values [x, y, z, w]')
+    norm = math.hypot(*q_xyzw)  # scaled: the norm of [1e300, 0, 0, 1e300] is not inf
+    if abs(norm - 1.0) > 1e-3:
+        fail(spec, list(q_xyzw),
+             f'norm {norm:.6g} must be within 1e-3 of 1 ([x, y, z, w] order)')
+    x, y, z, w = (float(v) / norm for v in q_xyzw)
+    return (w, x, y, z)
+
+
 def check_min_size(spec, dims):
     """Refuse a ``dimensions_m`` value below :data:`MIN_SIZE` (finite, > 0 is the core's)."""
     small = [v for v in dims if 0.0 < v < MIN_SIZE]

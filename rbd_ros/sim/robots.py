@@ -48,7 +48,8 @@ from rbd_ros.core import ConfigError, RbdError
 from rbd_ros.core.contact.world import is_valid_name, NAME_RULE
 from rbd_ros.sim.joint_commands import INTERFACES, JointSpec
 from rbd_ros.sim.params import (check_range, coerce, DOUBLE, DOUBLE_ARRAY, fail,
-                                PARAMETERS_BY_NAME, ParamSpec, STRING, STRING_ARRAY)
+                                PARAMETERS_BY_NAME, ParamSpec, STRING, STRING_ARRAY,
+                                unit_quaternion)
 
 #: The robots' and the command groups' list parameters (in the table of rbd_ros.sim.params).
 ROBOT_NAMES = 'robot_names'
@@ -217,16 +218,6 @@ def _renamed(prefix, exc):
     return exc
 
 
-def _quaternion_wxyz(spec, q_xyzw):
-    if len(q_xyzw) != 4:
-        fail(spec, list(q_xyzw), 'must have 4 values [x, y, z, w]')
-    norm = sum(v * v for v in q_xyzw) ** 0.5
-    if abs(norm - 1.0) > 1e-3:
-        fail(spec, list(q_xyzw), f'must be a unit quaternion [x, y, z, w] (norm {norm:.6g})')
-    x, y, z, w = (v / norm for v in q_xyzw)
-    return (w, x, y, z)
-
-
 def _read_robot(params, name, gravity_w):
     specs = robot_parameter_specs(name)
     by_base = {spec.name.rsplit('.', 1)[1]: spec for spec in specs}
@@ -241,8 +232,7 @@ def _read_robot(params, name, gravity_w):
     position = values['initial_position']
     if len(position) != 3:
         fail(by_base['initial_position'], list(position), 'must have 3 values')
-    orientation = _quaternion_wxyz(by_base['initial_orientation'],
-                                   values['initial_orientation'])
+    orientation = unit_quaternion(by_base['initial_orientation'], values['initial_orientation'])
     # Imported here: yourdfpy, lxml and trimesh cost ~0.5 s, paid only by files with robots.
     from rbd_ros.sim.urdf import load_urdf, place_robot
     try:

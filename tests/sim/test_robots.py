@@ -90,7 +90,7 @@ def test_robot_description_takes_the_xml_itself():
      "robots.arm.urdf_path: '/nonexistent/arm.urdf' does not exist"),
     (_arm(initial_position=[0.0, 0.0]), ConfigError,
      'parameter robots.arm.initial_position = [0.0, 0.0] m: must have 3 values'),
-    (_arm(initial_orientation=[0.0, 0.0, 0.0, 2.0]), ConfigError, 'unit quaternion'),
+    (_arm(initial_orientation=[0.0, 0.0, 0.0, 2.0]), ConfigError, 'must be within 1e-3 of 1'),
     (_arm(initial_joint_positions=[0.1]), ConfigError, 'robots.arm.initial_joint_positions'),
     (_arm(initial_joint_positions=[5.0, 0.0, 0.0]), ConfigError,
      'robots.arm.initial_joint_positions[0]: 5.0'),
