@@ -192,7 +192,8 @@ def check_names(node, config):
     Resolve every topic and service name the node will create, before it creates any.
 
     A name past :data:`TOPIC_NAME_MAX_CHARS` or invalid is refused naming what made it: the
-    node's namespace (the topics of every node), ``body_names`` (a body's topics), or the
+    node's namespace (the topics of every node), ``body_names`` (a body's topics),
+    ``robot_names`` or ``command_group_names`` (a robot's or a group's topics), or the
     ``wrench_inputs`` topic parameter. Frame ids and parameter names have no length limit in
     rcl (``bodies.<name>.*`` parameters of any length declare).
 
@@ -211,6 +212,18 @@ def check_names(node, config):
             if why:
                 raise ConfigError(f'parameter body_names = {sim_params.fmt(list(names))}: '
                                   f'body {names.index(body.name)} {why}')
+    for names_param, what, items, kinds in (
+            ('robot_names', 'robot', config.robots,
+             ('joint_states', 'robot_description', 'joint_command')),
+            ('command_group_names', 'command group', config.command_groups,
+             ('commands', 'joint_trajectory'))):
+        names = config.parameters.get(names_param) or []
+        for item in items:
+            why = next(filter(None, (_too_long(node, f'{item.name}/{kind}') for kind in kinds)),
+                       None)
+            if why:
+                raise ConfigError(f'parameter {names_param} = {sim_params.fmt(list(names))}: '
+                                  f'{what} {names.index(item.name)} {why}')
     for spec in config.wrench_inputs:
         why = _too_long(node, spec.topic)
         if why:

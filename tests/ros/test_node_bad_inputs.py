@@ -32,6 +32,7 @@ import yaml
 L_BLOCK = 'package://rbd_ros/msg_config/meshes/l_block.stl'
 DEFAULT = REPO / 'msg_config' / 'default.yaml'  # the box on the floor, a contact integrator
 STACK = REPO / 'msg_config' / 'stack.yaml'
+PENDULUM_URDF = REPO / 'msg_config' / 'urdf' / 'pendulum.urdf'
 MAX_LINE = 400  # characters: a refusal is one readable line, however long the values
 
 
@@ -60,6 +61,22 @@ def _long_name(tmp, chars=233):
     name = 'n' * chars
     return {'body_names': [name], f'bodies.{name}.initial_position': [0.0, 0.0, 0.5],
             'ground.enabled': True, 'record_path': str(tmp / 'bag')}
+
+
+def _long_robot_name(tmp, chars=229):
+    """Return a pendulum robot whose ``<name>/robot_description`` is past rcl's 247."""
+    name = 'r' * chars
+    return {'robot_names': [name], f'robots.{name}.urdf_path': str(PENDULUM_URDF),
+            'gravity': [0.0, 0.0, -9.81]}
+
+
+def _long_group_name(tmp, chars=231):
+    """Return a pendulum with a command group whose ``<name>/joint_trajectory`` is too long."""
+    name = 'g' * chars
+    return {'robot_names': ['p'], 'robots.p.urdf_path': str(PENDULUM_URDF),
+            'command_group_names': [name], f'command_groups.{name}.robot': 'p',
+            f'command_groups.{name}.joints': ['pivot'],
+            f'command_groups.{name}.interface': 'position'}
 
 
 def _stack_with_spin(tmp):
@@ -107,6 +124,12 @@ CASES = [  # (base params file, params from tmp_path, what the one line must con
     (None, _long_name,  # '/' + 233 + '/contact_wrench' = 249 characters resolved
      ["parameter body_names = ['nnnn", '(233 characters)', "nnnn/contact_wrench' 249 "
       "characters long, past rcl's limit of 247"]),
+    (None, _long_robot_name,  # '/' + 229 + '/robot_description' = 248 characters resolved
+     ["parameter robot_names = ['rrrr", "robot 0 makes the topic '...", "rrrr/robot_description' "
+      "248 characters long, past rcl's limit of 247"]),
+    (None, _long_group_name,  # '/' + 231 + '/joint_trajectory' = 249 characters resolved
+     ["parameter command_group_names = ['gggg", "command group 0 makes the topic '...",
+      "gggg/joint_trajectory' 249 characters long, past rcl's limit of 247"]),
     (None, lambda tmp: {'wrench_input_names': ['a'], 'wrench_inputs.a.topic': 't' * 250},
      ["parameter wrench_inputs.a.topic = 'ttt", '(250 characters)', 'past rcl']),
     (None, _stack_with_spin,
