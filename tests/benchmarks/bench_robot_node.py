@@ -1,0 +1,115 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+Benchmark of a URDF robot in ``rigid_body_node`` (issue 28's speed target; not collected by pytest).
+
+``.venv/bin/python tests/benchmarks/bench_robot_node.py [--links 7] [--runs 3]``
+
+A ``--links``-link arm (1 kg, 0.3 m links on revolute joints about y and z in turn, fixed to the
+world, written to a temporary URDF) released from a bent pose under gravity, h = 1 ms,
+``joint_states`` and ``/tf`` (every link) at 100 Hz, as fast as possible (``real_time_factor``
+0, nobody subscribed). The wall time of a long run minus that of a short one (start-up, kernel
+loading and shut-down cancel) gives the as-fast factor (sim s per wall s); target >= 50.
+Also prints the core's µs per step for the same robot (no node), so the node's share shows.
+Prints medians over ``--runs`` runs and the machine's load average.
+"""
+
+import argparse
+import os
+import statistics
+import sys
+import tempfile
+import time
+
+from bench_world_node import node_wall_s  # noqa: I100 (puts the source tree on sys.path)
+import yaml
+
+TARGET = 50.0
+
+
+def arm_urdf(links):
+    """Return the URDF of a ``links``-link arm fixed to the world, axes y, z, y, ..."""
+    out = ['<?xml version="1.0"?>', '<robot name="arm">', '  <link name="world"/>',
+           '  <joint name="mount_joint" type="fixed"><parent link="world"/>'
+           '<child link="base"/><origin xyz="0 0 3"/></joint>', '  <link name="base"/>']
+    parent = 'base'
+    for k in range(links):
+        axis = '0 1 0' if k % 2 == 0 else '0 0 1'
+        origin = '0 0 0' if k == 0 else '0 0 -0.3'
+        out += [f'  <joint name="j{k}" type="revolute"><parent link="{parent}"/>'
+                f'<child link="l{k}"/><origin xyz="{origin}"/><axis xyz="{axis}"/>'
+                '<limit lower="-3" upper="3" effort="100" velocity="10"/></joint>',
+                f'  <link name="l{k}"><inertial><origin xyz="0 0 -0.15"/><mass value="1"/>'
+                '<inertia ixx="0.0075" ixy="0" ixz="0" iyy="0.0075" iyz="0" izz="0.0002"/>'
+                '</inertial></link>']
+        parent = f'l{k}'
+    return '\n'.join(out + ['</robot>', ''])
+
+
+def robot_params(urdf_path, links):
+    """Return the node parameters of the arm at ``urdf_path``, bent 0.3 rad at every joint."""
+    return {'robot_names': ['arm'], 'robots.arm.urdf_path': urdf_path,
+            'robots.arm.initial_joint_positions': [0.3] * links,
+            'gravity': [0.0, 0.0, -9.81], 'timestep_s': 0.001, 'publish_rate_hz': 100.0}
+
+
+def core_step_us(params, steps):
+    """Return µs per step of the robot of ``params`` in the core (no node, no publishing)."""
+    from rbd_ros.sim.build import make_simulator
+    from rbd_ros.sim.config import NodeConfig
+    world = make_simulator(NodeConfig.from_parameters(params))
+    world.step(10)
+    start = time.perf_counter()
+    world.step(steps)
+    return (time.perf_counter() - start) / steps * 1e6
+
+
+def main(argv=None):
+    """Run the benchmark; print the figures."""
+    parser = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    parser.add_argument('--links', type=int, default=7)
+    parser.add_argument('--runs', type=int, default=3)
+    parser.add_argument('--short-s', type=float, default=1.0)
+    parser.add_argument('--long-s', type=float, default=21.0)
+    args = parser.parse_args(argv)
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    os.environ.setdefault('ROS_DOMAIN_ID', str(90 + os.getpid() % 10))
+    print(f'load average {os.getloadavg()}; {args.links}-link arm; nobody subscribed')
+    with tempfile.TemporaryDirectory() as tmp:
+        urdf = os.path.join(tmp, 'arm.urdf')
+        with open(urdf, 'w') as f:
+            f.write(arm_urdf(args.links))
+        params = robot_params(urdf, args.links)
+        params_file = os.path.join(tmp, 'arm.yaml')
+        with open(params_file, 'w') as f:
+            yaml.safe_dump({'/**': {'ros__parameters': params}}, f)
+        factors, node_us, core_us = [], [], []
+        sim = args.long_s - args.short_s
+        for _ in range(args.runs):
+            short = node_wall_s(params_file, args.short_s)
+            long = node_wall_s(params_file, args.long_s)
+            factors.append(sim / max(long - short, 1e-9))
+            node_us.append((long - short) / (sim * 1000) * 1e6)
+            core_us.append(core_step_us(params, 2000))
+    factor, node, core = (statistics.median(v) for v in (factors, node_us, core_us))
+    verdict = 'PASS' if factor >= TARGET else 'SHORT'
+    print(f'as-fast factor {factor:.1f} (target >= {TARGET:.0f}: {verdict}); node '
+          f'{node:.1f} µs/step, core {core:.1f} µs/step; runs {[round(f, 1) for f in factors]}')
+    print(f'load average {os.getloadavg()}')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
