@@ -43,7 +43,8 @@ Two rcl quirks are kept, since the node must see what rclpy would hand it: a val
 earlier one of the same name and section only if it has the same type (rcl keeps one slot per
 type, and rclpy reads the first filled slot in the order bool, integer, double, string,
 bool/integer/double/string array), and an empty list ``[]`` fills no slot (alone, the value is
-NOT_SET: ``None``).
+NOT_SET: ``None``). So does an empty mapping ``{}``: rcl reads ``name: {}`` as the parameter
+``name`` with no value (NOT_SET), not as an empty namespace.
 
 One addition of ours: a relative path (a name ending in one of :data:`PATH_PARAMETER_ENDINGS`:
 ``mesh_path``, ``urdf_path``) read from a params file is made relative to that file's
@@ -204,7 +205,7 @@ class ParameterStore:
         return self.sections.setdefault(node_name, {}).setdefault(name, {})
 
     def set_node(self, node_name, name, node):
-        """Store a composed YAML ``node`` (scalar or sequence of scalars, or None: nothing)."""
+        """Store a composed YAML ``node`` (scalar or sequence of scalars; else: no value)."""
         slots = self._slots(node_name, name)
         if isinstance(node, yaml.ScalarNode):
             value = self._resolve(name, _scalar(node))
@@ -253,9 +254,9 @@ class ParameterStore:
     def _add_parameters(self, node_name, prefix, mapping):
         for key, value in mapping.value:
             name = prefix + key.value
-            if isinstance(value, yaml.MappingNode):
+            if isinstance(value, yaml.MappingNode) and value.value:
                 self._add_parameters(node_name, name + '.', value)
-            else:
+            else:  # a scalar, a sequence, or an empty mapping (a name with no value)
                 self.set_node(node_name, name, value)
 
     def values_for(self, node_fqn):

@@ -261,6 +261,20 @@ def test_an_empty_list_is_not_set_and_sets_nothing():
         'inertia': [1.0, 2.0]}
 
 
+def test_an_empty_mapping_is_a_name_with_no_value(tmp_path):
+    # rcl reads 'name: {}' as the parameter 'name', NOT_SET (rclpy holds it as such: checked
+    # by hand, rclpy has no public accessor), not as an empty namespace; read as one, a
+    # world's qos_overrides.<body topic>.depth: {} was dropped without a word (issue 30).
+    path = write(tmp_path / 'empty.yaml', """
+/**:
+  ros__parameters:
+    mass: 2
+    qos_overrides./a/drag.subscription.depth: {}
+""")
+    assert ros_args.node_overrides('/rigid_body_node', ['--ros-args', '--params-file', path]) \
+        == {'mass': 2, 'qos_overrides./a/drag.subscription.depth': None}
+
+
 def _libc():
     libc = ctypes.CDLL(ctypes.util.find_library('c'), use_errno=True)
     libc.strtol.restype = ctypes.c_long
