@@ -88,7 +88,7 @@ class Capture:
         self.sock.close()
 
     def carried(self, data, source=None, destination=None):
-        """Return True if one captured datagram (from ``source``, to ``destination``) held ``data``."""
+        """Return True if one captured datagram (``source`` to ``destination``) held ``data``."""
         return any(data in payload for src, dst, payload in self.datagrams
                    if source in (None, src) and destination in (None, dst))
 
