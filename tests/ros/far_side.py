@@ -139,8 +139,9 @@ def main(namespace, iface, node_ip, force_n, stop_s, end_s, out_path):
         msg = WrenchStamped()
         msg.header.frame_id = 'world'
         msg.wrench.force.x = fx
-        wrench_pub.publish(msg)
-        sent.append(serialize_message(msg))
+        data = serialize_message(msg)  # published as these bytes, to find them on the link
+        wrench_pub.publish(data)
+        sent.append(data)
 
     started = time.monotonic()
     try:
