@@ -167,7 +167,8 @@ def test_wrenches_in_and_poses_out_across_a_link_and_the_recording_replays(
     finally:
         node.stop()
     record = json.loads(out_path.read_text())
-    print(f'{discovery}: discovered across the link in {record["discovery_s"]:.2f} s; '
+    print(f'{discovery}: the far side found the node {record["discovery_s"]:.2f} s after its '
+          'start (the node starting meanwhile); '
           f'rx/tx packets on the far veth +{after[0] - before[0]}/+{after[1] - before[1]}')
 
     # The motion, from what crossed the link.
