@@ -203,6 +203,7 @@ NO_KERNEL_TESTS = tuple(
 FREE_KERNEL_DIR = 'core/'
 FREE_KERNEL_FILES = ('ros/test_sim_session.py', 'ros/test_node_physics.py',
                      'ros/test_node_inputs.py', 'ros/test_node_outputs.py',
+                     'ros/test_node_across_hosts.py',
                      'recording/test_recording.py', 'recording/test_public_api.py',
                      'recording/test_replay.py', 'recording/test_replay_integrity.py',
                      'recording/test_bag_limits.py')
