@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-Benchmark of a URDF robot in ``rigid_body_node`` (issue 28's speed target; not collected by pytest).
+Benchmark of a URDF robot in ``rigid_body_node`` (issue 28 speed target; not collected by pytest).
 
 ``.venv/bin/python tests/benchmarks/bench_robot_node.py [--links 7] [--runs 3]``
 
