@@ -22,7 +22,7 @@ world, written to a temporary URDF) released from a bent pose under gravity, h =
 ``joint_states`` and ``/tf`` (every link) at 100 Hz, as fast as possible (``real_time_factor``
 0, nobody subscribed). The wall time of a long run minus that of a short one (start-up, kernel
 loading and shut-down cancel) gives the as-fast factor (sim s per wall s); target >= 50.
-Also prints the core's µs per step for the same robot (no node), so the node's share shows.
+Also prints the core's µs per step for the same robot (no node, ``bench_world_node``'s timer).
 Prints medians over ``--runs`` runs and the machine's load average.
 """
 
@@ -31,10 +31,9 @@ import os
 import statistics
 import sys
 import tempfile
-import time
 
-from bench_world_node import node_wall_s  # noqa: I100 (puts the source tree on sys.path)
-import yaml
+from bench_world_node import core_step_us, node_wall_s  # noqa: I100 (source tree on sys.path)
+import yaml  # noqa: I201 (after the sys.path import)
 
 TARGET = 50.0
 
@@ -63,17 +62,6 @@ def robot_params(urdf_path, links):
     return {'robot_names': ['arm'], 'robots.arm.urdf_path': urdf_path,
             'robots.arm.initial_joint_positions': [0.3] * links,
             'gravity': [0.0, 0.0, -9.81], 'timestep_s': 0.001, 'publish_rate_hz': 100.0}
-
-
-def core_step_us(params, steps):
-    """Return µs per step of the robot of ``params`` in the core (no node, no publishing)."""
-    from rbd_ros.sim.build import make_simulator
-    from rbd_ros.sim.config import NodeConfig
-    world = make_simulator(NodeConfig.from_parameters(params))
-    world.step(10)
-    start = time.perf_counter()
-    world.step(steps)
-    return (time.perf_counter() - start) / steps * 1e6
 
 
 def main(argv=None):
