@@ -299,6 +299,14 @@ def _panel_summaries(axes, notes: List[Optional[str]]) -> List[Dict[str, Any]]:
              'note': note} for ax, note in zip(axes, notes)]
 
 
+def _pyplot():
+    """Return ``matplotlib.pyplot`` on the Agg backend (no display needed)."""
+    import matplotlib
+    matplotlib.use('Agg')
+    from matplotlib import pyplot
+    return pyplot
+
+
 def draw(bag: Union[str, os.PathLike, Bag],
          title: Optional[str] = None) -> Tuple[Any, List[Dict[str, Any]]]:
     """
@@ -310,13 +318,10 @@ def draw(bag: Union[str, os.PathLike, Bag],
         curve drawn, x in sim seconds) and ``note`` (the text drawn instead of curves, or None).
         The caller closes the figure (``matplotlib.pyplot.close``).
     """
-    import matplotlib
-    matplotlib.use('Agg')
-    from matplotlib import pyplot as plt
-
     if not isinstance(bag, Bag):
         bag = open_bag(bag)
-    data = load_series(bag)
+    data = load_series(bag)  # a bag refused is refused before matplotlib's ~0.5 s import
+    plt = _pyplot()
     fig, axes = plt.subplots(4, 2, figsize=(13, 12), sharex=True)
     axes = axes.ravel()
     notes = [None] * len(axes)
@@ -375,11 +380,8 @@ def load_world(bag: Bag) -> Dict[str, Any]:
 
 def draw_world(bag: Bag, title: Optional[str] = None) -> Tuple[Any, Dict[str, Any]]:
     """Draw a world recording: top view, heights, kinetic energy, bodies in contact."""
-    import matplotlib
-    matplotlib.use('Agg')
-    from matplotlib import pyplot as plt
-
-    data = load_world(bag)
+    data = load_world(bag)  # a bag refused is refused before matplotlib's ~0.5 s import
+    plt = _pyplot()
     fig, axes = plt.subplots(2, 2, figsize=(13, 9))
     top, height, energy, contact = axes.ravel()
     t = data['t_s']

@@ -58,12 +58,18 @@ def _world(**extra):
     return params
 
 
-def _node_topics(ros, ns, timeout_s, want):
-    """Return the node's (publisher topics, subscription topics) once ``want(pubs, subs)``."""
+def _node_topics(ros, node_proc, timeout_s, want):
+    """
+    Return the node's (publisher topics, subscription topics) once ``want(pubs, subs)``.
+
+    Fails at once if the node has exited (it would never come on the graph).
+    """
     node, executor = ros
+    ns = node_proc.namespace
     found = []
 
     def look():
+        assert node_proc.process.poll() is None, node_proc.stderr
         try:
             pubs = {t for t, _ in node.get_publisher_names_and_types_by_node(
                 'rigid_body_node', ns)}
@@ -78,14 +84,26 @@ def _node_topics(ros, ns, timeout_s, want):
     return found
 
 
+def _unpause(ros, ns):
+    """Call the node's ``~/pause`` with ``data: false`` and wait for the answer."""
+    node, executor = ros
+    spin = lambda: executor.spin_once(timeout_sec=0.02)  # noqa: E731
+    pause = node.create_client(SetBool, f'{ns}/rigid_body_node/pause')
+    wait_until(pause.service_is_ready, 30.0, spin=spin, what='~/pause')
+    future = pause.call_async(SetBool.Request(data=False))
+    wait_until(future.done, 30.0, spin=spin, what='~/pause')
+    assert future.result().success, future.result().message
+
+
 def _fall_z(name, t_ns):
     t = t_ns * 1e-9
     return HEIGHTS_M[name] - 0.5 * G * t * t
 
 
 def test_per_body_topics_false_leaves_poses_and_tf_right(ros, start_node):
+    # Paused until the test has seen the graph: a 1.6 s run could end before discovery does.
     node_proc = start_node(_world(per_body_topics=False, real_time_factor=0.5,
-                                  duration_s=0.8), namespace=True)
+                                  duration_s=0.8, start_paused=True), namespace=True)
     ns = node_proc.namespace
     node, executor = ros
     poses, tfs = {}, {}
@@ -94,8 +112,9 @@ def test_per_body_topics_false_leaves_poses_and_tf_right(ros, start_node):
     node.create_subscription(TFMessage, '/tf', lambda m: tfs.__setitem__(
         conversions.time_from_msg(m.transforms[0].header.stamp), m), 1000)
     inputs = {f'{ns}/{b}/{i}' for b in HEIGHTS_M for i in ('wrench', 'drag')}
-    pubs, subs = _node_topics(ros, ns, FIRST_START_S, lambda p, s: {
+    pubs, subs = _node_topics(ros, node_proc, FIRST_START_S, lambda p, s: {
         f'{ns}/poses', '/tf', f'{ns}/markers'} <= p and inputs <= s)
+    _unpause(ros, ns)
     wait_until(lambda: node_proc.process.poll() is not None, 60.0,
                spin=lambda: executor.spin_once(timeout_sec=0.02), what='the end of the run')
     assert node_proc.wait(5.0) == 0, node_proc.stderr
@@ -127,7 +146,7 @@ def test_default_topics_and_late_subscribers_paused_and_running(ros, start_node)
         f'{ns}/poses', '/tf', f'{ns}/markers', f'{ns}/static_markers', '/diagnostics'}
     inputs = {f'{ns}/{b}/{i}' for b in HEIGHTS_M for i in ('wrench', 'drag')} | {
         '/clicked_point'}
-    pubs, subs = _node_topics(ros, ns, FIRST_START_S, lambda p, s: expected <= p
+    pubs, subs = _node_topics(ros, node_proc, FIRST_START_S, lambda p, s: expected <= p
                               and inputs <= s)
     # Today's outputs exactly (plus rclpy's own), and every input.
     assert pubs - expected == {'/rosout', '/parameter_events'}, pubs - expected
@@ -139,10 +158,7 @@ def test_default_topics_and_late_subscribers_paused_and_running(ros, start_node)
         conversions.time_from_msg(m.header.stamp), m), LATE_QOS)
     wait_until(lambda: 0 in late, 30.0, spin=spin, what='the paused sample on high/pose')
     assert late[0].pose.position.z == HEIGHTS_M['high']  # the initial state, exactly
-    pause = node.create_client(SetBool, f'{ns}/rigid_body_node/pause')
-    wait_until(pause.service_is_ready, 30.0, spin=spin, what='~/pause')
-    future = pause.call_async(SetBool.Request(data=False))
-    wait_until(future.done, 30.0, spin=spin, what='~/pause')
+    _unpause(ros, ns)
     wait_until(lambda: len(late) >= 5, 30.0, spin=spin, what='high/pose while running')
     # Running: another topic nobody listened to answers from the next sample on.
     twists = {}
