@@ -25,6 +25,7 @@ reads them.
 from typing import Any, Dict, Mapping, Optional, Union
 
 from rbd_ros.core.errors import RecordingError
+from rbd_ros.sim.params import MAX_ARRAY_ITEMS, MAX_BODIES
 import yaml
 
 
@@ -115,21 +116,28 @@ def dump_yaml(data):
 
 
 #: Most items a YAML list or map read from a bag may hold: 50 x MAX_BODIES (5000), more than
-#: the largest world writes (its configuration map: ~20 keys a body; its metadata.yaml: five
-#: topics a body). Checked while the text is parsed, so a list of a million body names is
-#: refused after its first MAX_YAML_ITEMS items (~0.2 s), before anything is built from it.
-MAX_YAML_ITEMS = 250_000
+#: the largest world writes (its configuration map: ~20 keys a body; its metadata.yaml: six
+#: topics a body and any extra wrench inputs). Checked while the text is parsed, before anything
+#: is built from it. The lists of the configuration record are held to the node's own bound on
+#: an array parameter, :data:`rbd_ros.sim.params.MAX_ARRAY_ITEMS` (10 x MAX_BODIES): a
+#: configuration of 10^5 or 10^6 body names is refused after its first 50 000 (~0.05 s).
+MAX_YAML_ITEMS = 50 * MAX_BODIES
 
 # libyaml's parser (C) where PyYAML has it: a 10 MB text parses in ~3 s, ~20 times faster
 # than the pure-Python parser.
 _SafeLoader = getattr(yaml, 'CSafeLoader', yaml.SafeLoader)
 _STARTS = (yaml.SequenceStartEvent, yaml.MappingStartEvent)
 _ENDS = (yaml.SequenceEndEvent, yaml.MappingEndEvent)
+# (most items, the name an error gives it)
+_ITEMS_LIMIT = (MAX_YAML_ITEMS, 'rbd_ros.bag.format.MAX_YAML_ITEMS')
+_ARRAY_LIMIT = (MAX_ARRAY_ITEMS, 'rbd_ros.sim.params.MAX_ARRAY_ITEMS')
 
 
-def _check_events(text, what):
+def _check_events(text, what, max_list_items, list_limit_name):
     """
-    Refuse anchors, aliases and collections of more than MAX_YAML_ITEMS items in ``text``.
+    Refuse anchors, aliases, maps of more than MAX_YAML_ITEMS items and over-long lists.
+
+    A list may hold ``max_list_items`` items (the error names the limit ``list_limit_name``).
 
     Reads the parser's events only (nothing is built), so an alias bomb or a huge list costs
     the events read up to the first one refused.
@@ -152,13 +160,13 @@ def _check_events(text, what):
             if stack:
                 top = stack[-1]
                 top[1] += 1
-                if top[1] > MAX_YAML_ITEMS * (2 if top[0] else 1):
-                    kind = 'map' if top[0] else 'list'
+                if top[1] > (2 * MAX_YAML_ITEMS if top[0] else max_list_items):  # key, value
+                    kind, limit, name = ('map', *_ITEMS_LIMIT) if top[0] else \
+                        ('list', max_list_items, list_limit_name)
                     named = '' if top[2] is None else f' {top[2]!r}'
                     raise RecordingError(
-                        f'{what}: the {kind}{named} has more than {MAX_YAML_ITEMS} items (at '
-                        f'line {event.start_mark.line + 1}), more than a recording holds '
-                        '(rbd_ros.bag.format.MAX_YAML_ITEMS)')
+                        f'{what}: the {kind}{named} has more than {limit} items (at line '
+                        f'{event.start_mark.line + 1}), more than a recording holds ({name})')
                 if top[0] and top[1] % 2 and isinstance(event, yaml.ScalarEvent):
                     top[3] = event.value[:80]
             if isinstance(event, _STARTS):
@@ -168,12 +176,13 @@ def _check_events(text, what):
         loader.dispose()
 
 
-def load_yaml(text: Union[str, bytes], what: str) -> Any:
+def load_yaml(text: Union[str, bytes], what: str, *, configuration: bool = False) -> Any:
     """
     Parse YAML ``text`` read from a recording: no anchors/aliases, at most MAX_YAML_BYTES.
 
-    Lists and maps hold at most :data:`MAX_YAML_ITEMS` items each; the text is parsed by
-    libyaml when PyYAML has it.
+    Maps and lists hold at most :data:`MAX_YAML_ITEMS` items each, the lists of a
+    ``configuration`` (the rbd_ros record's parameters) at most
+    :data:`rbd_ros.sim.params.MAX_ARRAY_ITEMS`; the text is parsed by libyaml when PyYAML has it.
 
     :param what: names the source in the error (e.g. ``'bag.mcap: the rbd_ros record'``).
     :raises RecordingError: oversize, an anchor or alias, or invalid YAML (one line).
@@ -184,7 +193,7 @@ def load_yaml(text: Union[str, bytes], what: str) -> Any:
         raise RecordingError(
             f'{what}: {len(text)} bytes of YAML, more than the {MAX_YAML_BYTES} bytes accepted')
     try:
-        _check_events(text, what)
+        _check_events(text, what, *(_ARRAY_LIMIT if configuration else _ITEMS_LIMIT))
         return yaml.load(text, Loader=_SafeLoader)  # noqa: S506 - a safe loader
     except yaml.YAMLError as exc:
         detail = ' '.join(str(exc).split())

@@ -251,7 +251,8 @@ class Bag:
         if record.name == CONFIG_METADATA_NAME:
             self.rbd_metadata = dict(record.metadata)
             self.config = load_yaml(record.metadata.get('config_yaml', ''),
-                                    f'{self.mcap_path}: the rbd_ros configuration record') or {}
+                                    f'{self.mcap_path}: the rbd_ros configuration record',
+                                    configuration=True) or {}
             if not isinstance(self.config, dict):
                 raise RecordingError(
                     f'{self.mcap_path}: the rbd_ros configuration record is not a YAML map '

@@ -427,6 +427,7 @@ class RigidBodyNode(Node):
             try:
                 report = self.session.step() if manual else self.session.advance(ask)
             except NonFiniteError as exc:
+                self._warn_releases()
                 # The inputs of the failing step, the one that caused it included, are in the
                 # bag already (session.on_applied).
                 self._failure = (self.session.time_ns, str(exc))
@@ -439,6 +440,7 @@ class RigidBodyNode(Node):
                 else:
                     self.get_logger().error(f'{exc}; paused (call ~/reset)')
                 return
+            self._warn_releases()
             if deadline_ns is not None and report.steps:
                 self._pacer.measured(start_ns, report.steps)
             rejected, self.session.drags.last_rejection = self.session.drags.last_rejection, None
@@ -558,8 +560,17 @@ class RigidBodyNode(Node):
             self._warn_rejected(what, exc)
             return
 
+    def _warn_releases(self):
+        """Warn of the inputs the session released from a step that would be non-finite."""
+        for line in self.session.pop_releases():
+            self._warn_throttled(line)
+
     def _warn_rejected(self, what, exc):
         """Warn of a rejected input (already counted by the session), at most once a second."""
+        self._warn_throttled(f'{what} rejected ({exc.reason}): {exc}')
+
+    def _warn_throttled(self, text):
+        """Log ``text`` as a warning, at most once a second (the rest are counted)."""
         # Throttled here with one clock read: rclpy's own throttle inspects the caller's frame
         # and reads its source file on every call, even when it drops the message, so a flood
         # of bad wrenches used to stall the node.
@@ -571,7 +582,7 @@ class RigidBodyNode(Node):
         more = f' ({self._unwarned} more since the last warning, see /diagnostics)' \
             if self._unwarned else ''
         self._unwarned = 0
-        self.get_logger().warning(f'{what} rejected ({exc.reason}): {exc}{more}')
+        self.get_logger().warning(f'{text}{more}')
 
     def _on_reset(self, request, response):
         self.session.reset()

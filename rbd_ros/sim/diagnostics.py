@@ -86,6 +86,7 @@ class Diagnostics:
             'wrenches_rejected': s.inputs.rejected_total,
             'drags_received': s.drags.received, 'drags_rejected': s.drags.rejected_total,
             **{f'wrenches_rejected_{k}': v for k, v in s.inputs.rejected.items()},
+            **{f'drags_rejected_{k}': v for k, v in s.drags.rejected.items()},
             'kinetic_energy_j': energy,
             'angular_momentum_norm_nms': math.hypot(*momentum),
             'wall_time_dropped_s': self.pacer.dropped_ns * 1e-9, 'resets': s.resets,

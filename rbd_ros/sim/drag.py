@@ -44,7 +44,9 @@ effect, the spring force it would exert at that step start, ``f = −k d − c �
 about the COM, ``r × f``, must satisfy ``|f| <= max_force_n`` and ``|r × f| <= max_torque_nm``;
 otherwise the point is rejected and counted (``'force_limit'``, ``'torque_limit'``) and the drag
 stays as it was. Like a wrench, it is checked once, when it takes effect; the spring then pulls
-the body towards the anchor, so its force falls.
+the body towards the anchor, so its force falls. A drag acting in a step that would be
+non-finite is released and counted (``'non_finite_step'``), as wrenches are
+(:class:`rbd_ros.sim.session.SimSession`).
 """
 
 import math
@@ -52,13 +54,13 @@ import math
 import numpy as np
 from rbd_ros.core import Spring
 from rbd_ros.core.rotations import quat_to_matrix
-from rbd_ros.sim.inputs import AppliedEvent, check_limits, WrenchRejected
+from rbd_ros.sim.inputs import AppliedEvent, check_limits, NON_FINITE_STEP, WrenchRejected
 
 #: The input name of ``/clicked_point``.
 CLICKED_POINT = 'clicked_point'
 #: Rejection reasons of drag inputs.
 DRAG_REJECT_REASONS = ('unknown_input', 'frame', 'non_finite', 'distance', 'force_limit',
-                       'torque_limit')
+                       'torque_limit', NON_FINITE_STEP)
 
 
 class DragInputs:
@@ -182,6 +184,20 @@ class DragInputs:
         """Return the springs acting on body ``index`` (a tuple of 0 or 1)."""
         spring = self._held.get(index)
         return () if spring is None else (spring,)
+
+    def release_held(self):
+        """
+        Drop every drag acting now, each counted as rejected (``'non_finite_step'``).
+
+        The click cycle starts again (the next click grabs). Queued points are kept.
+
+        :returns: the drag input names of the bodies released, in body order.
+        """
+        names = [name for name, i in self._inputs.items() if i in self._held]
+        self.rejected[NON_FINITE_STEP] += len(names)
+        self._held.clear()
+        self._click = ('idle', None)
+        return names
 
     def clear(self):
         """Drop queued points and every drag (counters are kept)."""

@@ -40,8 +40,12 @@ import math
 
 from rbd_ros.core import AppliedWrench, InputError
 
-#: Rejection reasons, in the order they are checked.
-REJECT_REASONS = ('unknown_input', 'frame', 'non_finite', 'force_limit', 'torque_limit')
+#: Rejection reasons, in the order they are checked; the last is a held wrench released when
+#: the step it acts in would be non-finite (:meth:`rbd_ros.sim.session.SimSession.advance`).
+REJECT_REASONS = ('unknown_input', 'frame', 'non_finite', 'force_limit', 'torque_limit',
+                  'non_finite_step')
+#: The reason of an input released because the step it acted in would be non-finite.
+NON_FINITE_STEP = 'non_finite_step'
 
 
 class WrenchRejected(InputError):
@@ -249,6 +253,14 @@ class WrenchInputs:
         """Return the held wrenches, a tuple of :class:`AppliedWrench` for ``set_loads``."""
         return self._loads
 
+    def release_held(self):
+        """Drop every held wrench, each counted as rejected (``'non_finite_step'``); names."""
+        names = list(self._held)
+        self.rejected[NON_FINITE_STEP] += len(names)
+        self._held.clear()
+        self._loads = ()
+        return names
+
     def clear(self):
         """Drop pending and held wrenches (counters are kept)."""
         self._pending.clear()
@@ -339,6 +351,10 @@ class WorldInputs:
     def body_loads(self, index):
         """Return the held wrenches of body ``index`` (a tuple of :class:`AppliedWrench`)."""
         return self._bodies[index].loads()
+
+    def release_held(self):
+        """Drop every body's held wrenches, counted (``'non_finite_step'``); their names."""
+        return [name for body in self._bodies for name in body.release_held()]
 
     def clear(self):
         """Drop pending and held wrenches of every body (counters are kept)."""

@@ -57,6 +57,11 @@ MAIN_INPUT = 'wrench'
 #: up to 1000 bodies; far more makes start-up take minutes.
 MAX_BODIES = 5000
 
+#: Most items an array parameter may hold (10 x MAX_BODIES): more than any list a world needs
+#: (``body_names`` holds at most MAX_BODIES). A recording's configuration is read with the same
+#: bound, so a bag claiming 10^5 bodies is refused while it is parsed.
+MAX_ARRAY_ITEMS = 10 * MAX_BODIES
+
 #: Largest ``dimensions_m`` value and ``mesh_scale`` factor accepted (m, and 1): beyond it the
 #: inertia (``m d²``) and contact tolerances leave double precision's useful range.
 MAX_SIZE = 1e6
@@ -434,6 +439,10 @@ def coerce(spec, value):
         fail(spec, value, 'must be a string')
     if kind in (DOUBLE_ARRAY, STRING_ARRAY) and value is None:
         return ()  # an empty array given in YAML or on the command line arrives as NOT_SET
+    if kind in (DOUBLE_ARRAY, STRING_ARRAY) and isinstance(value, (list, tuple, np.ndarray)) \
+            and len(value) > MAX_ARRAY_ITEMS:
+        fail(spec, value, f'more than {MAX_ARRAY_ITEMS} items (rbd_ros.sim.params.'
+             'MAX_ARRAY_ITEMS)')
     if kind == DOUBLE_ARRAY:
         if isinstance(value, (list, tuple, np.ndarray)) and all(
                 isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)

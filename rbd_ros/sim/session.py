@@ -40,9 +40,14 @@ Rules (all in sim time, integer ns):
 - :meth:`advance` honours :attr:`paused` (it does nothing while paused); :meth:`step` takes one
   step regardless (the ``~/step`` service). Replay sets ``paused = False``.
 - :meth:`advance` stops at ``duration_s`` (:attr:`finished`).
-- A step that turns the state non-finite raises :class:`rbd_ros.core.NonFiniteError` whose
-  ``events`` attribute lists the wrenches applied in that call, the one that caused it
-  included, so a caller records every wrench that took effect, also on a failing run.
+- A step that would turn the state non-finite is not taken. If wrenches or drags act in it,
+  every one of them is released (a bad input: counted as rejected, reason
+  ``'non_finite_step'``, and described in :meth:`pop_releases`) and the step is tried again
+  from the last finite state without them: one message never stops the world. If nothing
+  acts, the step cannot be taken at all: :class:`rbd_ros.core.NonFiniteError` is raised, its
+  ``events`` attribute listing the wrenches applied in that call, so a caller records every
+  wrench that took effect, also on a failing run, and the session pauses. Replay runs this
+  same rule, so a released input is released again at the same step.
 - The simulator is stepped at most :func:`rbd_ros.sim.limits.step_chunk` steps per compiled call,
   so Python signal handlers run between calls (about every 0.1 s).
 - Determinism: the simulator is stepped in chunks between events; the core guarantees that the
@@ -175,6 +180,7 @@ class SimSession:
         self.steps_total = 0  # physics steps taken since start, over resets
         self.resets = 0
         self.error = None  # message of the last NonFiniteError, if any
+        self._releases = []  # one line per release of the inputs of a non-finite step
         #: Called with the events of a step start (a list, non-empty) before that step runs:
         #: the node records every input that took effect before the step that uses it, so a
         #: step that never returns (a crash, a signal) cannot lose it.
@@ -305,6 +311,29 @@ class SimSession:
         self.resets += 1
         self.error = None
 
+    def pop_releases(self):
+        """Return (and forget) one line per release of the inputs of a non-finite step."""
+        releases, self._releases = self._releases, []
+        return releases
+
+    def _release_inputs(self, exc):
+        """
+        Release every wrench and drag acting in the step ``exc`` reports; True if any did.
+
+        Each is counted as rejected (``'non_finite_step'``) on its input; robot commands are
+        not released (a step of a robot that would be non-finite pauses the session).
+        """
+        names = self.inputs.release_held() + self.drags.release_held()
+        if not names:
+            return False
+        self._set_loads()
+        them = 'it' if len(names) == 1 else 'them'
+        self._releases.append(
+            f'{", ".join(names)}: released at t = {self.time_ns} ns and counted as rejected '
+            f'(non_finite_step): the step would not be finite with {them} acting, so the world '
+            f'goes on from its last finite state without {them} [{exc}]')
+        return True
+
     def _set_loads(self):
         for i in range(len(self.config.bodies)):
             self.simulator.set_body_loads(i, self.inputs.body_loads(i), self.drags.springs(i))
@@ -371,6 +400,9 @@ class SimSession:
             except NonFiniteError as exc:
                 taken = (self.time_ns - t) // h
                 self.steps_total += taken
+                done += taken
+                if self._release_inputs(exc):
+                    continue  # the same step again, from the last finite state, without them
                 self.paused = True
                 self.error = str(exc)
                 exc.events = events

@@ -41,7 +41,7 @@ import pytest
 from rbd_ros.bag.format import CONFIG_METADATA_NAME, load_yaml, MAX_YAML_ITEMS
 from rbd_ros.core.errors import RecordingError
 from rbd_ros.sim import limits
-from rbd_ros.sim.params import MAX_BODIES, MAX_MESH_FILE_BYTES
+from rbd_ros.sim.params import MAX_ARRAY_ITEMS, MAX_BODIES, MAX_MESH_FILE_BYTES
 import trimesh
 import yaml
 
@@ -163,10 +163,15 @@ def _box_stl(path):
 
 CASES = {  # id: (source, (tmp_path -> craft params, attachments), words of the error line)
     'bodies-1e5': (STACK, lambda tmp: (_bodies(100_000), None),
-                   ['parameter body_names = ', f'100000 bodies exceed the limit of {MAX_BODIES}']),
+                   ["the rbd_ros configuration record: the list 'bodies' has more than "
+                    f'{MAX_ARRAY_ITEMS} items', 'rbd_ros.sim.params.MAX_ARRAY_ITEMS']),
     'bodies-1e6': (STACK, lambda tmp: (_bodies(1_000_000), None),
                    ["the rbd_ros configuration record: the list 'bodies' has more than "
-                    f'{MAX_YAML_ITEMS} items', 'MAX_YAML_ITEMS']),
+                    f'{MAX_ARRAY_ITEMS} items', 'rbd_ros.sim.params.MAX_ARRAY_ITEMS']),
+    # Within MAX_ARRAY_ITEMS but over MAX_BODIES: the configuration is loaded and its
+    # body count refused by the parameter check (the message a user's own file gets).
+    'bodies-6000': (STACK, lambda tmp: (_bodies(6000), None),
+                    ['parameter body_names = ', f'6000 bodies exceed the limit of {MAX_BODIES}']),
     'nan-mass-world': (STACK, lambda tmp: ({'bodies.top.mass_kg': float('nan')}, None),
                        ['parameter bodies.top.mass_kg = nan kg: must be finite']),
     'nan-mass-body': (L_BLOCK, lambda tmp: ({'mass_kg': float('nan')}, None),
@@ -232,17 +237,28 @@ def test_the_documented_bounds():
     assert limits.MAX_MESH_BYTES == MAX_MESH_FILE_BYTES == 64 << 20
     assert limits.MAX_MESH_TRIANGLES == 200_000
     assert MAX_YAML_ITEMS == 50 * MAX_BODIES
+    assert MAX_ARRAY_ITEMS == 10 * MAX_BODIES
 
 
 def test_yaml_collections_past_the_item_limit_are_refused_while_parsing():
-    """A list or map of MAX_YAML_ITEMS items is read; one more is refused, naming its key."""
+    """A list or map at its limit is read; one more item is refused, naming its key."""
     at_limit = yaml.safe_dump({'body_names': [f'b{i}' for i in range(MAX_YAML_ITEMS)]})
     assert len(load_yaml(at_limit, 'doc')['body_names']) == MAX_YAML_ITEMS
     over = yaml.safe_dump({'x': 1, 'nested': {'body_names': list(range(MAX_YAML_ITEMS + 1))}})
     with pytest.raises(RecordingError, match=r"^doc: the list 'body_names' has more than "
                                              f'{MAX_YAML_ITEMS} items'):
         load_yaml(over, 'doc')
-    flat = {f'k{i}': i for i in range(MAX_YAML_ITEMS + 1)}
+    # A configuration's lists are held to the node's bound on an array parameter.
+    array = {'body_names': list(range(MAX_ARRAY_ITEMS))}
+    assert len(load_yaml(yaml.safe_dump(array), 'c', configuration=True)['body_names']) == \
+        MAX_ARRAY_ITEMS
+    array['body_names'].append(0)
+    with pytest.raises(RecordingError, match=r"^c: the list 'body_names' has more than "
+                                             f'{MAX_ARRAY_ITEMS} items .*MAX_ARRAY_ITEMS'):
+        load_yaml(yaml.safe_dump(array), 'c', configuration=True)
+    flat = {f'k{i}': i for i in range(MAX_YAML_ITEMS)}
+    assert len(load_yaml(yaml.safe_dump(flat), 'doc')) == MAX_YAML_ITEMS
+    flat[f'k{MAX_YAML_ITEMS}'] = 0
     with pytest.raises(RecordingError, match=f'^doc: the map has more than {MAX_YAML_ITEMS}'):
         load_yaml(yaml.safe_dump(flat), 'doc')
     # Parsed by libyaml, read as PyYAML's safe loader reads it.

@@ -29,57 +29,70 @@ import subprocess
 import sys
 
 from conftest import wait_until, write_params
+from geometry_msgs.msg import PoseStamped
 import pytest
 from rbd_ros.bag.recording import open_bag
-from rbd_ros.bag.replay import EXIT_RUN_FAILED, main, replay_bag
+from rbd_ros.bag.replay import EXIT_MATCH, main, replay_bag
 from rbd_ros.msgs import conversions
 from ros_context import ros_fixture  # noqa: F401 - the fixture ros
-from sim_recorder import rewrite_bag
 
 REPO = Path(__file__).resolve().parents[2]
 S = 1_000_000_000
 
 
-def test_non_finite_step_is_recorded_and_replay_reproduces_it(
+def test_a_wrench_whose_step_would_be_non_finite_is_released_recorded_and_replayed(
         start_node, ros, tmp_path, capsys):
-    """The wrench that makes the step non-finite is in the bag; replay fails the same way."""
+    """
+    The wrench that would make the step non-finite is released, not the run stopped.
+
+    It is in the bag (it took effect: replay needs it to release it again at the same step),
+    counted as rejected (``non_finite_step``), the body goes on from its last finite state
+    without it, and replay reproduces the run: MATCH, no failure.
+    """
     node, executor = ros
-    bag_path = tmp_path / 'diverged'
+    bag_path = tmp_path / 'released'
     # Isotropic inertia 1e-300 kg m^2: a torque of 1e6 N m (within max_torque_nm) gives
-    # omega ~ 1e303 rad/s after one 1 ms step, so the first step after the wrench is
-    # non-finite.
+    # omega ~ 1e303 rad/s after one 1 ms step, so the first step with the wrench is
+    # non-finite; without it the step is.
     proc = start_node(params={
         'record_path': str(bag_path), 'inertia': [1e-300, 1e-300, 1e-300, 0.0, 0.0, 0.0],
         'real_time_factor': 1.0, 'publish_clock': True})
+    poses = []
+    node.create_subscription(PoseStamped, 'pose', poses.append, 10)
     pub = node.create_publisher(conversions.WrenchStamped, 'wrench', 10)
     spin = lambda: executor.spin_once(timeout_sec=0.05)  # noqa: E731
     wait_until(lambda: pub.get_subscription_count() > 0, 60.0, spin=spin,
                what='the node to subscribe')
     pub.publish(conversions.wrench_to_msg('world', (0.0, 0.0, 0.0), (1e6, 0.0, 0.0)))
-    wait_until(lambda: 'would be non-finite' in proc.stderr, 60.0, spin=spin,
-               what='the node to report the non-finite step')
+    wait_until(lambda: 'released at t = ' in proc.stderr, 60.0, spin=spin,
+               what='the node to release the wrench')
+    line = next(t for t in proc.stderr.splitlines() if 'released at t = ' in t)
+    released_ns = int(line.split('released at t = ')[1].split()[0])
+    assert 'wrench: released' in line and '(non_finite_step)' in line, line
+    # The run goes on: poses half a second of sim time past the release (it used to pause).
+    wait_until(lambda: poses and _stamp_ns(poses[-1]) > released_ns + S // 2, 60.0,
+               spin=spin, what='poses after the release')
+    assert 'paused' not in proc.stderr, proc.stderr
     assert proc.stop(signal.SIGINT, timeout_s=30.0) == 0, proc.stderr
 
     bag = open_bag(str(bag_path))
     assert bag.finalised, bag.notes
-    assert bag.topics['/wrench'].message_count == 1  # the wrench that caused it
+    assert bag.topics['/wrench'].message_count == 1
     (wrench,) = bag.messages(['/wrench'])
+    # It took effect at the step it was released from (recorded before that step ran).
+    assert wrench.log_time_ns == released_ns
     run = bag.run_metadata
-    assert int(run['failure_time_ns']) == wrench.log_time_ns
-    assert 'would be non-finite' in run['failure']
+    assert run['failure_time_ns'] == '' and run['failure'] == ''
     assert run['wrenches_applied'] == '1'
-
-    # Reproduced, but a failed run: exit 3, never MATCH (issue 31).
-    assert main([str(bag_path), '--no-progress']) == EXIT_RUN_FAILED
+    assert run['ended_by'] == 'SIGINT'
+    # Replay releases it again at the same step: every sample bit for bit, no failure.
+    assert main([str(bag_path), '--no-progress']) == EXIT_MATCH
     out = capsys.readouterr().out
-    assert 'failure reproduced' in out and out.strip().splitlines()[-1].startswith('RUN FAILED')
-    assert bag.run_metadata['ended_by'] == 'SIGINT'
-    # Without that wrench the replay runs on undisturbed: a failure on one side only.
-    dropped = rewrite_bag(str(bag_path), str(tmp_path / 'dropped'),
-                          drop=lambda i, raw: raw.topic == '/wrench')
-    result = replay_bag(dropped)
-    assert not result.match
-    assert any('but the replay did not' in p for p in result.problems), result.problems
+    assert out.strip().splitlines()[-1].startswith('MATCH'), out
+
+
+def _stamp_ns(msg):
+    return msg.header.stamp.sec * S + msg.header.stamp.nanosec
 
 
 def _run_limited(tmp_path, params, fsize_bytes, timeout_s=120.0):

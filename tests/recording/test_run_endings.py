@@ -16,19 +16,20 @@
 Every way a run of the real node ends is in its bag, and replay reports a failed run as failed.
 
 Issue 31: a world on ``msg_config/stack.yaml`` whose step goes non-finite (a drag to
-(1e300, 1e300) m did it; the drag limits now refuse that, and a body thrown at 1.7e308 m/s is
-refused at start since its kinetic energy overflows, so here a drag spring far too stiff for
-the step blows the striker up): the ``rbd_ros.run`` record must say how the run ended, and
-replay must exit non-zero (3: the replay matches, but the recorded run failed), never
-``MATCH``. With ``duration_s`` set the node cannot reach its end: it stops with status 1
-instead of pausing for ever.
+(1e300, 1e300) m did it; the drag limits now refuse that, a body thrown at 1.7e308 m/s is
+refused at start since its kinetic energy overflows, and a step that fails while a wrench or
+drag acts releases them and goes on (tests/ros/test_node_world_hard_push.py), so here a torque
+spins a slender striker up until the step fails, and fails again without the torque): the
+``rbd_ros.run`` record must say how the run ended, and replay must exit non-zero (3: the
+replay matches, but the recorded run failed), never ``MATCH``. With ``duration_s`` set the
+node cannot reach its end: it stops with status 1 instead of pausing for ever.
 """
 
 from pathlib import Path
 import signal
 
 from conftest import wait_until
-from geometry_msgs.msg import PointStamped
+from geometry_msgs.msg import WrenchStamped
 from rbd_ros.bag.recording import open_bag
 from rbd_ros.bag.replay import EXIT_RUN_FAILED, main
 from ros_context import ros_fixture  # noqa: F401 (the ros fixture)
@@ -38,29 +39,31 @@ REPO = Path(__file__).resolve().parents[2]
 STACK = REPO / 'msg_config' / 'stack.yaml'
 
 
-#: A drag spring of 1e12 N/m on the 2 kg striker: ω = sqrt(k/m) = 7e5 rad/s, h ω = 700 at
-#: h = 1 ms, so the explicit kicks multiply its oscillation by ~(h ω)² a step and overflow
-#: within a few dozen steps. Every start-up check passes (the drag comes later), and the drag
-#: itself is within every limit: a point 1e-7 m from the striker pulls with 1e5 N, under
-#: max_force_n = 1e6 N (a force of its own cannot do it: tests/ros/test_node_drag_limits.py).
-STIFF = {'drag_stiffness_n_per_m': 1e12}
-STRIKER_AT = (-0.8 + 1e-7, 0.0, 0.1)
+#: The striker made a slender plate (0.6 x 0.2 x 0.05 m, 2 kg: principal moments 0.0071, 0.0604
+#: and 0.0667 kg m^2) and spun by 1 kN m about (1, 1, 1) (under max_torque_nm = 1e6 N m): about
+#: its weak axis alone that is 1.4e5 rad/s^2, so h|w| passes 1 rad within ~10 steps of 1 ms and
+#: the implicit midpoint solve stops converging for so anisotropic a body (measured: the step at
+#: 30 ms). That step is tried again without the torque (released, non_finite_step) and fails
+#: again, for the spin is the state's now, not the torque's: nothing acts, so the world pauses.
+#: Every start-up check passes (the body is at rest in the air at start; the torque comes later).
+SLENDER = {'bodies.striker.dimensions_m': [0.6, 0.2, 0.05]}
+TORQUE_NM = (1e3, 1e3, 1e3)
 
 
 def _blow_up(ros, ns, proc, until):
-    """Drag the striker on the stiff spring until ``until()`` (the step went non-finite)."""
+    """Spin the striker up with a torque until ``until()`` (the step went non-finite)."""
     node, executor = ros
-    pub = node.create_publisher(PointStamped, f'{ns}/striker/drag', 10)
+    pub = node.create_publisher(WrenchStamped, f'{ns}/striker/wrench', 10)
 
-    def dragged():
+    def spun():
         if pub.get_subscription_count():
-            msg = PointStamped()
+            msg = WrenchStamped()
             msg.header.frame_id = 'world'
-            msg.point.x, msg.point.y, msg.point.z = STRIKER_AT
+            msg.wrench.torque.x, msg.wrench.torque.y, msg.wrench.torque.z = TORQUE_NM
             pub.publish(msg)
         executor.spin_once(timeout_sec=0.05)
         return until()
-    wait_until(dragged, 120.0, what='the step to go non-finite under the stiff drag')
+    wait_until(spun, 120.0, what='the step to go non-finite under the spin')
 
 
 def _check_bag_and_replay(bag_path, ended_by, capsys):
@@ -80,10 +83,13 @@ def _check_bag_and_replay(bag_path, ended_by, capsys):
 def test_a_non_finite_run_is_in_the_bag_and_replay_reports_the_failure(
         ros, start_node, tmp_path, capsys):
     bag_path = tmp_path / 'thrown'
-    proc = start_node(params={'record_path': str(bag_path), 'real_time_factor': 1.0, **STIFF},
-                      params_file=STACK, namespace=True)
+    proc = start_node(params={'record_path': str(bag_path), 'real_time_factor': 1.0,
+                              **SLENDER}, params_file=STACK, namespace=True)
     _blow_up(ros, proc.namespace, proc, lambda: 'paused (call ~/reset)' in proc.stderr)
     assert 'would be non-finite' in proc.stderr
+    # The torque was released first (the step failed with it acting), and said so.
+    assert 'striker/wrench: released at t = ' in proc.stderr, proc.stderr
+    assert '(non_finite_step)' in proc.stderr
     assert proc.stop(signal.SIGINT, timeout_s=30.0) == 0, proc.stderr
     _check_bag_and_replay(bag_path, 'SIGINT', capsys)
 
@@ -93,7 +99,7 @@ def test_non_finite_step_with_duration_exits_1_and_says_why(ros, start_node, tmp
     bag_path = tmp_path / 'thrown_duration'
     # 600 s of sim time: the step fails long before the end, which the run can never reach.
     proc = start_node(params={'record_path': str(bag_path), 'duration_s': 600.0,
-                              'real_time_factor': 1.0, **STIFF},
+                              'real_time_factor': 1.0, **SLENDER},
                       params_file=STACK, namespace=True)
     _blow_up(ros, proc.namespace, proc, lambda: proc.process.poll() is not None)
     assert proc.process.returncode == 1, proc.stderr

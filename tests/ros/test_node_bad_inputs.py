@@ -121,6 +121,8 @@ CASES = [  # (base params file, params from tmp_path, what the one line must con
      ['parameter mesh_scale = [1e+100, 1e+100, 1e+100]']),
     (None, lambda tmp: {'body_names': [f'b{i}' for i in range(15000)]},
      ['parameter body_names = ', f'15000 bodies exceed the limit of {sim_params.MAX_BODIES}']),
+    (None, lambda tmp: {'obstacle_names': [f'o{i}' for i in range(60_000)]},
+     ['parameter obstacle_names = ', f'more than {sim_params.MAX_ARRAY_ITEMS} items']),
     (None, _long_name,  # '/' + 233 + '/contact_wrench' = 249 characters resolved
      ["parameter body_names = ['nnnn", '(233 characters)', "nnnn/contact_wrench' 249 "
       "characters long, past rcl's limit of 247"]),

@@ -15,6 +15,7 @@
 """WrenchInputs and SimSession (no ROS): frames, limits, hold, expiry, schedule, determinism."""
 
 import math
+import pathlib
 
 import numpy as np
 import pytest
@@ -22,6 +23,7 @@ from rbd_ros.core import AppliedWrench, BodyState, ConvergenceError, Simulator
 from rbd_ros.sim.config import NodeConfig
 from rbd_ros.sim.inputs import WrenchRejected
 from rbd_ros.sim.session import SimSession
+import yaml
 
 H_NS = 1_000_000
 
@@ -246,3 +248,47 @@ def test_a_too_large_step_for_the_spin_pauses_the_session_and_names_h_omega():
     assert 'did not converge' in s.error and 'h|ω| = 10 rad' in s.error
     assert 'smaller timestep_s' in s.error
     assert np.array_equal(s.state.angular_velocity_b, [0.1, 10.0, 0.2])
+
+
+def test_a_wrench_whose_step_would_be_non_finite_is_released_and_the_step_taken_without_it():
+    # Isotropic inertia 1e-300 kg m^2: 1e6 N m (within max_torque_nm) gives |ω| ~ 1e303 rad/s
+    # in one step, so the first step with the wrench would be non-finite.
+    params = {'inertia': [1e-300, 1e-300, 1e-300, 0.0, 0.0, 0.0]}
+    s, undisturbed = session(**params), session(**params)
+    s.advance(5)
+    s.submit('wrench', 'world', (0.0, 0.0, 0.0), (1e6, 0.0, 0.0))
+    run_until(s, 15 * H_NS)
+    assert s.time_ns == 15 * H_NS and not s.paused and s.error is None
+    assert s.inputs.rejected['non_finite_step'] == 1 and s.inputs.rejected_total == 1
+    assert s.inputs.body_loads(0) == ()
+    (line,) = s.pop_releases()
+    assert line.startswith(f'wrench: released at t = {5 * H_NS} ns') and 'would be' in line
+    assert s.pop_releases() == []
+    # Released before any step took it: the run is the undisturbed one, bit for bit.
+    run_until(undisturbed, 15 * H_NS)
+    assert s.state == undisturbed.state
+
+
+def _stack_session(**overrides):
+    path = pathlib.Path(__file__).resolve().parents[2] / 'msg_config' / 'stack.yaml'
+    params = yaml.safe_load(path.read_text())['/**']['ros__parameters']
+    return session(**{**params, **overrides})
+
+
+def test_a_drag_released_inside_a_chunk_gives_the_states_of_one_step_at_a_time():
+    # A 1e12 N/m drag on the 2 kg striker grows ~(h ω)² = 5e5 a step until the step at ~53 ms
+    # would overflow: inside a chunk of many steps. The release and the retry must give what
+    # stepping one at a time gives, bit for bit (replay steps in other chunks than the node).
+    def run(max_steps):
+        s = _stack_session(drag_stiffness_n_per_m=1e12)
+        s.submit_point('striker/drag', 'world', (-0.8 + 1e-7, 0.0, 0.1))
+        while s.time_ns < 200 * H_NS:
+            s.advance(max_steps, until_ns=200 * H_NS)
+        return s
+    one, many = run(1), run(100_000)
+    assert one.drags.rejected['non_finite_step'] == many.drags.rejected['non_finite_step'] == 1
+    assert one.pop_releases() == many.pop_releases() != []
+    assert not one.paused and not many.paused
+    for i in range(4):
+        assert one.body_state(i) == many.body_state(i)
+        assert np.isfinite(one.body_state(i).linear_velocity_w).all()
