@@ -46,6 +46,7 @@ from rbd_ros.msgs import outputs
 from rbd_ros.msgs import type_names as types
 from rbd_ros.ros import endpoints
 from rbd_ros.ros import parameters
+from rbd_ros.ros import participant
 from rbd_ros.ros import ros_args
 from rbd_ros.sim import build
 from rbd_ros.sim import config as cfg
@@ -714,22 +715,24 @@ def main(args=None):
     stop = []
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda signum, _: stop.append(signal.Signals(signum).name))
-    error = _init_rclpy(args)
-    if error is not None:
-        print(f'rigid_body_node: {error}', file=sys.stderr, flush=True)
-        sys.exit(2)
-    built = []
+    # The participant, created with the node, reads its profile (rbd_ros.ros.participant).
+    with participant.node_profile():
+        error = _init_rclpy(args)
+        if error is not None:
+            print(f'rigid_body_node: {error}', file=sys.stderr, flush=True)
+            sys.exit(2)
+        built = []
 
-    def build():
-        try:
-            built.append(RigidBodyNode(args))
-        except BaseException as exc:  # handed to the main thread
-            built.append(exc)
+        def build():
+            try:
+                built.append(RigidBodyNode(args))
+            except BaseException as exc:  # handed to the main thread
+                built.append(exc)
 
-    worker = threading.Thread(target=build, name='rigid_body_node start-up', daemon=True)
-    worker.start()
-    while worker.is_alive() and not (stop and not PAST_SLOW_START_UP.is_set()):
-        worker.join(START_UP_POLL_S)
+        worker = threading.Thread(target=build, name='rigid_body_node start-up', daemon=True)
+        worker.start()
+        while worker.is_alive() and not (stop and not PAST_SLOW_START_UP.is_set()):
+            worker.join(START_UP_POLL_S)
     if stop and not built:
         print(f'rigid_body_node: {stop[0]} during start-up: stopped', file=sys.stderr,
               flush=True)
