@@ -334,13 +334,14 @@ def pytest_xdist_node_collection_finished(node, ids):
 
 
 def _wait_for_shared_warm_up(tier):
-    shared = _shared_dir(os.environ['PYTEST_XDIST_TESTRUNUID'])
-    ended = shared / 'ended'
-    if not shared.is_dir() or ended.exists():
-        _WARM_UP['ended'] = time.monotonic()
     if 'ended' in _WARM_UP:
         return
-    if tier == 1:
+    shared = _shared_dir(os.environ['PYTEST_XDIST_TESTRUNUID'])
+    ended = shared / 'ended'
+    if not shared.is_dir():  # no warm-up in this run
+        _WARM_UP['ended'] = time.monotonic()
+        return
+    if tier == 1 and not ended.exists():
         from rbd_ros.core import jitcache
         jitcache.configured()
         wait_until(lambda: ended.exists() or jitcache.kernels_on_disk(False), FIRST_START_S,
