@@ -61,7 +61,7 @@ setup(
     description=('Worlds of rigid bodies with frictional contact for ROS 2 Jazzy, recorded to '
                  'MCAP and replayed bit-exactly.'),
     license='Apache-2.0',
-    tests_require=['pytest'],
+    tests_require=['pytest', 'pytest-xdist'],
     entry_points={
         'console_scripts': [
             'rigid_body_node = rbd_ros.node:main',

@@ -17,16 +17,21 @@ Shared test set-up: an isolated DDS domain per test process and helpers to drive
 
 Every pytest process gets its own ``ROS_DOMAIN_ID`` (derived from its pid, in 1..101) and
 ``ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST``, set here before anything initialises rclpy, and
-inherited by the node subprocesses. Nothing waits with a fixed sleep for discovery: the helpers
-poll with a deadline (:func:`wait_until`).
+inherited by the node subprocesses. Under pytest-xdist (``.ci/run`` runs ``-n 2``) worker ``gwK``
+takes the run's domain plus K (mod 101), so two workers of one run never share a domain.
+Nothing waits with a fixed sleep for discovery: the helpers poll with a deadline
+(:func:`wait_until`).
 """
 
 import itertools
 import os
 import pathlib
+import shutil
 import signal
 import subprocess
 import sys
+import tempfile
+import threading
 import time
 
 import pytest
@@ -45,9 +50,34 @@ def domain_id_for(pid):
     return 1 + pid % 101
 
 
-# RBD_TEST_DOMAIN_ID pins the domain (several test runs side by side on one machine).
-os.environ['ROS_DOMAIN_ID'] = os.environ.get('RBD_TEST_DOMAIN_ID') or str(
-    domain_id_for(os.getpid()))
+def worker_index():
+    """Return this pytest-xdist worker's index (``gw3`` → 3), or None outside a worker."""
+    worker = os.environ.get('PYTEST_XDIST_WORKER', '')
+    return int(worker[2:]) if worker.startswith('gw') else None
+
+
+def run_domain_id():
+    """
+    Return this process's ROS domain id, and export the run's for the xdist workers it starts.
+
+    RBD_TEST_DOMAIN_ID pins the run's domain (several test runs side by side on one machine);
+    else a plain run or xdist's controller takes :func:`domain_id_for` its pid and exports it as
+    RBD_TEST_RUN_DOMAIN_ID, which its workers inherit: worker K uses that plus K (wrapped past
+    101 back to 1 when the run's domain is in 1..101), so the workers of one run (at most 101)
+    never collide, and a pinned run with N workers uses N consecutive domains.
+    """
+    index = worker_index()
+    if index is None:
+        base = int(os.environ.get('RBD_TEST_DOMAIN_ID') or domain_id_for(os.getpid()))
+        os.environ['RBD_TEST_RUN_DOMAIN_ID'] = str(base)
+        return base
+    base = int(os.environ.get('RBD_TEST_RUN_DOMAIN_ID') or os.environ.get('RBD_TEST_DOMAIN_ID')
+               or domain_id_for(os.getppid()))
+    domain = base + index
+    return domain - 101 if base <= 101 < domain else domain
+
+
+os.environ['ROS_DOMAIN_ID'] = str(run_domain_id())
 os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
 os.environ.pop('ROS_LOCALHOST_ONLY', None)
 os.environ['PYTHONPATH'] = os.pathsep.join(
@@ -210,9 +240,9 @@ FREE_KERNEL_FILES = ('ros/test_sim_session.py', 'ros/test_node_physics.py',
 _WARM_UP = {}
 
 
-def _tier(item):
-    path = item.path.relative_to(REPO / 'tests').as_posix()
-    if path in NO_KERNEL_FILES or f'{path}::{item.name}' in NO_KERNEL_TESTS:
+def _tier_of(path, name):
+    """Return the tier (0, 1, 2) of test ``name`` in ``path`` (relative to tests/, posix)."""
+    if path in NO_KERNEL_FILES or f'{path}::{name}' in NO_KERNEL_TESTS:
         return 0
     if path in FREE_KERNEL_FILES or path.startswith(FREE_KERNEL_DIR) and not path.startswith(
             'core/contact/') and path != 'core/test_batch.py':
@@ -220,18 +250,114 @@ def _tier(item):
     return 2
 
 
-def pytest_collection_modifyitems(session, config, items):
-    """Order the tests by tier (stable within one) and start the background warm-up."""
-    items.sort(key=_tier)
-    if os.environ.get('RBD_TEST_NO_WARM_UP') or not any(_tier(i) for i in items):
-        return
+def _tier(item):
+    return _tier_of(item.path.relative_to(REPO / 'tests').as_posix(), item.name)
+
+
+def _start_warm_up():
     _WARM_UP['process'] = subprocess.Popen(
         [sys.executable, '-m', 'rbd_ros.core.warmup', '--batch'], cwd=REPO,
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     _WARM_UP['started'] = time.monotonic()
 
 
+def _finish_warm_up(process):
+    """Wait for the warm-up (killed after FIRST_START_S); return ``(exit status, output)``."""
+    try:
+        out, _ = process.communicate(timeout=FIRST_START_S)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        out, _ = process.communicate()
+    return process.returncode, out
+
+
+def _report_warm_up(status, out):
+    if status != 0:
+        print(f'\nkernel warm-up failed (exit {status}); the tests compile the kernels '
+              f'themselves:\n{out}')
+
+
+def pytest_collection_modifyitems(session, config, items):
+    """Order the tests by tier (stable within one) and start the background warm-up."""
+    items.sort(key=_tier)
+    if worker_index() is not None:  # an xdist worker: the controller runs the run's warm-up
+        return
+    if os.environ.get('RBD_TEST_NO_WARM_UP') or not any(_tier(i) for i in items):
+        return
+    _start_warm_up()
+
+
+# --- Under pytest-xdist: one warm-up for the run, started by the controller ----------------
+#
+# Each worker collects and sorts the same tests (so xdist hands them out in tier order), but
+# only the controller starts the warm-up, once a worker's collection holds a test that needs a
+# kernel and before any test is handed out: it makes the directory _shared_dir() names (the
+# workers know the run's id), and a thread of its own writes ``ended`` there (exit status, then
+# the output) when the warm-up ends. A worker with no such directory waits for nothing.
+
+
+def _shared_dir(testrunuid):
+    """Return the directory where xdist's controller tells its workers about the warm-up."""
+    return pathlib.Path(tempfile.gettempdir()) / f'rbd_warm_up_{testrunuid}'
+
+
+def _nodeid_tier(root, nodeid):
+    path, _, rest = nodeid.partition('::')
+    try:
+        path = (root / path).relative_to(REPO / 'tests').as_posix()
+    except ValueError:  # not below tests/: treat as needing every kernel
+        return 2
+    return _tier_of(path, rest.rsplit('::', 1)[-1])
+
+
+def _warm_up_for_workers(process, shared):
+    status, out = _finish_warm_up(process)
+    (shared / 'ended.part').write_text(f'{status}\n{out}')
+    (shared / 'ended.part').replace(shared / 'ended')
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_node_collection_finished(node, ids):
+    """Start the warm-up (xdist's controller) when a worker has collected a test needing one."""
+    if 'process' in _WARM_UP or os.environ.get('RBD_TEST_NO_WARM_UP'):
+        return
+    root = pathlib.Path(node.config.rootpath)
+    if not any(_nodeid_tier(root, nodeid) for nodeid in ids):
+        return
+    shared = _shared_dir(node.workerinput['testrunuid'])
+    shared.mkdir(mode=0o700)
+    _WARM_UP['shared'] = shared
+    _start_warm_up()
+    _WARM_UP['thread'] = threading.Thread(
+        target=_warm_up_for_workers, args=(_WARM_UP['process'], shared), daemon=True)
+    _WARM_UP['thread'].start()
+
+
+def _wait_for_shared_warm_up(tier):
+    if 'ended' in _WARM_UP:
+        return
+    shared = _shared_dir(os.environ['PYTEST_XDIST_TESTRUNUID'])
+    ended = shared / 'ended'
+    if not shared.is_dir():  # no warm-up in this run
+        _WARM_UP['ended'] = time.monotonic()
+        return
+    if tier == 1 and not ended.exists():
+        from rbd_ros.core import jitcache
+        jitcache.configured()
+        wait_until(lambda: ended.exists() or jitcache.kernels_on_disk(False), FIRST_START_S,
+                   what='the free-body kernels of the warm-up')
+        return
+    # The controller ends the warm-up after FIRST_START_S and then writes `ended`.
+    wait_until(ended.exists, FIRST_START_S + 60.0, what='the end of the warm-up')
+    _WARM_UP['ended'] = time.monotonic()
+    status, out = ended.read_text().split('\n', 1)
+    _report_warm_up(int(status), out)
+
+
 def _wait_for_warm_up(tier):
+    if worker_index() is not None:
+        _wait_for_shared_warm_up(tier)
+        return
     process = _WARM_UP.get('process')
     if process is None or 'ended' in _WARM_UP:
         return
@@ -241,15 +367,9 @@ def _wait_for_warm_up(tier):
         wait_until(lambda: process.poll() is not None or jitcache.kernels_on_disk(False),
                    FIRST_START_S, what='the free-body kernels of the warm-up')
         return
-    try:
-        out, _ = process.communicate(timeout=FIRST_START_S)
-    except subprocess.TimeoutExpired:
-        process.kill()
-        out, _ = process.communicate()
+    status, out = _finish_warm_up(process)
     _WARM_UP['ended'] = time.monotonic()
-    if process.returncode != 0:
-        print(f'\nkernel warm-up failed (exit {process.returncode}); the tests compile the '
-              f'kernels themselves:\n{out}')
+    _report_warm_up(status, out)
 
 
 @pytest.fixture(autouse=True)
@@ -261,8 +381,12 @@ def _kernels_warmed_up(request):
 
 
 def pytest_sessionfinish(session, exitstatus):
-    """Never leave the warm-up running after the session."""
+    """Never leave the warm-up running after the session (nor xdist's shared directory)."""
     process = _WARM_UP.get('process')
     if process is not None and process.poll() is None:
         process.kill()
-        process.communicate()
+        if 'thread' not in _WARM_UP:
+            process.communicate()
+    if 'thread' in _WARM_UP:
+        _WARM_UP['thread'].join()
+        shutil.rmtree(_WARM_UP['shared'], ignore_errors=True)

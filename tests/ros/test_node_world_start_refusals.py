@@ -37,10 +37,11 @@ import yaml
 
 BOX = [0.2, 0.2, 0.2]  # m, the 1 kg cubes of msg_config/stack.yaml
 MAX_LINE = 400  # characters, as in test_node_bad_inputs: a refusal is one readable line
-#: Seconds a refused start may take. A start refused before the physics runs takes 1-4 s on
-#: this 2-core machine (measured, with the other cases starting beside it); the world at
-#: 1e300 m/s that hung was killed after 180 s. 30 s is slack for a loaded machine.
-REFUSED_WITHIN_S = 30.0
+#: Seconds a refused start may take: a guard against the hang, not a speed target. A start
+#: refused before the physics runs takes 1-4 s on this 2-core machine (measured, with the
+#: other cases starting beside it), 30.1 s once with two test workers and other jobs (load 5);
+#: the world at 1e300 m/s that hung never ended (killed after 180 s).
+REFUSED_WITHIN_S = 90.0
 #: Seconds any start may take: an accepted world loads the cached contact kernels and runs
 #: 10 ms of sim (the kernels are compiled once per version by the session's warm-up).
 START_S = 120.0
