@@ -154,15 +154,17 @@ N_RESPONSE = R_PINV + PATCH_POINTS * PATCH_POINTS
 # every stage (1000 boxes: 3.5–7 s a step from step ~55).  Elsewhere the spread is carried:
 # a pyramid's lower boxes bear their loads off centre, and from the mean its sweeps ended
 # short of converged every step (recorded reactions off by 0.16 N, as from zero).
-# Sideways contacts and friction start from zero: carried over, they let boxes side by side
-# squeeze each other, held by the floor's friction, until the squeeze let go.
+# Sideways contacts start from zero: carried over, they let boxes side by side squeeze each
+# other, held by the floor's friction, until the squeeze let go.  For the same reason a point
+# carries its friction impulse (projected onto its tangent plane, clamped to its cone μ λ)
+# only where its body's load is carried point by point (no neighbour beside it).
 # A warm-started stage whose answer still violates the normal conditions by more than
 # WARM_LEFT_MAX_M_S (see _residual) is solved again from zero (see solve_stage).
 W_SLOTS = 8
 W_B = 0          # the other body (N + s for a static object)
 W_COUNT = 1      # the patch's points
-W_POINTS = 2     # per point: from A's COM in A's frame (3), then λ
-W_STRIDE = 4
+W_POINTS = 2     # per point: from A's COM in A's frame (3), then λ, then friction (3, A's frame)
+W_STRIDE = 7
 W_FIELDS = W_POINTS + W_STRIDE * PATCH_POINTS
 WARM_MATCH_M = 1e-4
 WARM_COS_MIN = 0.5

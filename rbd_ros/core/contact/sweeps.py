@@ -42,12 +42,12 @@ import math
 
 import numpy as np
 
-from rbd_ros.core.contact.linalg import _mat_t_vec, patch_scratch, SCR_FREE
+from rbd_ros.core.contact.linalg import _mat_t_vec, _mat_vec, patch_scratch, SCR_FREE
 from rbd_ros.core.contact.patch import (_collision_targets, _held, _idle, _normal_velocities,
                                         solve_patch)
 from rbd_ros.core.contact.response import _apply, _point_velocity, _record
 from rbd_ros.core.contact.rows import (_inl, _jit, _raw, C_BIAS, C_FRICTION, C_LAMBDA, C_NORMAL,
-                                       C_RA, C_RB, Q_A, Q_B, Q_COUNT, Q_EPS, Q_FT, Q_START,
+                                       C_RA, C_RB, Q_A, Q_B, Q_COUNT, Q_EPS, Q_FT, Q_MU, Q_START,
                                        SWEEP_TOL_M_S, SWEEPS, VELOCITY_TOL_M_S, W_B, W_COUNT,
                                        W_POINTS, W_SLOTS, W_STRIDE, WARM_COS_MIN,
                                        WARM_LEFT_MAX_M_S, WARM_MATCH_M)
@@ -217,6 +217,10 @@ def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrenc
             if not lam > 0.0 or _beside(contacts, c, gx, gy, gz, g):
                 continue
             contacts[c, C_LAMBDA] = lam
+            # The kept friction, in A's frame until the point is applied (see below).
+            contacts[c, C_FRICTION] = warm[slot, a, row, f + 4]
+            contacts[c, C_FRICTION + 1] = warm[slot, a, row, f + 5]
+            contacts[c, C_FRICTION + 2] = warm[slot, a, row, f + 6]
             total += lam
             taken += 1
         if taken == 0:
@@ -232,7 +236,24 @@ def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrenc
             nz = contacts[c, C_NORMAL + 2]
             lam = contacts[c, C_LAMBDA] if spread else mean
             contacts[c, C_LAMBDA] = lam
-            jx, jy, jz = lam * nx, lam * ny, lam * nz
+            fx = fy = fz = 0.0
+            if spread:
+                # The kept friction to world, onto this tangent plane, inside the cone μ λ.
+                fx, fy, fz = _mat_vec(rot, a, contacts[c, C_FRICTION],
+                                      contacts[c, C_FRICTION + 1], contacts[c, C_FRICTION + 2])
+                fn = fx * nx + fy * ny + fz * nz
+                fx, fy, fz = fx - fn * nx, fy - fn * ny, fz - fn * nz
+                size = math.sqrt(fx * fx + fy * fy + fz * fz)
+                cap = patches[q, Q_MU] * lam
+                if size > cap:
+                    fx, fy, fz = fx * cap / size, fy * cap / size, fz * cap / size
+            contacts[c, C_FRICTION] = fx
+            contacts[c, C_FRICTION + 1] = fy
+            contacts[c, C_FRICTION + 2] = fz
+            patches[q, Q_FT] += fx
+            patches[q, Q_FT + 1] += fy
+            patches[q, Q_FT + 2] += fz
+            jx, jy, jz = lam * nx + fx, lam * ny + fy, lam * nz + fz
             _apply(vel, inv_mass, inv_inertia_w, a, 1.0, rax, ray, raz, jx, jy, jz,
                    0.0, 0.0, 0.0)
             _record(wrench, a, 1.0, rax, ray, raz, jx, jy, jz, 0.0, 0.0, 0.0)
@@ -266,6 +287,11 @@ def _keep_warm(patches, contacts, rot, warm, warm_n, slot):
             warm[slot, a, row, f + 1] = py
             warm[slot, a, row, f + 2] = pz
             warm[slot, a, row, f + 3] = contacts[c, C_LAMBDA]
+            fx, fy, fz = _mat_t_vec(rot, a, contacts[c, C_FRICTION], contacts[c, C_FRICTION + 1],
+                                    contacts[c, C_FRICTION + 2])
+            warm[slot, a, row, f + 4] = fx
+            warm[slot, a, row, f + 5] = fy
+            warm[slot, a, row, f + 6] = fz
 
 
 @_raw

@@ -303,6 +303,24 @@ def test_a_push_inside_the_friction_cone_moves_nothing_in_a_stack(h_ns):
 
 
 @steps_ns
+def test_a_stack_pushed_inside_its_friction_cone_feels_the_push_in_its_contacts(h_ns):
+    # Statics of the pair above, pushed 1 N along x at the top box's COM: each box at rest, so
+    # its net contact force balances its other loads, top (-1, 0, m g) N, bottom (0, 0, m g)
+    # (+1 N from the top box, -1 N from the floor), and no net contact torque (every other
+    # load acts at the COM). The friction carried from step to step (the warm start) makes
+    # the sweeps converge to this; from zero each step they ended short of it.
+    # Measured after 1 s: within 1e-9 N; the bound 1e-6 N is 1e-7 of m g.
+    sim = stack_world(column(2), h_ns)
+    sim.set_body_loads(1, [AppliedWrench(force=(1.0, 0.0, 0.0))])
+    sim.step(steps(1.0, h_ns))
+    mg = [b.model.mass_kg * 9.81 for b in sim.bodies]
+    expected = np.array([[0.0, 0.0, mg[0], 0.0, 0.0, 0.0], [-1.0, 0.0, mg[1], 0.0, 0.0, 0.0]])
+    for _ in range(5):
+        sim.step(1)
+        np.testing.assert_allclose(sim.contact_wrench_w, expected, rtol=0, atol=1e-6)
+
+
+@steps_ns
 def test_a_stack_knocked_over_loses_energy_once_the_push_ends(h_ns):
     # A 2 kg striker pushed 40 N for 0.4 s into a column of three: after the push only gravity
     # (conservative) and contact (ε = 0, dissipative) act, so the total energy may only fall,
