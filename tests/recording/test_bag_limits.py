@@ -164,6 +164,14 @@ def test_sigint_during_compiled_stepping_ends_replay_within_a_second(tmp_path):
     bag = _write_bag(tmp_path / 'long.mcap', _config(timestep_s=1e-7, publish_rate_hz=0.1,
                                                      integrator='rk4'),
                      [0, 10_000_000_000])
+    # rk4's kernel compiled first (a short replay): the 4 s of CPU below must be stepping, not
+    # compiling (a test run in two workers may reach this file before anything compiled rk4;
+    # a SIGINT during the compile was then taken only after it, and the replay ran to its end).
+    warm = _write_bag(tmp_path / 'warm.mcap', _config(timestep_s=1e-3, publish_rate_hz=100.0,
+                                                      integrator='rk4'), [0, 10_000_000])
+    subprocess.run([sys.executable, '-m', 'rbd_ros.bag.replay', str(warm), '--no-progress'],
+                   capture_output=True, cwd=str(tmp_path), timeout=600,
+                   env=dict(os.environ, PYTHONPATH=str(REPO)))  # its verdict is not the point
     proc = subprocess.Popen(
         [sys.executable, '-m', 'rbd_ros.bag.replay', str(bag), '--no-progress'],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=str(tmp_path),

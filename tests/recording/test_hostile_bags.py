@@ -153,7 +153,8 @@ def _bz2_bomb():
 
 
 def _bodies(n):
-    return {'bodies': [f'b{i}' for i in range(n)]}
+    # The parameter as the node records it (stack_knocked is recorded with today's names).
+    return {'body_names': [f'b{i}' for i in range(n)]}
 
 
 def _box_stl(path):
@@ -163,10 +164,10 @@ def _box_stl(path):
 
 CASES = {  # id: (source, (tmp_path -> craft params, attachments), words of the error line)
     'bodies-1e5': (STACK, lambda tmp: (_bodies(100_000), None),
-                   ["the rbd_ros configuration record: the list 'bodies' has more than "
+                   ["the rbd_ros configuration record: the list 'body_names' has more than "
                     f'{MAX_ARRAY_ITEMS} items', 'rbd_ros.sim.params.MAX_ARRAY_ITEMS']),
     'bodies-1e6': (STACK, lambda tmp: (_bodies(1_000_000), None),
-                   ["the rbd_ros configuration record: the list 'bodies' has more than "
+                   ["the rbd_ros configuration record: the list 'body_names' has more than "
                     f'{MAX_ARRAY_ITEMS} items', 'rbd_ros.sim.params.MAX_ARRAY_ITEMS']),
     # Within MAX_ARRAY_ITEMS but over MAX_BODIES: the configuration is loaded and its
     # body count refused by the parameter check (the message a user's own file gets).
