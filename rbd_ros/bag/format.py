@@ -133,11 +133,11 @@ _ITEMS_LIMIT = (MAX_YAML_ITEMS, 'rbd_ros.bag.format.MAX_YAML_ITEMS')
 _ARRAY_LIMIT = (MAX_ARRAY_ITEMS, 'rbd_ros.sim.params.MAX_ARRAY_ITEMS')
 
 
-def _check_events(text, what, max_list_items, list_limit_name):
+def _check_events(text, what, list_limit):
     """
     Refuse anchors, aliases, maps of more than MAX_YAML_ITEMS items and over-long lists.
 
-    A list may hold ``max_list_items`` items (the error names the limit ``list_limit_name``).
+    ``list_limit``: ``(most items a list may hold, the name the error gives that limit)``.
 
     Reads the parser's events only (nothing is built), so an alias bomb or a huge list costs
     the events read up to the first one refused.
@@ -160,9 +160,8 @@ def _check_events(text, what, max_list_items, list_limit_name):
             if stack:
                 top = stack[-1]
                 top[1] += 1
-                if top[1] > (2 * MAX_YAML_ITEMS if top[0] else max_list_items):  # key, value
-                    kind, limit, name = ('map', *_ITEMS_LIMIT) if top[0] else \
-                        ('list', max_list_items, list_limit_name)
+                if top[1] > (2 * MAX_YAML_ITEMS if top[0] else list_limit[0]):  # key, value
+                    kind, (limit, name) = ('map', _ITEMS_LIMIT) if top[0] else ('list', list_limit)
                     named = '' if top[2] is None else f' {top[2]!r}'
                     raise RecordingError(
                         f'{what}: the {kind}{named} has more than {limit} items (at line '
@@ -193,7 +192,7 @@ def load_yaml(text: Union[str, bytes], what: str, *, configuration: bool = False
         raise RecordingError(
             f'{what}: {len(text)} bytes of YAML, more than the {MAX_YAML_BYTES} bytes accepted')
     try:
-        _check_events(text, what, *(_ARRAY_LIMIT if configuration else _ITEMS_LIMIT))
+        _check_events(text, what, _ARRAY_LIMIT if configuration else _ITEMS_LIMIT)
         return yaml.load(text, Loader=_SafeLoader)  # noqa: S506 - a safe loader
     except yaml.YAMLError as exc:
         detail = ' '.join(str(exc).split())

@@ -40,12 +40,12 @@ import math
 
 from rbd_ros.core import AppliedWrench, InputError
 
-#: Rejection reasons, in the order they are checked; the last is a held wrench released when
-#: the step it acts in would be non-finite (:meth:`rbd_ros.sim.session.SimSession.advance`).
-REJECT_REASONS = ('unknown_input', 'frame', 'non_finite', 'force_limit', 'torque_limit',
-                  'non_finite_step')
-#: The reason of an input released because the step it acted in would be non-finite.
+#: The reason of an input released because the step it acted in would be non-finite
+#: (:meth:`rbd_ros.sim.session.SimSession.advance`).
 NON_FINITE_STEP = 'non_finite_step'
+#: Rejection reasons, in the order they are checked; the last is a held wrench released.
+REJECT_REASONS = ('unknown_input', 'frame', 'non_finite', 'force_limit', 'torque_limit',
+                  NON_FINITE_STEP)
 
 
 class WrenchRejected(InputError):

@@ -58,17 +58,32 @@ def world_params(count):
     return params
 
 
+def node_run(params_file, sim_s, extra=()):
+    """
+    Run the node as fast as possible for ``sim_s``; return ``(wall s, peak RSS MB)``.
+
+    ``extra``: ``NAME:=VALUE`` parameter settings. The peak RSS is the process's own
+    (``ru_maxrss`` from ``wait4``), not the largest of this process's children so far.
+    """
+    with tempfile.TemporaryFile() as err:
+        start = time.monotonic()
+        proc = subprocess.Popen(
+            [sys.executable, '-m', 'rbd_ros.node', '--ros-args', '--params-file', params_file,
+             '-p', f'duration_s:={sim_s}', '-p', 'real_time_factor:=0.0']
+            + [arg for setting in extra for arg in ('-p', setting)],
+            stdout=subprocess.DEVNULL, stderr=err, cwd=REPO)
+        _, status, usage = os.wait4(proc.pid, 0)
+        wall = time.monotonic() - start
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        if proc.returncode != 0:
+            err.seek(0)
+            raise SystemExit(err.read().decode(errors='replace'))
+    return wall, usage.ru_maxrss / 1024.0
+
+
 def node_wall_s(params_file, sim_s, extra=()):
     """Run the node as fast as possible for ``sim_s``; return the wall seconds it took."""
-    start = time.monotonic()
-    run = subprocess.run(
-        [sys.executable, '-m', 'rbd_ros.node', '--ros-args', '--params-file', params_file,
-         '-p', f'duration_s:={sim_s}', '-p', 'real_time_factor:=0.0']
-        + [arg for setting in extra for arg in ('-p', setting)],
-        capture_output=True, text=True, cwd=REPO, timeout=3600)
-    if run.returncode != 0:
-        raise SystemExit(run.stderr)
-    return time.monotonic() - start
+    return node_run(params_file, sim_s, extra)[0]
 
 
 def core_step_us(params, steps):

@@ -34,45 +34,18 @@ the memory per body stated.
 import argparse
 import os
 import statistics
-import subprocess
-import sys
 import tempfile
-import time
 
-from bench_world_node import world_params  # noqa: I100
+from bench_world_node import node_run, world_params  # noqa: I100
 import yaml
 
-REPO = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
-
-def run_once(count, overrides):
+def run_once(count, settings):
     """Return ``(wall_s, peak_rss_mb)`` of one 10 ms run of ``count`` boxes."""
-    params = {**world_params(count), 'duration_s': 0.01, 'real_time_factor': 0.0,
-              **overrides}
-    with tempfile.TemporaryDirectory() as tmp:
-        path = os.path.join(tmp, 'world.yaml')
-        with open(path, 'w') as f:
-            yaml.safe_dump({'/**': {'ros__parameters': params}}, f)
-        env = dict(os.environ, ROS_LOG_DIR=os.path.join(tmp, 'log'),
-                   ROS_AUTOMATIC_DISCOVERY_RANGE='LOCALHOST',
-                   ROS_DOMAIN_ID=str(1 + os.getpid() % 101), PYTHONPATH=REPO)
-        start = time.monotonic()
-        proc = subprocess.Popen(
-            [sys.executable, '-m', 'rbd_ros.node', '--ros-args', '--params-file', path,
-             '-r', f'__ns:=/start{count}'], cwd=tmp, env=env,
-            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-        _, status, usage = os.wait4(proc.pid, 0)
-        wall = time.monotonic() - start
-        err = proc.stderr.read().decode(errors='replace')
-        proc.stderr.close()
-        if os.waitstatus_to_exitcode(status) != 0:
-            raise SystemExit(f'{count} bodies: exit {os.waitstatus_to_exitcode(status)}: '
-                             f'{err[-2000:]}')
-    return wall, usage.ru_maxrss / 1024.0
-
-
-def _value(text):
-    return yaml.safe_load(text)
+    with tempfile.NamedTemporaryFile('w', suffix='.yaml') as f:
+        yaml.safe_dump({'/**': {'ros__parameters': world_params(count)}}, f)
+        f.flush()
+        return node_run(f.name, 0.01, settings)
 
 
 def main(argv=None):
@@ -81,12 +54,13 @@ def main(argv=None):
     parser.add_argument('--runs', type=int, default=3)
     parser.add_argument('--set', action='append', default=[], metavar='NAME:=VALUE')
     args = parser.parse_args(argv)
-    overrides = {k: _value(v) for k, v in (s.split(':=', 1) for s in args.set)}
+    os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+    os.environ.setdefault('ROS_DOMAIN_ID', str(1 + os.getpid() % 101))
     print(f'{os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}; 10 ms of sim, '
           f'real_time_factor 0{"; " + ", ".join(args.set) if args.set else ""}', flush=True)
     figures = {}
     for count in args.bodies:
-        runs = [run_once(count, overrides) for _ in range(args.runs)]
+        runs = [run_once(count, args.set) for _ in range(args.runs)]
         wall = statistics.median(r[0] for r in runs)
         rss = statistics.median(r[1] for r in runs)
         figures[count] = (wall, rss)

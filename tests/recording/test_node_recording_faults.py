@@ -70,8 +70,8 @@ def test_a_wrench_whose_step_would_be_non_finite_is_released_recorded_and_replay
     released_ns = int(line.split('released at t = ')[1].split()[0])
     assert 'wrench: released' in line and '(non_finite_step)' in line, line
     # The run goes on: poses half a second of sim time past the release (it used to pause).
-    wait_until(lambda: poses and _stamp_ns(poses[-1]) > released_ns + S // 2, 60.0,
-               spin=spin, what='poses after the release')
+    wait_until(lambda: poses and conversions.time_from_msg(poses[-1].header.stamp)
+               > released_ns + S // 2, 60.0, spin=spin, what='poses after the release')
     assert 'paused' not in proc.stderr, proc.stderr
     assert proc.stop(signal.SIGINT, timeout_s=30.0) == 0, proc.stderr
 
@@ -89,10 +89,6 @@ def test_a_wrench_whose_step_would_be_non_finite_is_released_recorded_and_replay
     assert main([str(bag_path), '--no-progress']) == EXIT_MATCH
     out = capsys.readouterr().out
     assert out.strip().splitlines()[-1].startswith('MATCH'), out
-
-
-def _stamp_ns(msg):
-    return msg.header.stamp.sec * S + msg.header.stamp.nanosec
 
 
 def _run_limited(tmp_path, params, fsize_bytes, timeout_s=120.0):
