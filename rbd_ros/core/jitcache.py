@@ -41,6 +41,12 @@ the layout and every kernel source (``layout-<hash>``, see
 ``NUMBA_CACHE_LOCATOR_CLASSES`` setting, ahead of numba's own locators, which still serve
 every function that is not ``rbd_ros``'s.
 
+**One specialisation per argument type.** numba compiles a function called from another kernel
+for the exact types of the call, and a constant argument (``True``, a phase number) is typed as
+that literal value: each distinct constant compiled the callee and its whole subtree again (the
+contact step's sweeps four times; 195 s of one core for its first compile, 74 s since).
+:func:`kernel` makes every dispatcher ask for the plain types instead (:func:`_once_per_type`).
+
 **One set of compile options.** Every kernel is compiled through :func:`kernel`: IEEE float
 semantics (``error_model='numpy'``: a division by zero gives ±inf or nan, which the step's
 finiteness check turns into :class:`~rbd_ros.core.errors.NonFiniteError`, where numba's default
@@ -158,12 +164,38 @@ def kernel(**options):
 
     def decorate(function):
         dispatcher = jit(function)
+        _once_per_type(dispatcher)
         if not _CONFIGURED:
             _PENDING.append(dispatcher)
         elif CACHE_DIR is not None:
             dispatcher.enable_caching()
         return dispatcher
     return decorate
+
+
+def _once_per_type(dispatcher):
+    """
+    Make ``dispatcher`` compile once per argument *type* when called from another kernel; return it.
+
+    numba types a constant argument of a call between jitted functions as a literal
+    (``Literal[bool](True)``) and compiles the callee, and everything it calls, again for every
+    constant value it is called with (see the module docstring). The call template is asked
+    for with the constants' plain types (numba's ``unliteral``), so one specialisation serves
+    every value; the run-time branch on the value costs nothing measurable (bench_contact, within
+    2 %). ``get_call_template`` is what numba's typing of a call asks a dispatcher
+    (``types.Dispatcher.get_call_type``); numba is pinned, and
+    ``tests/core/test_jitcache.py`` checks that a constant no longer adds a specialisation.
+    Helpers inlined at numba-IR level (``inline='always'``) are not called this way and keep
+    seeing their constants.
+    """
+    from numba.core import types
+    ask = dispatcher.get_call_template
+
+    def get_call_template(args, kws):
+        return ask(tuple(types.unliteral(a) for a in args),
+                   {k: types.unliteral(v) for k, v in kws.items()})
+    dispatcher.get_call_template = get_call_template
+    return dispatcher
 
 
 def raw_kernel(**options):
@@ -229,7 +261,7 @@ def kernels_on_disk(contact=False):
 
 #: Roughly how long a first compile takes on a 2-core machine (s), to tell the user (measured
 #: with an empty cache on 2026-12-03, load 1: 16.6 s and 194.6 s; see bench_start.py).
-COMPILE_S = {'free': 20, 'contact': 200}
+COMPILE_S = {'free': 20, 'contact': 200}  # UPDATE
 
 
 def compile_notice(contact=False):

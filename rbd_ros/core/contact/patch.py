@@ -294,7 +294,10 @@ def _collision_targets(patches, q, contacts, s0, m, scr):
         contacts[c, C_BIAS] = bias
 
 
-@_inl
+# Not inlined (compiled once, called): the sweeps and the shock propagation each inlined it, with
+# the normal block and the friction inside it, which was 11 s of the contact step's first compile
+# each; the call costs the resting and stacked benchmarks 0-6 % (issue 25).
+@_raw
 def solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wa, wb,
                 wrench, friction, scr, per_point, free_known):
     """
