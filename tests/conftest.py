@@ -344,7 +344,7 @@ def _wait_for_shared_warm_up(tier):
     if tier == 1 and not ended.exists():
         from rbd_ros.core import jitcache
         jitcache.configured()
-        wait_until(lambda: ended.exists() or jitcache.kernels_on_disk(False), FIRST_START_S,
+        wait_until(lambda: ended.exists() or jitcache.kernels_on_disk('free'), FIRST_START_S,
                    what='the free-body kernels of the warm-up')
         return
     # The controller ends the warm-up after FIRST_START_S and then writes `ended`.
@@ -364,7 +364,7 @@ def _wait_for_warm_up(tier):
     if tier == 1:
         from rbd_ros.core import jitcache
         jitcache.configured()
-        wait_until(lambda: process.poll() is not None or jitcache.kernels_on_disk(False),
+        wait_until(lambda: process.poll() is not None or jitcache.kernels_on_disk('free'),
                    FIRST_START_S, what='the free-body kernels of the warm-up')
         return
     status, out = _finish_warm_up(process)

@@ -75,7 +75,7 @@ LOCATORS = ('rbd_ros.core.jitcache.SourceCacheLocator', 'UserProvidedCacheLocato
 #: What every kernel is compiled with (see the module docstring).
 OPTIONS = {'error_model': 'numpy', 'fastmath': False, 'nogil': True}
 #: Name of the file :func:`mark_compiled` leaves in the cache directory once a kind of kernel
-#: (``free`` or ``contact``) has been compiled and stepped there.
+#: (:data:`KIND_MODULES`) has been compiled and stepped there.
 MARK = 'compiled-{kind}'
 
 
@@ -238,50 +238,55 @@ class SourceCacheLocator(caching.UserProvidedCacheLocator):
         return super().from_function(py_func, py_file)
 
 
-def _mark(contact):
-    return os.path.join(CACHE_DIR, MARK.format(kind='contact' if contact else 'free'))
+#: The kinds of kernel a first step compiles, and the module whose cache files show it on disk.
+KIND_MODULES = {'free': 'rbd_ros.core.kernels', 'contact': 'rbd_ros.core.contact.step',
+                'joints': 'rbd_ros.core.joints.kernels'}
+#: What the node's notice calls each kind.
+KIND_NAMES = {'free': 'the free-body step', 'contact': 'the contact step',
+              'joints': 'the joints and robots step'}
+#: Roughly how long a first compile takes on a 2-core machine (s), to tell the user (measured
+#: with an empty cache on 2026-12-04 with ``python -m rbd_ros.core.warmup``: see
+#: doc/benchmarks.md).
+COMPILE_S = {'free': 20, 'contact': 80, 'joints': 60}
 
 
-def kernels_on_disk(contact=False):
+def _mark(kind):
+    return os.path.join(CACHE_DIR, MARK.format(kind=kind))
+
+
+def kernels_on_disk(kind='free'):
     """
-    Return True when this version's step kernel (``contact``: the contact step's) is on disk.
+    Return True when this version's step kernel of ``kind`` (:data:`KIND_MODULES`) is on disk.
 
     :func:`mark_compiled` leaves a mark in the cache directory (whose name changes with every
     kernel source, see the module docstring) after a first step of that kind compiled there;
     numba's index files must be there too. Reads file names only; compiles nothing.
     """
-    if configured() is None or not os.path.isfile(_mark(contact)):
+    if configured() is None or not os.path.isfile(_mark(kind)):
         return False
-    module = 'rbd_ros.core.contact.step' if contact else 'rbd_ros.core.kernels'
     try:
-        return any(name.endswith('.nbi') for name in os.listdir(os.path.join(CACHE_DIR, module)))
+        return any(name.endswith('.nbi')
+                   for name in os.listdir(os.path.join(CACHE_DIR, KIND_MODULES[kind])))
     except OSError:
         return False
 
 
-#: Roughly how long a first compile takes on a 2-core machine (s), to tell the user (measured
-#: with an empty cache on 2026-12-03, load 1: 16.6 s and 194.6 s; see bench_start.py).
-COMPILE_S = {'free': 20, 'contact': 200}  # UPDATE
-
-
-def compile_notice(contact=False):
+def compile_notice(kind='free'):
     """Return the one line the node logs before a step that compiles (what, how long, where)."""
     configured()
-    kind = 'contact' if contact else 'free'
-    what = 'the contact step' if contact else 'the free-body step'
     where = (f'once per version; cached in {CACHE_DIR}' if CACHE_DIR else
              f'at every start: {PROBLEM}')
-    return (f'compiling the physics kernels ({what}: about {COMPILE_S[kind]} s on a 2-core '
-            f'machine, {where})')
+    return (f'compiling the physics kernels ({KIND_NAMES[kind]}: about {COMPILE_S[kind]} s on a '
+            f'2-core machine, {where})')
 
 
-def mark_compiled(contact=False):
+def mark_compiled(kind='free'):
     """Leave the mark :func:`kernels_on_disk` looks for, after a first step that compiled."""
     if configured() is None:
         return
     try:
-        with open(_mark(contact), 'a'):
+        with open(_mark(kind), 'a'):
             pass
     except OSError as exc:
-        _LOG.warning(f'cannot write {_mark(contact)} ({exc.strerror}): the next start will say '
+        _LOG.warning(f'cannot write {_mark(kind)} ({exc.strerror}): the next start will say '
                      'it compiles although it loads from the cache')

@@ -17,7 +17,8 @@ Compile every physics kernel once, or load it from the cache: ``python -m rbd_ro
 
 What a first step compiles, without a node or a parameter file: the free-body step
 (:class:`~rbd_ros.core.Simulator`), the contact step (a box on a ground plane, the same compiled
-specialisation every world uses) and, with ``--batch``, the threaded batch kernel. Each kind is
+specialisation every world uses), the joints step (a hinged rod: the same specialisation every
+robot uses) and, with ``--batch``, the threaded batch kernel. Each kind is
 marked in the cache (:func:`jitcache.mark_compiled`) once it compiled, as the node does, so a
 node started afterwards loads them and says nothing about compiling. The test suite runs this in
 a background process while it runs the tests that need no kernel (``tests/conftest.py``); a
@@ -28,6 +29,8 @@ import argparse
 import sys
 import time
 
+import numpy as np
+
 from rbd_ros.core import jitcache
 from rbd_ros.core.inertia import box
 from rbd_ros.core.model import BodyModel
@@ -35,7 +38,7 @@ from rbd_ros.core.simulator import BatchSimulator, Simulator
 from rbd_ros.core.state import BodyState
 
 #: The kinds of kernel, in the order :func:`compile_kernels` compiles them.
-KINDS = ('free', 'contact', 'batch')
+KINDS = ('free', 'contact', 'joints', 'batch')
 
 
 def _model():
@@ -57,12 +60,21 @@ def _contact():
                    StaticWorld(ground_plane(material=Material(friction=0.5)))).step(1)
 
 
+def _joints():
+    from rbd_ros.core.joints import ArticulatedSimulator, Joint
+    rod = BodyModel(1.0, np.diag([1 / 12, 1 / 12, 1e-3]), gravity_w=(0, 0, -9.81))
+    hinge = Joint('pivot', 'revolute', None, 0, origin_child_b=(0, 0, 0.5), axis_b=(0, 1, 0),
+                  lower=-1.0, upper=1.0, effort_limit=20.0)
+    ArticulatedSimulator([rod], [BodyState(position_w=(0, 0, -0.5))], [hinge],
+                         timestep_ns=1_000_000).step(1)
+
+
 def _batch():
     model = _model()
     BatchSimulator([model, model], [BodyState(), BodyState()], threads=2).step(1)
 
 
-COMPILERS = {'free': _free, 'contact': _contact, 'batch': _batch}
+COMPILERS = {'free': _free, 'contact': _contact, 'joints': _joints, 'batch': _batch}
 
 
 def compile_kernels(kinds=KINDS, log=print):
@@ -75,28 +87,27 @@ def compile_kernels(kinds=KINDS, log=print):
     jitcache.configured()
     taken = {}
     for kind in kinds:
-        marked = kind in ('free', 'contact')
-        contact = kind == 'contact'
-        cold = not (marked and jitcache.kernels_on_disk(contact))
+        marked = kind in jitcache.KIND_MODULES
+        cold = not (marked and jitcache.kernels_on_disk(kind))
         start = time.monotonic()
         COMPILERS[kind]()
         taken[kind] = time.monotonic() - start
         if marked and cold:
-            jitcache.mark_compiled(contact)
+            jitcache.mark_compiled(kind)
         if cold:
             log(f'{kind} kernels ready in {taken[kind]:.1f} s (cache: {jitcache.CACHE_DIR})')
     return taken
 
 
 def main(argv=None):
-    """Compile the free-body and contact kernels (and with ``--batch`` the batch kernel)."""
+    """Compile the free-body, contact and joints kernels (and with ``--batch`` the batch one)."""
     parser = argparse.ArgumentParser(prog='python -m rbd_ros.core.warmup',
                                      description=main.__doc__)
     parser.add_argument('--batch', action='store_true', help='also the threaded batch kernel')
     parser.add_argument('--only', choices=KINDS, action='append',
                         help='compile only this kind (repeatable)')
     args = parser.parse_args(argv)
-    compile_kernels(args.only or (KINDS if args.batch else KINDS[:2]))
+    compile_kernels(args.only or (KINDS if args.batch else KINDS[:3]))
     return 0
 
 

@@ -529,14 +529,15 @@ class RigidBodyNode(Node):
         That compiles the physics kernels (or loads them from numba's cache): logged when it
         compiles, so the check comes after the look into the cache.
         """
-        contact = self.config.contact
-        on_disk = jitcache.kernels_on_disk(contact)
+        config = self.config
+        kind = 'joints' if config.robots else 'contact' if config.contact else 'free'
+        on_disk = jitcache.kernels_on_disk(kind)
         if not on_disk:
-            self.get_logger().info(jitcache.compile_notice(contact))
+            self.get_logger().info(jitcache.compile_notice(kind))
         start = time.monotonic()
-        build.check_first_step(self.config)  # in main()'s start-up thread: a signal is seen
+        build.check_first_step(config)  # in main()'s start-up thread: a signal is seen
         if not on_disk:
-            jitcache.mark_compiled(contact)
+            jitcache.mark_compiled(kind)
             self.get_logger().info(
                 f'physics kernels compiled in {time.monotonic() - start:.1f} s')
 

@@ -19,8 +19,8 @@ Start-up benchmark (issue 25): how long until the node publishes its first pose 
 
 For every parameter file in ``msg_config/`` (or those named), the node is started the way a
 user starts it (``python -m rbd_ros.node --ros-args --params-file FILE``, its own namespace)
-and timed from the process start to the first ``pose`` (one body) or ``poses`` (a world)
-message received through DDS:
+and timed from the process start to the first ``pose`` (one body), ``poses`` (a world) or
+``<robot>/joint_states`` (a file with robots) message received through DDS:
 
 - cold: with an empty kernel cache (``XDG_CACHE_HOME`` a new empty directory, no
   ``NUMBA_CACHE_DIR``), so the node compiles its physics kernels;
@@ -44,10 +44,21 @@ from bench_env import REPO  # noqa: I100 (first: puts the test helpers on sys.pa
 from geometry_msgs.msg import PoseArray, PoseStamped  # noqa: I100
 import rclpy
 from rclpy.qos import qos_profile_sensor_data
+from sensor_msgs.msg import JointState
+import yaml
 
 TARGET_COLD_S = 30.0
 TARGET_WARM_S = 3.0
 TIMEOUT_S = 1200.0
+
+
+def robot_names(params_file):
+    """Return the file's ``robot_names`` (a robot's first sample is its ``joint_states``)."""
+    for section in yaml.safe_load(pathlib.Path(params_file).read_text()).values():
+        names = (section.get('ros__parameters') or {}).get('robot_names')
+        if names:
+            return names
+    return []
 
 
 def first_pose_s(node, params_file, cache_home, namespace):
@@ -55,9 +66,11 @@ def first_pose_s(node, params_file, cache_home, namespace):
     env = {k: v for k, v in os.environ.items() if k != 'NUMBA_CACHE_DIR'}
     env['XDG_CACHE_HOME'] = str(cache_home)
     got = []
+    topics = [(PoseStamped, 'pose'), (PoseArray, 'poses')]
+    topics += [(JointState, f'{robot}/joint_states') for robot in robot_names(params_file)]
     subs = [node.create_subscription(kind, f'{namespace}/{topic}', lambda m: got.append(m),
                                      qos_profile_sensor_data)
-            for kind, topic in ((PoseStamped, 'pose'), (PoseArray, 'poses'))]
+            for kind, topic in topics]
     start = time.monotonic()
     process = subprocess.Popen(
         [sys.executable, '-m', 'rbd_ros.node', '--ros-args', '-r', f'__ns:={namespace}',
