@@ -175,7 +175,7 @@ def kernel(**options):
 
 def _once_per_type(dispatcher):
     """
-    Make ``dispatcher`` compile once per argument *type* when called from another kernel; return it.
+    Make ``dispatcher`` compile once per argument *type* when called from a kernel; return it.
 
     numba types a constant argument of a call between jitted functions as a literal
     (``Literal[bool](True)``) and compiles the callee, and everything it calls, again for every

@@ -104,6 +104,28 @@ def _world_markers(config):
                                meshes)
 
 
+class _FirstStepCheck(threading.Thread):
+    """
+    The first-step check of a cold start, off the spin loop: it compiles the physics kernels.
+
+    The node serves meanwhile: it is on the graph, publishes its state at t = 0 (to a late
+    subscriber too), takes parameters, services and inputs (held until the first step), and
+    steps once the check passed. ``error`` is what the check raised, or None.
+    """
+
+    def __init__(self, config, kind):
+        super().__init__(name='rigid_body_node compile', daemon=True)
+        self.config, self.kind, self.error, self.took_s = config, kind, None, None
+
+    def run(self):
+        start = time.monotonic()
+        try:
+            build.check_first_step(self.config)
+        except BaseException as exc:  # handed to the spin loop (RigidBodyNode._poll_compile)
+            self.error = exc
+        self.took_s = time.monotonic() - start
+
+
 class RigidBodyNode(Node):
     """Simulate one rigid body; see doc/ for parameters, topics and services."""
 
@@ -174,6 +196,10 @@ class RigidBodyNode(Node):
             self.ended_by = self.ended_by or 'start-up interrupted'
             self._close_recording()
             raise
+        if self._compiling is not None:
+            # A subscriber that comes during the compile gets t = 0 (_poll_compile).
+            self._unpublished = {kind for kind, count in self._subscribed if not count()}
+            self._compiling.start()
 
     def _create_outputs(self):
         """Create a publisher per output kind, diagnostics and, with contact, markers."""
@@ -371,13 +397,15 @@ class RigidBodyNode(Node):
     def seconds_to_next_step(self, longest_s=0.1):
         """Wall seconds until the next physics step is due (0 at RTF 0, ``longest_s`` cap)."""
         session = self.session
-        if session.paused or self.done:
+        if session.paused or self.done or self._compiling is not None:
             return longest_s
         return self._pacer.seconds_to_next_step(session.time_ns, session.timestep_ns, longest_s)
 
     def tick(self):
         """Run the steps due by the wall clock (at RTF 0: steps) for at most the tick budget."""
         session = self.session
+        if self._compiling is not None and self._poll_compile():
+            return
         if session.paused and self._unpublished and not self.done:
             self._publish_late()
         if session.paused or self.done:
@@ -522,24 +550,61 @@ class RigidBodyNode(Node):
             self.config.body.body_frame,
             level, message, values), s.time_ns)
 
+    _compiling = None  # the _FirstStepCheck of a cold start while it runs
+
     def _warm_up(self):
         """
         Take the first physics step on a throw-away simulator (:func:`build.check_first_step`).
 
         That compiles the physics kernels (or loads them from numba's cache): logged when it
-        compiles, so the check comes after the look into the cache.
+        compiles, so the check comes after the look into the cache. A cold start of a body or a
+        world runs the check in the background (:class:`_FirstStepCheck`, started once the
+        node is up), so the node is on the graph and publishes t = 0 within seconds; a robot's
+        session compiles its kernels as it is built, so a robot's start waits here.
         """
         config = self.config
         kind = 'joints' if config.robots else 'contact' if config.contact else 'free'
         on_disk = jitcache.kernels_on_disk(kind)
         if not on_disk:
             self.get_logger().info(jitcache.compile_notice(kind))
+            if not config.robots:
+                self._compiling = _FirstStepCheck(config, kind)
+                return
         start = time.monotonic()
         build.check_first_step(config)  # in main()'s start-up thread: a signal is seen
         if not on_disk:
             jitcache.mark_compiled(kind)
             self.get_logger().info(
                 f'physics kernels compiled in {time.monotonic() - start:.1f} s')
+
+    def _poll_compile(self):
+        """
+        While the first-step check of a cold start runs: serve t = 0; return True until it ends.
+
+        Then: a refusal ends the node as at start-up (one line, exit status 2), an exception
+        out of it is raised (exit status 1); otherwise sim time starts now.
+        """
+        job = self._compiling
+        if job.is_alive():
+            if self._unpublished and not self.done:
+                self._publish_late()
+            return True
+        self._compiling = None
+        if isinstance(job.error, RbdError):
+            print(f'rigid_body_node: {job.error}', file=sys.stderr, flush=True)
+            self.exit_status, self.done = 2, True
+            self.ended_by = self.ended_by or 'start-up interrupted'
+            return True
+        if job.error is not None:
+            raise job.error
+        jitcache.mark_compiled(job.kind)
+        self.get_logger().info(f'physics kernels compiled in {job.took_s:.1f} s')
+        self._anchor()  # sim time 0 = now
+        return False
+
+    def compiling(self):
+        """Return whether the first-step check of a cold start is still running."""
+        return self._compiling is not None and self._compiling.is_alive()
 
     REJECT_WARN_PERIOD_NS = 1_000_000_000  # at most one 'wrench rejected' warning per second
     _warn_after_ns = 0  # no rejection warning before this monotonic time
@@ -602,6 +667,10 @@ class RigidBodyNode(Node):
         return response
 
     def _on_step(self, request, response):
+        if self._compiling is not None:
+            response.success, response.message = False, 'compiling the physics kernels: try ' \
+                'again when the log says they are compiled'
+            return response
         if not self.session.paused:
             response.success, response.message = False, 'not paused: call ~/pause first'
             return response
@@ -769,6 +838,11 @@ def main(args=None):
             # Fast DDS deletes endpoints in superlinear time (6,000 publishers: 3.6 s; a world
             # of 1,000 bodies: 18 s): with the recording final there is nothing left to lose,
             # so a big node leaves without deleting them one by one (the OS reclaims them).
+            rclpy.try_shutdown()
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(status)
+        if node.compiling():  # a signal during a cold start's compile: do not wait for numba
             rclpy.try_shutdown()
             sys.stdout.flush()
             sys.stderr.flush()
