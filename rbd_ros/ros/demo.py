@@ -106,15 +106,16 @@ def main(argv=None):
             raise RuntimeError(f'rigid_body_node exited with status {node.returncode}')
 
     try:
-        # On a first start the node compiles the contact step first (about 2 minutes here,
-        # longer on a slower machine; it logs that it does): wait for it, not for DDS alone.
+        # On a first start the node compiles the contact step (about 80 s here, longer on a
+        # slower machine; it logs that it does) while it already serves t = 0: sim time starts
+        # when it is compiled, so the first wait for a sim time is as long as a compile.
         _wait(lambda: wrench.get_subscription_count() > 0 and pause.service_is_ready(), 900,
-              spin, 'rigid_body_node (discovery, after compiling on a first start)')
+              spin, 'rigid_body_node (discovery)')
         future = pause.call_async(SetBool.Request(data=False))
         _wait(future.done, 30, spin, 'the ~/pause service')
         for t_ns, frame_id, force, torque, what in SCRIPT:
             _wait(lambda: poses and conversions.time_from_msg(poses[-1].header.stamp) >= t_ns,
-                  60, spin, f'sim time {t_ns * 1e-9} s')
+                  900, spin, f'sim time {t_ns * 1e-9} s (after compiling, on a first start)')
             wrench.publish(conversions.wrench_to_msg(frame_id, force, torque))
             print(f't = {t_ns * 1e-9:.1f} s: {what}', flush=True)
         end_ns = round(args.duration * 1e9)
