@@ -544,6 +544,8 @@ class RigidBodyNode(Node):
         s = self.session
         values = self._diagnostics.values()
         level, message = diagnostics_status(s, values)
+        if self._compiling is not None:
+            message = 'compiling the physics kernels: sim time starts when they are compiled'
         self._publish('diagnostics', conv.diagnostics_to_msg(
             s.time_ns, f'{self.get_fully_qualified_name()}: rigid body',
             self.get_fully_qualified_name() if self.config.named or self.config.robots else

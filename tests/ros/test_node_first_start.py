@@ -110,6 +110,7 @@ def test_a_cold_start_serves_t0_while_it_compiles_then_steps_what_came_meanwhile
     assert not compiled_then, 'the kernels compiled before the test could see the node ' \
         f'serve t = 0 (a machine far faster than this one?): {node.stderr}'
     assert set(probe.samples['pose']) == {0}, sorted(probe.samples['pose'])
+    assert probe.diagnostics[-1].status[0].message.startswith('compiling the physics kernels')
     assert not refused.success and 'compiling' in refused.message, refused.message
     assert node.wait(600) == 0, node.stderr
     assert 'physics kernels compiled in' in node.stderr, node.stderr
