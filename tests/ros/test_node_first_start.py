@@ -28,6 +28,7 @@ import subprocess
 import sys
 
 from conftest import NodeProcess, REPO
+from rbd_ros.bag.replay import replay_bag
 from rbd_ros.core import layout
 
 PACKAGE = REPO / 'rbd_ros'
@@ -96,8 +97,10 @@ def test_a_cold_start_serves_t0_while_it_compiles_then_steps_what_came_meanwhile
     monkeypatch.setenv('XDG_CACHE_HOME', str(tmp_path / 'xdg_cache'))
     monkeypatch.delenv('NUMBA_CACHE_DIR', raising=False)
     mass_kg, force_n = 2.0, 3.0
+    bag = tmp_path / 'cold_run'
     node = NodeProcess(tmp_path, {'mass_kg': mass_kg, 'duration_s': 3.0, 'start_paused': False,
-                                  'wrench_timeout_s': 0.0}, namespace=True)
+                                  'wrench_timeout_s': 0.0, 'record_path': str(bag)},
+                       namespace=True)
     probe = probe_for(node)
     probe.wait_connected(120.0)
     probe.wait(lambda: 0 in probe.samples['pose'], 60.0, what='the pose at t = 0')
@@ -118,6 +121,9 @@ def test_a_cold_start_serves_t0_while_it_compiles_then_steps_what_came_meanwhile
     for t_ns, twist in probe.samples['twist'].items():
         expected = force_n * t_ns * 1e-9 / mass_kg
         assert abs(twist.twist.linear.x - expected) <= 1e-12 * max(1.0, expected), (t_ns, twist)
+    # The recording holds the wrench at the first step, and replays bit for bit.
+    result = replay_bag(str(bag))
+    assert result.wrenches == 1 and result.match, result.problems
 
 
 def test_the_warm_up_module_compiles_ahead_and_the_node_then_starts_warm(tmp_path, monkeypatch):
