@@ -40,15 +40,53 @@ def numba_files(root):
             if p.suffix in ('.nbi', '.nbc')}
 
 
-def test_a_cold_start_logs_the_compile_and_caches_in_the_users_cache_dir(tmp_path, monkeypatch):
+def _cold_start_serving_t0(tmp_path, probe_for):
+    """Run a cold start (the caller empties the cache); return its NodeProcess, ended."""
+    # Issue 25: a cold start of a body or a world is on the graph within seconds. While its
+    # kernels compile (in the background) it publishes t = 0, refuses ~/step, and holds a wrench
+    # sent meanwhile; once compiled, sim time starts and the wrench acts from the first step:
+    # v(t) = F t / m to round-off (a constant force, no gravity: every integrator's velocity
+    # update is exact for it; 1e-12 relative is a few thousand steps of float64 sums).
+    mass_kg, force_n = 2.0, 3.0
+    bag = tmp_path / 'cold_run'
+    node = NodeProcess(tmp_path, {'mass_kg': mass_kg, 'duration_s': 3.0, 'start_paused': False,
+                                  'wrench_timeout_s': 0.0, 'record_path': str(bag)},
+                       namespace=True)
+    probe = probe_for(node)
+    probe.wait_connected(120.0)
+    probe.wait(lambda: 0 in probe.samples['pose'], 60.0, what='the pose at t = 0')
+    refused = probe.call('step')
+    probe.publish('wrench', 'world', force=(force_n, 0.0, 0.0))
+    probe.wait(lambda: any(kv.key == 'wrenches_received' and int(kv.value) == 1
+                           for m in probe.diagnostics for kv in m.status[0].values),
+               60.0, what='the wrench received')
+    compiled_then = 'physics kernels compiled in' in node.stderr
+    assert not compiled_then, 'the kernels compiled before the test could see the node ' \
+        f'serve t = 0 (a machine far faster than this one?): {node.stderr}'
+    assert set(probe.samples['pose']) == {0}, sorted(probe.samples['pose'])
+    assert probe.diagnostics[-1].status[0].message.startswith('compiling the physics kernels')
+    assert not refused.success and 'compiling' in refused.message, refused.message
+    assert node.wait(600) == 0, node.stderr
+    assert 'physics kernels compiled in' in node.stderr, node.stderr
+    probe.wait(lambda: max(probe.samples['twist']) >= 2_900_000_000, 20.0, what='the last twists')
+    for t_ns, twist in probe.samples['twist'].items():
+        expected = force_n * t_ns * 1e-9 / mass_kg
+        assert abs(twist.twist.linear.x - expected) <= 1e-12 * max(1.0, expected), (t_ns, twist)
+    # The recording holds the wrench at the first step, and replays bit for bit.
+    result = replay_bag(str(bag))
+    assert result.wrenches == 1 and result.match, result.problems
+    return node
+
+
+def test_a_cold_start_logs_the_compile_and_caches_in_the_users_cache_dir(tmp_path, monkeypatch,
+                                                                         probe_for):
     cache_home = tmp_path / 'xdg_cache'
     monkeypatch.setenv('XDG_CACHE_HOME', str(cache_home))
     monkeypatch.delenv('NUMBA_CACHE_DIR', raising=False)  # set by this process's own import
     in_package = numba_files(PACKAGE)
     params = {'duration_s': 0.01, 'start_paused': False}
 
-    cold = NodeProcess(tmp_path, params, namespace=True)
-    assert cold.wait(900) == 0, cold.stderr
+    cold = _cold_start_serving_t0(tmp_path, probe_for)
     cache_dir = cache_home / 'rbd_ros' / 'numba' / f'layout-{layout.fingerprint_hash()}'
     assert 'compiling the physics kernels (the free-body step: about ' in cold.stderr, \
         cold.stderr
@@ -85,45 +123,6 @@ def test_a_cold_start_logs_the_compile_and_caches_in_the_users_cache_dir(tmp_pat
     assert moved.wait(300) == 0, moved.stderr
     assert 'compiling the physics kernels' not in moved.stderr, moved.stderr
     assert numba_files(cache_dir) == written
-
-
-def test_a_cold_start_serves_t0_while_it_compiles_then_steps_what_came_meanwhile(
-        tmp_path, monkeypatch, probe_for):
-    # Issue 25: a cold start of a body or a world is on the graph within seconds. While its
-    # kernels compile (in the background) it publishes t = 0, refuses ~/step, and holds a wrench
-    # sent meanwhile; once compiled, sim time starts and the wrench acts from the first step:
-    # v(t) = F t / m to round-off (a constant force, no gravity: every integrator's velocity
-    # update is exact for it; 1e-12 relative is a few thousand steps of float64 sums).
-    monkeypatch.setenv('XDG_CACHE_HOME', str(tmp_path / 'xdg_cache'))
-    monkeypatch.delenv('NUMBA_CACHE_DIR', raising=False)
-    mass_kg, force_n = 2.0, 3.0
-    bag = tmp_path / 'cold_run'
-    node = NodeProcess(tmp_path, {'mass_kg': mass_kg, 'duration_s': 3.0, 'start_paused': False,
-                                  'wrench_timeout_s': 0.0, 'record_path': str(bag)},
-                       namespace=True)
-    probe = probe_for(node)
-    probe.wait_connected(120.0)
-    probe.wait(lambda: 0 in probe.samples['pose'], 60.0, what='the pose at t = 0')
-    refused = probe.call('step')
-    probe.publish('wrench', 'world', force=(force_n, 0.0, 0.0))
-    probe.wait(lambda: any(kv.key == 'wrenches_received' and int(kv.value) == 1
-                           for m in probe.diagnostics for kv in m.status[0].values),
-               60.0, what='the wrench received')
-    compiled_then = 'physics kernels compiled in' in node.stderr
-    assert not compiled_then, 'the kernels compiled before the test could see the node ' \
-        f'serve t = 0 (a machine far faster than this one?): {node.stderr}'
-    assert set(probe.samples['pose']) == {0}, sorted(probe.samples['pose'])
-    assert probe.diagnostics[-1].status[0].message.startswith('compiling the physics kernels')
-    assert not refused.success and 'compiling' in refused.message, refused.message
-    assert node.wait(600) == 0, node.stderr
-    assert 'physics kernels compiled in' in node.stderr, node.stderr
-    probe.wait(lambda: max(probe.samples['twist']) >= 2_900_000_000, 20.0, what='the last twists')
-    for t_ns, twist in probe.samples['twist'].items():
-        expected = force_n * t_ns * 1e-9 / mass_kg
-        assert abs(twist.twist.linear.x - expected) <= 1e-12 * max(1.0, expected), (t_ns, twist)
-    # The recording holds the wrench at the first step, and replays bit for bit.
-    result = replay_bag(str(bag))
-    assert result.wrenches == 1 and result.match, result.problems
 
 
 def test_the_warm_up_module_compiles_ahead_and_the_node_then_starts_warm(tmp_path, monkeypatch):
