@@ -285,7 +285,17 @@ def recorded_parameters(params):
     A recording stores the node's parameters under the names of the day it was made; a
     recording made before :data:`RENAMED_PARAMETERS` reads as if made today. Other names pass
     through unchanged (:meth:`NodeConfig.from_parameters` judges them).
+
+    :raises ConfigError: an old name and its new one both in ``params`` (no recording holds
+        both; which list would be meant?).
     """
+    for name in sorted(params):
+        new = new_parameter_name(name)
+        if new is not None and new in params:
+            raise ConfigError(
+                f'parameters {name} = {fmt(params[name])} and {new} = {fmt(params[new])}: one '
+                f'list under its old and its new name ({name} was renamed to {new}); a '
+                'recording holds one of them')
     return {new_parameter_name(name) or name: value for name, value in params.items()}
 
 

@@ -173,6 +173,11 @@ CASES = {  # id: (source, (tmp_path -> craft params, attachments), words of the 
     # body count refused by the parameter check (the message a user's own file gets).
     'bodies-6000': (STACK, lambda tmp: (_bodies(6000), None),
                     ['parameter body_names = ', f'6000 bodies exceed the limit of {MAX_BODIES}']),
+    # An old list name beside its new one (a bag no node writes): refused, not one of them
+    # silently read (the reader used to take whichever came last).
+    'old-and-new-names': (STACK, lambda tmp: ({'bodies': ['top']}, None),
+                          ["parameters bodies = ['top'] and body_names = [",
+                           'one list under its old and its new name']),
     'nan-mass-world': (STACK, lambda tmp: ({'bodies.top.mass_kg': float('nan')}, None),
                        ['parameter bodies.top.mass_kg = nan kg: must be finite']),
     'nan-mass-body': (L_BLOCK, lambda tmp: ({'mass_kg': float('nan')}, None),
