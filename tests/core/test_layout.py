@@ -156,12 +156,16 @@ def test_fingerprint_lists_every_constant_and_names_the_kernel_cache():
         assert os.path.basename(cache_dir) == f'layout-{layout.fingerprint_hash()}'
 
 
+#: A function compiled through one of the kernel decorators (rbd_ros.core.jitcache.kernel).
+KERNEL_DECORATOR = re.compile(r'^@_(jit|inl|raw)\b', re.MULTILINE)
+
+
 def test_every_compiled_source_is_in_the_kernel_cache_name():
     # A compiled function embeds what it calls, but numba checks only the caller's file before
     # loading it from the cache: a module of compiled functions left out of KERNEL_SOURCES
     # could be edited and the step would still run its old machine code from the cache.
     compiled = {path.relative_to(CORE).as_posix() for path in CORE.rglob('*.py')
-                if 'njit(' in path.read_text()}
+                if 'njit(' in path.read_text() or KERNEL_DECORATOR.search(path.read_text())}
     assert compiled, 'no compiled module found: the scan is broken'
     assert compiled <= set(layout.KERNEL_SOURCES), compiled - set(layout.KERNEL_SOURCES)
 
