@@ -104,6 +104,11 @@ def _world_markers(config):
                                meshes)
 
 
+def _say(what):
+    """Print the one line of a refusal or an ending at start-up: ``rigid_body_node: <what>``."""
+    print(f'rigid_body_node: {what}', file=sys.stderr, flush=True)
+
+
 class _FirstStepCheck(threading.Thread):
     """
     The first-step check of a cold start, off the spin loop: it compiles the physics kernels.
@@ -575,9 +580,12 @@ class RigidBodyNode(Node):
         start = time.monotonic()
         build.check_first_step(config)  # in main()'s start-up thread: a signal is seen
         if not on_disk:
-            jitcache.mark_compiled(kind)
-            self.get_logger().info(
-                f'physics kernels compiled in {time.monotonic() - start:.1f} s')
+            self._compiled(kind, time.monotonic() - start)
+
+    def _compiled(self, kind, took_s):
+        """Mark the kernels of ``kind`` compiled in the cache, and say how long it took."""
+        jitcache.mark_compiled(kind)
+        self.get_logger().info(f'physics kernels compiled in {took_s:.1f} s')
 
     def _poll_compile(self):
         """
@@ -593,14 +601,13 @@ class RigidBodyNode(Node):
             return True
         self._compiling = None
         if isinstance(job.error, RbdError):
-            print(f'rigid_body_node: {job.error}', file=sys.stderr, flush=True)
+            _say(job.error)
             self.exit_status, self.done = 2, True
             self.ended_by = self.ended_by or 'start-up interrupted'
             return True
         if job.error is not None:
             raise job.error
-        jitcache.mark_compiled(job.kind)
-        self.get_logger().info(f'physics kernels compiled in {job.took_s:.1f} s')
+        self._compiled(job.kind, job.took_s)
         self._anchor()  # sim time 0 = now
         return False
 
@@ -791,7 +798,7 @@ def main(args=None):
     with participant.node_profile():
         error = _init_rclpy(args)
         if error is not None:
-            print(f'rigid_body_node: {error}', file=sys.stderr, flush=True)
+            _say(error)
             sys.exit(2)
         built = []
 
@@ -806,12 +813,11 @@ def main(args=None):
         while worker.is_alive() and not (stop and not PAST_SLOW_START_UP.is_set()):
             worker.join(START_UP_POLL_S)
     if stop and not built:
-        print(f'rigid_body_node: {stop[0]} during start-up: stopped', file=sys.stderr,
-              flush=True)
+        _say(f'{stop[0]} during start-up: stopped')
         os._exit(0)  # nothing recorded yet; a half-built node needs no teardown
     node = built[0]
     if isinstance(node, RbdError):
-        print(f'rigid_body_node: {node}', file=sys.stderr, flush=True)
+        _say(node)
         rclpy.try_shutdown()
         sys.exit(2)
     if isinstance(node, BaseException):
@@ -836,15 +842,11 @@ def main(args=None):
         for signum in (signal.SIGINT, signal.SIGTERM):
             signal.signal(signum, lambda *_: os._exit(status))
         executor.shutdown()
-        if node.endpoint_count() > limits.TEARDOWN_ENDPOINTS:
-            # Fast DDS deletes endpoints in superlinear time (6,000 publishers: 3.6 s; a world
-            # of 1,000 bodies: 18 s): with the recording final there is nothing left to lose,
-            # so a big node leaves without deleting them one by one (the OS reclaims them).
-            rclpy.try_shutdown()
-            sys.stdout.flush()
-            sys.stderr.flush()
-            os._exit(status)
-        if node.compiling():  # a signal during a cold start's compile: do not wait for numba
+        if node.endpoint_count() > limits.TEARDOWN_ENDPOINTS or node.compiling():
+            # With the recording final there is nothing left to lose, so the process leaves at
+            # once (the OS reclaims the rest): Fast DDS deletes endpoints in superlinear time
+            # (6,000 publishers: 3.6 s; a world of 1,000 bodies: 18 s), and a signal during a
+            # cold start's compile need not wait for numba.
             rclpy.try_shutdown()
             sys.stdout.flush()
             sys.stderr.flush()

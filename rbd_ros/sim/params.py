@@ -289,14 +289,15 @@ def recorded_parameters(params):
     :raises ConfigError: an old name and its new one both in ``params`` (no recording holds
         both; which list would be meant?).
     """
+    today = {name: new_parameter_name(name) or name for name in params}
     for name in sorted(params):
-        new = new_parameter_name(name)
-        if new is not None and new in params:
+        new = today[name]
+        if new != name and new in params:
             raise ConfigError(
                 f'parameters {name} = {fmt(params[name])} and {new} = {fmt(params[new])}: one '
                 f'list under its old and its new name ({name} was renamed to {new}); a '
                 'recording holds one of them')
-    return {new_parameter_name(name) or name: value for name, value in params.items()}
+    return {today[name]: value for name, value in params.items()}
 
 
 def refuse_old_names(params):
