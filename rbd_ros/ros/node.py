@@ -564,19 +564,18 @@ class RigidBodyNode(Node):
         Take the first physics step on a throw-away simulator (:func:`build.check_first_step`).
 
         That compiles the physics kernels (or loads them from numba's cache): logged when it
-        compiles, so the check comes after the look into the cache. A cold start of a body or a
-        world runs the check in the background (:class:`_FirstStepCheck`, started once the
-        node is up), so the node is on the graph and publishes t = 0 within seconds; a robot's
-        session compiles its kernels as it is built, so a robot's start waits here.
+        compiles, so the check comes after the look into the cache. A cold start runs the check
+        in the background (:class:`_FirstStepCheck`, started once the node is up), so the node
+        is on the graph and publishes t = 0 within seconds (a robot's session projects its
+        placement onto the joints at its first step, so building it compiles nothing).
         """
         config = self.config
         kind = 'joints' if config.robots else 'contact' if config.contact else 'free'
         on_disk = jitcache.kernels_on_disk(kind)
         if not on_disk:
             self.get_logger().info(jitcache.compile_notice(kind))
-            if not config.robots:
-                self._compiling = _FirstStepCheck(config, kind)
-                return
+            self._compiling = _FirstStepCheck(config, kind)
+            return
         start = time.monotonic()
         build.check_first_step(config)  # in main()'s start-up thread: a signal is seen
         if not on_disk:

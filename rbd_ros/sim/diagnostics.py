@@ -75,8 +75,9 @@ class Diagnostics:
             commands = {'commands_received': s.commands.received_total,
                         'commands_rejected': s.commands.rejected_total,
                         **{f'commands_rejected_{k}': v for k, v in s.commands.rejected.items()}}
-            joint_error = s.simulator.articulated.joint_error()
-            commands['joint_error_max_m'], commands['joint_error_max_rad'] = joint_error
+            joint_error = s.simulator.articulated.joint_error()  # None before the first step
+            if joint_error is not None:
+                commands['joint_error_max_m'], commands['joint_error_max_rad'] = joint_error
         return {
             'sim_time_s': s.time_ns * 1e-9,
             'real_time_factor': (s.time_ns - sim0) / max(1, now - wall0),

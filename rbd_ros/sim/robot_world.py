@@ -89,7 +89,10 @@ class RobotWorld:
                                       for name in robot.joint_names))
             self._bodies.append((b0, len(placement.models)))
         self._args = (models, states, joints)
-        self._sim = ArticulatedSimulator(models, states, joints, timestep_ns=timestep_ns)
+        # The initial projection waits for the first step: building the world compiles nothing, so
+        # a cold node publishes the placement at t = 0 while its kernels compile.
+        self._sim = ArticulatedSimulator(models, states, joints, timestep_ns=timestep_ns,
+                                         defer_projection=True)
         self._no_bodies = (np.zeros((layout.N_STATE, 0)), np.zeros(0, dtype=np.int64))
         # Each link's carrier: (body index or None, position_b, q_bl), or its fixed world pose.
         self._links = []
@@ -127,7 +130,8 @@ class RobotWorld:
 
     def reset(self) -> None:
         """Back to every robot's placement at time 0, every motor off."""
-        self._sim = ArticulatedSimulator(*self._args, timestep_ns=self._timestep_ns)
+        self._sim = ArticulatedSimulator(*self._args, timestep_ns=self._timestep_ns,
+                                         defer_projection=True)
 
     # --- per robot ---------------------------------------------------------------------------
 

@@ -144,13 +144,18 @@ class ArticulatedSimulator:
     :param timestep_ns: the fixed step ``h``, integer ns > 0.
     :param solver: ``'auto'`` (the tree elimination when no loop closes, else dense) or
         ``'dense'`` (always the dense factorisation; the same answers, for checking).
+    :param defer_projection: True: the initial projection waits for the first :meth:`step`
+        or motor target, so building the simulator runs almost no compiled kernel (a node
+        publishes the states as given at t = 0 while its kernels compile). Until then the
+        readouts are those of the states as given, :meth:`joint_error` is None, and the errors
+        below come from that first call. Either way the steps give the same bits.
     :raises ConfigError: a bad argument (one line naming the joint or body and field).
     :raises ConvergenceError: the initial poses could not be projected onto the joints.
     """
 
     def __init__(self, models: Sequence[BodyModel], states: Sequence[BodyState],
                  joints: Sequence[Joint], *, timestep_ns: int = 1_000_000,
-                 solver: str = 'auto'):
+                 solver: str = 'auto', defer_projection: bool = False):
         models, states, joints = list(models), list(states), list(joints)
         self._timestep_ns = whole_number(timestep_ns, 'timestep_ns', 'ns', positive=True,
                                          error=ConfigError)
@@ -199,6 +204,14 @@ class ArticulatedSimulator:
                                          s.angular_velocity_b])
         self._time_ns = states[0].time_ns
         self._t_call = self._time_ns
+        self._projected = False
+        if not defer_projection:
+            self._project_initial()
+
+    def _project_initial(self):
+        """Project the initial states onto the joints (once, before anything steps them)."""
+        if self._projected:
+            return
         jitcache.configured()  # the kernel cache, before a first compile
         it = jk.initialize(self._model, self._x, self._work, PROJECTION_TOL,
                            PROJECTION_MAX_ITER)
@@ -210,10 +223,11 @@ class ArticulatedSimulator:
         self._check_finite('the initial projection')
         self._check_branch()
         self._check_limits()
-        for j, joint in enumerate(joints):
+        for j, joint in enumerate(self._joints):
             if joint.kind == 'continuous':
                 self._work.angle[j] = joint_position(joint, *self._poses(joint))[0]
         jk._unwrap(self._model, self._x, self._work)
+        self._projected = True
 
     def _check_branch(self):
         """Refuse a start on a joint's mirror branch (rows satisfied with an axis reversed)."""
@@ -340,6 +354,7 @@ class ArticulatedSimulator:
         n = whole_number(n_steps, 'n_steps', 'steps', error=ConfigError)
         if n == 0:
             return
+        self._project_initial()
         h = self._timestep_ns * 1e-9
         self._t_call = self._time_ns
         self._work.stats[jk.S_TIME] = self._work.stats[jk.S_TSTAGE] = self._time_ns * 1e-9
@@ -406,6 +421,7 @@ class ArticulatedSimulator:
         (a followed trajectory's feed-forward: set it again every step). ``refresh=False``
         leaves the dynamics of the new targets to the caller (:meth:`set_motors`).
         """
+        self._project_initial()
         n_j = len(self._joints)
         if isinstance(joint_index, bool) or not isinstance(joint_index, (int, np.integer)) \
                 or not 0 <= joint_index < n_j:
@@ -466,6 +482,7 @@ class ArticulatedSimulator:
         :param targets: ``(joint_index, keyword arguments of set_motor)`` pairs. A bad one is
             refused before any is set.
         """
+        self._project_initial()
         saved = self._work.motor.copy()
         try:
             for joint_index, kwargs in targets:
@@ -535,7 +552,7 @@ class ArticulatedSimulator:
         out = []
         for j, joint in enumerate(self._joints):
             q = joint_position(joint, *self._poses(joint))
-            if joint.kind == 'continuous':
+            if joint.kind == 'continuous' and self._projected:
                 q = np.array([self._work.angle[j]])
             out.append(q)
         return out
@@ -572,7 +589,13 @@ class ArticulatedSimulator:
         return out
 
     def joint_error(self):
-        """Return ``(max anchor distance m, max axis angle rad)`` over all joints now."""
+        """
+        Return ``(max anchor distance m, max axis angle rad)`` over all joints now.
+
+        None before the deferred initial projection (``defer_projection``).
+        """
+        if not self._projected:
+            return None
         jk.joint_rows(self._model, self._x, self._work, False)
         con, rows = self._work.con, self._model.rows
         dist, ang = 0.0, 0.0

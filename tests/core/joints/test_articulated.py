@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 
 from rbd_ros.core import BodyModel, BodyState, ConfigError
-from rbd_ros.core.joints import ArticulatedSimulator, Joint, JOINT_KINDS
+from rbd_ros.core.joints import ArticulatedSimulator, Joint, JOINT_KINDS, joint_position
 from rbd_ros.core.rotations import quat_from_axis_angle
 from tests.core.joints.closed_forms import (cartpole_omega, chain_joint_forces,
                                             compound_pendulum_l_eq, G,
@@ -636,6 +636,45 @@ def test_runs_are_bit_identical():
     # serial, fixed order, no reduction in varying order: stepping in chunks changes nothing
     assert all(s == t for s, t in zip(a.states, b.states))
     assert np.array_equal(a.joint_wrenches(), b.joint_wrenches())
+
+
+def test_a_deferred_projection_gives_the_same_bits_and_the_same_refusals():
+    # defer_projection (a node's robots: building compiles nothing) moves the initial
+    # projection to the first step or motor target; the steps are then the same bits as an
+    # eager simulator's, and until then the readouts are those of the states as given.
+    models, states, joints = branched()
+    eager = ArticulatedSimulator(models, states, joints)
+    lazy = ArticulatedSimulator(models, states, joints, defer_projection=True)
+    assert lazy.joint_error() is None and lazy.states == tuple(states)
+    assert all(np.array_equal(q, joint_position(j, *_given_poses(states, j)))
+               for q, j in zip(lazy.joint_positions(), joints))
+    eager.step(300)
+    lazy.step(300)
+    assert eager.states == lazy.states
+    assert np.array_equal(eager.joint_wrenches(), lazy.joint_wrenches())
+    assert lazy.joint_error() == eager.joint_error()
+    # a motor target projects first too, as an eager simulator had before it was set
+    eager, lazy = (ArticulatedSimulator(*branched(), defer_projection=defer)
+                   for defer in (False, True))
+    for sim in (eager, lazy):
+        sim.set_motor(0, position=0.1, time_constant_s=0.05)
+        sim.step(200)
+    assert lazy.joint_efforts()[0] != 0.0
+    assert eager.states == lazy.states
+    # a start beyond a limit is refused at the first step instead of at construction
+    joint = Joint('pivot', 'revolute', None, 0, origin_child_b=(0.0, 0.0, 0.5),
+                  axis_b=(0.0, 1.0, 0.0), upper=0.2)
+    state = BodyState(-0.5 * np.array([math.sin(0.5), 0.0, math.cos(0.5)]), y_rotation(0.5))
+    late = ArticulatedSimulator([rod_model()], [state], [joint], defer_projection=True)
+    with pytest.raises(ConfigError, match=r"joint 'pivot'.upper: the initial position 0.5"):
+        late.step()
+
+
+def _given_poses(states, joint):
+    parent = (None, None) if joint.parent is None else (
+        states[joint.parent].position_w, states[joint.parent].orientation_wb)
+    child = states[joint.child]
+    return (*parent, child.position_w, child.orientation_wb)
 
 
 def test_body_damping_acts_on_jointed_bodies():
