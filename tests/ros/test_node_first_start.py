@@ -190,27 +190,31 @@ def test_a_cold_robot_start_publishes_its_placement_while_the_joints_compile(
         'robot_names': ['arm'], 'robots.arm.urdf_path': str(REPO / 'msg_config/urdf/arm3.urdf'),
         'robots.arm.initial_joint_positions': initial, 'gravity': [0.0, 0.0, -9.81],
         'start_paused': False, 'record_path': str(bag)}, namespace=True)
-    probe = probe_for(node, inputs=(), outputs=('diagnostics',))
-    got = []
-    probe.node.create_subscription(JointState, 'arm/joint_states', got.append, QoSProfile(
-        depth=100, durability=DurabilityPolicy.VOLATILE, reliability=ReliabilityPolicy.RELIABLE))
-    probe.wait(lambda: got, 60.0, 'the joint states at t = 0')
-    probe.wait(lambda: probe.diagnostics, 10.0, 'the diagnostics while compiling')
-    refused = probe.call('step')
-    assert 'physics kernels compiled in' not in node.stderr, 'compiled before the test saw ' \
-        f't = 0 served (a machine far faster than this one?): {node.stderr}'
-    assert 'compiling the physics kernels (the joints and robots step: about ' in node.stderr, \
-        node.stderr
-    assert {(m.header.stamp.sec, m.header.stamp.nanosec) for m in got} == {(0, 0)}
-    assert list(got[0].name) == ['shoulder', 'elbow', 'wrist'], got[0].name
-    assert np.allclose(got[0].position, initial, rtol=0.0, atol=1e-15), got[0].position
-    assert list(got[0].velocity) == [0.0] * 3 and list(got[0].effort) == [0.0] * 3
-    status = probe.diagnostics[-1].status[0]
-    assert status.message.startswith('compiling the physics kernels'), status.message
-    # Joint errors are measured from the first step on (the placement is not projected yet).
-    assert not any(kv.key.startswith('joint_error') for kv in status.values)
-    assert not refused.success and 'compiling' in refused.message, refused.message
-    assert node.stop() == 0, node.stderr
+    try:
+        probe = probe_for(node, inputs=(), outputs=('diagnostics',))
+        got = []
+        qos = QoSProfile(depth=100, durability=DurabilityPolicy.VOLATILE,
+                         reliability=ReliabilityPolicy.RELIABLE)
+        probe.node.create_subscription(JointState, 'arm/joint_states', got.append, qos)
+        probe.wait(lambda: got, 60.0, 'the joint states at t = 0')
+        probe.wait(lambda: probe.diagnostics, 10.0, 'the diagnostics while compiling')
+        refused = probe.call('step')
+        assert 'physics kernels compiled in' not in node.stderr, 'compiled before the test ' \
+            f'saw t = 0 served (a machine far faster than this one?): {node.stderr}'
+        notice = 'compiling the physics kernels (the joints and robots step: about '
+        assert notice in node.stderr, node.stderr
+        assert {(m.header.stamp.sec, m.header.stamp.nanosec) for m in got} == {(0, 0)}
+        assert list(got[0].name) == ['shoulder', 'elbow', 'wrist'], got[0].name
+        assert np.allclose(got[0].position, initial, rtol=0.0, atol=1e-15), got[0].position
+        assert list(got[0].velocity) == [0.0] * 3 and list(got[0].effort) == [0.0] * 3
+        diag = probe.diagnostics[-1].status[0]
+        assert diag.message.startswith('compiling the physics kernels'), diag.message
+        # Joint errors are measured from the first step on (the placement is not projected yet).
+        assert not any(kv.key.startswith('joint_error') for kv in diag.values)
+        assert not refused.success and 'compiling' in refused.message, refused.message
+    finally:  # never leave a node running (it has no duration)
+        status = node.stop()
+    assert status == 0, node.stderr
     recorded = open_bag(bag)
     topic = f'{node.namespace}/arm/joint_states'
     decode = recorded.decoder(topic)
