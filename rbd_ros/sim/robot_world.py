@@ -20,14 +20,24 @@ Every robot's bodies and joints go into one :class:`rbd_ros.core.joints.Articula
 :mod:`rbd_ros.sim.config`). Core joint names are ``<robot>/<joint>``, so two robots may use the
 same joint names. It answers what :class:`rbd_ros.sim.session.SimSession` asks of a simulator
 (``time_ns``, ``arrays`` of the free bodies: none, ``step``, ``reset``, no contact) and, per
-robot, the joint readouts and every link frame's pose.
+robot, the joint readouts, every link frame's pose, a floating root's state and every joint's
+constraint wrench.
 
 **Link frames.** A moving link's frame is its body's pose composed with the link's fixed
 offset in that body (:class:`rbd_ros.sim.urdf.RobotLink`); a link that is part of the world
 keeps its pose at time 0. The URDF's ``world`` link is the node's world frame.
+
+**Joint wrenches.** Per URDF joint, the force (N) and torque (N m) the parent exerts on the
+child, in the child link's frame (a URDF joint's frame: its origin is the joint), the torque
+about that origin: ``f_l = R_wlᵀ f_w`` and ``τ_l = R_wlᵀ (τ_com − d × f_w)`` with ``f_w``,
+``τ_com`` the core's multiplier wrench on the child body (world frame, about its COM) and ``d``
+the COM → link origin offset (world). Computed here in plain Python from the multipliers (the
+core's :meth:`~rbd_ros.core.joints.ArticulatedSimulator.joint_wrenches` gives them in its own
+row basis, through numpy), so the bytes are the same on every machine.
 """
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -62,6 +72,26 @@ def rotate(q, v):
             vz + w * tz + (x * ty - y * tx))
 
 
+_NAN6 = (math.nan,) * 6
+
+
+def _conjugate(q):
+    """Return the inverse ``(w, -x, -y, -z)`` of a unit quaternion."""
+    return (q[0], -q[1], -q[2], -q[3])
+
+
+def _frame_pose(state, p, q):
+    """
+    Return a frame fixed in a body: ``(position_w, q_wl, d_w, q_wb)``, plain floats.
+
+    ``p``, ``q``: the frame in the body frame; ``d_w = R_wb p`` (the COM → frame origin offset).
+    """
+    qb = tuple(state.orientation_wb.tolist())
+    pb = state.position_w.tolist()
+    d = rotate(qb, p)
+    return (pb[0] + d[0], pb[1] + d[1], pb[2] + d[2]), multiply(qb, q), d, qb
+
+
 class RobotWorld:
     """
     The robots of ``config`` in one articulated simulator.
@@ -76,9 +106,11 @@ class RobotWorld:
         models, states, joints = [], [], []
         self._moving = []   # per robot: the core joint index of each moving joint
         self._bodies = []   # per robot: (first body index, number of bodies)
+        self._joint_offsets = []  # per robot: its first core joint index
         for robot in self.robots:
             placement = robot.placement
             b0, j0 = len(models), len(joints)
+            self._joint_offsets.append(j0)
             models += placement.models
             states += placement.states
             for joint in placement.joints:
@@ -108,6 +140,18 @@ class RobotWorld:
                                   tuple(np.asarray(link.position_b).tolist()),
                                   tuple(np.asarray(link.orientation_b).tolist())))
             self._links.append(tuple(links))
+        # Per robot: its root link's (body index, position_b, q_bl), None when fixed to the
+        # world; and per URDF joint (core joint index, child body, position_b, q_bl) of its
+        # child link, or None for a joint the simulator has no constraint for.
+        self._roots, self._joint_frames = [], []
+        for robot, (b0, _), links in zip(self.robots, self._bodies, self._links):
+            by_name = {name: (body, p, q) for name, body, p, q in links}
+            urdf = robot.robot
+            self._roots.append(None if urdf.fixed_to_world else by_name[urdf.root])
+            j0 = self._joint_offsets[len(self._joint_frames)]
+            self._joint_frames.append(tuple(
+                None if joint.core is None else (j0 + joint.core, *by_name[joint.child])
+                for joint in urdf.joints))
 
     # --- what SimSession asks of a simulator -----------------------------------------------
 
@@ -189,11 +233,63 @@ class RobotWorld:
             if body is None:
                 out.append((p, q))
                 continue
-            state = states[body]
-            qb = tuple(state.orientation_wb.tolist())
-            pb = state.position_w.tolist()
-            dx, dy, dz = rotate(qb, p)
-            out.append(((pb[0] + dx, pb[1] + dy, pb[2] + dz), multiply(qb, q)))
+            out.append(_frame_pose(states[body], p, q)[:2])
+        return out
+
+    def root_state(self, r: int):
+        """
+        Return robot ``r``'s root link frame as 13 plain floats, or None when fixed to the world.
+
+        ``(position_w, q_wl, v_w, ω_l)``: the frame's pose in the world (the same bits as its
+        :meth:`link_poses` entry, so ``odom`` and ``/tf`` agree exactly), the velocity of its
+        origin ``v_w = v_com + ω_w × d`` (world frame; ``d`` the COM → origin offset) and the
+        angular velocity in the link frame ``ω_l = R_blᵀ ω_b``: the packed-state layout
+        :meth:`rbd_ros.msgs.outputs.BodyOutputs.list_values` reads.
+        """
+        root = self._roots[r]
+        if root is None:
+            return None
+        body, p, q = root
+        state = self._sim.states[body]
+        position, q_wl, (dx, dy, dz), qb = _frame_pose(state, p, q)
+        v = state.linear_velocity_w.tolist()
+        omega_b = state.angular_velocity_b.tolist()
+        wx, wy, wz = rotate(qb, omega_b)
+        velocity = (v[0] + (wy * dz - wz * dy), v[1] + (wz * dx - wx * dz),
+                    v[2] + (wx * dy - wy * dx))
+        omega_l = rotate(_conjugate(q), omega_b)
+        return [*position, *q_wl, *velocity, *omega_l]
+
+    def joint_wrenches(self, r: int):
+        """
+        Return every URDF joint's wrench of robot ``r``, URDF joint order: 6 floats each.
+
+        ``(fx, fy, fz, τx, τy, τz)``: force (N) and torque (N m) the parent exerts on the
+        child, child link frame, torque about its origin (the module docstring gives the
+        formula). NaN for a joint the simulator has no constraint for (a fixed joint inside
+        the world, or to a link without ``<inertial>`` folded into its parent's body), and for
+        every joint at time 0, before the first step has computed the multipliers.
+        """
+        frames = self._joint_frames[r]
+        if self._sim.time_ns == 0:
+            return [_NAN6] * len(frames)
+        # The multipliers' wrench on each child body, world frame, torque about its COM (the
+        # core's ArtWork.wrench: what its joint_wrenches reads). Not a public attribute: the
+        # core is left unchanged here (see doc/robots.md).
+        raw = self._sim._work.wrench.tolist()
+        states = self._sim.states
+        out = []
+        for frame in frames:
+            if frame is None:
+                out.append(_NAN6)
+                continue
+            j, body, p, q = frame
+            _, q_wl, (dx, dy, dz), _ = _frame_pose(states[body], p, q)
+            fx, fy, fz, tx, ty, tz = raw[j]
+            torque = (tx - (dy * fz - dz * fy), ty - (dz * fx - dx * fz),
+                      tz - (dx * fy - dy * fx))
+            q_lw = _conjugate(q_wl)
+            out.append((*rotate(q_lw, (fx, fy, fz)), *rotate(q_lw, torque)))
         return out
 
     @property
