@@ -18,8 +18,11 @@ One output sample: state → values → CDR bytes (and messages), for the node, 
 :class:`SampleBuilder` is the only place that turns the simulator's states into the node's
 output messages: per body ``<prefix>pose``, ``<prefix>twist``, ``<prefix>odom`` and, with
 contact, ``<prefix>contact_wrench`` (the prefix is ``<name>/`` for a body of ``body_names``,
-empty for the body of a single-body file: ``pose``, ...); ``poses`` (every pose, named bodies
-only), ``/clock`` and one ``/tf`` message holding world → body for every body. Each body's
+empty for the body of a single-body file: ``pose``, ...); per robot ``<robot>/joint_states``,
+``<robot>/odom`` (a floating robot's root link, through :meth:`BodyOutputs.odom`) and
+``<robot>/joint_wrenches`` (:mod:`rbd_ros.msgs.robot_outputs`); ``poses`` (every pose, named
+bodies only), ``/clock`` and one ``/tf`` message holding world → body for every body (and every
+robot link). Each body's
 messages come from its :class:`BodyOutputs`. The node publishes the CDR bytes of
 :meth:`SampleBuilder.serialize` and records the SAME bytes; replay recomputes the samples with
 :meth:`SampleBuilder.message`, built from the same values, so "replay rebuilds exactly what the
