@@ -306,3 +306,17 @@ def test_a_robot_plot_draws_every_joint_from_the_recorded_samples(tmp_path, caps
             want.append(np.linalg.norm([w.x, w.y, w.z]))
         assert np.allclose(y, want, rtol=RTOL, atol=0, equal_nan=True), joint
         assert np.isnan(y[0]) and np.all(y[1:] > 1.0)  # t = 0: not yet computed
+
+
+def test_the_robot_reference_bag_plots_its_swing(tmp_path):
+    bag = open_bag(str(REPO / 'bags' / 'robot_pendulum'))
+    figure, panels = draw_robots(bag)
+    pyplot.close(figure)
+    t, angle = panels[0]['lines']['pendulum/pivot']
+    # Let go at 0.5 rad (msg_config/robot_pendulum.yaml), read back from the placed link to
+    # 1e-12 (doc/robots.md: placement and readout agree to that; 1 ulp here).
+    assert len(t) == 451 and abs(angle[0] - 0.5) <= 1e-12
+    assert angle.min() < -0.49                 # and swung through to the other side
+    assert set(panels[3]['lines']) == {'pendulum/pivot'}
+    out = render(bag, str(tmp_path / 'pendulum.png'))
+    assert Path(out).stat().st_size > 10_000
