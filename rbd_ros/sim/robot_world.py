@@ -274,8 +274,8 @@ class RobotWorld:
         if self._sim.time_ns == 0:
             return [_NAN6] * len(frames)
         # The multipliers' wrench on each child body, world frame, torque about its COM (the
-        # core's ArtWork.wrench: what its joint_wrenches reads). Not a public attribute: the
-        # core is left unchanged here (see doc/robots.md).
+        # core's ArtWork.wrench, what its joint_wrenches reads). Read here though not public:
+        # the core is left unchanged by this layer; a public read-out belongs in the core.
         raw = self._sim._work.wrench.tolist()
         states = self._sim.states
         out = []
