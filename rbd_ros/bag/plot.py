@@ -425,7 +425,7 @@ def load_robots(bag: Bag) -> Dict[str, Any]:
     'velocity', 'effort' (N, n_joints), 'wrench_t_s' (M,), 'wrench_joints' [label],
     'force_n' (M, n_wrench_joints)}``; a label is ``<robot>/<joint>``, the joints in each
     robot's ``joint_states`` order, robots in ``robot_names`` order; NaN where a sample lacks a
-    value (a joint without a constraint has NaN forces).
+    value (the forces are NaN at t = 0, before the first step has solved them).
 
     :raises RbdError: the recording holds no ``joint_states`` of its robots.
     """
@@ -504,7 +504,7 @@ def draw_robots(bag: Bag, title: Optional[str] = None) -> Tuple[Any, List[Dict[s
     drawn = False
     for k, label in enumerate(data['wrench_joints']):
         force = data['force_n'][:, k]
-        if np.isfinite(force).any():  # a joint without a constraint has NaN: not drawn
+        if np.isfinite(force).any():  # NaN at t = 0 only: a one-sample run draws none
             axes[3].plot(data['wrench_t_s'], force, label=label, linewidth=1.0)
             drawn = True
     axes[3].set_title('|constraint force| the parent exerts on the child, per joint',

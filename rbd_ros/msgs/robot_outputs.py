@@ -32,7 +32,7 @@ every machine.
   every URDF joint in document order (fixed joints included), ``transforms`` and ``twist``
   empty (the message allows an empty array), ``wrench`` per joint the force and torque the
   parent exerts on the child (:meth:`rbd_ros.sim.robot_world.RobotWorld.joint_wrenches`;
-  NaN where the simulator has no constraint, and at time 0).
+  NaN at time 0, before the first step has solved them).
 - ``/tf``: one transform per URDF joint, parent link → child link (fixed joints included), as
   robot_state_publisher gives them, plus world frame → root link for a floating robot. A link's
   frame id is its URDF name; the URDF's ``world`` link is the node's world frame. The

@@ -31,9 +31,14 @@ keeps its pose at time 0. The URDF's ``world`` link is the node's world frame.
 child, in the child link's frame (a URDF joint's frame: its origin is the joint), the torque
 about that origin: ``f_l = R_wlᵀ f_w`` and ``τ_l = R_wlᵀ (τ_com − d × f_w)`` with ``f_w``,
 ``τ_com`` the core's multiplier wrench on the child body (world frame, about its COM) and ``d``
-the COM → link origin offset (world). Computed here in plain Python from the multipliers (the
-core's :meth:`~rbd_ros.core.joints.ArticulatedSimulator.joint_wrenches` gives them in its own
-row basis, through numpy), so the bytes are the same on every machine.
+the COM → link origin offset (world). A fixed joint the core has no constraint for (inside the
+world part, ``world`` → ``mount``, or to a massless frame folded into a body, ``tool0``) holds
+the massless links below it: by their statics it carries the sum of what the core joints
+hanging from them carry, ``f = Σ f_k`` and ``τ_O = Σ (τ_k + (A_k − O) × f_k)`` about its own
+origin ``O`` (``A_k`` the joint ``k``'s origin), 0 when nothing hangs there. A ``floating``
+joint carries nothing (0). Computed here in plain Python from the multipliers (the core's
+:meth:`~rbd_ros.core.joints.ArticulatedSimulator.joint_wrenches` gives them in its own row
+basis, through numpy), so the bytes are the same on every machine.
 """
 
 import dataclasses
@@ -78,6 +83,28 @@ _NAN6 = (math.nan,) * 6
 def _conjugate(q):
     """Return the inverse ``(w, -x, -y, -z)`` of a unit quaternion."""
     return (q[0], -q[1], -q[2], -q[3])
+
+
+def _held_joints(joints, joint):
+    """
+    Return the URDF indices of the core joints a folded fixed ``joint`` holds, URDF order.
+
+    The links below it through folded fixed joints are massless (a world link, or a frame
+    without ``<inertial>``): every core joint whose parent link is one of them hangs from it.
+    A ``floating`` joint holds nothing (its child is a free body).
+    """
+    if joint.kind != 'fixed':
+        return ()
+    below, grew = {joint.child}, True
+    while grew:
+        grew = False
+        for other in joints:
+            if other.core is None and other.kind == 'fixed' and other.parent in below \
+                    and other.child not in below:
+                below.add(other.child)
+                grew = True
+    return tuple(k for k, other in enumerate(joints)
+                 if other.core is not None and other.parent in below)
 
 
 def _frame_pose(state, p, q):
@@ -141,17 +168,23 @@ class RobotWorld:
                                   tuple(np.asarray(link.orientation_b).tolist())))
             self._links.append(tuple(links))
         # Per robot: its root link's (body index, position_b, q_bl), None when fixed to the
-        # world; and per URDF joint (core joint index, child body, position_b, q_bl) of its
-        # child link, or None for a joint the simulator has no constraint for.
+        # world; and per URDF joint its child link's frame (body index or None for a world
+        # link, position, q) with, for a core joint, ('core', core joint index) and for a
+        # folded fixed joint ('held', the URDF indices of the core joints it holds).
         self._roots, self._joint_frames = [], []
-        for robot, (b0, _), links in zip(self.robots, self._bodies, self._links):
+        for robot, links in zip(self.robots, self._links):
             by_name = {name: (body, p, q) for name, body, p, q in links}
             urdf = robot.robot
             self._roots.append(None if urdf.fixed_to_world else by_name[urdf.root])
             j0 = self._joint_offsets[len(self._joint_frames)]
-            self._joint_frames.append(tuple(
-                None if joint.core is None else (j0 + joint.core, *by_name[joint.child])
-                for joint in urdf.joints))
+            frames = []
+            for joint in urdf.joints:
+                if joint.core is not None:
+                    how = ('core', j0 + joint.core)
+                else:
+                    how = ('held', _held_joints(urdf.joints, joint))
+                frames.append((how, *by_name[joint.child]))
+            self._joint_frames.append(tuple(frames))
 
     # --- what SimSession asks of a simulator -----------------------------------------------
 
@@ -266,9 +299,8 @@ class RobotWorld:
 
         ``(fx, fy, fz, τx, τy, τz)``: force (N) and torque (N m) the parent exerts on the
         child, child link frame, torque about its origin (the module docstring gives the
-        formula). NaN for a joint the simulator has no constraint for (a fixed joint inside
-        the world, or to a link without ``<inertial>`` folded into its parent's body), and for
-        every joint at time 0, before the first step has computed the multipliers.
+        formulas, a folded fixed joint's too). NaN for every joint at time 0, before the first
+        step has computed the multipliers.
         """
         frames = self._joint_frames[r]
         if self._sim.time_ns == 0:
@@ -278,18 +310,36 @@ class RobotWorld:
         # the core is left unchanged by this layer; a public read-out belongs in the core.
         raw = self._sim._work.wrench.tolist()
         states = self._sim.states
-        out = []
-        for frame in frames:
-            if frame is None:
-                out.append(_NAN6)
+        # Each joint's child link frame (origin O_w, q_wl), and a core joint's force and its
+        # torque about O_w, world frame.
+        poses, world = [], {}
+        for i, ((how, index), body, p, q) in enumerate(frames):
+            if body is None:
+                poses.append((p, q))
                 continue
-            j, body, p, q = frame
-            _, q_wl, (dx, dy, dz), _ = _frame_pose(states[body], p, q)
-            fx, fy, fz, tx, ty, tz = raw[j]
-            torque = (tx - (dy * fz - dz * fy), ty - (dz * fx - dx * fz),
-                      tz - (dx * fy - dy * fx))
+            origin, q_wl, (dx, dy, dz), _ = _frame_pose(states[body], p, q)
+            poses.append((origin, q_wl))
+            if how == 'core':
+                fx, fy, fz, tx, ty, tz = raw[index]
+                world[i] = ((fx, fy, fz), (tx - (dy * fz - dz * fy), ty - (dz * fx - dx * fz),
+                                           tz - (dx * fy - dy * fx)))
+        out = []
+        for i, ((how, index), _, _, _) in enumerate(frames):
+            origin, q_wl = poses[i]
+            if how == 'core':
+                force, torque = world[i]
+            else:  # a folded fixed joint: the statics of the massless links it holds
+                force, torque = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+                for k in index:
+                    (fx, fy, fz), (tx, ty, tz) = world[k]
+                    ax, ay, az = (poses[k][0][0] - origin[0], poses[k][0][1] - origin[1],
+                                  poses[k][0][2] - origin[2])
+                    force = (force[0] + fx, force[1] + fy, force[2] + fz)
+                    torque = (torque[0] + (tx + (ay * fz - az * fy)),
+                              torque[1] + (ty + (az * fx - ax * fz)),
+                              torque[2] + (tz + (ax * fy - ay * fx)))
             q_lw = _conjugate(q_wl)
-            out.append((*rotate(q_lw, (fx, fy, fz)), *rotate(q_lw, torque)))
+            out.append((*rotate(q_lw, force), *rotate(q_lw, torque)))
         return out
 
     @property

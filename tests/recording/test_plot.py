@@ -294,10 +294,12 @@ def test_a_robot_plot_draws_every_joint_from_the_recorded_samples(tmp_path, caps
     # The arm swings: positions and velocities change; no motor: efforts are 0.
     assert np.ptp(panels[0]['lines']['arm/elbow'][1]) > 0.1
     assert not np.any(panels[2]['lines']['arm/elbow'][1])
-    # Force magnitudes of the three revolute joints; the fixed joint inside the world and the
-    # one to the tool0 frame have no constraint (NaN) and are not drawn.
-    assert set(panels[3]['lines']) == {f'arm/{j}' for j in joints}
-    for joint in joints:
+    # Force magnitudes of every joint: the fixed one inside the world carries what the
+    # shoulder does, the one to the tool0 frame nothing.
+    every = ['mount_joint', *joints, 'tool_joint']
+    assert set(panels[3]['lines']) == {f'arm/{j}' for j in every}
+    assert not np.any(panels[3]['lines']['arm/tool_joint'][1][1:])
+    for joint in ['mount_joint', *joints]:
         x, y = panels[3]['lines'][f'arm/{joint}']
         assert np.array_equal(x, np.array(sorted(forces)) / 1e9)
         want = []

@@ -38,18 +38,24 @@ URDF = REPO / 'msg_config' / 'urdf'
 G = 9.81
 H_NS = 1_000_000  # the physics step of these tests, ns
 
-# A floating two-link robot: a base and an arm on a continuous joint about the base's z. The
-# base's COM is off its link frame's origin (and off the hinge's line), so the link frame's
-# velocity differs from the COM's, and the arm's swing makes the base translate and rotate.
+# A floating two-link robot: a base and an arm on a continuous joint about the base's z, hung
+# from a bracket (a massless frame on a fixed joint, folded into the base's body). The base's
+# COM is off its link frame's origin (and off the hinge's line), so the link frame's velocity
+# differs from the COM's, and the arm's swing makes the base translate and rotate.
 FLOATING_URDF = """<?xml version="1.0"?>
 <robot name="floater">
   <link name="base">
     <inertial><origin xyz="0.1 0 0.05"/><mass value="2.0"/>
       <inertia ixx="0.02" ixy="0" ixz="0" iyy="0.03" iyz="0" izz="0.04"/></inertial>
   </link>
+  <joint name="bracket_joint" type="fixed">
+    <parent link="base"/><child link="bracket"/>
+    <origin xyz="0.2 0 0" rpy="0 0 0.4"/>
+  </joint>
+  <link name="bracket"/>
   <joint name="hinge" type="continuous">
-    <parent link="base"/><child link="arm"/>
-    <origin xyz="0.3 0 0" rpy="0 0 0"/><axis xyz="0 0 1"/>
+    <parent link="bracket"/><child link="arm"/>
+    <origin xyz="0.1 0 0" rpy="0 0 -0.4"/><axis xyz="0 0 1"/>
   </joint>
   <link name="arm">
     <inertial><origin xyz="0.25 0 0"/><mass value="1.0"/>
@@ -216,30 +222,36 @@ def _check_hinge_wrench(times, pos, quat, tf, wrenches):
 
     The hinge is the only thing acting on the arm besides gravity: ``m a_com = F_w + m g`` and,
     about the COM, in the arm's axes, ``τ_com = I ω̇ + ω × I ω`` with ``τ_com = τ_A + (A − C) ×
-    F`` for the reported torque ``τ_A`` about the joint (the arm link's origin A).
+    F`` for the reported torque ``τ_A`` about the joint (the arm link's origin A). The massless
+    bracket passes that wrench on: its fixed joint carries the same force and, about its own
+    origin B, ``τ_B = τ_A + (A − B) × F`` (statics), in the bracket's frame.
     """
     mass, inertia, com_l = 1.0, np.diag([0.001, 0.02, 0.02]), np.array([0.25, 0.0, 0.0])
     g_w = np.array([0.0, 0.0, -G])
     h = H_NS * 1e-9
-    arm_p, arm_q = {}, {}
+    arm_p, arm_q, bracket_p, bracket_q = {}, {}, {}, {}
+
+    def compose(p, q, transform):  # a frame given by its /tf transform from frame (p, q)
+        tr, rot = transform.translation, transform.rotation
+        return (p + _rotate(q, np.array([tr.x, tr.y, tr.z])),
+                _quat_mul(q, np.array([rot.w, rot.x, rot.y, rot.z])))
     for t in times:
-        (rel,) = [tr for tr in tf[t].transforms if tr.child_frame_id == 'arm']
-        assert rel.header.frame_id == 'base'
-        tr, rot = rel.transform.translation, rel.transform.rotation
-        q_ba = np.array([rot.w, rot.x, rot.y, rot.z])
-        arm_q[t] = _quat_mul(quat[t], q_ba)
-        arm_p[t] = pos[t] + _rotate(quat[t], np.array([tr.x, tr.y, tr.z]))
+        rel = {tr.child_frame_id: tr for tr in tf[t].transforms}
+        assert rel['bracket'].header.frame_id == 'base'
+        assert rel['arm'].header.frame_id == 'bracket'
+        bracket_p[t], bracket_q[t] = compose(pos[t], quat[t], rel['bracket'].transform)
+        arm_p[t], arm_q[t] = compose(bracket_p[t], bracket_q[t], rel['arm'].transform)
     com_w = {t: arm_p[t] + _rotate(arm_q[t], com_l) for t in times}
 
     def omega(t):  # arm's ω in its own axes, central difference of its quaternion
         q_dot = (arm_q[t + H_NS] - arm_q[t - H_NS]) / (2 * h)
         return 2.0 * _quat_mul(arm_q[t] * np.array([1.0, -1.0, -1.0, -1.0]), q_dot)[1:]
-    worst_f = worst_t = 0.0
+    worst_f = worst_t = worst_b = 0.0
     size_f = size_t = 0.0
     for t in times[2:-2]:
-        (name,) = wrenches[t].joint_names
-        assert name == 'hinge' and wrenches[t].header.frame_id == ''
-        w = wrenches[t].wrench[0]
+        assert wrenches[t].joint_names == ['bracket_joint', 'hinge']
+        assert wrenches[t].header.frame_id == ''
+        bracket, w = wrenches[t].wrench
         force_l = np.array([w.force.x, w.force.y, w.force.z])
         torque_a = np.array([w.torque.x, w.torque.y, w.torque.z])
         accel = (com_w[t + H_NS] - 2 * com_w[t] + com_w[t - H_NS]) / h ** 2
@@ -252,6 +264,13 @@ def _check_hinge_wrench(times, pos, quat, tf, wrenches):
         worst_t = max(worst_t, float(np.linalg.norm(torque_c - euler)))
         size_f = max(size_f, float(np.linalg.norm(force_l)))
         size_t = max(size_t, float(np.linalg.norm(torque_a)))
+        # The bracket's joint, from the hinge's wrench by statics (world frame, then its own).
+        torque_b_w = _rotate(arm_q[t], torque_a) + np.cross(arm_p[t] - bracket_p[t], force_w)
+        q_bw = bracket_q[t] * np.array([1.0, -1.0, -1.0, -1.0])
+        got = [bracket.force.x, bracket.force.y, bracket.force.z, bracket.torque.x,
+               bracket.torque.y, bracket.torque.z]
+        want = np.concatenate((_rotate(q_bw, force_w), _rotate(q_bw, torque_b_w)))
+        worst_b = max(worst_b, float(np.abs(np.array(got) - want).max()))
     # Second differences err by h² x'''' / 12: the COM circles at ω = 4 rad/s, r ~ 0.25 m,
     # so x'''' ~ ω⁴ r = 64 m/s⁴ and m h²/12 x 64 ~ 5e-6 N; the torque's ω̇ and ω come from
     # differences of the quaternion, each ~1e-5 rad/s off (above), times I ω ~ 0.1: ~1e-6 N m.
@@ -259,6 +278,9 @@ def _check_hinge_wrench(times, pos, quat, tf, wrenches):
     # torque about the joint ~0.05 N m, so a wrong frame, sign or point is far outside.
     assert size_f > 1.0 and size_t > 1e-3, (size_f, size_t)
     assert worst_f <= 1e-4 and worst_t <= 1e-5, (worst_f, worst_t)
+    # The same numbers through two frame changes (the test's and the node's): round-off of
+    # values ~3 N and lever arms ~0.1 m, 1e-12 N or N m.
+    assert worst_b <= 1e-12, worst_b
 
 
 def _masses(path):
@@ -310,12 +332,17 @@ def test_a_hanging_chain_reports_k_m_g_and_a_fixed_robot_no_odom(
         assert abs(force.z / expected - 1.0) <= 1e-12, (name, force, expected)
         assert math.hypot(force.x, force.y) <= 1e-12 * expected, (name, force)
         assert math.sqrt(torque.x ** 2 + torque.y ** 2 + torque.z ** 2) <= 1e-12 * expected
-    # The fixed joint inside the world and the one to the frame tool0 (no <inertial>: folded
-    # into the hand's body) have no constraint in the simulator: NaN, not a made-up 0.
-    for name in ('mount_joint', 'tool_joint'):
-        values = [getattr(getattr(wrench[name], part), axis) for part in ('force', 'torque')
-                  for axis in 'xyz']
-        assert all(math.isnan(v) for v in values), (name, values)
+    # The fixed joint inside the world holds the massless mount, from which the whole arm
+    # hangs: the three links' weight, up, with no torque (the shoulder is at the mount's
+    # origin). The one to the frame tool0 (no <inertial>: folded into the hand's body) holds
+    # nothing: exactly 0.
+    mount, tool = wrench['mount_joint'], wrench['tool_joint']
+    expected = below['shoulder'] * G  # the shoulder holds all three links
+    assert abs(mount.force.z / expected - 1.0) <= 1e-12, (mount, expected)
+    assert max(abs(mount.force.x), abs(mount.force.y), abs(mount.torque.x),
+               abs(mount.torque.y), abs(mount.torque.z)) <= 1e-12 * expected, mount
+    assert [tool.force.x, tool.force.y, tool.force.z, tool.torque.x, tool.torque.y,
+            tool.torque.z] == [0.0] * 6
 
     b = open_bag(bag)
     assert not [topic for topic in b.topics if topic.endswith('odom')], sorted(b.topics)
