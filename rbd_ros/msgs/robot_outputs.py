@@ -124,9 +124,7 @@ class RobotOutputs:
     def joint_states(self, time_ns, world):
         """Return the CDR bytes of this robot's ``JointState`` now."""
         sec, nanosec = divmod(time_ns, NS_PER_S)
-        q = world.joint_positions(self.index).tolist()
-        qd = world.joint_velocities(self.index).tolist()
-        effort = world.joint_efforts(self.index).tolist()
+        q, qd, effort = world.joint_states(self.index)
         n = len(q)
         return self._joint_states.pack(ENCAPSULATION, sec, nanosec, 1, b'\x00', n, *self._names,
                                        n, *q, n, *qd, n, *effort)

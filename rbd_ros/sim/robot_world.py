@@ -36,9 +36,15 @@ world part, ``world`` → ``mount``, or to a massless frame folded into a body, 
 the massless links below it: by their statics it carries the sum of what the core joints
 hanging from them carry, ``f = Σ f_k`` and ``τ_O = Σ (τ_k + (A_k − O) × f_k)`` about its own
 origin ``O`` (``A_k`` the joint ``k``'s origin), 0 when nothing hangs there. A ``floating``
-joint carries nothing (0). Computed here in plain Python from the multipliers (the core's
+joint carries nothing (0). Computed here in plain Python from the multipliers' world-frame
+wrench (:meth:`~rbd_ros.core.joints.ArticulatedSimulator.constraint_wrenches_w`; the core's
 :meth:`~rbd_ros.core.joints.ArticulatedSimulator.joint_wrenches` gives them in its own row
 basis, through numpy), so the bytes are the same on every machine.
+
+**Per sample** every readout takes the bodies' packed states as plain floats
+(:meth:`~rbd_ros.core.joints.ArticulatedSimulator.state_rows`), never a ``BodyState`` per body,
+and the joint coordinates from the core's plain-float
+:meth:`~rbd_ros.core.joints.ArticulatedSimulator.joint_coordinates`.
 """
 
 import dataclasses
@@ -107,16 +113,16 @@ def _held_joints(joints, joint):
                  if other.core is not None and other.parent in below)
 
 
-def _frame_pose(state, p, q):
+def _frame_pose(row, p, q):
     """
     Return a frame fixed in a body: ``(position_w, q_wl, d_w, q_wb)``, plain floats.
 
-    ``p``, ``q``: the frame in the body frame; ``d_w = R_wb p`` (the COM → frame origin offset).
+    ``row``: the body's packed state (13 floats, ``ArticulatedSimulator.state_rows``); ``p``,
+    ``q``: the frame in the body frame; ``d_w = R_wb p`` (the COM → frame origin offset).
     """
-    qb = tuple(state.orientation_wb.tolist())
-    pb = state.position_w.tolist()
+    qb = (row[3], row[4], row[5], row[6])
     d = rotate(qb, p)
-    return (pb[0] + d[0], pb[1] + d[1], pb[2] + d[2]), multiply(qb, q), d, qb
+    return (row[0] + d[0], row[1] + d[1], row[2] + d[2]), multiply(qb, q), d, qb
 
 
 class RobotWorld:
@@ -212,15 +218,27 @@ class RobotWorld:
 
     # --- per robot ---------------------------------------------------------------------------
 
+    def joint_states(self, r: int):
+        """
+        Return robot ``r``'s ``(positions, velocities, efforts)``, ``joint_states`` order.
+
+        Three lists of plain floats (rad or m, rad/s or m/s, N m or N: the motor efforts
+        applied over the last step), the positions and velocities from
+        :meth:`ArticulatedSimulator.joint_coordinates` (plain scalar arithmetic: the same
+        bits on every machine).
+        """
+        moving = self._moving[r]
+        q, qd = self._sim.joint_coordinates(moving)
+        efforts = self._sim.joint_efforts()
+        return q, qd, [float(efforts[j]) for j in moving]
+
     def joint_positions(self, r: int) -> np.ndarray:
         """Return robot ``r``'s moving joint positions (rad or m), ``joint_states`` order."""
-        q = self._sim.joint_positions()
-        return np.array([float(q[j][0]) for j in self._moving[r]])
+        return np.array(self._sim.joint_coordinates(self._moving[r])[0])
 
     def joint_velocities(self, r: int) -> np.ndarray:
         """Return robot ``r``'s moving joint velocities (rad/s or m/s)."""
-        qd = self._sim.joint_velocities()
-        return np.array([float(qd[j][0]) for j in self._moving[r]])
+        return np.array(self._sim.joint_coordinates(self._moving[r])[1])
 
     def joint_efforts(self, r: int) -> np.ndarray:
         """Return robot ``r``'s motor efforts applied over the last step (N m or N)."""
@@ -260,13 +278,13 @@ class RobotWorld:
         Plain float tuples computed in plain Python (no BLAS), so a recording's ``/tf`` bytes
         are the same on every machine.
         """
-        states = self._sim.states
+        rows = self._sim.state_rows()
         out = []
         for _, body, p, q in self._links[r]:
             if body is None:
                 out.append((p, q))
                 continue
-            out.append(_frame_pose(states[body], p, q)[:2])
+            out.append(_frame_pose(rows[body], p, q)[:2])
         return out
 
     def root_state(self, r: int):
@@ -283,10 +301,10 @@ class RobotWorld:
         if root is None:
             return None
         body, p, q = root
-        state = self._sim.states[body]
-        position, q_wl, (dx, dy, dz), qb = _frame_pose(state, p, q)
-        v = state.linear_velocity_w.tolist()
-        omega_b = state.angular_velocity_b.tolist()
+        row = self._sim.state_rows()[body]
+        position, q_wl, (dx, dy, dz), qb = _frame_pose(row, p, q)
+        v = row[7:10]
+        omega_b = row[10:13]
         wx, wy, wz = rotate(qb, omega_b)
         velocity = (v[0] + (wy * dz - wz * dy), v[1] + (wz * dx - wx * dz),
                     v[2] + (wx * dy - wy * dx))
@@ -305,11 +323,9 @@ class RobotWorld:
         frames = self._joint_frames[r]
         if self._sim.time_ns == 0:
             return [_NAN6] * len(frames)
-        # The multipliers' wrench on each child body, world frame, torque about its COM (the
-        # core's ArtWork.wrench, what its joint_wrenches reads). Read here though not public:
-        # the core is left unchanged by this layer; a public read-out belongs in the core.
-        raw = self._sim._work.wrench.tolist()
-        states = self._sim.states
+        # The multipliers' wrench on each child body, world frame, torque about its COM.
+        raw = self._sim.constraint_wrenches_w()
+        rows = self._sim.state_rows()
         # Each joint's child link frame (origin O_w, q_wl), and a core joint's force and its
         # torque about O_w, world frame.
         poses, world = [], {}
@@ -317,7 +333,7 @@ class RobotWorld:
             if body is None:
                 poses.append((p, q))
                 continue
-            origin, q_wl, (dx, dy, dz), _ = _frame_pose(states[body], p, q)
+            origin, q_wl, (dx, dy, dz), _ = _frame_pose(rows[body], p, q)
             poses.append((origin, q_wl))
             if how == 'core':
                 fx, fy, fz, tx, ty, tz = raw[index]

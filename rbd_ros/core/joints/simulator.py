@@ -36,6 +36,7 @@ from rbd_ros.core.errors import (ConfigError, ConvergenceError, finite_scalar, f
 from rbd_ros.core.joints import kernels as jk
 from rbd_ros.core.joints.model import (check_position_target, Joint, joint_position,
                                        joint_velocity)
+from rbd_ros.core.joints.readout import JointReadout
 from rbd_ros.core.model import BodyModel
 from rbd_ros.core.rotations import quat_to_matrix
 from rbd_ros.core.state import BodyState
@@ -197,6 +198,7 @@ class ArticulatedSimulator:
                                   'not simulated yet (leave it None)')
         self._models = tuple(models)
         self._joints = tuple(joints)
+        self._readout = JointReadout(joints)
         self._model, self._work = self._arrays(models, joints, solver == 'dense')
         self._x = np.zeros((n_b, 13))
         for b, s in enumerate(states):
@@ -566,6 +568,49 @@ class ArticulatedSimulator:
             vc, wc = self._twist_w(joint.child)
             out.append(joint_velocity(joint, pp, qp, vp, wp, pc, qc, vc, wc))
         return out
+
+    def state_rows(self):
+        """
+        Return every body's packed state now, a list of lists of 13 plain floats.
+
+        ``(position_w, q_wb, v_w, ω_b)`` per body, the same bits as :attr:`states` without
+        building a :class:`BodyState` per body (what a per-sample readout wants).
+        """
+        return self._x.tolist()
+
+    def joint_coordinates(self, indices, rows=None):
+        """
+        Return ``(positions, rates)`` of the one-coordinate joints ``indices``, plain floats.
+
+        Revolute, continuous and prismatic joints only (rad or m, rad/s or m/s): the values of
+        :meth:`joint_positions` and :meth:`joint_velocities` to round-off, computed in plain
+        scalar arithmetic (:mod:`rbd_ros.core.joints.readout`), a few µs a joint and the same
+        bits on every machine. A continuous joint's position is its running angle, as there.
+
+        :param rows: :meth:`state_rows` if the caller has them already (None: taken now).
+        :raises ValueError: a joint of another kind.
+        """
+        rows = self._x.tolist() if rows is None else rows
+        read = self._readout.read
+        angle = self._work.angle
+        positions, rates = [], []
+        for j in indices:
+            q, qd = read(rows, j)
+            if self._projected and self._joints[j].kind == 'continuous':
+                q = float(angle[j])
+            positions.append(q)
+            rates.append(qd)
+        return positions, rates
+
+    def constraint_wrenches_w(self):
+        """
+        Return per joint its rows' wrench on the child body: 6 plain floats, world frame.
+
+        Force (N) then torque (N m) about the child's centre of mass, both world frame: the
+        multipliers of the last step (zeros before the first), what :meth:`joint_wrenches`
+        turns into the joint frame. A loop's redundant rows carry zero (see there).
+        """
+        return self._work.wrench[:len(self._joints)].tolist()
 
     def joint_wrenches(self) -> np.ndarray:
         """
