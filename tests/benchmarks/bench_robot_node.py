@@ -15,12 +15,14 @@
 """
 Benchmark of a URDF robot in ``rigid_body_node`` (issue 28 speed target; not collected by pytest).
 
-``.venv/bin/python tests/benchmarks/bench_robot_node.py [--links 7] [--runs 3]``
+``.venv/bin/python tests/benchmarks/bench_robot_node.py [--links 7] [--runs 3] [--record]``
 
 A ``--links``-link arm (1 kg, 0.3 m links on revolute joints about y and z in turn, fixed to the
 world, written to a temporary URDF) released from a bent pose under gravity, h = 1 ms,
 ``joint_states`` and ``/tf`` (every link) at 100 Hz, as fast as possible (``real_time_factor``
-0, nobody subscribed). The wall time of a long run minus that of a short one (start-up, kernel
+0, nobody subscribed: the node builds no sample then; ``--record``: every run recorded to a
+temporary MCAP file, so every sample's ``joint_states``, ``joint_wrenches`` and ``/tf`` are built,
+published and written). The wall time of a long run minus that of a short one (start-up, kernel
 loading and shut-down cancel) gives the as-fast factor (sim s per wall s); target >= 50.
 Also prints the core's µs per step for the same robot (no node, ``bench_world_node``'s timer).
 Prints medians over ``--runs`` runs and the machine's load average.
@@ -71,10 +73,13 @@ def main(argv=None):
     parser.add_argument('--runs', type=int, default=3)
     parser.add_argument('--short-s', type=float, default=1.0)
     parser.add_argument('--long-s', type=float, default=21.0)
+    parser.add_argument('--record', action='store_true',
+                        help='record every run (every sample built and written)')
     args = parser.parse_args(argv)
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
     os.environ.setdefault('ROS_DOMAIN_ID', str(90 + os.getpid() % 10))
-    print(f'load average {os.getloadavg()}; {args.links}-link arm; nobody subscribed')
+    how = 'recorded' if args.record else 'nobody subscribed'
+    print(f'load average {os.getloadavg()}; {args.links}-link arm; {how}')
     with tempfile.TemporaryDirectory() as tmp:
         urdf = os.path.join(tmp, 'arm.urdf')
         with open(urdf, 'w') as f:
@@ -85,9 +90,11 @@ def main(argv=None):
             yaml.safe_dump({'/**': {'ros__parameters': params}}, f)
         factors, node_us, core_us = [], [], []
         sim = args.long_s - args.short_s
-        for _ in range(args.runs):
-            short = node_wall_s(params_file, args.short_s)
-            long = node_wall_s(params_file, args.long_s)
+        for run in range(args.runs):
+            record = [[f'record_path:={os.path.join(tmp, f"run{run}_{length}")}']
+                      if args.record else [] for length in ('short', 'long')]
+            short = node_wall_s(params_file, args.short_s, record[0])
+            long = node_wall_s(params_file, args.long_s, record[1])
             factors.append(sim / max(long - short, 1e-9))
             node_us.append((long - short) / (sim * 1000) * 1e6)
             core_us.append(core_step_us(params, 2000))
