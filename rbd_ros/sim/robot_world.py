@@ -229,8 +229,8 @@ class RobotWorld:
         """
         moving = self._moving[r]
         q, qd = self._sim.joint_coordinates(moving)
-        efforts = self._sim.joint_efforts()
-        return q, qd, [float(efforts[j]) for j in moving]
+        efforts = self._sim.joint_efforts().tolist()
+        return q, qd, [efforts[j] for j in moving]
 
     def joint_positions(self, r: int) -> np.ndarray:
         """Return robot ``r``'s moving joint positions (rad or m), ``joint_states`` order."""

@@ -501,7 +501,7 @@ class ArticulatedSimulator:
         An effort motor: its clipped effort; a position or velocity motor: the force its row
         applies (the multiplier), or ``±effort_limit`` when saturated.
         """
-        return np.array([self._work.motor[j, jk.M_APPLIED] for j in range(len(self._joints))])
+        return self._work.motor[:len(self._joints), jk.M_APPLIED].copy()
 
     def motor_saturated(self):
         """Return per joint True when its position or velocity motor is at its effort limit."""
