@@ -444,11 +444,10 @@ class SampleBuilder:
             return MultiDOFJointState(
                 header=Header(stamp=conv.time_to_msg(time_ns), frame_id=''),
                 joint_names=list(robot.wrench_joints), wrench=wrenches)
+        position, velocity, effort = robots.joint_states(r)
         return JointState(header=Header(stamp=conv.time_to_msg(time_ns), frame_id=''),
-                          name=list(robot.joint_names),
-                          position=robots.joint_positions(r).tolist(),
-                          velocity=robots.joint_velocities(r).tolist(),
-                          effort=robots.joint_efforts(r).tolist())
+                          name=list(robot.joint_names), position=position, velocity=velocity,
+                          effort=effort)
 
     def message(self, kind, state, contact_wrench=None):
         """
