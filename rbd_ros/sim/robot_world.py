@@ -54,33 +54,12 @@ import numpy as np
 
 from rbd_ros.core import layout
 from rbd_ros.core.joints import ArticulatedSimulator
-
-
-def multiply(a, b):
-    """
-    Return ``a ⊗ b`` of quaternions ``(w, x, y, z)``, plain floats.
-
-    Plain Python, no BLAS: the link poses and their ``/tf`` transforms (rbd_ros.msgs.robot_outputs)
-    are the same bits on every machine.
-    """
-    aw, ax, ay, az = a
-    bw, bx, by, bz = b
-    return (aw * bw - ax * bx - ay * by - az * bz,
-            aw * bx + ax * bw + ay * bz - az * by,
-            aw * by - ax * bz + ay * bw + az * bx,
-            aw * bz + ax * by - ay * bx + az * bw)
+from rbd_ros.core.joints.readout import multiply, rotate as _rotate
 
 
 def rotate(q, v):
-    """Return ``R(q) v`` for a unit quaternion ``(w, x, y, z)``, plain floats."""
-    w, x, y, z = q
-    vx, vy, vz = v
-    tx = 2.0 * (y * vz - z * vy)
-    ty = 2.0 * (z * vx - x * vz)
-    tz = 2.0 * (x * vy - y * vx)
-    return (vx + w * tx + (y * tz - z * ty),
-            vy + w * ty + (z * tx - x * tz),
-            vz + w * tz + (x * ty - y * tx))
+    """Return ``R(q) v`` for a unit quaternion ``q = (w, x, y, z)`` and ``v``, plain floats."""
+    return _rotate(*q, *v)
 
 
 _NAN6 = (math.nan,) * 6
