@@ -200,6 +200,51 @@ def cradle_rise_height(length_m, theta0_rad):
 #: ``t_final_s`` (``q_ref_rad``, ``qd_ref_rad_s``, ``qdd_ref_rad_s2``; the spread of the four
 #: published runs ``q_spread_rad``) and ``energy_ref_j`` (zero: it starts horizontal at rest),
 #: and ``source``.
+def damped_rotor(rate0, damping, inertia, t_s):
+    """
+    Rate and travel of one joint under its viscous damping alone: ``(q̇(t), q(t) - q(0))``.
+
+    ``I q̈ = -d q̇`` (no other load): ``q̇ = q̇0 exp(-d t / I)`` and
+    ``q - q0 = q̇0 (I / d) (1 - exp(-d t / I))``. ``I`` is the inertia about the joint axis
+    (kg m^2, ``d`` in N m s/rad) or, for a slider, the moving mass (kg, ``d`` in N s/m).
+    """
+    damping = _positive('damping', damping, 'N m s/rad or N s/m')
+    inertia = _positive('inertia', inertia, 'kg m^2 or kg')
+    rate = damping / inertia
+    return rate0 * math.exp(-rate * t_s), rate0 / rate * -math.expm1(-rate * t_s)
+
+
+def damped_oscillation(omega0, damping, inertia):
+    """
+    Decay rate and damped frequency ``(sigma, omega_d)`` (1/s, rad/s) of small oscillations.
+
+    ``I x'' + d x' + I omega0^2 x = 0`` (a pendulum linearised about hanging down, ``omega0^2
+    = m g l / I``): ``x = A exp(-sigma t) cos(omega_d t - phi)`` with ``sigma = zeta omega0 =
+    d / (2 I)`` and ``omega_d = sqrt(omega0^2 - sigma^2)`` (underdamped; any mechanics text,
+    e.g. Landau and Lifshitz, *Mechanics*, section 25).
+    """
+    omega0 = _positive('omega0', omega0, 'rad/s')
+    inertia = _positive('inertia', inertia, 'kg m^2')
+    sigma = _positive('damping', damping, 'N m s/rad') / (2.0 * inertia)
+    if not sigma < omega0:
+        raise ValueError(f'damping: {damping} N m s/rad is not underdamped (sigma {sigma} 1/s '
+                         f'>= omega0 {omega0} rad/s)')
+    return sigma, math.sqrt((omega0 - sigma) * (omega0 + sigma))
+
+
+def coulomb_stop(rate0, friction, inertia):
+    """
+    Stop time and travel ``(t*, q(t*) - q(0))`` of one joint sliding against its friction alone.
+
+    ``I q̈ = -f sign(q̇)`` decelerates at ``f / I``: ``t* = I |q̇0| / f``, travel
+    ``q̇0 t* / 2 = I q̇0 |q̇0| / (2 f)``; then the joint sticks (nothing pushes it).
+    """
+    friction = _positive('friction', friction, 'N m or N')
+    inertia = _positive('inertia', inertia, 'kg m^2 or kg')
+    t_stop = inertia * abs(rate0) / friction
+    return t_stop, 0.5 * rate0 * t_stop
+
+
 Babyboot = collections.namedtuple('Babyboot', [
     'g', 'mass_a_kg', 'mass_b_kg', 'i_ax', 'i_bx', 'i_by', 'i_bz', 'l_a_m', 'l_b_m',
     'q0_rad', 'qd0_rad_s', 't_final_s', 'q_ref_rad', 'qd_ref_rad_s', 'qdd_ref_rad_s2',
