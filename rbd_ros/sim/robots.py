@@ -175,7 +175,7 @@ def joint_parameter_specs(robot: str, joint: str, damping: float = 0.0,
                       f'{who}: time constant of its position commands (critically damped).',
                       (0.0, 1e6), rule='> 0'),
             ParamSpec(prefix + 'damping', DOUBLE, float(damping), 'N·m·s/rad or N·s/m',
-                      f"{who}: viscous damping, the force -damping·q̇ along the joint; default "
+                      f'{who}: viscous damping, the force -damping·q̇ along the joint; default '
                       "the URDF's <dynamics damping>, else 0.", (0.0, MAX_JOINT_DYNAMICS),
                       rule='>= 0'),
             ParamSpec(prefix + 'friction', DOUBLE, float(friction), 'N·m or N',
