@@ -22,8 +22,11 @@ constrained accelerations solve the saddle-point system
 
 for the body accelerations ``a = (v̇_w, ω̇_w)`` and the multipliers ``λ`` (the constraint
 wrench on the bodies is ``Jᵀ λ``, equal and opposite by construction of each row). ``f`` holds
-gravity, the body damping as a force (``-m c_v v``, ``-c_ω R I_b ω_b``) and the gyroscopic
-torque ``-ω × I_w ω``. Two solvers, both direct:
+gravity, the body damping as a force (``-m c_v v``, ``-c_ω R I_b ω_b``), the gyroscopic
+torque ``-ω × I_w ω`` and each joint's applied force along its coordinate (an effort or
+saturated motor, the joint damping ``-d q̇`` and a sliding joint's friction ``-f s``, summed in
+:func:`_motor_forces`). A stuck joint's Coulomb friction is a row (:data:`ROW_FRICTION`) whose
+multiplier is bounded by the friction, decided at step boundaries. Two solvers, both direct:
 
 - **tree** (Baraff 1996): the system's graph with one node a body (6 rows) and one a joint
   (its rows) is a tree when no loop closes; it is factored leaves first by block LDLᵀ, one
@@ -135,13 +138,20 @@ ArtWork = namedtuple('ArtWork', 'bd jac con bias D Hp W rhs y A mj drop k xs yb 
                      'wrench angle stats nrow dim active lim_state lim0 x0 k0 jrows motor fric')
 # work.fric columns: the friction state (the sliding direction s = ±1, the friction force
 # being -friction s; 0 stuck, its row held when no motor row or limit holds the joint; 2 not
-# decided yet), the state and the row's activity saved at a sub-step's start, and the
-# friction's generalized force on the child along q (the readout)
+# decided yet), the state and the row's activity saved at a sub-step's start, the friction's
+# generalized force on the child along q (the readout), the joint's rate at the sub-step's
+# start and at the end of the last (trial) step before its stop, and 1 when that end stopped it
 F_SIGN = 0
 F_SIGN0 = 1
 F_ACTIVE0 = 2
 F_APPLIED = 3
-F_SIZE = 4
+F_RATE0 = 4
+F_RATE_END = 5
+F_STOPPED = 6
+F_SIZE = 7
+#: A sliding joint's stop inside a step is located until its rate is within this (rad/s or
+#: m/s) of zero, as a limit crossing is (:data:`LOCATE_TOL`).
+STOP_RATE_TOL = 1e-14
 # jlim columns: lower, upper, has lower, has upper
 L_LOWER = 0
 L_UPPER = 1
@@ -1165,14 +1175,38 @@ def _friction_stops(model, x, work):
         row = jint[j, J_FRICROW]
         if row < 0:
             continue
+        fric[j, F_STOPPED] = 0.0
         sign = fric[j, F_SIGN]
         if not (sign == 1.0 or sign == -1.0) or work.active[jint[j, J_MOTROW]] != 0 \
                 or work.lim_state[j] != 0:
             continue
-        if sign * _rate(model, x, work, row) <= 0.0:
+        rate = _rate(model, x, work, row)
+        fric[j, F_RATE_END] = rate
+        if sign * rate <= 0.0:
             fric[j, F_SIGN] = 0.0
+            fric[j, F_STOPPED] = 1.0
             work.active[row] = 1
             refresh_rows(model, work, j)
+
+
+@_jit
+def _friction_event(model, work):
+    """
+    Return the joint whose sliding stopped first inside the last sub-step, or -1.
+
+    A joint that slid at the sub-step's start and whose rate crossed zero strictly by its end;
+    the first by the linear estimate ``r0 / (r0 - r_end)`` of when (``r = s q̇``).
+    """
+    jint, fric = model.jint, work.fric
+    best, first = -1, 2.0
+    for j in range(jint.shape[0]):
+        if jint[j, J_FRICROW] < 0 or fric[j, F_STOPPED] == 0.0:
+            continue
+        sign = fric[j, F_SIGN0]
+        r0, r1 = sign * fric[j, F_RATE0], sign * fric[j, F_RATE_END]
+        if (sign == 1.0 or sign == -1.0) and r0 > 0.0 and r1 < 0.0 and r0 / (r0 - r1) < first:
+            best, first = j, r0 / (r0 - r1)
+    return best
 
 
 @_jit
@@ -1347,15 +1381,24 @@ def step(model, x, work, h, n_steps, tol, max_iter):
     sub-step and projection from the step's start) until ``|q - bound| <= LOCATE_TOL``; there
     the limit row is made active, the velocity projection stops the joint dead (an equal and
     opposite impulse: the inelastic stop) and the rest of the step is taken with the row held.
+    A sliding joint whose rate crosses zero inside a step (Coulomb friction) splits it the same
+    way: the time its rate reaches zero is found by the Illinois method to
+    :data:`STOP_RATE_TOL`, the joint sticks there (its friction row held, the velocity
+    projection taking out what is left of its rate) and the rest of the step is taken from
+    there, stuck or, if its load exceeds its friction, sliding the other way.
     ``work.k[0]`` must hold ``ẋ`` at ``x`` (left there by :func:`initialize` and by every
     step). Return 0, or the step index + 1 at which the position projection failed.
     """
     worst = 0.0
     worst_it = 0
     work.stats[S_STOPS] = 0.0
+    n_friction = 0
+    for j in range(model.jint.shape[0]):
+        if model.jint[j, J_FRICROW] >= 0:
+            n_friction += 1
     for s in range(n_steps):
         left = h
-        for _ in range(2 * model.jint.shape[0] + 2):
+        for _ in range(2 * model.jint.shape[0] + 2 + 2 * n_friction):
             for b in range(x.shape[0]):
                 for i in range(13):
                     work.x0[b, i] = x[b, i]
@@ -1365,6 +1408,8 @@ def step(model, x, work, h, n_steps, tol, max_iter):
                 if model.jint[j, J_FRICROW] >= 0:
                     work.fric[j, F_SIGN0] = work.fric[j, F_SIGN]
                     work.fric[j, F_ACTIVE0] = work.active[model.jint[j, J_FRICROW]]
+                    # rows and ω_w are at x (left by the last dynamics evaluation)
+                    work.fric[j, F_RATE0] = _rate(model, x, work, model.jint[j, J_FRICROW])
             it = _rk4(model, x, work, left, tol, max_iter)
             if it < 0:
                 _restore(model, x, work)  # stays finite: back to the sub-step start
@@ -1372,10 +1417,49 @@ def step(model, x, work, h, n_steps, tol, max_iter):
                 return s + 1
             j, side, excess = _crossing(model, x, work)
             if j < 0:
-                work.stats[S_TIME] += left
+                jf = _friction_event(model, work) if n_friction > 0 else -1
+                if jf < 0:
+                    work.stats[S_TIME] += left
+                    worst = max(worst, work.stats[S_ERR])
+                    worst_it = max(worst_it, it)
+                    break
+                # a sliding joint stopped inside the sub-step: locate when its rate reached
+                # zero, g(τ) = -s q̇(τ): g(0) < 0 < g(left), stick it there, go on
+                sign = work.fric[jf, F_SIGN0]
+                lo, g_lo = 0.0, -sign * work.fric[jf, F_RATE0]
+                hi, g_hi = left, -sign * work.fric[jf, F_RATE_END]
+                tau = left
+                g = g_hi
+                for _ in range(LOCATE_MAX_ITER):
+                    tau = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
+                    _restore(model, x, work)
+                    if _rk4(model, x, work, tau, tol, max_iter) < 0:
+                        _restore(model, x, work)  # stays finite: back to the sub-step start
+                        work.stats[S_FAIL] = 1.0
+                        return s + 1
+                    g = -sign * work.fric[jf, F_RATE_END]
+                    if abs(g) <= STOP_RATE_TOL or hi - lo <= 1e-15 * h:
+                        break
+                    if g > 0.0:
+                        hi, g_hi = tau, g
+                        g_lo *= 0.5   # Illinois: halve the end that stays
+                    else:
+                        lo, g_lo = tau, g
+                        g_hi *= 0.5
+                if g < 0.0 and work.fric[jf, F_SIGN] == sign:
+                    # within STOP_RATE_TOL short of zero and still sliding: stick it now
+                    work.fric[jf, F_SIGN] = 0.0
+                    work.active[model.jint[jf, J_FRICROW]] = 1
+                    refresh_rows(model, work, jf)
+                    _end_of_step(model, x, work)
+                work.stats[S_TIME] += tau
+                work.stats[S_TSTAGE] = work.stats[S_TIME]
                 worst = max(worst, work.stats[S_ERR])
                 worst_it = max(worst_it, it)
-                break
+                left -= tau
+                if left <= 1e-12 * h:
+                    break
+                continue
             bound = model.jlim[j, L_UPPER] if side > 0 else model.jlim[j, L_LOWER]
             # g(τ) = side (q(τ) - bound): g(0) <= 0 < g(left) = excess
             lo, g_lo = 0.0, side * (limit_coordinate(model, work.x0, j) - bound)

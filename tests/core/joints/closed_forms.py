@@ -245,6 +245,40 @@ def coulomb_stop(rate0, friction, inertia):
     return t_stop, 0.5 * rate0 * t_stop
 
 
+def coulomb_pendulum_turns(mgl, friction, theta0_rad):
+    """
+    Return the turning angles (rad) of a pendulum with Coulomb pivot friction, from rest.
+
+    ``I θ'' = -m g l sin θ - f sign(θ')``. Between two turns ``a`` and ``b`` the friction
+    does the work ``-f |a - b|``, so ``m g l (cos b - cos a) = f |a - b|``, whatever ``I``:
+    from ``a > 0`` it swings down to the root ``b`` of ``g(b) = m g l (cos b - cos a) - f (a -
+    b)`` below the trivial one, in ``[-a, asin(f / m g l))`` (``g`` peaks there, and ``g(-a) =
+    -2 f a < 0``): on the other side, or on the same side when the friction stops it first.
+    At a turn where ``m g l |sin b| <= f`` the pivot holds it for good. Returns ``[θ0, θ1,
+    ...]``, the last being where it stays.
+
+    :param mgl: ``m g l``, the gravity torque at 90 degrees (N m, > 0)
+    :param friction: ``f`` (N m, > 0)
+    :param theta0_rad: release angle from hanging down (rad, 0 < |θ0| < pi/2)
+    """
+    mgl = _positive('mgl', mgl, 'N m')
+    friction = _positive('friction', friction, 'N m')
+    if not (math.isfinite(theta0_rad) and 0.0 < abs(theta0_rad) < 0.5 * math.pi):
+        raise ValueError(f'theta0_rad: {theta0_rad} rad must satisfy 0 < |theta0| < pi/2')
+    turns = [float(theta0_rad)]
+    while mgl * abs(math.sin(turns[-1])) > friction:
+        a = abs(turns[-1])   # by symmetry, as if from +a
+        lo, hi = -a, math.asin(friction / mgl)   # g(lo) < 0 < g(hi); bisection to round-off
+        for _ in range(200):
+            mid = 0.5 * (lo + hi)
+            if mgl * (math.cos(mid) - math.cos(a)) - friction * (a - mid) > 0.0:
+                hi = mid
+            else:
+                lo = mid
+        turns.append(0.5 * (lo + hi) * math.copysign(1.0, turns[-1]))
+    return turns
+
+
 Babyboot = collections.namedtuple('Babyboot', [
     'g', 'mass_a_kg', 'mass_b_kg', 'i_ax', 'i_bx', 'i_by', 'i_bz', 'l_a_m', 'l_b_m',
     'q0_rad', 'qd0_rad_s', 't_final_s', 'q_ref_rad', 'qd_ref_rad_s', 'qdd_ref_rad_s2',

@@ -17,7 +17,8 @@
 import math
 
 from closed_forms import (BABYBOOT, babyboot_accelerations, babyboot_energy, cartpole_omega,
-                          chain_joint_forces, compound_pendulum_l_eq, coulomb_stop,
+                          chain_joint_forces, compound_pendulum_l_eq, coulomb_pendulum_turns,
+                          coulomb_stop,
                           cradle_rise_height, damped_oscillation, damped_rotor, ellipk,
                           heavy_top_precession, limit_stop, pendulum_period)
 import numpy as np
@@ -275,3 +276,17 @@ def test_coulomb_stop_is_uniform_deceleration():
     # travel = q̇0 t* + a t*^2 / 2 with a = +f / I (decelerating a negative rate)
     assert travel == pytest.approx(-3.0 * t_stop + 0.5 * (0.23 / 0.5) * t_stop ** 2,
                                    rel=ROUND_OFF)
+
+
+def test_coulomb_pendulum_turns_spend_the_friction_work():
+    mgl, friction = 4.905, 0.8
+    turns = coulomb_pendulum_turns(mgl, friction, 1.0)
+    assert len(turns) >= 3
+    for a, b in zip(turns, turns[1:]):
+        # the potential energy lost is the friction's work f |a - b|, and it turned back
+        lost = mgl * (math.cos(b) - math.cos(a))
+        assert lost == pytest.approx(friction * abs(a - b), abs=ROUND_OFF)
+        assert abs(a - b) > 1e-3
+    # it moved at every turn but the last, where the pivot holds it
+    assert all(mgl * abs(math.sin(t)) > friction for t in turns[:-1])
+    assert mgl * abs(math.sin(turns[-1])) <= friction
