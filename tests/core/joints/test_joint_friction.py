@@ -320,3 +320,29 @@ def test_zero_damping_and_friction_are_accepted_everywhere():
     # 0 is the default of every kind: a ball joint with 0 is fine
     joint = Joint('j', 'spherical', None, 0, damping=0.0, friction=0)
     assert (joint.damping, joint.friction) == (0.0, 0.0)
+
+
+@pytest.mark.parametrize('step_ns', STEPS_NS)
+def test_a_frictional_joint_at_its_stop_is_held_by_the_stop_then_by_its_friction(step_ns):
+    friction, bound = 0.5, 0.3
+    gravity = G * 0.5 * math.sin(bound)   # 1.45 N m toward the stop (down, -q)
+    sim = rod(theta0=bound + 1e-3, step_ns=step_ns, friction=friction, lower=bound)
+    sim.step(100)
+    # the gravity torque beats the friction: it slid onto the stop, which holds it
+    assert sim.held_limits == [-1] and abs(angle(sim) - bound) <= 1e-12
+    # pulled off the stop by less than the friction: the stop lets go, the friction holds
+    sim.set_motor(0, effort=gravity + 0.6 * friction)
+    for _ in range(100):
+        sim.step()
+        assert abs(rate(sim)) <= STUCK_TOL
+    assert sim.held_limits == [0] and abs(angle(sim) - bound) <= 1e-12
+    assert abs(sim.joint_friction_efforts()[0] + 0.6 * friction) <= 1e-12
+    # by more than the friction: it leaves at once at (effort - gravity - f) / I
+    sim.set_motor(0, effort=gravity + 1.6 * friction)
+    h = step_ns * 1e-9
+    sim.step()
+    alpha = 0.6 * friction / I_PIVOT
+    # the gravity torque grows as it rises, q̈ = alpha - c (q - bound) with c = m g l cos(bound)
+    # / I = 14 /s^2: q̇(h) = alpha h (1 - c h^2 / 6 + ...); bounded by twice that term
+    c = G * 0.5 * math.cos(bound) / I_PIVOT
+    assert abs(rate(sim) / (alpha * h) - 1.0) <= c * h * h / 3.0, rate(sim) / (alpha * h) - 1.0
