@@ -1165,10 +1165,10 @@ def _friction_stops(model, x, work):
     """
     Stick every sliding joint whose rate has reached or crossed zero (rows at ``x``).
 
-    Its friction row is held, so the velocity projection that follows stops it: the impulse
-    takes out the rate it reached past zero under the step's constant friction, so the
-    friction's impulse over the step is what it would have been had the joint stuck at the
-    moment its rate crossed zero.
+    Its friction row is held, so the velocity projection that follows stops it. Each sliding
+    joint's rate here is kept (``F_RATE_END``) and a joint stopped here is marked
+    (``F_STOPPED``): :func:`step` locates a stop that crossed zero inside the step, so what
+    the projection takes out is at most :data:`STOP_RATE_TOL`.
     """
     jint, fric = model.jint, work.fric
     for j in range(jint.shape[0]):
