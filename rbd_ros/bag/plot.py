@@ -22,6 +22,12 @@ from the step they took effect at until replaced or until ``wrench_timeout_s``);
 energy (J; and the total mechanical energy when there is gravity) and ``|L|`` about the COM
 (kg·m²/s, ``|I_b ω_b|``).
 
+A robot recording (``robot_names``) gets its own figure (:func:`draw_robots`): every moving
+joint's position, velocity and motor effort from ``<robot>/joint_states`` (rad or m, rad/s or
+m/s, N m or N, as the joint is revolute or prismatic), and the magnitude of every joint's
+constraint force from ``<robot>/joint_wrenches`` (N). A world of several bodies gets
+:func:`draw_world`.
+
 The state comes from ``odom`` (pose in world, twist in body coordinates, REP 105), or from
 ``pose`` + ``twist`` when there is no odometry.  Energy and momentum need the body model, which
 is rebuilt from the configuration stored in the recording.  Messages are decoded with the
@@ -411,6 +417,113 @@ def draw_world(bag: Bag, title: Optional[str] = None) -> Tuple[Any, Dict[str, An
     return fig, data
 
 
+def load_robots(bag: Bag) -> Dict[str, Any]:
+    """
+    Return a robot recording's joint series, from the recorded samples only.
+
+    ``{'t_s' (N,), 'joints' [label], 'units' [(position, velocity, effort)], 'position',
+    'velocity', 'effort' (N, n_joints), 'wrench_t_s' (M,), 'wrench_joints' [label],
+    'force_n' (M, n_wrench_joints)}``; a label is ``<robot>/<joint>``, the joints in each
+    robot's ``joint_states`` order, robots in ``robot_names`` order; NaN where a sample lacks a
+    value (the forces are NaN at t = 0, before the first step has solved them).
+
+    :raises RbdError: the recording holds no ``joint_states`` of its robots.
+    """
+    from rbd_ros.bag.replay import config_from_bag  # the stored config, its URDFs inside
+    config = config_from_bag(bag)
+    states, wrenches = {}, {}
+    for topic, info in bag.topics.items():
+        for r, robot in enumerate(config.robots):
+            if topic.endswith(f'/{robot.name}/joint_states') and \
+                    info.type_name == types.JOINT_STATE:
+                states[topic] = r
+            elif topic.endswith(f'/{robot.name}/joint_wrenches') and \
+                    info.type_name == types.MULTI_DOF_JOINT_STATE:
+                wrenches[topic] = r
+    if not states:
+        raise RbdError(f'{bag.mcap_path}: no <robot>/joint_states recorded for the robots '
+                       f'{[robot.name for robot in config.robots]} (topics: {sorted(bag.topics)})')
+    labels = [f'{robot.name}/{joint}' for robot in config.robots for joint in robot.joint_names]
+    units = [robot.units(joint) for robot in config.robots for joint in robot.joint_names]
+    first = np.cumsum([0] + [len(robot.joint_names) for robot in config.robots])
+    wrench_labels = [f'{robot.name}/{joint.name}' for robot in config.robots
+                     for joint in robot.robot.joints]
+    wrench_first = np.cumsum([0] + [len(robot.robot.joints) for robot in config.robots])
+    rows, force_rows = {}, {}
+    n, m = len(labels), len(wrench_labels)
+    for raw, msg in bag.decoded_messages(list(states) + list(wrenches)):
+        t = raw.log_time_ns
+        if raw.topic in states:
+            r = states[raw.topic]
+            row = rows.setdefault(t, np.full((3, n), np.nan))
+            index = {name: first[r] + k for k, name in enumerate(config.robots[r].joint_names)}
+            for field, values in enumerate((msg.position, msg.velocity, msg.effort)):
+                for name, value in zip(msg.name, values):
+                    if name in index:
+                        row[field, index[name]] = value
+        else:
+            r = wrenches[raw.topic]
+            row = force_rows.setdefault(t, np.full(m, np.nan))
+            index = {joint.name: wrench_first[r] + k
+                     for k, joint in enumerate(config.robots[r].robot.joints)}
+            for name, wrench in zip(msg.joint_names, msg.wrench):
+                if name in index:
+                    row[index[name]] = np.linalg.norm(_vec(wrench.force))
+    times, force_times = sorted(rows), sorted(force_rows)
+    table = np.array([rows[t] for t in times]).reshape(-1, 3, n)
+    return {'t_s': np.array(times, dtype=float) / NS_PER_S, 'joints': labels, 'units': units,
+            'position': table[:, 0], 'velocity': table[:, 1], 'effort': table[:, 2],
+            'wrench_t_s': np.array(force_times, dtype=float) / NS_PER_S,
+            'wrench_joints': wrench_labels,
+            'force_n': np.array([force_rows[t] for t in force_times]).reshape(-1, m)}
+
+
+def draw_robots(bag: Bag, title: Optional[str] = None) -> Tuple[Any, List[Dict[str, Any]]]:
+    """
+    Draw a robot recording: joint positions, velocities, efforts, and joint force magnitudes.
+
+    :returns: ``(figure, panels)`` as :func:`draw` (four panels, reading order); a curve's
+        label is ``<robot>/<joint>``.
+    """
+    data = load_robots(bag)  # a bag refused is refused before matplotlib's ~0.5 s import
+    plt = _pyplot()
+    fig, axes = plt.subplots(2, 2, figsize=(13, 9), sharex=True)
+    axes = axes.ravel()
+    notes = [None] * len(axes)
+    t = data['t_s']
+    for k, label in enumerate(data['joints']):
+        for panel, field in enumerate(('position', 'velocity', 'effort')):
+            axes[panel].plot(t, data[field][:, k], label=label, linewidth=1.0)
+    titles = ('joint positions', 'joint velocities',
+              'joint efforts (each motor over the last step)')
+    for panel, what in enumerate(titles):
+        axes[panel].set_title(what, fontsize=10)
+        axes[panel].set_ylabel(' or '.join(sorted({u[panel] for u in data['units']})))
+        if not data['joints']:
+            notes[panel] = _note(axes[panel], 'no moving joint')
+    drawn = False
+    for k, label in enumerate(data['wrench_joints']):
+        force = data['force_n'][:, k]
+        if np.isfinite(force).any():  # NaN at t = 0 only: a one-sample run draws none
+            axes[3].plot(data['wrench_t_s'], force, label=label, linewidth=1.0)
+            drawn = True
+    axes[3].set_title('|constraint force| the parent exerts on the child, per joint',
+                      fontsize=10)
+    axes[3].set_ylabel('N')
+    if not drawn:
+        notes[3] = _note(axes[3], 'no joint wrench recorded')
+    for ax in axes:
+        ax.grid(True, alpha=0.3)
+        if ax.get_lines() and len(ax.get_lines()) <= 12:
+            ax.legend(fontsize=8, loc='best')
+    for ax in axes[2:]:
+        ax.set_xlabel('sim time (s)')
+    status = '' if bag.finalised else '  [not finalised]'
+    fig.suptitle(title or f'{os.path.basename(os.path.normpath(bag.path))}{status}')
+    fig.tight_layout()
+    return fig, _panel_summaries(axes, notes)
+
+
 #: Frames per second of an animation from a bag (every k-th recorded sample, real time).
 ANIMATION_FPS = 20
 
@@ -460,7 +573,10 @@ def render(bag: Union[str, os.PathLike, Bag], out_path: str,
     """Render the recording ``bag`` (opened or a path) to the PNG ``out_path``; return it."""
     if not isinstance(bag, Bag):
         bag = open_bag(bag)
-    if bag.config and recorded_parameters(bag.config).get('body_names'):
+    stored = recorded_parameters(bag.config) if bag.config else {}
+    if stored.get('robot_names'):
+        fig, _ = draw_robots(bag, title)
+    elif stored.get('body_names'):
         fig, _ = draw_world(bag, title)
     else:
         fig, _ = draw(bag, title)

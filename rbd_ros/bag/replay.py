@@ -17,7 +17,8 @@ Replay a recording and check that the simulator reproduces it (``ros2 run rbd_ro
 
 The recording holds the node's parameters (MCAP metadata record ``rbd_ros``), every wrench as it
 took effect (log time = sim time of the start of the step it was applied at) and the output
-samples (``pose``, ``twist``, ``odom``, ``/clock``; log time = sim time of the sample).  Replay
+samples (``pose``, ``twist``, ``odom``, ``/clock``, a robot's ``joint_states``, ``odom`` and
+``joint_wrenches``; log time = sim time of the sample).  Replay
 rebuilds :class:`rbd_ros.sim.config.NodeConfig` from the stored parameters; a :class:`Replayer`
 drives a fresh :class:`rbd_ros.sim.session.SimSession` to each recorded time, submits each recorded
 wrench so that it takes effect at the step starting at its recorded time, recomputes every
@@ -262,7 +263,11 @@ def _compared_kinds(config, builder):
     if 'clock' in builder.kinds and not config.named and not config.robots:
         kinds.append('clock')
     compared = {kind: outputs.TYPE_NAMES[kind.rsplit('/', 1)[-1]] for kind in kinds}
-    compared.update({robot.kind: types.JOINT_STATE for robot in builder.robots})
+    for robot in builder.robots:
+        compared[robot.kind] = types.JOINT_STATE
+        compared[robot.wrench_kind] = types.MULTI_DOF_JOINT_STATE
+        if robot.odom_kind:
+            compared[robot.odom_kind] = types.ODOMETRY
     return compared
 
 
@@ -403,6 +408,11 @@ def _fields(kind, msg):
         return stamp, (msg.header.frame_id, tuple(msg.name)), {
             'joint_position': tuple(msg.position), 'joint_velocity': tuple(msg.velocity),
             'joint_effort': tuple(msg.effort)}
+    if kind == 'joint_wrenches':
+        return stamp, (msg.header.frame_id, tuple(msg.joint_names), len(msg.transforms),
+                       len(msg.twist)), {
+            'joint_force': tuple(v for w in msg.wrench for v in vec(w.force)),
+            'joint_torque': tuple(v for w in msg.wrench for v in vec(w.torque))}
     return stamp, (msg.header.frame_id, msg.child_frame_id), {
         'position': vec(msg.pose.pose.position), 'orientation': quat(msg.pose.pose.orientation),
         'linear': vec(msg.twist.twist.linear), 'angular': vec(msg.twist.twist.angular)}
@@ -417,7 +427,8 @@ def expected_message(kind, state, config, contact_wrench=None):
 _KIND_FIELDS = {'pose': ('position', 'orientation'), 'twist': ('linear', 'angular'),
                 'odom': ('position', 'orientation', 'linear', 'angular'),
                 'contact_wrench': ('force', 'torque'), 'clock': (),
-                'joint_states': ('joint_position', 'joint_velocity', 'joint_effort')}
+                'joint_states': ('joint_position', 'joint_velocity', 'joint_effort'),
+                'joint_wrenches': ('joint_force', 'joint_torque')}
 _ERROR_FIELDS = {
     'position': 'max_position_error_m',
     'orientation': 'max_orientation_error_rad',
@@ -428,6 +439,8 @@ _ERROR_FIELDS = {
     'joint_position': 'max_joint_position_error',
     'joint_velocity': 'max_joint_velocity_error',
     'joint_effort': 'max_joint_effort_error',
+    'joint_force': 'max_force_error_n',
+    'joint_torque': 'max_torque_error_nm',
 }
 
 
@@ -447,6 +460,8 @@ def _compare(result, kind, t_ns, expected, recorded, tolerance):
         exact = np.array(e_value).tobytes() == np.array(r_value).tobytes()
         if exact:
             error = 0.0
+        elif np.shape(e_value) != np.shape(r_value):
+            error = math.inf  # another number of joints
         elif name == 'orientation':
             error = float(quat_angle_between(np.array(e_value), np.array(r_value)))
         else:
@@ -758,13 +773,13 @@ class Replayer:
     def compare_sample(self, raw: RawMessage, msg) -> bool:
         """Compare the recorded output sample ``msg`` with the one recomputed now."""
         kind, t = self.kinds[raw.topic], raw.log_time_ns
-        if kind.endswith('/joint_states'):
+        if any(kind in robot.kinds for robot in self._builder.robots):
             expected = self._builder.robot_message(kind, self.session.time_ns,
                                                    self.session.simulator)
             if self.session.time_ns != t:
                 expected.header.stamp = conversions.time_to_msg(t)
-            return _compare(self.result.topics[raw.topic], 'joint_states', t, expected, msg,
-                            self.tolerance)
+            return _compare(self.result.topics[raw.topic], kind.rsplit('/', 1)[-1], t,
+                            expected, msg, self.tolerance)
         index = self._builder.body_index(kind) or 0  # clock: body 0's time
         wrenches = self.session.contact_wrenches_w
         wrench = None if wrenches is None else (wrenches[index][:3].tolist(),

@@ -18,8 +18,11 @@ One output sample: state → values → CDR bytes (and messages), for the node, 
 :class:`SampleBuilder` is the only place that turns the simulator's states into the node's
 output messages: per body ``<prefix>pose``, ``<prefix>twist``, ``<prefix>odom`` and, with
 contact, ``<prefix>contact_wrench`` (the prefix is ``<name>/`` for a body of ``body_names``,
-empty for the body of a single-body file: ``pose``, ...); ``poses`` (every pose, named bodies
-only), ``/clock`` and one ``/tf`` message holding world → body for every body. Each body's
+empty for the body of a single-body file: ``pose``, ...); per robot ``<robot>/joint_states``,
+``<robot>/odom`` (a floating robot's root link, through :meth:`BodyOutputs.odom`) and
+``<robot>/joint_wrenches`` (:mod:`rbd_ros.msgs.robot_outputs`); ``poses`` (every pose, named
+bodies only), ``/clock`` and one ``/tf`` message holding world → body for every body (and every
+robot link). Each body's
 messages come from its :class:`BodyOutputs`. The node publishes the CDR bytes of
 :meth:`SampleBuilder.serialize` and records the SAME bytes; replay recomputes the samples with
 :meth:`SampleBuilder.message`, built from the same values, so "replay rebuilds exactly what the
@@ -56,7 +59,7 @@ import functools
 import math
 
 from geometry_msgs.msg import (PoseArray, PoseStamped, TransformStamped, TwistStamped,
-                               WrenchStamped)
+                               Vector3, Wrench, WrenchStamped)
 from nav_msgs.msg import Odometry
 import numpy as np
 from rbd_ros.core import BodyState, layout
@@ -66,7 +69,7 @@ from rbd_ros.msgs.cdr import cdr_string as _cdr_string, layout as _layout
 from rbd_ros.msgs.robot_outputs import RobotOutputs
 from rbd_ros.sim.params import NS_PER_S
 from rosgraph_msgs.msg import Clock
-from sensor_msgs.msg import JointState
+from sensor_msgs.msg import JointState, MultiDOFJointState
 from std_msgs.msg import Header
 
 try:  # tf2_msgs is on every Jazzy install but not in the PyPI wheels.
@@ -168,8 +171,7 @@ class BodyOutputs:
                                      px, py, pz, qx, qy, qz, qw)),
             ('twist', self._twist.pack(enc, sec, nanosec, len(twist_frame), twist_frame,
                                        *twist)),
-            ('odom', self._odom.pack(enc, sec, nanosec, len(world), world, len(body), body,
-                                     px, py, pz, qx, qy, qz, qw, *twist_b))]
+            ('odom', self.odom(time_ns, values))]
         kinds = self.kinds
         if 'contact_wrench' in kinds:
             force, torque = contact_wrench
@@ -181,6 +183,19 @@ class BodyOutputs:
             out.append(('tf', self._tf.pack(enc, 1, sec, nanosec, len(world), world,
                                             len(body), body, px, py, pz, qx, qy, qz, qw)))
         return out
+
+    def odom(self, time_ns, values):
+        """
+        Return the CDR bytes of the ``Odometry`` of :meth:`values` at ``time_ns``.
+
+        Pose in the world frame, twist in the body frame (REP 105): the one odom writer, for
+        the free bodies and a floating robot's root link alike.
+        """
+        (px, py, pz), (qw, qx, qy, qz), _, twist_b = values
+        sec, nanosec = divmod(time_ns, NS_PER_S)
+        world, body, _ = self._consts
+        return self._odom.pack(_ENCAPSULATION, sec, nanosec, len(world), world, len(body), body,
+                               px, py, pz, qx, qy, qz, qw, *twist_b)
 
     def messages(self, state, contact_wrench=None):
         """Return ``{kind: message}`` of one sample of ``state`` (new objects each call)."""
@@ -247,6 +262,8 @@ def type_of(kind):
         return PoseArray
     if kind.endswith('/joint_states'):
         return JointState
+    if kind.endswith('/joint_wrenches'):
+        return MultiDOFJointState
     return MESSAGE_TYPES[kind.rsplit('/', 1)[-1]]
 
 
@@ -278,7 +295,7 @@ class SampleBuilder:
         self.per_body = getattr(config, 'per_body_topics', True) or not config.named
         self.kinds = tuple(prefix + kind for prefix, body in zip(self.prefixes, self.bodies)
                            for kind in body.kinds if self.per_body) \
-            + tuple(robot.kind for robot in self.robots) \
+            + tuple(kind for robot in self.robots for kind in robot.kinds) \
             + (('poses',) if config.named else ()) \
             + (('clock',) if config.publish_clock else ()) \
             + (('tf',) if tf and config.publish_tf and TFMessage is not None else ())
@@ -294,6 +311,10 @@ class SampleBuilder:
             fields += robot.tf_fields()
         self._tf = _layout(*fields)
         self._tf_count = n + sum(len(robot.transforms) for robot in self.robots)
+        # A floating robot's odom: its root link frame through the free bodies' odom writer.
+        self._robot_odom = {robot.index: BodyOutputs(_Frames(
+            config.world_frame, robot.root_frame, 'body', False, False, False))
+            for robot in self.robots if robot.odom_kind}
         self._world = world
         self._frames = [_cdr_string(body.body_frame) for body in config.bodies]
         # What serialize needs on its hot path, decided once.
@@ -356,6 +377,13 @@ class SampleBuilder:
         for robot in self.robots:
             if wanted is None or robot.kind in wanted:
                 out.append((robot.kind, robot.joint_states(time_ns, robots)))
+            odom = robot.odom_kind
+            if odom and (wanted is None or odom in wanted):
+                builder = self._robot_odom[robot.index]
+                out.append((odom, builder.odom(
+                    time_ns, builder.list_values(robots.root_state(robot.index)))))
+            if wanted is None or robot.wrench_kind in wanted:
+                out.append((robot.wrench_kind, robot.joint_wrenches(time_ns, robots)))
             if tf is not None:
                 tf += robot.tf_values(sec, nanosec, robots.link_poses(robot.index))
         if poses is not None:
@@ -398,9 +426,24 @@ class SampleBuilder:
                            qy, qz, qw)
 
     def robot_message(self, kind, time_ns, robots):
-        """Return a new ``JointState`` of the robot kind ``<robot>/joint_states`` now."""
-        robot = next(robot for robot in self.robots if robot.kind == kind)
+        """
+        Return a new message of a robot kind now (``<robot>/joint_states``, ``odom``, ...).
+
+        :param robots: the :class:`rbd_ros.sim.robot_world.RobotWorld`.
+        """
+        robot = next(robot for robot in self.robots if kind in robot.kinds)
         r = robot.index
+        if kind == robot.odom_kind:
+            x = robots.root_state(r)
+            return self._robot_odom[r].message(
+                'odom', BodyState(x[_POS], x[_QUAT], x[_VEL], x[_OMEGA], time_ns))
+        if kind == robot.wrench_kind:
+            wrenches = [Wrench(force=Vector3(x=fx, y=fy, z=fz),
+                               torque=Vector3(x=tx, y=ty, z=tz))
+                        for fx, fy, fz, tx, ty, tz in robots.joint_wrenches(r)]
+            return MultiDOFJointState(
+                header=Header(stamp=conv.time_to_msg(time_ns), frame_id=''),
+                joint_names=list(robot.wrench_joints), wrench=wrenches)
         return JointState(header=Header(stamp=conv.time_to_msg(time_ns), frame_id=''),
                           name=list(robot.joint_names),
                           position=robots.joint_positions(r).tolist(),

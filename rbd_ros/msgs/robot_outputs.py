@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-A robot's output messages of one sample: ``<robot>/joint_states`` and its links on ``/tf``.
+A robot's output messages of one sample: joint_states, odom, joint_wrenches, its links on /tf.
 
 A part of :class:`rbd_ros.msgs.outputs.SampleBuilder` (which publishes and records the same
 bytes, and which replay rebuilds), written the same way: CDR packed by ``struct`` with zeroed
@@ -23,6 +23,16 @@ every machine.
 - ``sensor_msgs/JointState`` on ``<robot>/joint_states``: stamped with sim time, ``frame_id``
   empty (as joint_state_broadcaster), the moving joints in URDF order with position (rad or m),
   velocity and effort (the motor's, applied over the last step; 0 without a motor).
+- ``nav_msgs/Odometry`` on ``<robot>/odom``, a floating robot's only (REP 105): the root link's
+  frame in the world frame (``child_frame_id`` its name), twist in that link frame. Packed by
+  :class:`rbd_ros.msgs.outputs.BodyOutputs` (the free bodies' odom rule, its one home) from
+  :meth:`rbd_ros.sim.robot_world.RobotWorld.root_state`; :class:`RobotOutputs` names the kind.
+- ``sensor_msgs/MultiDOFJointState`` on ``<robot>/joint_wrenches``: stamped with sim time,
+  ``frame_id`` empty (each wrench is in its own joint's child link frame), ``joint_names``
+  every URDF joint in document order (fixed joints included), ``transforms`` and ``twist``
+  empty (the message allows an empty array), ``wrench`` per joint the force and torque the
+  parent exerts on the child (:meth:`rbd_ros.sim.robot_world.RobotWorld.joint_wrenches`;
+  NaN at time 0, before the first step has solved them).
 - ``/tf``: one transform per URDF joint, parent link → child link (fixed joints included), as
   robot_state_publisher gives them, plus world frame → root link for a floating robot. A link's
   frame id is its URDF name; the URDF's ``world`` link is the node's world frame. The
@@ -59,6 +69,20 @@ class RobotOutputs:
         self.index = index
         self.kind = f'{robot.name}/joint_states'
         urdf = robot.robot
+        #: ``<robot>/odom`` of a floating robot, None for one fixed to the world.
+        self.odom_kind = None if urdf.fixed_to_world else f'{robot.name}/odom'
+        self.wrench_kind = f'{robot.name}/joint_wrenches'
+        #: This robot's sample kinds, in publishing order.
+        self.kinds = tuple(k for k in (self.kind, self.odom_kind, self.wrench_kind) if k)
+        #: The root link's frame id (odom's ``child_frame_id``).
+        self.root_frame = urdf.root
+        #: Every URDF joint, document order: the ``joint_wrenches`` order.
+        self.wrench_joints = tuple(joint.name for joint in urdf.joints)
+        wrench_names = [cdr_string(name) for name in self.wrench_joints]
+        m = len(wrench_names)
+        self._wrenches = layout('i', 'I', cdr_string(''), 'I', *wrench_names, 'I', 'I', 'I',
+                                *'d' * (6 * m))
+        self._wrench_names = [v for name in wrench_names for v in (len(name), name)]
         self.joint_names = urdf.moving_joints
         names = [cdr_string(name) for name in self.joint_names]
         n = len(names)
@@ -106,3 +130,11 @@ class RobotOutputs:
         n = len(q)
         return self._joint_states.pack(ENCAPSULATION, sec, nanosec, 1, b'\x00', n, *self._names,
                                        n, *q, n, *qd, n, *effort)
+
+    def joint_wrenches(self, time_ns, world):
+        """Return the CDR bytes of this robot's ``MultiDOFJointState`` of joint wrenches now."""
+        sec, nanosec = divmod(time_ns, NS_PER_S)
+        values = [v for row in world.joint_wrenches(self.index) for v in row]
+        m = len(self.wrench_joints)
+        return self._wrenches.pack(ENCAPSULATION, sec, nanosec, 1, b'\x00', m,
+                                   *self._wrench_names, 0, 0, m, *values)

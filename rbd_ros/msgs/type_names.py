@@ -30,13 +30,14 @@ TF_MESSAGE = 'tf2_msgs/msg/TFMessage'
 DIAGNOSTIC_ARRAY = 'diagnostic_msgs/msg/DiagnosticArray'
 MARKER_ARRAY = 'visualization_msgs/msg/MarkerArray'
 JOINT_STATE = 'sensor_msgs/msg/JointState'
+MULTI_DOF_JOINT_STATE = 'sensor_msgs/msg/MultiDOFJointState'
 FLOAT64_MULTI_ARRAY = 'std_msgs/msg/Float64MultiArray'
 JOINT_TRAJECTORY = 'trajectory_msgs/msg/JointTrajectory'
 STRING = 'std_msgs/msg/String'
 #: Every type name above.
 TYPE_NAMES = (POSE_STAMPED, POSE_ARRAY, TWIST_STAMPED, WRENCH_STAMPED, POINT_STAMPED, ODOMETRY,
               CLOCK, TF_MESSAGE, DIAGNOSTIC_ARRAY, MARKER_ARRAY, JOINT_STATE,
-              FLOAT64_MULTI_ARRAY, JOINT_TRAJECTORY, STRING)
+              MULTI_DOF_JOINT_STATE, FLOAT64_MULTI_ARRAY, JOINT_TRAJECTORY, STRING)
 # (package, class name) -> type name: a generated class lives in module <package>.msg._<name>.
 _BY_CLASS = {(name.split('/')[0], name.rsplit('/', 1)[1]): name for name in TYPE_NAMES}
 

@@ -214,7 +214,8 @@ def check_names(node, config):
                                   f'body {names.index(body.name)} {why}')
     for names_param, what, items, kinds in (
             ('robot_names', 'robot', config.robots,
-             ('joint_states', 'robot_description', 'joint_command')),
+             ('joint_states', 'odom', 'joint_wrenches', 'robot_description',
+              'joint_command')),
             ('command_group_names', 'command group', config.command_groups,
              ('commands', 'joint_trajectory'))):
         names = config.parameters.get(names_param) or []

@@ -20,14 +20,29 @@ Every robot's bodies and joints go into one :class:`rbd_ros.core.joints.Articula
 :mod:`rbd_ros.sim.config`). Core joint names are ``<robot>/<joint>``, so two robots may use the
 same joint names. It answers what :class:`rbd_ros.sim.session.SimSession` asks of a simulator
 (``time_ns``, ``arrays`` of the free bodies: none, ``step``, ``reset``, no contact) and, per
-robot, the joint readouts and every link frame's pose.
+robot, the joint readouts, every link frame's pose, a floating root's state and every joint's
+constraint wrench.
 
 **Link frames.** A moving link's frame is its body's pose composed with the link's fixed
 offset in that body (:class:`rbd_ros.sim.urdf.RobotLink`); a link that is part of the world
 keeps its pose at time 0. The URDF's ``world`` link is the node's world frame.
+
+**Joint wrenches.** Per URDF joint, the force (N) and torque (N m) the parent exerts on the
+child, in the child link's frame (a URDF joint's frame: its origin is the joint), the torque
+about that origin: ``f_l = R_wlᵀ f_w`` and ``τ_l = R_wlᵀ (τ_com − d × f_w)`` with ``f_w``,
+``τ_com`` the core's multiplier wrench on the child body (world frame, about its COM) and ``d``
+the COM → link origin offset (world). A fixed joint the core has no constraint for (inside the
+world part, ``world`` → ``mount``, or to a massless frame folded into a body, ``tool0``) holds
+the massless links below it: by their statics it carries the sum of what the core joints
+hanging from them carry, ``f = Σ f_k`` and ``τ_O = Σ (τ_k + (A_k − O) × f_k)`` about its own
+origin ``O`` (``A_k`` the joint ``k``'s origin), 0 when nothing hangs there. A ``floating``
+joint carries nothing (0). Computed here in plain Python from the multipliers (the core's
+:meth:`~rbd_ros.core.joints.ArticulatedSimulator.joint_wrenches` gives them in its own row
+basis, through numpy), so the bytes are the same on every machine.
 """
 
 import dataclasses
+import math
 
 import numpy as np
 
@@ -62,6 +77,48 @@ def rotate(q, v):
             vz + w * tz + (x * ty - y * tx))
 
 
+_NAN6 = (math.nan,) * 6
+
+
+def _conjugate(q):
+    """Return the inverse ``(w, -x, -y, -z)`` of a unit quaternion."""
+    return (q[0], -q[1], -q[2], -q[3])
+
+
+def _held_joints(joints, joint):
+    """
+    Return the URDF indices of the core joints a folded fixed ``joint`` holds, URDF order.
+
+    The links below it through folded fixed joints are massless (a world link, or a frame
+    without ``<inertial>``): every core joint whose parent link is one of them hangs from it.
+    A ``floating`` joint holds nothing (its child is a free body).
+    """
+    if joint.kind != 'fixed':
+        return ()
+    below, grew = {joint.child}, True
+    while grew:
+        grew = False
+        for other in joints:
+            if other.core is None and other.kind == 'fixed' and other.parent in below \
+                    and other.child not in below:
+                below.add(other.child)
+                grew = True
+    return tuple(k for k, other in enumerate(joints)
+                 if other.core is not None and other.parent in below)
+
+
+def _frame_pose(state, p, q):
+    """
+    Return a frame fixed in a body: ``(position_w, q_wl, d_w, q_wb)``, plain floats.
+
+    ``p``, ``q``: the frame in the body frame; ``d_w = R_wb p`` (the COM → frame origin offset).
+    """
+    qb = tuple(state.orientation_wb.tolist())
+    pb = state.position_w.tolist()
+    d = rotate(qb, p)
+    return (pb[0] + d[0], pb[1] + d[1], pb[2] + d[2]), multiply(qb, q), d, qb
+
+
 class RobotWorld:
     """
     The robots of ``config`` in one articulated simulator.
@@ -76,9 +133,11 @@ class RobotWorld:
         models, states, joints = [], [], []
         self._moving = []   # per robot: the core joint index of each moving joint
         self._bodies = []   # per robot: (first body index, number of bodies)
+        self._joint_offsets = []  # per robot: its first core joint index
         for robot in self.robots:
             placement = robot.placement
             b0, j0 = len(models), len(joints)
+            self._joint_offsets.append(j0)
             models += placement.models
             states += placement.states
             for joint in placement.joints:
@@ -108,6 +167,24 @@ class RobotWorld:
                                   tuple(np.asarray(link.position_b).tolist()),
                                   tuple(np.asarray(link.orientation_b).tolist())))
             self._links.append(tuple(links))
+        # Per robot: its root link's (body index, position_b, q_bl), None when fixed to the
+        # world; and per URDF joint its child link's frame (body index or None for a world
+        # link, position, q) with, for a core joint, ('core', core joint index) and for a
+        # folded fixed joint ('held', the URDF indices of the core joints it holds).
+        self._roots, self._joint_frames = [], []
+        for robot, links in zip(self.robots, self._links):
+            by_name = {name: (body, p, q) for name, body, p, q in links}
+            urdf = robot.robot
+            self._roots.append(None if urdf.fixed_to_world else by_name[urdf.root])
+            j0 = self._joint_offsets[len(self._joint_frames)]
+            frames = []
+            for joint in urdf.joints:
+                if joint.core is not None:
+                    how = ('core', j0 + joint.core)
+                else:
+                    how = ('held', _held_joints(urdf.joints, joint))
+                frames.append((how, *by_name[joint.child]))
+            self._joint_frames.append(tuple(frames))
 
     # --- what SimSession asks of a simulator -----------------------------------------------
 
@@ -189,11 +266,80 @@ class RobotWorld:
             if body is None:
                 out.append((p, q))
                 continue
-            state = states[body]
-            qb = tuple(state.orientation_wb.tolist())
-            pb = state.position_w.tolist()
-            dx, dy, dz = rotate(qb, p)
-            out.append(((pb[0] + dx, pb[1] + dy, pb[2] + dz), multiply(qb, q)))
+            out.append(_frame_pose(states[body], p, q)[:2])
+        return out
+
+    def root_state(self, r: int):
+        """
+        Return robot ``r``'s root link frame as 13 plain floats, or None when fixed to the world.
+
+        ``(position_w, q_wl, v_w, ω_l)``: the frame's pose in the world (the same bits as its
+        :meth:`link_poses` entry, so ``odom`` and ``/tf`` agree exactly), the velocity of its
+        origin ``v_w = v_com + ω_w × d`` (world frame; ``d`` the COM → origin offset) and the
+        angular velocity in the link frame ``ω_l = R_blᵀ ω_b``: the packed-state layout
+        :meth:`rbd_ros.msgs.outputs.BodyOutputs.list_values` reads.
+        """
+        root = self._roots[r]
+        if root is None:
+            return None
+        body, p, q = root
+        state = self._sim.states[body]
+        position, q_wl, (dx, dy, dz), qb = _frame_pose(state, p, q)
+        v = state.linear_velocity_w.tolist()
+        omega_b = state.angular_velocity_b.tolist()
+        wx, wy, wz = rotate(qb, omega_b)
+        velocity = (v[0] + (wy * dz - wz * dy), v[1] + (wz * dx - wx * dz),
+                    v[2] + (wx * dy - wy * dx))
+        omega_l = rotate(_conjugate(q), omega_b)
+        return [*position, *q_wl, *velocity, *omega_l]
+
+    def joint_wrenches(self, r: int):
+        """
+        Return every URDF joint's wrench of robot ``r``, URDF joint order: 6 floats each.
+
+        ``(fx, fy, fz, τx, τy, τz)``: force (N) and torque (N m) the parent exerts on the
+        child, child link frame, torque about its origin (the module docstring gives the
+        formulas, a folded fixed joint's too). NaN for every joint at time 0, before the first
+        step has computed the multipliers.
+        """
+        frames = self._joint_frames[r]
+        if self._sim.time_ns == 0:
+            return [_NAN6] * len(frames)
+        # The multipliers' wrench on each child body, world frame, torque about its COM (the
+        # core's ArtWork.wrench, what its joint_wrenches reads). Read here though not public:
+        # the core is left unchanged by this layer; a public read-out belongs in the core.
+        raw = self._sim._work.wrench.tolist()
+        states = self._sim.states
+        # Each joint's child link frame (origin O_w, q_wl), and a core joint's force and its
+        # torque about O_w, world frame.
+        poses, world = [], {}
+        for i, ((how, index), body, p, q) in enumerate(frames):
+            if body is None:
+                poses.append((p, q))
+                continue
+            origin, q_wl, (dx, dy, dz), _ = _frame_pose(states[body], p, q)
+            poses.append((origin, q_wl))
+            if how == 'core':
+                fx, fy, fz, tx, ty, tz = raw[index]
+                world[i] = ((fx, fy, fz), (tx - (dy * fz - dz * fy), ty - (dz * fx - dx * fz),
+                                           tz - (dx * fy - dy * fx)))
+        out = []
+        for i, ((how, index), _, _, _) in enumerate(frames):
+            origin, q_wl = poses[i]
+            if how == 'core':
+                force, torque = world[i]
+            else:  # a folded fixed joint: the statics of the massless links it holds
+                force, torque = (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)
+                for k in index:
+                    (fx, fy, fz), (tx, ty, tz) = world[k]
+                    ax, ay, az = (poses[k][0][0] - origin[0], poses[k][0][1] - origin[1],
+                                  poses[k][0][2] - origin[2])
+                    force = (force[0] + fx, force[1] + fy, force[2] + fz)
+                    torque = (torque[0] + (tx + (ay * fz - az * fy)),
+                              torque[1] + (ty + (az * fx - ax * fz)),
+                              torque[2] + (tz + (ax * fy - ay * fx)))
+            q_lw = _conjugate(q_wl)
+            out.append((*rotate(q_lw, force), *rotate(q_lw, torque)))
         return out
 
     @property

@@ -82,6 +82,12 @@ REFERENCE_BAGS = {
             (0.6, 'striker/wrench', 'world', (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
         ],
     ),
+    'robot_pendulum': (
+        # The URDF pendulum let go at 0.5 rad: a little over two periods (2.0375 s each).
+        'msg_config/robot_pendulum.yaml',
+        {'duration_s': 4.5, 'real_time_factor': 0.0},
+        [],
+    ),
     't_handle_flip': (
         'msg_config/t_handle.yaml',
         {'duration_s': 6.0, 'real_time_factor': 0.0},

@@ -27,7 +27,7 @@ from rbd_ros.bag.recorder import RunRecorder
 from rbd_ros.bag.recording import BagWriter, open_bag
 from rbd_ros.msgs import conversions
 from rbd_ros.msgs import type_names
-from rbd_ros.msgs.outputs import SampleBuilder, TYPE_NAMES
+from rbd_ros.msgs.outputs import SampleBuilder, type_of
 from rbd_ros.sim.config import NodeConfig
 from rbd_ros.sim.session import SimSession
 from rclpy.serialization import serialize_message
@@ -52,8 +52,8 @@ def record_scripted_run(path, params, script, duration_ns, ended_by='duration_s'
     recorder = RunRecorder(config, serialize_message, path, **writer_options)
     builder = SampleBuilder(config, tf=False)
     topics = {kind: '/clock' if kind == 'clock' else '/' + kind for kind in builder.kinds}
-    for kind in builder.kinds:
-        recorder.add_topic(topics[kind], TYPE_NAMES[kind], {'depth': 10})
+    for kind in builder.kinds:  # a robot's kinds too (joint_states, odom, joint_wrenches)
+        recorder.add_topic(topics[kind], type_names.type_name(type_of(kind)), {'depth': 10})
     for spec in config.wrench_inputs:
         recorder.add_topic('/' + spec.topic, type_names.WRENCH_STAMPED, {'depth': 10},
                            spec.name)
@@ -61,7 +61,9 @@ def record_scripted_run(path, params, script, duration_ns, ended_by='duration_s'
 
     def publish():
         t = session.time_ns
-        for kind, data in builder.serialize(t, session.columns, session.contact_wrenches_w):
+        robots = session.simulator if config.robots else None
+        for kind, data in builder.serialize(t, session.columns, session.contact_wrenches_w,
+                                            robots):
             recorder.write(topics[kind], data, t)
 
     def message_of(event):

@@ -28,7 +28,8 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 import numpy as np
 import pytest
-from rbd_ros.bag.plot import draw, load_series, load_world, main, render, SAVE_DPI
+from rbd_ros.bag.plot import (draw, draw_robots, load_series, load_world, main, render,
+                              SAVE_DPI)
 from rbd_ros.bag.recording import open_bag
 from rbd_ros.sim.config import NodeConfig
 from rbd_ros.sim.params import recorded_parameters
@@ -37,7 +38,8 @@ import yaml
 REPO = Path(__file__).resolve().parents[2]
 # Single-body bags: the 8-panel figure (a world bag gets the world figure, tested below).
 BAGS = sorted(p for p in (REPO / 'bags').iterdir() if (p / 'metadata.yaml').is_file()
-              and not recorded_parameters(open_bag(str(p)).config).get('body_names'))
+              and not recorded_parameters(open_bag(str(p)).config).get('body_names')
+              and not recorded_parameters(open_bag(str(p)).config).get('robot_names'))
 # Decoded doubles go through the same IEEE operations (or a differently ordered equivalent), so
 # the drawn values equal the recorded ones exactly where nothing is computed, and to a few ulp
 # where a rotation or a norm is: 1e-12 relative (|values| ≲ 10) is far below any real mistake.
@@ -251,3 +253,72 @@ def test_plot_animates_a_world_bag_from_its_recorded_poses(tmp_path, capsys):
         first = np.asarray(image.convert('RGB')).copy()
         image.seek(20)  # t = 1 s: the pushed box has moved
         assert not np.array_equal(first, np.asarray(image.convert('RGB')))
+
+
+def test_a_robot_plot_draws_every_joint_from_the_recorded_samples(tmp_path, capsys):
+    from sim_recorder import record_scripted_run
+    bag = tmp_path / 'arm'
+    record_scripted_run(bag, {
+        'robot_names': ['arm'], 'robots.arm.urdf_path': str(REPO / 'msg_config' / 'urdf' /
+                                                            'arm3.urdf'),
+        'robots.arm.initial_joint_positions': [0.4, -0.7, 1.1], 'gravity': [0.0, 0.0, -9.81],
+        'publish_rate_hz': 100.0}, [], 500_000_000)
+    out = tmp_path / 'arm.png'
+    assert main([str(bag), '-o', str(out)]) == 0
+    assert capsys.readouterr().out.strip() == f'plot: wrote {out}'
+    assert image.imread(str(out)).shape[0] > 600
+    # The recorded values, decoded with mcap_ros2 (not rbd_ros's reader).
+    states, forces = {}, {}
+    with open(next(bag.glob('*.mcap')), 'rb') as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        for _, channel, message, msg in reader.iter_decoded_messages():
+            if channel.topic == '/arm/joint_states':
+                states[message.log_time] = msg
+            elif channel.topic == '/arm/joint_wrenches':
+                forces[message.log_time] = msg
+    assert len(states) == len(forces) == 51
+    figure, panels = draw_robots(open_bag(str(bag)))
+    pyplot.close(figure)
+    titles = [p['title'].split(' ')[1] for p in panels[:3]]
+    assert titles == ['positions', 'velocities', 'efforts']
+    times = sorted(states)
+    t = np.array(times) / 1e9
+    joints = ['shoulder', 'elbow', 'wrist']
+    for panel, field in zip(panels, ('position', 'velocity', 'effort')):
+        assert set(panel['lines']) == {f'arm/{j}' for j in joints}, panel['title']
+        for k, joint in enumerate(joints):
+            x, y = panel['lines'][f'arm/{joint}']
+            assert np.array_equal(x, t)
+            want = [getattr(states[s], field)[states[s].name.index(joint)] for s in times]
+            assert np.array_equal(y, want), (panel['title'], joint)
+    # The arm swings: positions and velocities change; no motor: efforts are 0.
+    assert np.ptp(panels[0]['lines']['arm/elbow'][1]) > 0.1
+    assert not np.any(panels[2]['lines']['arm/elbow'][1])
+    # Force magnitudes of every joint: the fixed one inside the world carries what the
+    # shoulder does, the one to the tool0 frame nothing.
+    every = ['mount_joint', *joints, 'tool_joint']
+    assert set(panels[3]['lines']) == {f'arm/{j}' for j in every}
+    assert not np.any(panels[3]['lines']['arm/tool_joint'][1][1:])
+    for joint in ['mount_joint', *joints]:
+        x, y = panels[3]['lines'][f'arm/{joint}']
+        assert np.array_equal(x, np.array(sorted(forces)) / 1e9)
+        want = []
+        for s in sorted(forces):
+            w = forces[s].wrench[forces[s].joint_names.index(joint)].force
+            want.append(np.linalg.norm([w.x, w.y, w.z]))
+        assert np.allclose(y, want, rtol=RTOL, atol=0, equal_nan=True), joint
+        assert np.isnan(y[0]) and np.all(y[1:] > 1.0)  # t = 0: not yet computed
+
+
+def test_the_robot_reference_bag_plots_its_swing(tmp_path):
+    bag = open_bag(str(REPO / 'bags' / 'robot_pendulum'))
+    figure, panels = draw_robots(bag)
+    pyplot.close(figure)
+    t, angle = panels[0]['lines']['pendulum/pivot']
+    # Let go at 0.5 rad (msg_config/robot_pendulum.yaml), read back from the placed link to
+    # 1e-12 (doc/robots.md: placement and readout agree to that; 1 ulp here).
+    assert len(t) == 451 and abs(angle[0] - 0.5) <= 1e-12
+    assert angle.min() < -0.49                 # and swung through to the other side
+    assert set(panels[3]['lines']) == {'pendulum/pivot'}
+    out = render(bag, str(tmp_path / 'pendulum.png'))
+    assert Path(out).stat().st_size > 10_000

@@ -176,6 +176,47 @@ def test_a_sample_is_the_rclpy_serialisation_of_its_messages(params):
             assert repr(deserialize_message(data[kind], type(msg))) == repr(msg), kind
 
 
+def _two_link_urdf(root, joint):
+    """Return a floating two-link robot's URDF, its root link and joint named as given."""
+    return f"""<robot name="r">
+  <link name="{root}"><inertial><origin xyz="0.1 0 0.05"/><mass value="2.0"/>
+    <inertia ixx="0.02" ixy="0" ixz="0" iyy="0.03" iyz="0" izz="0.04"/></inertial></link>
+  <joint name="{joint}" type="continuous"><parent link="{root}"/><child link="arm"/>
+    <origin xyz="0.3 0 0"/><axis xyz="0 0 1"/></joint>
+  <link name="arm"><inertial><origin xyz="0.25 0 0"/><mass value="1.0"/>
+    <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.02"/></inertial></link>
+  <joint name="tip_joint" type="fixed"><parent link="arm"/><child link="tip"/></joint>
+  <link name="tip"/>
+</robot>"""
+
+
+@pytest.mark.parametrize('n', range(4))
+def test_a_robot_sample_is_the_rclpy_serialisation_of_its_messages(n):
+    """joint_states, odom and joint_wrenches: names of every length mod 8 move the padding."""
+    from rbd_ros.sim.session import SimSession
+    name = 'r' * (n + 1)
+    config = NodeConfig.from_parameters({
+        'robot_names': [name],
+        f'robots.{name}.robot_description': _two_link_urdf('b' * (n + 1), 'j' * (2 * n + 1)),
+        f'robots.{name}.initial_joint_velocities': [3.0],
+        'gravity': [0.0, 0.0, -9.81], 'world_frame': 'w' * (3 * n + 1)})
+    session = SimSession(config)
+    session.paused = False
+    sample = outputs.SampleBuilder(config)
+    robot = sample.robots[0]
+    assert robot.kinds == (f'{"r" * (n + 1)}/joint_states', f'{"r" * (n + 1)}/odom',
+                           f'{"r" * (n + 1)}/joint_wrenches')
+    for steps in (0, 1, 7):  # t = 0 (NaN wrenches) and two later samples
+        session.advance(steps)
+        data = dict(sample.serialize(session.time_ns, session.columns, None, session.simulator))
+        for kind in robot.kinds:
+            msg = sample.robot_message(kind, session.time_ns, session.simulator)
+            assert len(data[kind]) == len(serialize_message(msg)), kind
+            assert repr(deserialize_message(data[kind], type(msg))) == repr(msg), kind
+        odom = deserialize_message(data[robot.odom_kind], outputs.type_of(robot.odom_kind))
+        assert (odom.header.frame_id, odom.child_frame_id) == ('w' * (3 * n + 1), 'b' * (n + 1))
+
+
 def test_kinds_follow_the_configuration():
     assert builder(clock=False, tf=False, contact=False).kinds == ('pose', 'twist', 'odom')
     assert builder(clock=False, tf=False).kinds == ('pose', 'twist', 'odom', 'contact_wrench')
