@@ -278,13 +278,21 @@ def new_parameter_name(name):
     return None
 
 
+#: A robot joint's parameters that recordings made before joint damping and friction were
+#: simulated lack: those runs simulated them as 0, whatever the URDF's ``<dynamics>`` said.
+JOINT_DYNAMICS_PARAMETERS = ('damping', 'friction')
+
+
 def recorded_parameters(params):
     """
     Return the parameters of a recording under today's names (the one place that reads old ones).
 
     A recording stores the node's parameters under the names of the day it was made; a
     recording made before :data:`RENAMED_PARAMETERS` reads as if made today. Other names pass
-    through unchanged (:meth:`NodeConfig.from_parameters` judges them).
+    through unchanged (:meth:`NodeConfig.from_parameters` judges them). Every recording of a
+    robot holds each moving joint's ``robots.<name>.joints.<joint>.position_time_constant_s``;
+    one without that joint's :data:`JOINT_DYNAMICS_PARAMETERS` was made when they were not
+    simulated, so they read as 0 (not the URDF's ``<dynamics>``, which that run ignored).
 
     :raises ConfigError: an old name and its new one both in ``params`` (no recording holds
         both; which list would be meant?).
@@ -297,7 +305,12 @@ def recorded_parameters(params):
                 f'parameters {name} = {fmt(params[name])} and {new} = {fmt(params[new])}: one '
                 f'list under its old and its new name ({name} was renamed to {new}); a '
                 'recording holds one of them')
-    return {today[name]: value for name, value in params.items()}
+    out = {today[name]: value for name, value in params.items()}
+    suffix = '.position_time_constant_s'
+    for name in [name for name in out if name.startswith('robots.') and name.endswith(suffix)]:
+        for field in JOINT_DYNAMICS_PARAMETERS:
+            out.setdefault(f'{name[:-len(suffix)]}.{field}', 0.0)
+    return out
 
 
 def refuse_old_names(params):

@@ -30,6 +30,10 @@ The parameters (these names exactly; a list parameter is never the prefix of its
 - ``robots.<name>.joints.<joint>.position_time_constant_s`` (s, > 0, default
   :data:`DEFAULT_POSITION_TIME_CONSTANT_S`): the time constant of that joint's position
   commands (the exact critically damped response, see :mod:`rbd_ros.core.joints`).
+- ``robots.<name>.joints.<joint>.damping`` (N·m·s/rad or N·s/m, >= 0) and ``.friction``
+  (N·m or N, >= 0): the joint's viscous damping and Coulomb friction (see
+  :class:`rbd_ros.core.joints.Joint`); default the URDF's ``<dynamics damping friction>``, else
+  0. A recording stores the values used, so replay does not depend on these defaults.
 - ``command_group_names`` (string[]) with ``command_groups.<g>.robot``, ``.joints`` (string[],
   the group's joints in its order; ``[]`` = every moving joint of the robot) and
   ``.interface`` (``position``, ``velocity`` or ``effort``): a ``Float64MultiArray`` on
@@ -38,10 +42,10 @@ The parameters (these names exactly; a list parameter is never the prefix of its
 
 A joint's parameters are known only once its URDF is read, so :func:`read_robots` reads the
 robots first and then the joints' values. With no command a joint is free: there is no hidden
-motor.
+motor, and no damping or friction but what the URDF or the parameters give.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Dict, Tuple
 
 from rbd_ros.core import ConfigError, RbdError
@@ -58,6 +62,8 @@ GROUP_NAMES = 'command_group_names'
 DEFAULT_POSITION_TIME_CONSTANT_S = 0.05
 #: At most this many robots a file (a bound on start-up work).
 MAX_ROBOTS = 100
+#: The bound advertised for a joint's damping and friction (no natural limit; as params').
+MAX_JOINT_DYNAMICS = 1e12
 
 ROBOT_NAMES_SPEC = PARAMETERS_BY_NAME[ROBOT_NAMES]
 GROUP_NAMES_SPEC = PARAMETERS_BY_NAME[GROUP_NAMES]
@@ -154,12 +160,28 @@ def robot_parameter_specs(name: str) -> Tuple[ParamSpec, ...]:
     )
 
 
-def joint_parameter_specs(robot: str, joint: str) -> Tuple[ParamSpec, ...]:
-    """Return the :class:`ParamSpec` of moving joint ``joint`` of ``robot``."""
-    return (ParamSpec(f'robots.{robot}.joints.{joint}.position_time_constant_s', DOUBLE,
+def joint_parameter_specs(robot: str, joint: str, damping: float = 0.0,
+                          friction: float = 0.0) -> Tuple[ParamSpec, ...]:
+    """
+    Return the :class:`ParamSpec` of moving joint ``joint`` of ``robot``.
+
+    ``damping`` and ``friction`` are the defaults of its ``.damping`` and ``.friction``: the
+    URDF's ``<dynamics>`` values (0 without).
+    """
+    prefix = f'robots.{robot}.joints.{joint}.'
+    who = f'Robot {robot!r}, joint {joint!r}'
+    return (ParamSpec(prefix + 'position_time_constant_s', DOUBLE,
                       DEFAULT_POSITION_TIME_CONSTANT_S, 's',
-                      f'Robot {robot!r}, joint {joint!r}: time constant of its position '
-                      'commands (critically damped).', (0.0, 1e6), rule='> 0'),)
+                      f'{who}: time constant of its position commands (critically damped).',
+                      (0.0, 1e6), rule='> 0'),
+            ParamSpec(prefix + 'damping', DOUBLE, float(damping), 'N·m·s/rad or N·s/m',
+                      f'{who}: viscous damping, the force -damping·q̇ along the joint; default '
+                      "the URDF's <dynamics damping>, else 0.", (0.0, MAX_JOINT_DYNAMICS),
+                      rule='>= 0'),
+            ParamSpec(prefix + 'friction', DOUBLE, float(friction), 'N·m or N',
+                      f'{who}: Coulomb friction: the joint sticks while the force holding it '
+                      "is within it, else slides against it; default the URDF's <dynamics "
+                      'friction>, else 0.', (0.0, MAX_JOINT_DYNAMICS), rule='>= 0'))
 
 
 @dataclass(frozen=True)
@@ -244,9 +266,18 @@ def _read_robot(params, name, gravity_w):
     except RbdError as exc:
         raise _renamed(prefix, exc) from None
     joint_specs = tuple(s for joint in robot.moving_joints
-                        for s in joint_parameter_specs(name, joint))
-    constants = tuple(_value(params, spec) for spec in joint_specs)
-    return RobotConfig(name, robot, placement, constants, specs + joint_specs)
+                        for s in joint_parameter_specs(name, joint, robot.joint(joint).damping,
+                                                       robot.joint(joint).friction))
+    given = {spec.name: _value(params, spec) for spec in joint_specs}
+    joints = list(placement.joints)
+    for joint in robot.moving_joints:
+        core, base = robot.joint(joint).core, f'{prefix}joints.{joint}.'
+        joints[core] = replace(joints[core], damping=given[base + 'damping'],
+                               friction=given[base + 'friction'])
+    constants = tuple(given[f'{prefix}joints.{joint}.position_time_constant_s']
+                      for joint in robot.moving_joints)
+    return RobotConfig(name, robot, replace(placement, joints=tuple(joints)), constants,
+                       specs + joint_specs)
 
 
 def read_robots(params: Dict[str, object], gravity_w=(0.0, 0.0, 0.0)) -> Tuple[RobotConfig, ...]:

@@ -36,8 +36,12 @@ The XML is parsed strictly by lxml (a malformed file is refused, not recovered) 
   joints in the order of the URDF's joint elements: the ``joint_states`` order and the order of
   ``joint_positions``. Planar and floating joints start at zero and are not listed (as
   robot_state_publisher, which treats them as fixed).
-* **Kept as data, not simulated yet:** ``<limit velocity>``, ``<dynamics damping friction>``
-  and ``<mimic>`` (a mimic joint moves freely).
+* **Dynamics.** ``<dynamics damping friction>`` of a revolute, continuous or prismatic joint
+  become its core joint's ``damping`` (N m s/rad or N s/m) and ``friction`` (N m or N), each
+  >= 0 (the robot's ``robots.<name>.joints.<joint>.damping`` and ``.friction`` parameters
+  override them); a planar joint's are kept as data only.
+* **Kept as data, not simulated yet:** ``<limit velocity>`` (it clips commanded velocities in
+  :mod:`rbd_ros.sim.joint_commands`) and ``<mimic>`` (a mimic joint moves freely).
 * **Collisions.** Every ``<collision>`` (box, cylinder, sphere, mesh with scale) becomes a
   :class:`RobotCollision`: the shape centred in its own frame and that frame's pose in the body
   frame. The core has no compound shape or shape offset yet; all elements are kept.
@@ -110,8 +114,9 @@ class RobotJoint:
     """
     One URDF joint as written (SI units; ``origin`` in the parent link, ``axis`` unit, in it).
 
-    ``velocity`` (the ``<limit>`` velocity), ``damping``, ``friction`` (``<dynamics>``) and
-    ``mimic`` (``(joint, multiplier, offset)``) are data for later; ``core`` is the index of its
+    ``velocity`` (the ``<limit>`` velocity), ``damping`` and ``friction`` (``<dynamics>``, N m
+    s/rad or N s/m and N m or N; simulated on revolute, continuous and prismatic joints) and
+    ``mimic`` (``(joint, multiplier, offset)``, data for later); ``core`` is the index of its
     :class:`Joint` in :attr:`Placement.joints`, or None (folded fixed joints, floating).
     """
 
@@ -395,8 +400,16 @@ def _joint_values(source, joint):
               f'{upper!r} {unit}', lower, unit)
     damping = friction = 0.0
     if dynamics is not None:
-        damping = _number(dynamics.damping, source, f'{who}.dynamics.damping', 'SI', 0.0)
-        friction = _number(dynamics.friction, source, f'{who}.dynamics.friction', 'SI', 0.0)
+        units = {'damping': 'N m s/rad' if rotary else 'N s/m',
+                 'friction': 'N m' if rotary else 'N'}
+        damping = _number(dynamics.damping, source, f'{who}.dynamics.damping',
+                          units['damping'], 0.0)
+        friction = _number(dynamics.friction, source, f'{who}.dynamics.friction',
+                           units['friction'], 0.0)
+        for name, value in (('damping', damping), ('friction', friction)):
+            if value < 0.0:
+                _fail(ModelError, source, f'{who}.dynamics.{name}',
+                      f'{value!r} {units[name]} must be >= 0', value, units[name])
     mimic = None
     if joint.mimic is not None:
         mimic = (joint.mimic.joint, _number(joint.mimic.multiplier, source,
@@ -606,7 +619,8 @@ def place_robot(robot: Robot, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0
         if kind in ('revolute', 'prismatic'):
             extra = {'lower': joint.lower, 'upper': joint.upper}
         if kind in MOVING_TYPES:
-            extra['effort_limit'] = joint.effort
+            extra.update(effort_limit=joint.effort, damping=joint.damping,
+                         friction=joint.friction)
         if kind == 'planar':
             extra['axis2_b'] = rot @ _perpendicular(joint.axis)
         joints.append(Joint(joint.name, kind, parent.body, child.body,

@@ -27,6 +27,8 @@ import numpy as np
 import pytest
 
 from rbd_ros.core import ConfigError, ModelError
+from rbd_ros.sim.config import NodeConfig
+from rbd_ros.sim.params import recorded_parameters
 from rbd_ros.sim.robots import (DEFAULT_POSITION_TIME_CONSTANT_S, MAX_ROBOTS, read_robots,
                                 robot_parameter_specs)
 
@@ -55,6 +57,42 @@ def test_an_arm_is_read_placed_and_given_its_joint_parameters():
     np.testing.assert_allclose(z, (1.75, 1.25, 0.75), atol=1e-12)
     assert all(m.gravity_w.tolist() == list(G) for m in arm.placement.models)
     assert arm.units('shoulder') == ('rad', 'rad/s', 'N m')
+
+
+def _dynamics(arm):
+    """Return ``{joint: (damping, friction)}`` of the arm's core joints."""
+    return {j.name: (j.damping, j.friction) for j in arm.placement.joints}
+
+
+def test_joint_damping_and_friction_come_from_the_urdf_unless_the_parameters_say():
+    (arm,) = read_robots(_arm(), G)
+    # arm3.urdf: <dynamics damping="0.1" friction="0.05"/> on the shoulder and the elbow only
+    dynamics = _dynamics(arm)
+    assert dynamics['shoulder'] == dynamics['elbow'] == (0.1, 0.05)
+    assert dynamics['wrist'] == (0.0, 0.0)
+    specs = {spec.name: spec for spec in arm.specs}
+    assert specs['robots.arm.joints.elbow.friction'].default == 0.05
+    assert specs['robots.arm.joints.wrist.damping'].default == 0.0
+    (arm,) = read_robots(_arm(**{'joints.elbow.damping': 0.3, 'joints.shoulder.friction': 0.0,
+                                 'joints.wrist.friction': 0.2}), G)
+    dynamics = _dynamics(arm)
+    assert dynamics['shoulder'] == (0.1, 0.0) and dynamics['elbow'] == (0.3, 0.05)
+    assert dynamics['wrist'] == (0.0, 0.2)
+
+
+def test_a_recording_carries_the_dynamics_and_an_older_one_replays_without_them():
+    params = {**_arm(), 'gravity': list(G)}
+    recorded = NodeConfig.from_parameters(params).to_parameters()
+    # the values used are recorded, so replay does not depend on the URDF's defaults
+    assert recorded['robots.arm.joints.shoulder.damping'] == 0.1
+    assert recorded['robots.arm.joints.wrist.friction'] == 0.0
+    assert _dynamics(NodeConfig.from_parameters(recorded_parameters(recorded)).robots[0]) \
+        == _dynamics(read_robots(_arm(), G)[0])
+    # a recording made before they were simulated has no such keys: that run had none
+    old = {name: value for name, value in recorded.items()
+           if not name.endswith(('.damping', '.friction'))}
+    replayed = NodeConfig.from_parameters(recorded_parameters(old)).robots[0]
+    assert set(_dynamics(replayed).values()) == {(0.0, 0.0)}
 
 
 def test_the_root_pose_and_joint_positions_place_the_links():
@@ -97,6 +135,10 @@ def test_robot_description_takes_the_xml_itself():
     (_arm(**{'joints.elbow.position_time_constant_s': 0.0}), ConfigError,
      'parameter robots.arm.joints.elbow.position_time_constant_s = 0.0 s: must be > 0'),
     (_arm(initial_position='up'), ConfigError, 'must be a list of numbers'),
+    (_arm(**{'joints.elbow.damping': -1.0}), ConfigError,
+     'parameter robots.arm.joints.elbow.damping = -1.0 N·m·s/rad or N·s/m: must be >= 0'),
+    (_arm(**{'joints.wrist.friction': math.inf}), ConfigError,
+     'parameter robots.arm.joints.wrist.friction = inf N·m or N'),
 ])
 def test_bad_robot_parameters_are_refused_in_one_line(params, error, words):
     with pytest.raises(error) as caught:

@@ -211,6 +211,9 @@ def test_every_joint_type_maps_to_the_core(tmp_path):
                          joint_velocities=qd, gravity_w=(0.0, 0.0, 0.0))
     assert [j.kind for j in placed.joints] == ['prismatic', 'continuous', 'planar', 'fixed']
     assert placed.joints[0].lower == -1.0 and placed.joints[1].effort_limit == 3.0
+    # <dynamics damping="0.2"/> of the continuous joint is simulated; friction absent means 0
+    assert (placed.joints[1].damping, placed.joints[1].friction) == (0.2, 0.0)
+    assert (placed.joints[0].damping, placed.joints[0].friction) == (0.0, 0.0)
     # the floating child starts at the joint origin, 1 m below the base, a free body
     assert np.allclose(placed.states[4].position_w, [0.0, 0.0, 0.0], atol=TOL, rtol=0)
     sim = ArticulatedSimulator(placed.models, placed.states, placed.joints)
@@ -307,6 +310,15 @@ def test_lower_above_upper(tmp_path):
     path = write(tmp_path, link('a') + link('b') + joint(
         'j', 'revolute', 'a', 'b', '<limit lower="1" upper="-1" effort="1" velocity="1"/>'))
     refused(ModelError, path, path, "joint 'j'.limit.lower", '1.0 rad', 'upper -1.0 rad')
+
+
+@pytest.mark.parametrize('kind, field, unit', [('revolute', 'damping', 'N m s/rad'),
+                                               ('prismatic', 'friction', 'N')])
+def test_negative_joint_dynamics(tmp_path, kind, field, unit):
+    path = write(tmp_path, link('a') + link('b') + joint(
+        'j', kind, 'a', 'b', '<limit lower="-1" upper="1" effort="1" velocity="1"/>'
+        f'<dynamics {field}="-0.5"/>'))
+    refused(ModelError, path, path, f"joint 'j'.dynamics.{field}", f'-0.5 {unit} must be >= 0')
 
 
 def test_unknown_joint_type(tmp_path):

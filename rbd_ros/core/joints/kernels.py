@@ -22,8 +22,11 @@ constrained accelerations solve the saddle-point system
 
 for the body accelerations ``a = (v̇_w, ω̇_w)`` and the multipliers ``λ`` (the constraint
 wrench on the bodies is ``Jᵀ λ``, equal and opposite by construction of each row). ``f`` holds
-gravity, the body damping as a force (``-m c_v v``, ``-c_ω R I_b ω_b``) and the gyroscopic
-torque ``-ω × I_w ω``. Two solvers, both direct:
+gravity, the body damping as a force (``-m c_v v``, ``-c_ω R I_b ω_b``), the gyroscopic
+torque ``-ω × I_w ω`` and each joint's applied force along its coordinate (an effort or
+saturated motor, the joint damping ``-d q̇`` and a sliding joint's friction ``-f s``, summed in
+:func:`_motor_forces`). A stuck joint's Coulomb friction is a row (:data:`ROW_FRICTION`) whose
+multiplier is bounded by the friction, decided at step boundaries. Two solvers, both direct:
 
 - **tree** (Baraff 1996): the system's graph with one node a body (6 rows) and one a joint
   (its rows) is a tree when no loop closes; it is factored leaves first by block LDLᵀ, one
@@ -58,6 +61,10 @@ ROW_LIMIT = 2
 #: A motor row: the joint rate held at a velocity target, or the critically damped
 #: acceleration toward a position target; absent from the position projection.
 ROW_MOTOR = 3
+#: A friction row: the joint's rate held at zero while its Coulomb friction sticks it (a
+#: velocity row, ``q̈ = 0`` inside the step), its multiplier bounded by the friction; absent
+#: from the position projection. Only joints with friction have one.
+ROW_FRICTION = 4
 MOTOR_OFF = 0
 MOTOR_EFFORT = 1
 MOTOR_VELOCITY = 2
@@ -83,6 +90,10 @@ M_SIZE = 11
 CROSS_TOL = 1e-13
 LOCATE_TOL = 1e-14
 LOCATE_MAX_ITER = 60
+#: A joint whose motor row drives it is at rest for its friction while ``|q̇|`` is at most this
+#: (rad/s or m/s): friction then adds no force and leaves the motor to hold it. The same bound
+#: decides whether a joint starts stuck.
+FRICTION_REST_RATE = 1e-12
 #: A dense pivot below this fraction of its row's diagonal marks a redundant row.
 DROP_REL = 1e-9
 
@@ -102,14 +113,17 @@ J_ROW0 = 3
 J_NROWS = 4      # rows of the kind, plus one for a limit (the last; active or not)
 J_LIMROW = 5     # index of the limit row, or -1
 J_MOTROW = 6     # index of the motor row (1-dof kinds), or -1
-J_INT_SIZE = 7
+J_FRICROW = 7    # index of the friction row (joints with friction), or -1
+J_INT_SIZE = 8
 # jprm columns
 J_ORIGIN_P = 0
 J_ORIGIN_C = 3
 J_BASIS_P = 6    # u1, u2, u3 in parent coordinates (u3 = axis_b)
 J_BASIS_C = 15   # the same three at rest, in child coordinates
 J_QREST = 24
-J_PRM_SIZE = 28
+J_DAMPING = 28   # viscous damping, N m s/rad or N s/m
+J_FRICTION = 29  # Coulomb friction, N m or N
+J_PRM_SIZE = 30
 # bd columns (derived per body at one configuration)
 B_ROT = 0
 B_IW = 9
@@ -121,7 +135,23 @@ B_SIZE = 27
 ArtModel = namedtuple('ArtModel', 'prm jint jprm jlim rows order node_par node_dim dense')
 #: Preallocated work arrays (nothing is allocated inside a step).
 ArtWork = namedtuple('ArtWork', 'bd jac con bias D Hp W rhs y A mj drop k xs yb yj lam '
-                     'wrench angle stats nrow dim active lim_state lim0 x0 k0 jrows motor')
+                     'wrench angle stats nrow dim active lim_state lim0 x0 k0 jrows motor fric')
+# work.fric columns: the friction state (the sliding direction s = ±1, the friction force
+# being -friction s; 0 stuck, its row held when no motor row or limit holds the joint; 2 not
+# decided yet), the state and the row's activity saved at a sub-step's start, the friction's
+# generalized force on the child along q (the readout), the joint's rate at the sub-step's
+# start and at the end of the last (trial) step before its stop, and 1 when that end stopped it
+F_SIGN = 0
+F_SIGN0 = 1
+F_ACTIVE0 = 2
+F_APPLIED = 3
+F_RATE0 = 4
+F_RATE_END = 5
+F_STOPPED = 6
+F_SIZE = 7
+#: A sliding joint's stop inside a step is located until its rate is within this (rad/s or
+#: m/s) of zero, as a limit crossing is (:data:`LOCATE_TOL`).
+STOP_RATE_TOL = 1e-14
 # jlim columns: lower, upper, has lower, has upper
 L_LOWER = 0
 L_UPPER = 1
@@ -364,7 +394,7 @@ def joint_rows(model, x, work, full):
             kind = rows[row, 1]
             coord = 0.0
             rate = 0.0
-            axial = kind == ROW_LIMIT or kind == ROW_MOTOR
+            axial = kind == ROW_LIMIT or kind == ROW_MOTOR or kind == ROW_FRICTION
             if axial and jint[j, J_KIND] != 3:
                 # revolute / continuous: the relative rotation rate about e = R_P axis_b
                 if full:
@@ -431,6 +461,8 @@ def joint_rows(model, x, work, full):
                     ds = work.stats[S_TSTAGE] - work.motor[j, M_TREF]
                     qr = work.motor[j, M_POSITION] + (vr + 0.5 * ar * ds) * ds
                     bias[row] += 2.0 * w * (rate - vr - ar * ds) + w * w * (coord - qr) - ar
+            elif kind == ROW_FRICTION:
+                con[row] = 0.0   # a velocity row: the projection leaves the coordinate alone
             if work.active[row] == 0:
                 con[row] = 0.0
                 if full:
@@ -761,30 +793,61 @@ def _accelerations(model, x, work, kout):
     body_derived(model, x, work)
     joint_rows(model, x, work, True)
     factor(model, work)
-    _motor_forces(model, work)
+    _motor_forces(model, x, work)
     _dynamics_solve(model, x, work, kout)
 
 
-@_jit
-def _motor_forces(model, work):
-    """
-    Add each effort motor's (and saturated motor's) generalized force to ``work.bd``'s wrenches.
+@_inl
+def _rate(model, x, work, row):
+    """Return row ``row``'s ``J u`` at ``x`` (``work.jac`` and ``work.bd`` filled there)."""
+    jint, jac, bd = model.jint, work.jac, work.bd
+    j = model.rows[row, 0]
+    s = 0.0
+    for side in range(2):
+        b = jint[j, J_CHILD] if side == 1 else jint[j, J_PARENT]
+        if b >= 0:
+            for i in range(3):
+                s += (jac[row, 6 * side + i] * x[b, 7 + i]
+                      + jac[row, 6 * side + 3 + i] * bd[b, B_OMEGA_W + i])
+    return s
 
-    The force ``τ`` along the joint coordinate acts through the motor row's Jacobian,
-    ``f += Jᵀ τ``: equal and opposite on the two bodies (a torque pair about the axis, or a
-    force pair at the child's anchor along the axis).
+
+@_jit
+def _motor_forces(model, x, work):
     """
-    jint, motor, jac, bd = model.jint, work.motor, work.jac, work.bd
+    Add each joint's applied generalized force to ``work.bd``'s wrenches: the one sum.
+
+    ``τ = τ_motor - d q̇ - f s``: an effort motor's clipped effort (or a saturated motor's
+    ``±effort_limit``), the viscous damping ``d`` at the joint rate ``q̇ = J u`` of the state
+    being evaluated, and a sliding joint's Coulomb friction ``f`` against its sliding direction
+    ``s`` (fixed for the step). ``τ`` along the joint coordinate acts through the motor row's
+    Jacobian, ``f += Jᵀ τ``: equal and opposite on the two bodies (a torque pair about the
+    axis, or a force pair at the child's anchor along the axis). A joint with none of them is
+    skipped, so its arithmetic is that of a joint without damping and friction.
+    """
+    jint, jprm, motor, jac, bd = model.jint, model.jprm, work.motor, work.jac, work.bd
     for j in range(jint.shape[0]):
         row = jint[j, J_MOTROW]
         if row < 0:
             continue
         mode = motor[j, M_MODE]
+        tau = 0.0
+        push = False
         if mode == MOTOR_EFFORT:
             tau = min(max(motor[j, M_EFFORT], -motor[j, M_LIMIT]), motor[j, M_LIMIT])
+            push = True
         elif mode != MOTOR_OFF and motor[j, M_SAT] != 0.0 and work.lim_state[j] == 0:
             tau = motor[j, M_SAT] * motor[j, M_LIMIT]
-        else:
+            push = True
+        damping = jprm[j, J_DAMPING]
+        if damping != 0.0:
+            tau -= damping * _rate(model, x, work, row)
+            push = True
+        sign = work.fric[j, F_SIGN]
+        if sign == 1.0 or sign == -1.0:
+            tau -= jprm[j, J_FRICTION] * sign
+            push = True
+        if not push:
             continue
         for side in range(2):
             b = jint[j, J_CHILD] if side == 1 else jint[j, J_PARENT]
@@ -961,6 +1024,9 @@ def set_limit(model, work, j, state):
     motor_row = model.jint[j, J_MOTROW]
     if motor_row >= 0 and state != 0:
         work.active[motor_row] = 0   # a held limit pauses the joint's motor
+    friction_row = model.jint[j, J_FRICROW]
+    if friction_row >= 0 and state != 0:
+        work.active[friction_row] = 0   # and its friction: the stop holds it
     refresh_rows(model, work, j)
 
 
@@ -1042,6 +1108,124 @@ def _applied_efforts(model, work):
 
 
 @_jit
+def _friction_rows(model, x, work, update):
+    """
+    Hold the friction row of every stuck joint that no motor row or limit holds; return changes.
+
+    With ``update`` (at a step boundary, rows at ``x``), a joint driven by its motor row or
+    held at a limit, or not decided yet, takes its friction state from its rate: at rest
+    (``|q̇| <= FRICTION_REST_RATE``: 0) or sliding along ``sign(q̇)``.
+    """
+    jint, fric = model.jint, work.fric
+    changed = 0
+    for j in range(jint.shape[0]):
+        row = jint[j, J_FRICROW]
+        if row < 0:
+            continue
+        motor_on = work.active[jint[j, J_MOTROW]] != 0
+        held = work.lim_state[j] != 0
+        if update and (motor_on or held or fric[j, F_SIGN] == 2.0):
+            rate = _rate(model, x, work, row)
+            if abs(rate) <= FRICTION_REST_RATE:
+                fric[j, F_SIGN] = 0.0
+            else:
+                fric[j, F_SIGN] = 1.0 if rate > 0.0 else -1.0
+        want = 1 if (fric[j, F_SIGN] == 0.0 and not motor_on and not held) else 0
+        if work.active[row] != want:
+            work.active[row] = want
+            refresh_rows(model, work, j)
+            changed += 1
+    return changed
+
+
+@_jit
+def _friction_slip(model, work):
+    """
+    Let go every stuck joint whose holding force exceeds its friction; return how many.
+
+    The row's multiplier ``λ`` is the force along ``q`` that would hold the joint; beyond the
+    friction it slides the other way, ``s = -sign(λ)``, against the force ``-f s = f sign(λ)``.
+    """
+    jint, jprm, lam, fric = model.jint, model.jprm, work.lam, work.fric
+    changed = 0
+    for j in range(jint.shape[0]):
+        row = jint[j, J_FRICROW]
+        if row < 0 or work.active[row] == 0:
+            continue
+        if abs(lam[row]) > jprm[j, J_FRICTION]:
+            fric[j, F_SIGN] = -1.0 if lam[row] > 0.0 else 1.0
+            work.active[row] = 0
+            refresh_rows(model, work, j)
+            changed += 1
+    return changed
+
+
+@_jit
+def _friction_stops(model, x, work):
+    """
+    Stick every sliding joint whose rate has reached or crossed zero (rows at ``x``).
+
+    Its friction row is held, so the velocity projection that follows stops it. Each sliding
+    joint's rate here is kept (``F_RATE_END``) and a joint stopped here is marked
+    (``F_STOPPED``): :func:`step` locates a stop that crossed zero inside the step, so what
+    the projection takes out is at most :data:`STOP_RATE_TOL`.
+    """
+    jint, fric = model.jint, work.fric
+    for j in range(jint.shape[0]):
+        row = jint[j, J_FRICROW]
+        if row < 0:
+            continue
+        fric[j, F_STOPPED] = 0.0
+        sign = fric[j, F_SIGN]
+        if not (sign == 1.0 or sign == -1.0) or work.active[jint[j, J_MOTROW]] != 0 \
+                or work.lim_state[j] != 0:
+            continue
+        rate = _rate(model, x, work, row)
+        fric[j, F_RATE_END] = rate
+        if sign * rate <= 0.0:
+            fric[j, F_SIGN] = 0.0
+            fric[j, F_STOPPED] = 1.0
+            work.active[row] = 1
+            refresh_rows(model, work, j)
+
+
+@_jit
+def _friction_event(model, work):
+    """
+    Return the joint whose sliding stopped first inside the last sub-step, or -1.
+
+    A joint that slid at the sub-step's start and whose rate crossed zero strictly by its end;
+    the first by the linear estimate ``r0 / (r0 - r_end)`` of when (``r = s q̇``).
+    """
+    jint, fric = model.jint, work.fric
+    best, first = -1, 2.0
+    for j in range(jint.shape[0]):
+        if jint[j, J_FRICROW] < 0 or fric[j, F_STOPPED] == 0.0:
+            continue
+        sign = fric[j, F_SIGN0]
+        r0, r1 = sign * fric[j, F_RATE0], sign * fric[j, F_RATE_END]
+        if (sign == 1.0 or sign == -1.0) and r0 > 0.0 and r1 < 0.0 and r0 / (r0 - r1) < first:
+            best, first = j, r0 / (r0 - r1)
+    return best
+
+
+@_jit
+def _friction_efforts(model, work):
+    """``work.fric[:, F_APPLIED]``: each friction's generalized force on the child along q."""
+    jint, jprm, fric = model.jint, model.jprm, work.fric
+    for j in range(jint.shape[0]):
+        row = jint[j, J_FRICROW]
+        if row < 0:
+            fric[j, F_APPLIED] = 0.0
+        elif work.active[row] != 0:
+            fric[j, F_APPLIED] = work.lam[row]
+        elif fric[j, F_SIGN] == 1.0 or fric[j, F_SIGN] == -1.0:
+            fric[j, F_APPLIED] = -jprm[j, J_FRICTION] * fric[j, F_SIGN]
+        else:
+            fric[j, F_APPLIED] = 0.0
+
+
+@_jit
 def refresh_dynamics(model, x, work):
     """Recompute ``ẋ`` (k1), ``λ``, wrenches and efforts at ``x`` after a change of motors."""
     _dynamics_at(model, x, work, True)
@@ -1053,26 +1237,39 @@ def _dynamics_at(model, x, work, refactor):
     ``ẋ`` into ``work.k[0]`` and ``λ`` at ``x``, deciding limits and saturation.
 
     Held limits whose multiplier would pull are released; motor rows are tried on and a
-    motor whose multiplier exceeds its effort limit is saturated; each change refactors.
+    motor whose multiplier exceeds its effort limit is saturated; a stuck joint's friction row
+    is held unless a motor row or a limit holds the joint, and let go (sliding) when its
+    multiplier exceeds the friction; each change refactors.
     """
     if _motor_rows_on(model, work) > 0:
         refactor = True
-    for _ in range(2 * model.jint.shape[0] + 2):
+    n_friction = 0
+    for j in range(model.jint.shape[0]):
+        if model.jint[j, J_FRICROW] >= 0:
+            n_friction += 1
+    for it in range(2 * model.jint.shape[0] + 2 + 2 * n_friction):
         body_derived(model, x, work)   # f and ω_w at the current velocities
         joint_rows(model, x, work, True)   # J̇ u at the current velocities
+        if it == 0 and n_friction > 0 and _friction_rows(model, x, work, True) > 0:
+            refactor = True
         if refactor:
             factor(model, work)
-        _motor_forces(model, work)
+        _motor_forces(model, x, work)
         _dynamics_solve(model, x, work, work.k[0])
         changed = _release(model, work)
         if changed > 0:
             _motor_rows_on(model, work)   # a released joint's motor resumes
         changed += _saturate(model, work)
+        if n_friction > 0:
+            changed += _friction_slip(model, work)
+            changed += _friction_rows(model, x, work, False)
         if changed == 0:
             break
         refactor = True
     _wrenches(model, work)
     _applied_efforts(model, work)
+    if n_friction > 0:
+        _friction_efforts(model, work)
 
 
 @_jit
@@ -1080,6 +1277,7 @@ def _end_of_step(model, x, work):
     """Factor at the projected positions, project velocities, then ``ẋ`` (next k1) and ``λ``."""
     body_derived(model, x, work)
     joint_rows(model, x, work, True)
+    _friction_stops(model, x, work)
     factor(model, work)
     _project_velocities(model, x, work)
     _dynamics_at(model, x, work, False)
@@ -1148,6 +1346,13 @@ def _restore(model, x, work):
     for j in range(model.jint.shape[0]):
         if model.jint[j, J_LIMROW] >= 0 and work.lim_state[j] != work.lim0[j]:
             set_limit(model, work, j, work.lim0[j])
+    for j in range(model.jint.shape[0]):
+        row = model.jint[j, J_FRICROW]
+        if row >= 0:
+            work.fric[j, F_SIGN] = work.fric[j, F_SIGN0]
+            if work.active[row] != work.fric[j, F_ACTIVE0]:
+                work.active[row] = int(work.fric[j, F_ACTIVE0])
+                refresh_rows(model, work, j)
 
 
 @_jit
@@ -1176,21 +1381,35 @@ def step(model, x, work, h, n_steps, tol, max_iter):
     sub-step and projection from the step's start) until ``|q - bound| <= LOCATE_TOL``; there
     the limit row is made active, the velocity projection stops the joint dead (an equal and
     opposite impulse: the inelastic stop) and the rest of the step is taken with the row held.
+    A sliding joint whose rate crosses zero inside a step (Coulomb friction) splits it the same
+    way: the time its rate reaches zero is found by the Illinois method to
+    :data:`STOP_RATE_TOL`, the joint sticks there (its friction row held, the velocity
+    projection taking out what is left of its rate) and the rest of the step is taken from
+    there, stuck or, if its load exceeds its friction, sliding the other way.
     ``work.k[0]`` must hold ``ẋ`` at ``x`` (left there by :func:`initialize` and by every
     step). Return 0, or the step index + 1 at which the position projection failed.
     """
     worst = 0.0
     worst_it = 0
     work.stats[S_STOPS] = 0.0
+    n_friction = 0
+    for j in range(model.jint.shape[0]):
+        if model.jint[j, J_FRICROW] >= 0:
+            n_friction += 1
     for s in range(n_steps):
         left = h
-        for _ in range(2 * model.jint.shape[0] + 2):
+        for _ in range(2 * model.jint.shape[0] + 2 + 2 * n_friction):
             for b in range(x.shape[0]):
                 for i in range(13):
                     work.x0[b, i] = x[b, i]
                     work.k0[b, i] = work.k[0, b, i]
             for j in range(model.jint.shape[0]):
                 work.lim0[j] = work.lim_state[j]
+                if model.jint[j, J_FRICROW] >= 0:
+                    work.fric[j, F_SIGN0] = work.fric[j, F_SIGN]
+                    work.fric[j, F_ACTIVE0] = work.active[model.jint[j, J_FRICROW]]
+                    # rows and ω_w are at x (left by the last dynamics evaluation)
+                    work.fric[j, F_RATE0] = _rate(model, x, work, model.jint[j, J_FRICROW])
             it = _rk4(model, x, work, left, tol, max_iter)
             if it < 0:
                 _restore(model, x, work)  # stays finite: back to the sub-step start
@@ -1198,10 +1417,49 @@ def step(model, x, work, h, n_steps, tol, max_iter):
                 return s + 1
             j, side, excess = _crossing(model, x, work)
             if j < 0:
-                work.stats[S_TIME] += left
+                jf = _friction_event(model, work) if n_friction > 0 else -1
+                if jf < 0:
+                    work.stats[S_TIME] += left
+                    worst = max(worst, work.stats[S_ERR])
+                    worst_it = max(worst_it, it)
+                    break
+                # a sliding joint stopped inside the sub-step: locate when its rate reached
+                # zero, g(τ) = -s q̇(τ): g(0) < 0 < g(left), stick it there, go on
+                sign = work.fric[jf, F_SIGN0]
+                lo, g_lo = 0.0, -sign * work.fric[jf, F_RATE0]
+                hi, g_hi = left, -sign * work.fric[jf, F_RATE_END]
+                tau = left
+                g = g_hi
+                for _ in range(LOCATE_MAX_ITER):
+                    tau = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
+                    _restore(model, x, work)
+                    if _rk4(model, x, work, tau, tol, max_iter) < 0:
+                        _restore(model, x, work)  # stays finite: back to the sub-step start
+                        work.stats[S_FAIL] = 1.0
+                        return s + 1
+                    g = -sign * work.fric[jf, F_RATE_END]
+                    if abs(g) <= STOP_RATE_TOL or hi - lo <= 1e-15 * h:
+                        break
+                    if g > 0.0:
+                        hi, g_hi = tau, g
+                        g_lo *= 0.5   # Illinois: halve the end that stays
+                    else:
+                        lo, g_lo = tau, g
+                        g_hi *= 0.5
+                if g < 0.0 and work.fric[jf, F_SIGN] == sign:
+                    # within STOP_RATE_TOL short of zero and still sliding: stick it now
+                    work.fric[jf, F_SIGN] = 0.0
+                    work.active[model.jint[jf, J_FRICROW]] = 1
+                    refresh_rows(model, work, jf)
+                    _end_of_step(model, x, work)
+                work.stats[S_TIME] += tau
+                work.stats[S_TSTAGE] = work.stats[S_TIME]
                 worst = max(worst, work.stats[S_ERR])
                 worst_it = max(worst_it, it)
-                break
+                left -= tau
+                if left <= 1e-12 * h:
+                    break
+                continue
             bound = model.jlim[j, L_UPPER] if side > 0 else model.jlim[j, L_LOWER]
             # g(τ) = side (q(τ) - bound): g(0) <= 0 < g(left) = excess
             lo, g_lo = 0.0, side * (limit_coordinate(model, work.x0, j) - bound)

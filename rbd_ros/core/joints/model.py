@@ -36,6 +36,8 @@ from rbd_ros.core.rotations import quat_conjugate, quat_multiply, quat_normalize
 JOINT_KINDS = {'fixed': 0, 'revolute': 1, 'continuous': 1, 'prismatic': 1, 'spherical': 3,
                'universal': 2, 'planar': 3}
 _LIMITED = ('revolute', 'prismatic')
+#: Joint kinds with one coordinate: the only ones that take a motor, damping or friction.
+MOTOR_KINDS = ('revolute', 'continuous', 'prismatic')
 _TWO_AXES = ('universal', 'planar')
 
 
@@ -65,6 +67,11 @@ class Joint:
     :param lower, upper: revolute (rad) or prismatic (m) limits; ``None`` for no limit.
     :param cone_rad: spherical cone limit half angle on ``axis_b``; ``None`` for none.
     :param effort_limit: |motor effort| cap, N m or N; ``None`` for no cap.
+    :param damping: viscous damping along the joint coordinate, the generalized force
+        ``-damping q̇`` (N m s/rad rotary, N s/m prismatic), >= 0; one-coordinate kinds only.
+    :param friction: Coulomb friction along the joint coordinate (N m rotary, N prismatic),
+        >= 0: the joint sticks while the force that holds it is within ``friction`` and slides
+        against ``∓friction`` otherwise; one-coordinate kinds only.
     """
 
     name: str
@@ -80,6 +87,8 @@ class Joint:
     upper: Optional[float] = None
     cone_rad: Optional[float] = None
     effort_limit: Optional[float] = None
+    damping: float = 0.0
+    friction: float = 0.0
 
     def __post_init__(self):
         """Validate every field; one :class:`ModelError` line naming the joint and field."""
@@ -140,6 +149,15 @@ class Joint:
             set_(self, 'effort_limit', finite_scalar(
                 self.effort_limit, f'{who}.effort_limit', 'N m' if unit == 'rad' else 'N',
                 minimum=0.0, error=ModelError))
+        rotary = unit == 'rad'
+        for field, field_unit in (('damping', 'N m s/rad' if rotary else 'N s/m'),
+                                  ('friction', 'N m' if rotary else 'N')):
+            value = finite_scalar(getattr(self, field), f'{who}.{field}', field_unit,
+                                  minimum=0.0, error=ModelError)
+            if value != 0.0 and self.kind not in MOTOR_KINDS:
+                raise ModelError(f'{who}.{field}: {value!r}; a {self.kind} joint takes no '
+                                 f'{field} (only {", ".join(MOTOR_KINDS)} do)')
+            set_(self, field, value)
 
     @property
     def dof(self) -> int:

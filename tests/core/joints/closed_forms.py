@@ -200,6 +200,85 @@ def cradle_rise_height(length_m, theta0_rad):
 #: ``t_final_s`` (``q_ref_rad``, ``qd_ref_rad_s``, ``qdd_ref_rad_s2``; the spread of the four
 #: published runs ``q_spread_rad``) and ``energy_ref_j`` (zero: it starts horizontal at rest),
 #: and ``source``.
+def damped_rotor(rate0, damping, inertia, t_s):
+    """
+    Rate and travel of one joint under its viscous damping alone: ``(q̇(t), q(t) - q(0))``.
+
+    ``I q̈ = -d q̇`` (no other load): ``q̇ = q̇0 exp(-d t / I)`` and
+    ``q - q0 = q̇0 (I / d) (1 - exp(-d t / I))``. ``I`` is the inertia about the joint axis
+    (kg m^2, ``d`` in N m s/rad) or, for a slider, the moving mass (kg, ``d`` in N s/m).
+    """
+    damping = _positive('damping', damping, 'N m s/rad or N s/m')
+    inertia = _positive('inertia', inertia, 'kg m^2 or kg')
+    rate = damping / inertia
+    return rate0 * math.exp(-rate * t_s), rate0 / rate * -math.expm1(-rate * t_s)
+
+
+def damped_oscillation(omega0, damping, inertia):
+    """
+    Decay rate and damped frequency ``(sigma, omega_d)`` (1/s, rad/s) of small oscillations.
+
+    ``I x'' + d x' + I omega0^2 x = 0`` (a pendulum linearised about hanging down, ``omega0^2
+    = m g l / I``): ``x = A exp(-sigma t) cos(omega_d t - phi)`` with ``sigma = zeta omega0 =
+    d / (2 I)`` and ``omega_d = sqrt(omega0^2 - sigma^2)`` (underdamped; any mechanics text,
+    e.g. Landau and Lifshitz, *Mechanics*, section 25).
+    """
+    omega0 = _positive('omega0', omega0, 'rad/s')
+    inertia = _positive('inertia', inertia, 'kg m^2')
+    sigma = _positive('damping', damping, 'N m s/rad') / (2.0 * inertia)
+    if not sigma < omega0:
+        raise ValueError(f'damping: {damping} N m s/rad is not underdamped (sigma {sigma} 1/s '
+                         f'>= omega0 {omega0} rad/s)')
+    return sigma, math.sqrt((omega0 - sigma) * (omega0 + sigma))
+
+
+def coulomb_stop(rate0, friction, inertia):
+    """
+    Stop time and travel ``(t*, q(t*) - q(0))`` of one joint sliding against its friction alone.
+
+    ``I q̈ = -f sign(q̇)`` decelerates at ``f / I``: ``t* = I |q̇0| / f``, travel
+    ``q̇0 t* / 2 = I q̇0 |q̇0| / (2 f)``; then the joint sticks (nothing pushes it).
+    """
+    friction = _positive('friction', friction, 'N m or N')
+    inertia = _positive('inertia', inertia, 'kg m^2 or kg')
+    t_stop = inertia * abs(rate0) / friction
+    return t_stop, 0.5 * rate0 * t_stop
+
+
+def coulomb_pendulum_turns(mgl, friction, theta0_rad):
+    """
+    Return the turning angles (rad) of a pendulum with Coulomb pivot friction, from rest.
+
+    ``I θ'' = -m g l sin θ - f sign(θ')``. Between two turns ``a`` and ``b`` the friction
+    does the work ``-f |a - b|``, so ``m g l (cos b - cos a) = f |a - b|``, whatever ``I``:
+    from ``a > 0`` it swings down to the root ``b`` of ``g(b) = m g l (cos b - cos a) - f (a -
+    b)`` below the trivial one, in ``[-a, asin(f / m g l))`` (``g`` peaks there, and ``g(-a) =
+    -2 f a < 0``): on the other side, or on the same side when the friction stops it first.
+    At a turn where ``m g l |sin b| <= f`` the pivot holds it for good. Returns ``[θ0, θ1,
+    ...]``, the last being where it stays.
+
+    :param mgl: ``m g l``, the gravity torque at 90 degrees (N m, > 0)
+    :param friction: ``f`` (N m, > 0)
+    :param theta0_rad: release angle from hanging down (rad, 0 < |θ0| < pi/2)
+    """
+    mgl = _positive('mgl', mgl, 'N m')
+    friction = _positive('friction', friction, 'N m')
+    if not (math.isfinite(theta0_rad) and 0.0 < abs(theta0_rad) < 0.5 * math.pi):
+        raise ValueError(f'theta0_rad: {theta0_rad} rad must satisfy 0 < |theta0| < pi/2')
+    turns = [float(theta0_rad)]
+    while mgl * abs(math.sin(turns[-1])) > friction:
+        a = abs(turns[-1])   # by symmetry, as if from +a
+        lo, hi = -a, math.asin(friction / mgl)   # g(lo) < 0 < g(hi); bisection to round-off
+        for _ in range(200):
+            mid = 0.5 * (lo + hi)
+            if mgl * (math.cos(mid) - math.cos(a)) - friction * (a - mid) > 0.0:
+                hi = mid
+            else:
+                lo = mid
+        turns.append(0.5 * (lo + hi) * math.copysign(1.0, turns[-1]))
+    return turns
+
+
 Babyboot = collections.namedtuple('Babyboot', [
     'g', 'mass_a_kg', 'mass_b_kg', 'i_ax', 'i_bx', 'i_by', 'i_bz', 'l_a_m', 'l_b_m',
     'q0_rad', 'qd0_rad_s', 't_final_s', 'q_ref_rad', 'qd_ref_rad_s', 'qdd_ref_rad_s2',

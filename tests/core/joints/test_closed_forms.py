@@ -17,7 +17,9 @@
 import math
 
 from closed_forms import (BABYBOOT, babyboot_accelerations, babyboot_energy, cartpole_omega,
-                          chain_joint_forces, compound_pendulum_l_eq, cradle_rise_height, ellipk,
+                          chain_joint_forces, compound_pendulum_l_eq, coulomb_pendulum_turns,
+                          coulomb_stop,
+                          cradle_rise_height, damped_oscillation, damped_rotor, ellipk,
                           heavy_top_precession, limit_stop, pendulum_period)
 import numpy as np
 import pytest
@@ -238,3 +240,53 @@ def test_babyboot_transcription_reaches_the_published_state():
         assert qdd[i] == pytest.approx(BABYBOOT.qdd_ref_rad_s2[i], rel=2e-6), i
     # The energy scale is g (mA lA + mB lB) = 0.204 J; RK4's drift at 0.1 ms stays below 1e-12.
     assert drift < 1e-12
+
+
+def test_damped_rotor_against_its_equation():
+    # q̇ from its ODE by a fine RK4 (local error (k h)^5 / 120 ~ 1e-20 a step), and the travel
+    # by the trapezoid sum with its Euler-Maclaurin end correction -h^2/12 (q̈(t) - q̈(0)),
+    # which leaves O(h^4) ~ 1e-15
+    rate0, damping, inertia, t = 2.0, 0.5, 1.0 / 3.0, 2.0
+    n = 10_000
+    h = t / n
+    rate, travel, k = rate0, 0.0, -damping / inertia
+    for _ in range(n):
+        new = rate * (1 + k * h + (k * h) ** 2 / 2 + (k * h) ** 3 / 6 + (k * h) ** 4 / 24)
+        travel += 0.5 * h * (rate + new)
+        rate = new
+    travel -= h * h / 12.0 * (k * rate - k * rate0)
+    expected_rate, expected_travel = damped_rotor(rate0, damping, inertia, t)
+    assert expected_rate == pytest.approx(rate, rel=1e-13)
+    assert expected_travel == pytest.approx(travel, rel=1e-12)
+
+
+def test_damped_oscillation_roots():
+    # the roots -sigma ± i omega_d of I s^2 + d s + I omega0^2 = 0
+    omega0, damping, inertia = 3.8, 0.13, 1.0 / 3.0
+    sigma, omega_d = damped_oscillation(omega0, damping, inertia)
+    root = complex(-sigma, omega_d)
+    assert abs(inertia * root ** 2 + damping * root + inertia * omega0 ** 2) <= ROUND_OFF * 10
+    with pytest.raises(ValueError, match='not underdamped'):
+        damped_oscillation(1.0, 1.0, 0.4)
+
+
+def test_coulomb_stop_is_uniform_deceleration():
+    t_stop, travel = coulomb_stop(-3.0, 0.23, 0.5)
+    assert t_stop == pytest.approx(0.5 * 3.0 / 0.23, rel=ROUND_OFF)
+    # travel = q̇0 t* + a t*^2 / 2 with a = +f / I (decelerating a negative rate)
+    assert travel == pytest.approx(-3.0 * t_stop + 0.5 * (0.23 / 0.5) * t_stop ** 2,
+                                   rel=ROUND_OFF)
+
+
+def test_coulomb_pendulum_turns_spend_the_friction_work():
+    mgl, friction = 4.905, 0.8
+    turns = coulomb_pendulum_turns(mgl, friction, 1.0)
+    assert len(turns) >= 3
+    for a, b in zip(turns, turns[1:]):
+        # the potential energy lost is the friction's work f |a - b|, and it turned back
+        lost = mgl * (math.cos(b) - math.cos(a))
+        assert lost == pytest.approx(friction * abs(a - b), abs=ROUND_OFF)
+        assert abs(a - b) > 1e-3
+    # it moved at every turn but the last, where the pivot holds it
+    assert all(mgl * abs(math.sin(t)) > friction for t in turns[:-1])
+    assert mgl * abs(math.sin(turns[-1])) <= friction
