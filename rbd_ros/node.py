@@ -14,9 +14,10 @@
 """
 The ``rigid_body_node`` command: ``ros2 run rbd_ros rigid_body_node``, ``python -m rbd_ros.node``.
 
-The node itself is :mod:`rbd_ros.ros.node`; this module only starts it. Until the node's own
-signal handlers are in place (its imports take about a second), SIGINT and SIGTERM end the
-process quietly with status 0: there is nothing to finalise yet.
+The node itself is :mod:`rbd_ros.ros.node`, its process :mod:`rbd_ros.ros.process`; this module
+only starts it. Until the node's own signal handlers are in place (its imports take about a
+second), SIGINT and SIGTERM end the process quietly with status 0: there is nothing to finalise
+yet.
 """
 
 import os
@@ -29,11 +30,11 @@ def _exit_quietly(signum, frame):
 
 
 def main(args=None):
-    """Start the node (see :func:`rbd_ros.ros.node.main`) and return its exit status."""
+    """Start the node (see :func:`rbd_ros.ros.process.main`) and return its exit status."""
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, _exit_quietly)
-    from rbd_ros.ros import node
-    return node.main(args)
+    from rbd_ros.ros import process
+    return process.main(args)
 
 
 if __name__ == '__main__':

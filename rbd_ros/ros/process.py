@@ -31,7 +31,7 @@ import time
 from rbd_ros.core import RbdError
 from rbd_ros.ros import endpoints
 from rbd_ros.ros import participant
-from rbd_ros.ros.node import _say, PAST_SLOW_START_UP, RigidBodyNode
+from rbd_ros.ros.node import PAST_SLOW_START_UP, RigidBodyNode, say
 from rbd_ros.sim import limits
 import rclpy
 from rclpy.executors import ExternalShutdownException, ShutdownException
@@ -116,7 +116,7 @@ def main(args=None):
     with participant.node_profile():
         error = _init_rclpy(args)
         if error is not None:
-            _say(error)
+            say(error)
             sys.exit(2)
         built = []
 
@@ -131,11 +131,11 @@ def main(args=None):
         while worker.is_alive() and not (stop and not PAST_SLOW_START_UP.is_set()):
             worker.join(START_UP_POLL_S)
     if stop and not built:
-        _say(f'{stop[0]} during start-up: stopped')
+        say(f'{stop[0]} during start-up: stopped')
         os._exit(0)  # nothing recorded yet; a half-built node needs no teardown
     node = built[0]
     if isinstance(node, RbdError):
-        _say(node)
+        say(node)
         rclpy.try_shutdown()
         sys.exit(2)
     if isinstance(node, BaseException):

@@ -16,7 +16,7 @@
 Does a node hear its own publisher? ``python own_endpoints.py profile|plain`` (its own process).
 
 Creates one rclpy node, with the node's participant profile (``profile``: as
-``rbd_ros.ros.node.main`` creates it) or without (``plain``), a publisher and a subscription
+``rbd_ros.ros.process.main`` creates it) or without (``plain``), a publisher and a subscription
 on one topic in it, and a second node in another context (another participant) subscribed to
 the same topic. Publishes for up to 5 s and prints ``own N other M``: the messages each
 subscription received. Fast DDS with ``fastdds.ignore_local_endpoints`` gives ``own 0``.
