@@ -1068,6 +1068,16 @@ def _saturate(model, work):
     return changed
 
 
+@_inl
+def _set_active(model, work, j, row, want):
+    """Set row ``row`` of joint ``j`` active (1) or not (0); return 1 if that changed it."""
+    if work.active[row] == want:
+        return 0
+    work.active[row] = want
+    refresh_rows(model, work, j)
+    return 1
+
+
 @_jit
 def _motor_rows_on(model, work):
     """Turn on the row of every position / velocity motor not paused by a held limit."""
@@ -1081,10 +1091,7 @@ def _motor_rows_on(model, work):
         want = 1 if ((mode == MOTOR_VELOCITY or mode == MOTOR_POSITION)
                      and work.lim_state[j] == 0) else 0
         motor[j, M_SAT] = 0.0
-        if work.active[row] != want:
-            work.active[row] = want
-            refresh_rows(model, work, j)
-            changed += 1
+        changed += _set_active(model, work, j, row, want)
     return changed
 
 
@@ -1131,10 +1138,7 @@ def _friction_rows(model, x, work, update):
             else:
                 fric[j, F_SIGN] = 1.0 if rate > 0.0 else -1.0
         want = 1 if (fric[j, F_SIGN] == 0.0 and not motor_on and not held) else 0
-        if work.active[row] != want:
-            work.active[row] = want
-            refresh_rows(model, work, j)
-            changed += 1
+        changed += _set_active(model, work, j, row, want)
     return changed
 
 
