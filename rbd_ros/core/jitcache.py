@@ -245,9 +245,9 @@ KIND_MODULES = {'free': 'rbd_ros.core.kernels', 'contact': 'rbd_ros.core.contact
 KIND_NAMES = {'free': 'the free-body step', 'contact': 'the contact step',
               'joints': 'the joints and robots step'}
 #: Roughly how long a first compile takes on a 2-core machine (s), to tell the user (measured
-#: with an empty cache on 2026-12-04 with ``python -m rbd_ros.core.warmup``: see
-#: doc/benchmarks.md).
-COMPILE_S = {'free': 20, 'contact': 80, 'joints': 60}
+#: with an empty cache on 2026-12-06 with ``python -m rbd_ros.core.warmup``, one kind at a time:
+#: free 20-37 s, contact 113-131 s, joints 100-112 s; see doc/benchmarks.md).
+COMPILE_S = {'free': 20, 'contact': 120, 'joints': 100}
 
 
 def _mark(kind):

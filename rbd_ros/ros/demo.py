@@ -106,7 +106,7 @@ def main(argv=None):
             raise RuntimeError(f'rigid_body_node exited with status {node.returncode}')
 
     try:
-        # On a first start the node compiles the contact step (about 80 s here, longer on a
+        # On a first start the node compiles the contact step (about 2 min here, longer on a
         # slower machine; it logs that it does) while it already serves t = 0: sim time starts
         # when it is compiled, so the first wait for a sim time is as long as a compile.
         _wait(lambda: wrench.get_subscription_count() > 0 and pause.service_is_ready(), 900,
