@@ -90,6 +90,9 @@ M_SIZE = 11
 CROSS_TOL = 1e-13
 LOCATE_TOL = 1e-14
 LOCATE_MAX_ITER = 60
+#: What :func:`_locate` finds: a limit crossing, or a sliding joint's stop (Coulomb friction).
+EVENT_LIMIT = 0
+EVENT_STOP = 1
 #: A joint whose motor row drives it is at rest for its friction while ``|q̇|`` is at most this
 #: (rad/s or m/s): friction then adds no force and leaves the motor to hold it. The same bound
 #: decides whether a joint starts stuck.
@@ -1376,6 +1379,44 @@ def _joint_speed(model, x, work, j):
 
 
 @_jit
+def _locate(model, x, work, event, j, side, bound, g_lo, hi, g_hi, h, tol, max_iter):
+    """
+    Find when an event inside the sub-step from ``work.x0`` happened; return ``(τ, g(τ))``.
+
+    The Illinois method (regula falsi halving the end that stays) on ``g`` over ``(0, hi)``,
+    ``g(0) = g_lo <= 0 < g(hi) = g_hi``, each trial a full RK4 sub-step and projection from
+    the sub-step's start, until ``|g| <=`` the event's tolerance or the bracket is below
+    ``1e-15 h``. ``event`` selects ``g``: :data:`EVENT_LIMIT`, joint ``j``'s limit crossing,
+    ``g = side (q - bound)`` to :data:`LOCATE_TOL`; :data:`EVENT_STOP`, its sliding stop,
+    ``g = -side q̇`` (``side`` its sliding direction) to :data:`STOP_RATE_TOL`. ``x`` is left
+    at the last trial. ``τ = -1`` when a trial's projection failed (``x`` back at the start).
+    """
+    lo = 0.0
+    tau = hi
+    g = g_hi
+    g_tol = LOCATE_TOL if event == EVENT_LIMIT else STOP_RATE_TOL
+    for _ in range(LOCATE_MAX_ITER):
+        tau = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
+        _restore(model, x, work)
+        if _rk4(model, x, work, tau, tol, max_iter) < 0:
+            _restore(model, x, work)  # stays finite: back to the sub-step start
+            return -1.0, g
+        if event == EVENT_LIMIT:
+            g = side * (limit_coordinate(model, x, j) - bound)
+        else:
+            g = -side * work.fric[j, F_RATE_END]
+        if abs(g) <= g_tol or hi - lo <= 1e-15 * h:
+            break
+        if g > 0.0:
+            hi, g_hi = tau, g
+            g_lo *= 0.5   # Illinois: halve the end that stays
+        else:
+            lo, g_lo = tau, g
+            g_hi *= 0.5
+    return tau, g
+
+
+@_jit
 def step(model, x, work, h, n_steps, tol, max_iter):
     """
     ``n_steps`` classical RK4 steps of the constrained ODE, each followed by the projection.
@@ -1430,26 +1471,12 @@ def step(model, x, work, h, n_steps, tol, max_iter):
                 # a sliding joint stopped inside the sub-step: locate when its rate reached
                 # zero, g(τ) = -s q̇(τ): g(0) < 0 < g(left), stick it there, go on
                 sign = work.fric[jf, F_SIGN0]
-                lo, g_lo = 0.0, -sign * work.fric[jf, F_RATE0]
-                hi, g_hi = left, -sign * work.fric[jf, F_RATE_END]
-                tau = left
-                g = g_hi
-                for _ in range(LOCATE_MAX_ITER):
-                    tau = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
-                    _restore(model, x, work)
-                    if _rk4(model, x, work, tau, tol, max_iter) < 0:
-                        _restore(model, x, work)  # stays finite: back to the sub-step start
-                        work.stats[S_FAIL] = 1.0
-                        return s + 1
-                    g = -sign * work.fric[jf, F_RATE_END]
-                    if abs(g) <= STOP_RATE_TOL or hi - lo <= 1e-15 * h:
-                        break
-                    if g > 0.0:
-                        hi, g_hi = tau, g
-                        g_lo *= 0.5   # Illinois: halve the end that stays
-                    else:
-                        lo, g_lo = tau, g
-                        g_hi *= 0.5
+                tau, g = _locate(model, x, work, EVENT_STOP, jf, sign, 0.0,
+                                 -sign * work.fric[jf, F_RATE0], left,
+                                 -sign * work.fric[jf, F_RATE_END], h, tol, max_iter)
+                if tau < 0.0:   # the projection failed; x is back at the sub-step start
+                    work.stats[S_FAIL] = 1.0
+                    return s + 1
                 if g < 0.0 and work.fric[jf, F_SIGN] == sign:
                     # within STOP_RATE_TOL short of zero and still sliding: stick it now
                     work.fric[jf, F_SIGN] = 0.0
@@ -1466,25 +1493,12 @@ def step(model, x, work, h, n_steps, tol, max_iter):
                 continue
             bound = model.jlim[j, L_UPPER] if side > 0 else model.jlim[j, L_LOWER]
             # g(τ) = side (q(τ) - bound): g(0) <= 0 < g(left) = excess
-            lo, g_lo = 0.0, side * (limit_coordinate(model, work.x0, j) - bound)
-            hi, g_hi = left, excess
-            tau = left
-            for _ in range(LOCATE_MAX_ITER):
-                tau = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
-                _restore(model, x, work)
-                if _rk4(model, x, work, tau, tol, max_iter) < 0:
-                    _restore(model, x, work)  # stays finite: back to the sub-step start
-                    work.stats[S_FAIL] = 1.0
-                    return s + 1
-                g = side * (limit_coordinate(model, x, j) - bound)
-                if abs(g) <= LOCATE_TOL or hi - lo <= 1e-15 * h:
-                    break
-                if g > 0.0:
-                    hi, g_hi = tau, g
-                    g_lo *= 0.5   # Illinois: halve the end that stays
-                else:
-                    lo, g_lo = tau, g
-                    g_hi *= 0.5
+            tau, _ = _locate(model, x, work, EVENT_LIMIT, j, side, bound,
+                             side * (limit_coordinate(model, work.x0, j) - bound), left,
+                             excess, h, tol, max_iter)
+            if tau < 0.0:   # the projection failed; x is back at the sub-step start
+                work.stats[S_FAIL] = 1.0
+                return s + 1
             # stop dead: hold the bound as an equality row, project positions onto it,
             # then the velocity projection takes out the speed into the stop
             speed = _joint_speed(model, x, work, j)
