@@ -56,7 +56,8 @@ KIND_CODES = {'fixed': 0, 'revolute': 1, 'continuous': 2, 'prismatic': 3, 'spher
 #: Row kinds: a position row ``C = e_k · d`` and an alignment row ``C = e_k · f_l``.
 ROW_LIN = 0
 ROW_ANG = 1
-#: A limit row: ``C = q - bound`` (``q`` the revolute angle or prismatic offset on ``axis_b``).
+#: A limit row: ``C = q - bound`` (``q`` the revolute angle or prismatic offset on ``axis_b``,
+#: or a spherical joint's angle off ``axis_b``, bounded by its cone; :func:`limit_coordinate`).
 ROW_LIMIT = 2
 #: A motor row: the joint rate held at a velocity target, or the critically damped
 #: acceleration toward a position target; absent from the position projection.
@@ -279,9 +280,43 @@ def _twist(model, x, j):
     return 2.0 * math.atan2(u, ew)
 
 
+@_inl
+def _cone_angle(model, x, j):
+    """
+    Return the angle of a spherical joint's axis in the child off the parent's (rad, [0, pi]).
+
+    ``e = R_P u3`` (``u3 = axis_b``), ``f = R_c w3`` (the same axis in the child at rest), the
+    angle ``atan2(|e × f|, e · f)``: what a cone limit bounds.
+    """
+    jint, jprm = model.jint, model.jprm
+    par, c = jint[j, J_PARENT], jint[j, J_CHILD]
+    m0, m1, m2 = jprm[j, J_BASIS_C + 6], jprm[j, J_BASIS_C + 7], jprm[j, J_BASIS_C + 8]
+    c00, c01, c02, c10, c11, c12, c20, c21, c22 = _rot_of(x, c)
+    f0 = c00 * m0 + c01 * m1 + c02 * m2
+    f1 = c10 * m0 + c11 * m1 + c12 * m2
+    f2 = c20 * m0 + c21 * m1 + c22 * m2
+    m0, m1, m2 = jprm[j, J_BASIS_P + 6], jprm[j, J_BASIS_P + 7], jprm[j, J_BASIS_P + 8]
+    if par >= 0:
+        p00, p01, p02, p10, p11, p12, p20, p21, p22 = _rot_of(x, par)
+        e0 = p00 * m0 + p01 * m1 + p02 * m2
+        e1 = p10 * m0 + p11 * m1 + p12 * m2
+        e2 = p20 * m0 + p21 * m1 + p22 * m2
+    else:
+        e0, e1, e2 = m0, m1, m2
+    n0, n1, n2 = _cross(e0, e1, e2, f0, f1, f2)
+    return math.atan2(math.sqrt(n0 * n0 + n1 * n1 + n2 * n2), e0 * f0 + e1 * f1 + e2 * f2)
+
+
 @_jit
 def limit_coordinate(model, x, j):
-    """Return joint ``j``'s limited coordinate: revolute angle (rad) or prismatic offset (m)."""
+    """
+    Return joint ``j``'s limited coordinate (rad or m).
+
+    A revolute angle, a prismatic offset, or a spherical joint's angle off its axis (its cone
+    limit's, :func:`_cone_angle`).
+    """
+    if model.jint[j, J_KIND] == 4:
+        return _cone_angle(model, x, j)
     if model.jint[j, J_KIND] != 3:
         return _twist(model, x, j)
     jint, jprm = model.jint, model.jprm
@@ -398,7 +433,46 @@ def joint_rows(model, x, work, full):
             coord = 0.0
             rate = 0.0
             axial = kind == ROW_LIMIT or kind == ROW_MOTOR or kind == ROW_FRICTION
-            if axial and jint[j, J_KIND] != 3:
+            if axial and jint[j, J_KIND] == 4:
+                # a spherical joint's cone limit, C = θ - cone, θ the angle between e = R_P u3
+                # and f = R_c w3: θ̇ = ω_rel · n, n = p / |p|, p = e × f (the swing axis), so
+                # J has ω_c: n, ω_P: -n (a torque pair); J̇ u = ω_rel · ṅ with
+                # ṗ = (ω_P × e) × f + e × (ω_c × f), ṅ = (ṗ - n (n · ṗ)) / |p|
+                if full:
+                    m0, m1, m2 = (jprm[j, J_BASIS_C + 6], jprm[j, J_BASIS_C + 7],
+                                  jprm[j, J_BASIS_C + 8])
+                    f0 = c00 * m0 + c01 * m1 + c02 * m2
+                    f1 = c10 * m0 + c11 * m1 + c12 * m2
+                    f2 = c20 * m0 + c21 * m1 + c22 * m2
+                    n0, n1, n2 = _cross(e0, e1, e2, f0, f1, f2)
+                    sn = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+                    r0, r1, r2 = wc0 - wp0, wc1 - wp1, wc2 - wp2
+                    for i in range(12):
+                        jac[row, i] = 0.0
+                    if sn > 0.0:
+                        h0, h1, h2 = _cross(wp0, wp1, wp2, e0, e1, e2)
+                        a0, a1, a2 = _cross(h0, h1, h2, f0, f1, f2)
+                        s0, s1, s2 = _cross(wc0, wc1, wc2, f0, f1, f2)
+                        b0, b1, b2 = _cross(e0, e1, e2, s0, s1, s2)
+                        pd0, pd1, pd2 = a0 + b0, a1 + b1, a2 + b2
+                        n0, n1, n2 = n0 / sn, n1 / sn, n2 / sn
+                        rate = r0 * n0 + r1 * n1 + r2 * n2
+                        bias[row] = (r0 * pd0 + r1 * pd1 + r2 * pd2
+                                     - rate * (n0 * pd0 + n1 * pd1 + n2 * pd2)) / sn
+                    else:
+                        # on the axis the swing axis is undefined; a cone (> 0) is never held
+                        # there: any axis across e keeps the free row finite
+                        m0, m1, m2 = jprm[j, J_BASIS_P], jprm[j, J_BASIS_P + 1], \
+                            jprm[j, J_BASIS_P + 2]
+                        n0 = p00 * m0 + p01 * m1 + p02 * m2
+                        n1 = p10 * m0 + p11 * m1 + p12 * m2
+                        n2 = p20 * m0 + p21 * m1 + p22 * m2
+                        rate = r0 * n0 + r1 * n1 + r2 * n2
+                        bias[row] = 0.0
+                    jac[row, 3], jac[row, 4], jac[row, 5] = -n0, -n1, -n2
+                    jac[row, 9], jac[row, 10], jac[row, 11] = n0, n1, n2
+                coord = _cone_angle(model, x, j)
+            elif axial and jint[j, J_KIND] != 3:
                 # revolute / continuous: the relative rotation rate about e = R_P axis_b
                 if full:
                     for i in range(12):
