@@ -17,8 +17,8 @@
 import math
 
 from closed_forms import (BABYBOOT, babyboot_accelerations, babyboot_energy, cartpole_omega,
-                          chain_joint_forces, compound_pendulum_l_eq, coulomb_pendulum_turns,
-                          cone_rim_torque, cone_stop, coulomb_stop,
+                          chain_joint_forces, compound_pendulum_l_eq, cone_rim_torque,
+                          cone_stop, coulomb_pendulum_turns, coulomb_stop,
                           cradle_rise_height, damped_oscillation, damped_rotor, ellipk,
                           heavy_top_precession, limit_stop, pendulum_period)
 import numpy as np
