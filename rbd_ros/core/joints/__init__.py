@@ -21,9 +21,9 @@ step (:class:`ArticulatedSimulator`) treats each joint as constraint rows betwee
 May import :mod:`rbd_ros.core` helpers only.
 """
 
-from rbd_ros.core.joints.model import (Joint, JOINT_KINDS, joint_position, joint_velocity,
-                                       unwrap_angle)
+from rbd_ros.core.joints.model import (cone_angle, Joint, JOINT_KINDS, joint_position,
+                                       joint_velocity, unwrap_angle)
 from rbd_ros.core.joints.simulator import ArticulatedSimulator, PROJECTION_TOL, ROWS
 
 __all__ = ['ArticulatedSimulator', 'Joint', 'JOINT_KINDS', 'PROJECTION_TOL', 'ROWS',
-           'joint_position', 'joint_velocity', 'unwrap_angle']
+           'cone_angle', 'joint_position', 'joint_velocity', 'unwrap_angle']

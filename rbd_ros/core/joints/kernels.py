@@ -56,7 +56,8 @@ KIND_CODES = {'fixed': 0, 'revolute': 1, 'continuous': 2, 'prismatic': 3, 'spher
 #: Row kinds: a position row ``C = e_k · d`` and an alignment row ``C = e_k · f_l``.
 ROW_LIN = 0
 ROW_ANG = 1
-#: A limit row: ``C = q - bound`` (``q`` the revolute angle or prismatic offset on ``axis_b``).
+#: A limit row: ``C = q - bound`` (``q`` the revolute angle or prismatic offset on ``axis_b``,
+#: or a spherical joint's angle off ``axis_b``, bounded by its cone; :func:`limit_coordinate`).
 ROW_LIMIT = 2
 #: A motor row: the joint rate held at a velocity target, or the critically damped
 #: acceleration toward a position target; absent from the position projection.
@@ -90,6 +91,9 @@ M_SIZE = 11
 CROSS_TOL = 1e-13
 LOCATE_TOL = 1e-14
 LOCATE_MAX_ITER = 60
+#: What :func:`_locate` finds: a limit crossing, or a sliding joint's stop (Coulomb friction).
+EVENT_LIMIT = 0
+EVENT_STOP = 1
 #: A joint whose motor row drives it is at rest for its friction while ``|q̇|`` is at most this
 #: (rad/s or m/s): friction then adds no force and leaves the motor to hold it. The same bound
 #: decides whether a joint starts stuck.
@@ -276,9 +280,43 @@ def _twist(model, x, j):
     return 2.0 * math.atan2(u, ew)
 
 
+@_inl
+def _cone_angle(model, x, j):
+    """
+    Return the angle of a spherical joint's axis in the child off the parent's (rad, [0, pi]).
+
+    ``e = R_P u3`` (``u3 = axis_b``), ``f = R_c w3`` (the same axis in the child at rest), the
+    angle ``atan2(|e × f|, e · f)``: what a cone limit bounds.
+    """
+    jint, jprm = model.jint, model.jprm
+    par, c = jint[j, J_PARENT], jint[j, J_CHILD]
+    m0, m1, m2 = jprm[j, J_BASIS_C + 6], jprm[j, J_BASIS_C + 7], jprm[j, J_BASIS_C + 8]
+    c00, c01, c02, c10, c11, c12, c20, c21, c22 = _rot_of(x, c)
+    f0 = c00 * m0 + c01 * m1 + c02 * m2
+    f1 = c10 * m0 + c11 * m1 + c12 * m2
+    f2 = c20 * m0 + c21 * m1 + c22 * m2
+    m0, m1, m2 = jprm[j, J_BASIS_P + 6], jprm[j, J_BASIS_P + 7], jprm[j, J_BASIS_P + 8]
+    if par >= 0:
+        p00, p01, p02, p10, p11, p12, p20, p21, p22 = _rot_of(x, par)
+        e0 = p00 * m0 + p01 * m1 + p02 * m2
+        e1 = p10 * m0 + p11 * m1 + p12 * m2
+        e2 = p20 * m0 + p21 * m1 + p22 * m2
+    else:
+        e0, e1, e2 = m0, m1, m2
+    n0, n1, n2 = _cross(e0, e1, e2, f0, f1, f2)
+    return math.atan2(math.sqrt(n0 * n0 + n1 * n1 + n2 * n2), e0 * f0 + e1 * f1 + e2 * f2)
+
+
 @_jit
 def limit_coordinate(model, x, j):
-    """Return joint ``j``'s limited coordinate: revolute angle (rad) or prismatic offset (m)."""
+    """
+    Return joint ``j``'s limited coordinate (rad or m).
+
+    A revolute angle, a prismatic offset, or a spherical joint's angle off its axis (its cone
+    limit's, :func:`_cone_angle`).
+    """
+    if model.jint[j, J_KIND] == 4:
+        return _cone_angle(model, x, j)
     if model.jint[j, J_KIND] != 3:
         return _twist(model, x, j)
     jint, jprm = model.jint, model.jprm
@@ -395,7 +433,46 @@ def joint_rows(model, x, work, full):
             coord = 0.0
             rate = 0.0
             axial = kind == ROW_LIMIT or kind == ROW_MOTOR or kind == ROW_FRICTION
-            if axial and jint[j, J_KIND] != 3:
+            if axial and jint[j, J_KIND] == 4:
+                # a spherical joint's cone limit, C = θ - cone, θ the angle between e = R_P u3
+                # and f = R_c w3: θ̇ = ω_rel · n, n = p / |p|, p = e × f (the swing axis), so
+                # J has ω_c: n, ω_P: -n (a torque pair); J̇ u = ω_rel · ṅ with
+                # ṗ = (ω_P × e) × f + e × (ω_c × f), ṅ = (ṗ - n (n · ṗ)) / |p|
+                if full:
+                    m0, m1, m2 = (jprm[j, J_BASIS_C + 6], jprm[j, J_BASIS_C + 7],
+                                  jprm[j, J_BASIS_C + 8])
+                    f0 = c00 * m0 + c01 * m1 + c02 * m2
+                    f1 = c10 * m0 + c11 * m1 + c12 * m2
+                    f2 = c20 * m0 + c21 * m1 + c22 * m2
+                    n0, n1, n2 = _cross(e0, e1, e2, f0, f1, f2)
+                    sn = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+                    r0, r1, r2 = wc0 - wp0, wc1 - wp1, wc2 - wp2
+                    for i in range(12):
+                        jac[row, i] = 0.0
+                    if sn > 0.0:
+                        h0, h1, h2 = _cross(wp0, wp1, wp2, e0, e1, e2)
+                        a0, a1, a2 = _cross(h0, h1, h2, f0, f1, f2)
+                        s0, s1, s2 = _cross(wc0, wc1, wc2, f0, f1, f2)
+                        b0, b1, b2 = _cross(e0, e1, e2, s0, s1, s2)
+                        pd0, pd1, pd2 = a0 + b0, a1 + b1, a2 + b2
+                        n0, n1, n2 = n0 / sn, n1 / sn, n2 / sn
+                        rate = r0 * n0 + r1 * n1 + r2 * n2
+                        bias[row] = (r0 * pd0 + r1 * pd1 + r2 * pd2
+                                     - rate * (n0 * pd0 + n1 * pd1 + n2 * pd2)) / sn
+                    else:
+                        # on the axis the swing axis is undefined; a cone (> 0) is never held
+                        # there: any axis across e keeps the free row finite
+                        m0, m1, m2 = jprm[j, J_BASIS_P], jprm[j, J_BASIS_P + 1], \
+                            jprm[j, J_BASIS_P + 2]
+                        n0 = p00 * m0 + p01 * m1 + p02 * m2
+                        n1 = p10 * m0 + p11 * m1 + p12 * m2
+                        n2 = p20 * m0 + p21 * m1 + p22 * m2
+                        rate = r0 * n0 + r1 * n1 + r2 * n2
+                        bias[row] = 0.0
+                    jac[row, 3], jac[row, 4], jac[row, 5] = -n0, -n1, -n2
+                    jac[row, 9], jac[row, 10], jac[row, 11] = n0, n1, n2
+                coord = _cone_angle(model, x, j)
+            elif axial and jint[j, J_KIND] != 3:
                 # revolute / continuous: the relative rotation rate about e = R_P axis_b
                 if full:
                     for i in range(12):
@@ -1376,6 +1453,44 @@ def _joint_speed(model, x, work, j):
 
 
 @_jit
+def _locate(model, x, work, event, j, side, bound, g_lo, hi, g_hi, h, tol, max_iter):
+    """
+    Find when an event inside the sub-step from ``work.x0`` happened; return ``(τ, g(τ))``.
+
+    The Illinois method (regula falsi halving the end that stays) on ``g`` over ``(0, hi)``,
+    ``g(0) = g_lo <= 0 < g(hi) = g_hi``, each trial a full RK4 sub-step and projection from
+    the sub-step's start, until ``|g| <=`` the event's tolerance or the bracket is below
+    ``1e-15 h``. ``event`` selects ``g``: :data:`EVENT_LIMIT`, joint ``j``'s limit crossing,
+    ``g = side (q - bound)`` to :data:`LOCATE_TOL`; :data:`EVENT_STOP`, its sliding stop,
+    ``g = -side q̇`` (``side`` its sliding direction) to :data:`STOP_RATE_TOL`. ``x`` is left
+    at the last trial. ``τ = -1`` when a trial's projection failed (``x`` back at the start).
+    """
+    lo = 0.0
+    tau = hi
+    g = g_hi
+    g_tol = LOCATE_TOL if event == EVENT_LIMIT else STOP_RATE_TOL
+    for _ in range(LOCATE_MAX_ITER):
+        tau = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
+        _restore(model, x, work)
+        if _rk4(model, x, work, tau, tol, max_iter) < 0:
+            _restore(model, x, work)  # stays finite: back to the sub-step start
+            return -1.0, g
+        if event == EVENT_LIMIT:
+            g = side * (limit_coordinate(model, x, j) - bound)
+        else:
+            g = -side * work.fric[j, F_RATE_END]
+        if abs(g) <= g_tol or hi - lo <= 1e-15 * h:
+            break
+        if g > 0.0:
+            hi, g_hi = tau, g
+            g_lo *= 0.5   # Illinois: halve the end that stays
+        else:
+            lo, g_lo = tau, g
+            g_hi *= 0.5
+    return tau, g
+
+
+@_jit
 def step(model, x, work, h, n_steps, tol, max_iter):
     """
     ``n_steps`` classical RK4 steps of the constrained ODE, each followed by the projection.
@@ -1430,26 +1545,12 @@ def step(model, x, work, h, n_steps, tol, max_iter):
                 # a sliding joint stopped inside the sub-step: locate when its rate reached
                 # zero, g(τ) = -s q̇(τ): g(0) < 0 < g(left), stick it there, go on
                 sign = work.fric[jf, F_SIGN0]
-                lo, g_lo = 0.0, -sign * work.fric[jf, F_RATE0]
-                hi, g_hi = left, -sign * work.fric[jf, F_RATE_END]
-                tau = left
-                g = g_hi
-                for _ in range(LOCATE_MAX_ITER):
-                    tau = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
-                    _restore(model, x, work)
-                    if _rk4(model, x, work, tau, tol, max_iter) < 0:
-                        _restore(model, x, work)  # stays finite: back to the sub-step start
-                        work.stats[S_FAIL] = 1.0
-                        return s + 1
-                    g = -sign * work.fric[jf, F_RATE_END]
-                    if abs(g) <= STOP_RATE_TOL or hi - lo <= 1e-15 * h:
-                        break
-                    if g > 0.0:
-                        hi, g_hi = tau, g
-                        g_lo *= 0.5   # Illinois: halve the end that stays
-                    else:
-                        lo, g_lo = tau, g
-                        g_hi *= 0.5
+                tau, g = _locate(model, x, work, EVENT_STOP, jf, sign, 0.0,
+                                 -sign * work.fric[jf, F_RATE0], left,
+                                 -sign * work.fric[jf, F_RATE_END], h, tol, max_iter)
+                if tau < 0.0:   # the projection failed; x is back at the sub-step start
+                    work.stats[S_FAIL] = 1.0
+                    return s + 1
                 if g < 0.0 and work.fric[jf, F_SIGN] == sign:
                     # within STOP_RATE_TOL short of zero and still sliding: stick it now
                     work.fric[jf, F_SIGN] = 0.0
@@ -1466,25 +1567,12 @@ def step(model, x, work, h, n_steps, tol, max_iter):
                 continue
             bound = model.jlim[j, L_UPPER] if side > 0 else model.jlim[j, L_LOWER]
             # g(τ) = side (q(τ) - bound): g(0) <= 0 < g(left) = excess
-            lo, g_lo = 0.0, side * (limit_coordinate(model, work.x0, j) - bound)
-            hi, g_hi = left, excess
-            tau = left
-            for _ in range(LOCATE_MAX_ITER):
-                tau = (lo * g_hi - hi * g_lo) / (g_hi - g_lo)
-                _restore(model, x, work)
-                if _rk4(model, x, work, tau, tol, max_iter) < 0:
-                    _restore(model, x, work)  # stays finite: back to the sub-step start
-                    work.stats[S_FAIL] = 1.0
-                    return s + 1
-                g = side * (limit_coordinate(model, x, j) - bound)
-                if abs(g) <= LOCATE_TOL or hi - lo <= 1e-15 * h:
-                    break
-                if g > 0.0:
-                    hi, g_hi = tau, g
-                    g_lo *= 0.5   # Illinois: halve the end that stays
-                else:
-                    lo, g_lo = tau, g
-                    g_hi *= 0.5
+            tau, _ = _locate(model, x, work, EVENT_LIMIT, j, side, bound,
+                             side * (limit_coordinate(model, work.x0, j) - bound), left,
+                             excess, h, tol, max_iter)
+            if tau < 0.0:   # the projection failed; x is back at the sub-step start
+                work.stats[S_FAIL] = 1.0
+                return s + 1
             # stop dead: hold the bound as an equality row, project positions onto it,
             # then the velocity projection takes out the speed into the stop
             speed = _joint_speed(model, x, work, j)

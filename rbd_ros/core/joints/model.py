@@ -65,7 +65,9 @@ class Joint:
     :param axis2_b: universal second axis (child side of the cross, at rest perpendicular to
         ``axis_b``); planar in-plane x direction. Unused by other kinds.
     :param lower, upper: revolute (rad) or prismatic (m) limits; ``None`` for no limit.
-    :param cone_rad: spherical cone limit half angle on ``axis_b``; ``None`` for none.
+    :param cone_rad: spherical joints: the cone limit's half angle, rad, ``0 < cone_rad <= pi``:
+        the angle between the joint axis in the parent (``axis_b``) and in the child (the same
+        axis carried by ``q_rest``) may not exceed it (:func:`cone_angle`); ``None`` for none.
     :param effort_limit: |motor effort| cap, N m or N; ``None`` for no cap.
     :param damping: viscous damping along the joint coordinate, the generalized force
         ``-damping q̇`` (N m s/rad rotary, N s/m prismatic), >= 0; one-coordinate kinds only.
@@ -141,7 +143,7 @@ class Joint:
                 raise ModelError(f'{who}.cone_rad: {self.cone_rad!r}; only a spherical joint '
                                  'has a cone limit')
             cone = finite_scalar(self.cone_rad, f'{who}.cone_rad', 'rad', minimum=0.0,
-                                 error=ModelError)
+                                 strict=True, error=ModelError)
             if cone > math.pi:
                 raise ModelError(f'{who}.cone_rad: {cone!r} rad must be <= pi')
             set_(self, 'cone_rad', cone)
@@ -218,6 +220,22 @@ def joint_position(joint: Joint, pos_p_w, q_wp, pos_c_w, q_wc) -> np.ndarray:
         ey = np.cross(axis, ex)
         return np.array([float(d_p @ ex), float(d_p @ ey), _twist_angle(q_err, axis)])
     return np.zeros(0)
+
+
+def cone_angle(joint: Joint, q_wp, q_wc) -> float:
+    """
+    Return the angle a cone limit bounds: the child's joint axis off the parent's, rad.
+
+    ``e = R_wp axis_b`` and ``f = R_wc R_rest^T axis_b`` (the axis carried into the child at
+    rest), angle ``atan2(|e x f|, e . f)``; it is 0 at the rest pose and ignores the twist
+    about the axis. A world parent passes ``q_wp = None``.
+    """
+    rot_wp = np.eye(3) if q_wp is None else quat_to_matrix(np.asarray(q_wp, dtype=np.float64))
+    rot_wc = quat_to_matrix(np.asarray(q_wc, dtype=np.float64))
+    axis = joint.axis_b
+    e = rot_wp @ axis
+    f = rot_wc @ (quat_to_matrix(joint.q_rest).T @ axis)
+    return math.atan2(float(np.linalg.norm(np.cross(e, f))), float(e @ f))
 
 
 def joint_velocity(joint: Joint, pos_p_w, q_wp, vel_p_w, omega_p_w, pos_c_w, q_wc, vel_c_w,

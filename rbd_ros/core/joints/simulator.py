@@ -147,7 +147,9 @@ class ArticulatedSimulator:
         every step boundary) and slides against ``∓friction`` otherwise; a sliding joint's stop
         is located inside the step as a limit crossing is. A position or velocity motor fixes
         the joint's motion: damping and friction then load the motor (its effort includes
-        them), friction being 0 while the joint is at rest (``|q̇| <= 1e-12``).
+        them), friction being 0 while the joint is at rest (``|q̇| <= 1e-12``). A spherical
+        joint's ``cone_rad`` is a limit on the angle between its axis in the parent and in
+        the child (:func:`~rbd_ros.core.joints.model.cone_angle`), a stop like the others.
     :param timestep_ns: the fixed step ``h``, integer ns > 0.
     :param solver: ``'auto'`` (the tree elimination when no loop closes, else dense) or
         ``'dense'`` (always the dense factorisation; the same answers, for checking).
@@ -199,9 +201,6 @@ class ArticulatedSimulator:
                                   f'{n_b - 1}) or None (world)')
             if joint.parent == joint.child:
                 raise ConfigError(f'{who}.parent: {joint.parent} is its own child')
-            if joint.cone_rad is not None:
-                raise ConfigError(f'{who}.cone_rad: {joint.cone_rad!r} rad; the cone limit is '
-                                  'not simulated yet (leave it None)')
         self._models = tuple(models)
         self._joints = tuple(joints)
         self._readout = JointReadout(joints)
@@ -258,6 +257,12 @@ class ArticulatedSimulator:
 
     def _check_limits(self):
         for j, joint in enumerate(self._joints):
+            if joint.cone_rad is not None:
+                angle = jk.limit_coordinate(self._model, self._x, j)
+                if angle > joint.cone_rad + jk.CROSS_TOL:
+                    raise ConfigError(f'joint {joint.name!r}.cone_rad: the initial angle off the '
+                                      f'axis {angle!r} rad is beyond cone_rad '
+                                      f'{joint.cone_rad!r} rad')
             if joint.lower is None and joint.upper is None:
                 continue
             q = jk.limit_coordinate(self._model, self._x, j)
@@ -286,7 +291,8 @@ class ArticulatedSimulator:
         rows = []
         for j, joint in enumerate(joints):
             spec = ROWS[joint.kind]
-            limited = joint.lower is not None or joint.upper is not None
+            limited = (joint.lower is not None or joint.upper is not None
+                       or joint.cone_rad is not None)
             limit_row = motor_row = friction_row = -1
             if limited:
                 limit_row = len(rows) + len(spec)
@@ -302,6 +308,8 @@ class ArticulatedSimulator:
                        friction_row)
             jlim[j] = (joint.lower or 0.0, joint.upper or 0.0, joint.lower is not None,
                        joint.upper is not None)
+            if joint.cone_rad is not None:   # the angle off the axis has an upper bound only
+                jlim[j] = (0.0, joint.cone_rad, False, True)
             basis = _basis(joint)
             rest = quat_to_matrix(np.asarray(joint.q_rest))
             jprm[j, jk.J_ORIGIN_P:jk.J_ORIGIN_P + 3] = joint.origin_parent_b
@@ -536,7 +544,8 @@ class ArticulatedSimulator:
         Return the last limit stop of the last :meth:`step` call, or None if there was none.
 
         ``(joint index, time ns (float: inside a step), speed removed rad/s or m/s)``; the
-        speed is the joint rate just before the stop's impulse (it is zero after).
+        speed is the joint rate just before the stop's impulse (it is zero after); a cone
+        limit's is the rate of the angle off the axis, ``ω_rel · n`` (positive).
         """
         stats = self._work.stats
         if stats[jk.S_STOPS] == 0:
@@ -546,7 +555,7 @@ class ArticulatedSimulator:
 
     @property
     def held_limits(self):
-        """Return per joint +1 (held at upper), -1 (at lower) or 0 (free)."""
+        """Return per joint +1 (held at upper, or a cone limit held), -1 (at lower) or 0."""
         return [int(self._work.lim_state[j]) for j in range(len(self._joints))]
 
     @property

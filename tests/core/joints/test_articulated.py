@@ -779,10 +779,3 @@ def test_start_turned_over_is_refused():
 def test_bad_solver(change, message):
     with pytest.raises(ConfigError, match=message):
         ArticulatedSimulator(**bad(), **change)
-
-
-def test_cone_limit_is_refused_until_simulated():
-    models, states, _ = two_body_case('spherical')
-    cone = Joint('c', 'spherical', None, 0, cone_rad=0.5)
-    with pytest.raises(ConfigError, match="joint 'c'.cone_rad: 0.5 rad; the cone limit is not"):
-        ArticulatedSimulator(models[:1], states[:1], [cone])

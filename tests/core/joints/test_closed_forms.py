@@ -17,8 +17,8 @@
 import math
 
 from closed_forms import (BABYBOOT, babyboot_accelerations, babyboot_energy, cartpole_omega,
-                          chain_joint_forces, compound_pendulum_l_eq, coulomb_pendulum_turns,
-                          coulomb_stop,
+                          chain_joint_forces, compound_pendulum_l_eq, cone_rim_torque,
+                          cone_stop, coulomb_pendulum_turns, coulomb_stop,
                           cradle_rise_height, damped_oscillation, damped_rotor, ellipk,
                           heavy_top_precession, limit_stop, pendulum_period)
 import numpy as np
@@ -168,6 +168,29 @@ def test_limit_stop_reference_values():
     omega2, _, lost2 = limit_stop(0.5, 3.0, 9.0)
     assert 0.5 * (3.0 * 0.25 / 3.0) * omega2 ** 2 == pytest.approx(3.0 * 9.0 * 0.25, rel=1e-14)
     assert lost2 == pytest.approx(3.0 * 9.0 * 0.25, rel=ROUND_OFF)
+
+
+def test_cone_stop_and_rim_torque_against_a_planar_fall_and_a_conical_pendulum():
+    # No azimuth rate: a planar fall, so the energy to the rim is all normal and is lost, as
+    # limit_stop's from horizontal to vertical (axis up, alpha = 90 deg from theta0 = 0).
+    omega_n, omega_t, _, lost = cone_stop(1.0 / 3.0, 0.5 * 9.81, 0.0, 0.0, 0.5 * math.pi)
+    omega, _, lost_ref = limit_stop(1.0, 1.0)
+    assert omega_t == 0.0
+    assert omega_n == pytest.approx(omega, rel=ROUND_OFF)
+    assert lost == pytest.approx(lost_ref, rel=ROUND_OFF)
+    # L_z: the azimuth rate at the rim is phidot0 sin^2 theta0 / sin^2 alpha.
+    _, omega_t, phidot_a, _ = cone_stop(2.0, 3.0, 0.5, 3.0, 1.0)
+    assert phidot_a == pytest.approx(3.0 * math.sin(0.5) ** 2 / math.sin(1.0) ** 2,
+                                     rel=ROUND_OFF)
+    assert omega_t == pytest.approx(phidot_a * math.sin(1.0), rel=ROUND_OFF)
+    # Hanging, at the free conical pendulum's rate phidot^2 = m g d / (I1 cos alpha) (the
+    # textbook rigid conical pendulum), the rim carries nothing; faster, it pushes (< 0).
+    i1, mgd, alpha = 1.0 / 3.0, 0.5 * 9.81, 0.6
+    free = math.sqrt(mgd / (i1 * math.cos(alpha)))
+    assert abs(cone_rim_torque(i1, mgd, alpha, free, up=False)) <= ROUND_OFF * mgd
+    assert cone_rim_torque(i1, mgd, alpha, 1.5 * free, up=False) < 0.0
+    assert cone_rim_torque(i1, mgd, alpha, 0.0, up=True) == pytest.approx(
+        -mgd * math.sin(alpha), rel=ROUND_OFF)
 
 
 def test_chain_joint_forces_statics():

@@ -20,7 +20,8 @@ import numpy as np
 import pytest
 
 from rbd_ros.core.errors import ModelError
-from rbd_ros.core.joints import Joint, joint_position, joint_velocity, unwrap_angle
+from rbd_ros.core.joints import (cone_angle, Joint, joint_position, joint_velocity,
+                                 unwrap_angle)
 from rbd_ros.core.rotations import quat_from_axis_angle, quat_multiply, quat_to_matrix
 
 # Readouts are closed-form trigonometry of one quaternion: round-off of a few ulp of 1 rad/m.
@@ -39,7 +40,11 @@ TOL = 1e-12
     ({'kind': 'revolute', 'upper': math.inf}, "joint 'j'.upper: inf rad must be finite"),
     ({'kind': 'hinge'}, "joint 'j'.kind: 'hinge' is not one of"),
     ({'kind': 'universal', 'axis2_b': (0.0, 0.0, 1.0)}, "joint 'j'.axis2_b: [0.0, 0.0, 1.0] must"),
-    ({'kind': 'spherical', 'cone_rad': -0.1}, "joint 'j'.cone_rad: -0.1 rad must be >= 0"),
+    ({'kind': 'spherical', 'cone_rad': -0.1}, "joint 'j'.cone_rad: -0.1 rad must be > 0"),
+    ({'kind': 'spherical', 'cone_rad': 0.0}, "joint 'j'.cone_rad: 0.0 rad must be > 0"),
+    ({'kind': 'spherical', 'cone_rad': 3.5}, "joint 'j'.cone_rad: 3.5 rad must be <= pi"),
+    ({'kind': 'spherical', 'cone_rad': math.nan}, "joint 'j'.cone_rad: nan rad must be finite"),
+    ({'kind': 'revolute', 'cone_rad': 0.5}, "joint 'j'.cone_rad: 0.5; only a spherical joint"),
     ({'kind': 'continuous', 'lower': 0.0}, "joint 'j'.lower: 0.0; a continuous joint has no"),
     ({'kind': 'revolute', 'effort_limit': -1.0}, "joint 'j'.effort_limit: -1.0 N m must be >= 0"),
 ])
@@ -105,3 +110,19 @@ def test_spherical_universal_planar_fixed_readouts():
                        [0.1, -0.2, 0.4], atol=TOL, rtol=0)
     fix = Joint(name='f', kind='fixed', parent=None, child=0)
     assert joint_position(fix, None, None, np.zeros(3), q_wc).shape == (0,)
+
+
+def test_cone_angle_is_the_swing_off_the_axis_and_ignores_the_twist():
+    # axis_b = z; a swing of 0.7 rad about x then any twist about the child's axis: the
+    # child's axis is 0.7 rad off the parent's. A parent turned with the child reads 0.
+    sph = Joint(name='s', kind='spherical', parent=0, child=1, cone_rad=1.0)
+    swing = quat_from_axis_angle([1.0, 0.0, 0.0], 0.7)
+    q_wc = quat_multiply(swing, quat_from_axis_angle([0.0, 0.0, 1.0], 2.0))
+    assert abs(cone_angle(sph, None, q_wc) - 0.7) <= TOL
+    assert abs(cone_angle(sph, swing, swing)) <= TOL
+    # q_rest carries the axis into the child: at the rest pose the angle is 0
+    rest = quat_from_axis_angle([0.0, 1.0, 0.0], 0.4)
+    tilted = Joint(name='t', kind='spherical', parent=None, child=0, q_rest=rest)
+    assert abs(cone_angle(tilted, None, rest)) <= TOL
+    assert abs(cone_angle(tilted, None, quat_multiply(quat_from_axis_angle(
+        [0.0, 1.0, 0.0], 3.0), rest)) - 3.0) <= TOL
