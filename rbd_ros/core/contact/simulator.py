@@ -363,13 +363,15 @@ class WorldSimulator(BatchSimulator):
         """
         Return the joints' figures of the last :meth:`step` call, or None without joints.
 
-        ``(largest row error a pre-stabilization left at its drifted pose, its most Newton
-        iterations, the most joint visits of one contact stage)``.
+        ``(largest row error a pre-stabilization left at its drifted pose (m or rad), its
+        most Newton iterations, the most joint visits of one contact stage, the largest
+        violation of the contacts' normal conditions such a stage ended with (m/s))``.
         """
         if self._joint_stage is None:
             return None
         stats = self._joint_stage.stats
-        return float(stats[cj.J_ERR]), int(stats[cj.J_ITER]), int(stats[cj.J_LOOPS])
+        return (float(stats[cj.J_ERR]), int(stats[cj.J_ITER]), int(stats[cj.J_LOOPS]),
+                float(stats[cj.J_LEFT]))
 
     @property
     def bodies(self):

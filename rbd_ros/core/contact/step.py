@@ -38,6 +38,10 @@ One step, in the paper's order (:func:`world_step`):
    the velocity the drift uses: a box sliding to a stop decelerates by exactly ``μ g`` over
    every whole step and stops within O(h²) of the exact distance.
 
+A world with joints (:mod:`rbd_ros.core.contact.joints`) also post-stabilizes them after 1 and
+2, and pre-stabilizes them (post-stabilizes, in the second contact stage) alternating with the
+sweeps of 3.
+
 **Detection.** Every stage maps each body's contact points (its surface points; a sphere's
 centre and a capsule's axis with their radius) to the candidate pose of the other shape and
 evaluates φ there.  A point whose candidate φ is below :data:`MARGIN_M` is a contact with
