@@ -87,13 +87,13 @@ def _run(sim, n, each=None):
 @pytest.mark.parametrize('h_ns', STEPS_NS, ids=STEP_IDS)
 def test_swinging_pendulum_keeps_its_period_and_energy(h_ns):
     """
-    Without contact the step is kick–drift–kick with the joints pre-/post-stabilized: RATTLE.
+    Without contact the step is kick–drift–kick with the joints pre-/post-stabilized.
 
-    From 90° the period is ``4 sqrt(L_eq/g) K(sin² 45°)``, ``L_eq = I_pivot/(m L)``. RATTLE
-    is second order, so the period's error is O((ω h)²), ω = sqrt(g/L_eq) = 3.13 rad/s:
-    measured 1.398e-6 and 1.399e-4 relative at 1 ms and 10 ms (a ratio of 100.0 for 10× the
-    step: second order), (ω h)²/7; bound (ω h)²/6. The energy oscillates by O((ω h)²) of
-    m g L and does not drift: bound (ω h)² m g L.
+    From 90° the period is ``4 sqrt(L_eq/g) K(sin² 45°)``, ``L_eq = I_pivot/(m L)``. The
+    step (RATTLE's structure) is second order, so the period's error is O((ω h)²),
+    ω = sqrt(g/L_eq) = 3.13 rad/s: measured 1.398e-6 and 1.399e-4 relative at 1 ms and 10 ms
+    (a ratio of 100.0 for 10× the step), (ω h)²/7; bound (ω h)²/6. The energy oscillates by
+    O((ω h)²) of m g L and does not drift: bound (ω h)² m g L.
     """
     pivot = (0.0, 0.0, 2.0)
     sim = _pendulum(pivot, math.pi / 2, h_ns)
