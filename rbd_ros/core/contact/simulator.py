@@ -255,9 +255,9 @@ class WorldSimulator(BatchSimulator):
     :param joints: :class:`~rbd_ros.core.joints.model.Joint` values between the bodies (by
         index, ``parent=None`` the world), as :class:`~rbd_ros.core.joints.ArticulatedSimulator`
         takes them and checks them; the states are projected onto them first, as there.
-        Without limits, motors, damping or friction for now (refused in one line). A jointed
-        body collides as any other; two bodies of one joint collide with each other too
-        (give them shapes that clear at the joint).
+        Without limits (a cone's too), motors, damping or friction for now (refused in one
+        line). A jointed body collides as any other; two bodies of one joint collide with
+        each other too (give them shapes that clear at the joint).
     :raises ModelError: a bad body, or bodies starting inside each other or the static world.
     :raises ConfigError: an integrator that cannot take contact; a bad or unsupported joint.
     :raises ConvergenceError: states that could not be projected onto the joints.
@@ -322,6 +322,7 @@ class WorldSimulator(BatchSimulator):
             who = f'joint {joint.name!r}'
             for name, value, unset in (('lower', joint.lower, None),
                                        ('upper', joint.upper, None),
+                                       ('cone_rad', joint.cone_rad, None),
                                        ('damping', joint.damping, 0.0),
                                        ('friction', joint.friction, 0.0)):
                 if value != unset:

@@ -306,3 +306,7 @@ def test_unsupported_joint_fields_are_refused_in_one_line():
                     axis_b=(0.0, 1.0, 0.0), lower=-1.0, upper=1.0)
     with pytest.raises(ConfigError, match=r"joint 'pivot'\.lower: -1\.0; a world with contact"):
         WorldSimulator([bob], [BodyState(position_w=(0.0, 0.0, -L))], None, joints=[limited])
+    damped = Joint('pivot', 'revolute', None, 0, origin_child_b=(0.0, 0.0, L),
+                   axis_b=(0.0, 1.0, 0.0), damping=0.5)
+    with pytest.raises(ConfigError, match=r"joint 'pivot'\.damping: 0\.5; .* \(leave it 0\.0\)"):
+        WorldSimulator([bob], [BodyState(position_w=(0.0, 0.0, -L))], None, joints=[damped])
