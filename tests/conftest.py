@@ -206,12 +206,15 @@ def module_tmp(tmp_path_factory):
 
 # --- The kernels compile once, in the background, while tests that need none run -----------
 #
-# A fresh clone's first contact test compiles the contact step for ~150-190 s of one core, and
-# the batch test the threaded kernel for ~50 s, while the other core idles. So the session starts
-# `python -m rbd_ros.core.warmup --batch` in a background process (it fills the same per-user
-# cache the tests and their nodes read) and runs first the tests that compile nothing, then
-# those that need only the free-body step (compiled first, ~20 s), then the rest once the
-# warm-up has ended. Nothing is skipped: a warm-up that fails only means the tests compile the
+# A fresh clone's first contact test compiles the contact step for ~2 min of one core, a joints
+# test the joints step for ~1.5 min and the batch test the threaded kernel for ~1 min, while the
+# other core idles. So the session starts `python -m rbd_ros.core.warmup --batch` in a background
+# process (it fills the same per-user cache the tests and their nodes read; free, contact, joints,
+# then batch) and runs the tests in tiers: first those that compile nothing, then those that
+# need only the free-body step (compiled first, ~20 s), then, once the free, contact and joints
+# kinds are marked on disk (jitcache.kernels_on_disk), the rest but the batch tests, which come
+# last, once the warm-up has ended. A test that waited for its kinds never compiles them again
+# beside the warm-up. Nothing is skipped: a warm-up that fails only means the tests compile the
 # kernels themselves, as they would without it. With a warm cache the process ends in ~2 s.
 
 #: Test files that compile no physics kernel (run first, beside the warm-up).
@@ -228,9 +231,16 @@ NO_KERNEL_TESTS = tuple(
         'test_one_version_in_package_xml_read_by_setup_py_and_rbd_ros',
         'test_colcon_files_are_right'))
 #: Test files that need the free-body step only (run once the warm-up compiled it): the core's
-#: tests outside contact/ and the batch kernel, and these (no contact, no timing that a
+#: tests outside contact/, joints/ and the batch kernel, and these (no contact, no timing that a
 #: compile on the other core would disturb).
 FREE_KERNEL_DIR = 'core/'
+#: Below FREE_KERNEL_DIR, what needs more than the free-body step.
+NOT_FREE_DIRS = ('core/contact/', 'core/joints/')
+#: The test files of the threaded batch kernel: the last tier (the warm-up compiles it last).
+BATCH_KERNEL_FILES = ('core/test_batch.py',)
+#: The kernel kinds (jitcache.KIND_MODULES) each tier waits for; the last tier waits for the
+#: warm-up's end.
+TIER_KINDS = {1: ('free',), 2: ('free', 'contact', 'joints')}
 FREE_KERNEL_FILES = ('ros/test_sim_session.py', 'ros/test_node_physics.py',
                      'ros/test_node_inputs.py', 'ros/test_node_outputs.py',
                      'ros/test_node_across_hosts.py',
@@ -241,11 +251,13 @@ _WARM_UP = {}
 
 
 def _tier_of(path, name):
-    """Return the tier (0, 1, 2) of test ``name`` in ``path`` (relative to tests/, posix)."""
+    """Return the tier (0, 1, 2, 3) of test ``name`` in ``path`` (relative to tests/, posix)."""
     if path in NO_KERNEL_FILES or f'{path}::{name}' in NO_KERNEL_TESTS:
         return 0
+    if path in BATCH_KERNEL_FILES:
+        return 3
     if path in FREE_KERNEL_FILES or path.startswith(FREE_KERNEL_DIR) and not path.startswith(
-            'core/contact/') and path != 'core/test_batch.py':
+            NOT_FREE_DIRS):
         return 1
     return 2
 
@@ -333,6 +345,15 @@ def pytest_xdist_node_collection_finished(node, ids):
     _WARM_UP['thread'].start()
 
 
+def _wait_for_kinds(tier, ended):
+    """Wait until the warm-up has ``ended()`` or marked every kind of ``tier`` on disk."""
+    from rbd_ros.core import jitcache
+    jitcache.configured()
+    kinds = TIER_KINDS[tier]
+    wait_until(lambda: ended() or all(jitcache.kernels_on_disk(k) for k in kinds),
+               FIRST_START_S, what=f'the {", ".join(kinds)} kernels of the warm-up')
+
+
 def _wait_for_shared_warm_up(tier):
     if 'ended' in _WARM_UP:
         return
@@ -341,11 +362,8 @@ def _wait_for_shared_warm_up(tier):
     if not shared.is_dir():  # no warm-up in this run
         _WARM_UP['ended'] = time.monotonic()
         return
-    if tier == 1 and not ended.exists():
-        from rbd_ros.core import jitcache
-        jitcache.configured()
-        wait_until(lambda: ended.exists() or jitcache.kernels_on_disk('free'), FIRST_START_S,
-                   what='the free-body kernels of the warm-up')
+    if tier in TIER_KINDS and not ended.exists():
+        _wait_for_kinds(tier, ended.exists)
         return
     # The controller ends the warm-up after FIRST_START_S and then writes `ended`.
     wait_until(ended.exists, FIRST_START_S + 60.0, what='the end of the warm-up')
@@ -361,11 +379,8 @@ def _wait_for_warm_up(tier):
     process = _WARM_UP.get('process')
     if process is None or 'ended' in _WARM_UP:
         return
-    if tier == 1:
-        from rbd_ros.core import jitcache
-        jitcache.configured()
-        wait_until(lambda: process.poll() is not None or jitcache.kernels_on_disk('free'),
-                   FIRST_START_S, what='the free-body kernels of the warm-up')
+    if tier in TIER_KINDS:
+        _wait_for_kinds(tier, lambda: process.poll() is not None)
         return
     status, out = _finish_warm_up(process)
     _WARM_UP['ended'] = time.monotonic()
