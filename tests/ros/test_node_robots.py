@@ -190,6 +190,20 @@ def _gravity_torques(q):
     return np.array([G * sum(x_com[i] - ends[k] for i in range(k, 3)) for k in range(3)])
 
 
+def _commanding(probe, robot, group_name):
+    """Return ``(latest, group, direct)``: the last joint_states and the two command topics."""
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64MultiArray
+    latest = {}
+    probe.node.create_subscription(JointState, f'{robot}/joint_states',
+                                   lambda m: latest.__setitem__('js', m), 10)
+    group = probe.node.create_publisher(Float64MultiArray, f'{group_name}/commands', 10)
+    direct = probe.node.create_publisher(JointState, f'{robot}/joint_command', 10)
+    probe.wait(lambda: group.get_subscription_count() and direct.get_subscription_count()
+               and 'js' in latest, 60, f'the {robot} node')
+    return latest, group, direct
+
+
 def test_commands_reach_their_targets_and_hold_them_against_gravity(
         start_node, probe_for, tmp_path):
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -197,13 +211,7 @@ def test_commands_reach_their_targets_and_hold_them_against_gravity(
     from std_msgs.msg import Float64MultiArray, String
     node = start_node({**_arm_params(), 'record_path': str(tmp_path / 'live')}, namespace=True)
     probe = probe_for(node, inputs=(), outputs=('diagnostics',))
-    latest = {}
-    probe.node.create_subscription(JointState, 'arm/joint_states',
-                                   lambda m: latest.__setitem__('js', m), 10)
-    group = probe.node.create_publisher(Float64MultiArray, 'arm_group/commands', 10)
-    direct = probe.node.create_publisher(JointState, 'arm/joint_command', 10)
-    probe.wait(lambda: group.get_subscription_count() and direct.get_subscription_count()
-               and 'js' in latest, 60, 'the arm node')
+    latest, group, direct = _commanding(probe, 'arm', 'arm_group')
 
     def settled(target):
         js = latest.get('js')
@@ -345,13 +353,7 @@ def test_a_mimic_gripper_is_an_atwood_machine_and_takes_commands_on_its_leader(
                        'command_group_names': ['fingers'], 'command_groups.fingers.robot':
                        'gripper'}, namespace=True)
     probe = probe_for(node, inputs=(), outputs=('diagnostics',))
-    latest = {}
-    probe.node.create_subscription(JointState, 'gripper/joint_states',
-                                   lambda m: latest.__setitem__('js', m), 10)
-    group = probe.node.create_publisher(Float64MultiArray, 'fingers/commands', 10)
-    direct = probe.node.create_publisher(JointState, 'gripper/joint_command', 10)
-    probe.wait(lambda: group.get_subscription_count() and direct.get_subscription_count()
-               and 'js' in latest, 60, 'the gripper node')
+    latest, group, direct = _commanding(probe, 'gripper', 'fingers')
     # the default group is every joint but the mimic: one value, finger_left's position
     group.publish(Float64MultiArray(data=[0.03]))
     probe.wait(lambda: np.allclose(latest['js'].position, [0.03, 0.03], atol=1e-12, rtol=0),

@@ -214,7 +214,7 @@ def test_every_joint_type_maps_to_the_core(tmp_path):
     mimic = placed.joints[1]
     assert (mimic.mimic, mimic.mimic_multiplier, mimic.mimic_offset) == ('slide', 2.0, 0.1)
     # a value for the mimic that disagrees with its leader is refused, naming both
-    with pytest.raises(ConfigError, match=r"initial_joint_velocities\[1\]: -1.0 for joint "
+    with pytest.raises(ConfigError, match=r'initial_joint_velocities\[1\]: -1.0 for joint '
                                           r"'spin', a mimic of 'slide', must be 0.4 "):
         place_robot(robot, joint_positions=q, joint_velocities=[0.2, -1.0])
     # none given: the mimic follows its leader from zeros, q_spin = offset
@@ -391,7 +391,8 @@ MIMIC_BASE = (link('base') + joint('a', 'revolute', 'base', 'one',
     ('<mimic joint="zz"/>', "joint 'b'.mimic.joint: 'zz' is not a joint of this robot"),
     ('<mimic joint="weld"/>', "joint 'b'.mimic.joint: 'weld' is a fixed joint; a mimic "
                               'follows a revolute, continuous, prismatic joint'),
-    ('<mimic joint="a" multiplier="nan"/>', "joint 'b'.mimic.multiplier: nan per leader unit must be finite"),
+    ('<mimic joint="a" multiplier="nan"/>',
+     "joint 'b'.mimic.multiplier: nan per leader unit must be finite"),
     ('<mimic joint="a" offset="inf"/>', "joint 'b'.mimic.offset: inf rad must be finite"),
 ])
 def test_bad_mimics_are_refused_in_one_line(tmp_path, extra, words):

@@ -45,7 +45,7 @@ def pendulums(k, c=0.0, theta0=0.0, step_ns=1_000_000, kind='revolute'):
         com = pivot - 0.5 * length * np.array([math.sin(angle), 0.0, math.cos(angle)])
         models.append(rod_model(length, mass))
         states.append(BodyState(com, y_rotation(angle)))
-        mimic = dict(mimic='a', mimic_multiplier=k, mimic_offset=c) if i == 1 else {}
+        mimic = {'mimic': 'a', 'mimic_multiplier': k, 'mimic_offset': c} if i == 1 else {}
         joints.append(Joint('ab'[i], kind, None, i, origin_parent_b=tuple(pivot),
                             origin_child_b=(0.0, 0.0, 0.5 * length), axis_b=(0.0, 1.0, 0.0),
                             **mimic))
@@ -179,18 +179,18 @@ def test_continuous_mimic_follows_past_half_a_turn_and_keeps_momentum():
     assert np.abs(lin).max() <= 1e-12 and np.abs(ang).max() <= 1e-12
 
 
-def _two(**mimic):
+def _two():
     models = [rod_model(), rod_model()]
     states = [BodyState(), BodyState((2.0, 0.0, 0.0))]
     return models, states
 
 
 @pytest.mark.parametrize('b_kwargs, error, message', [
-    (dict(mimic='b'), ModelError, r"^joint 'b'\.mimic: 'b' is the joint itself"),
-    (dict(mimic='z'), ConfigError, r"^joint 'b'\.mimic: 'z' is not a joint of this system$"),
-    (dict(mimic='a', mimic_multiplier=math.nan), ModelError,
+    ({'mimic': 'b'}, ModelError, r"^joint 'b'\.mimic: 'b' is the joint itself"),
+    ({'mimic': 'z'}, ConfigError, r"^joint 'b'\.mimic: 'z' is not a joint of this system$"),
+    ({'mimic': 'a', 'mimic_multiplier': math.nan}, ModelError,
      r"^joint 'b'\.mimic_multiplier: nan .* must be finite"),
-    (dict(mimic='a', mimic_offset=math.inf), ModelError,
+    ({'mimic': 'a', 'mimic_offset': math.inf}, ModelError,
      r"^joint 'b'\.mimic_offset: inf rad must be finite"),
 ])
 def test_bad_mimics_are_refused_with_one_line(b_kwargs, error, message):
@@ -203,7 +203,7 @@ def test_bad_mimics_are_refused_with_one_line(b_kwargs, error, message):
 
 def test_mimic_of_a_fixed_joint_a_cycle_and_a_spherical_mimic_are_refused():
     models, states = _two()
-    b = dict(origin_parent_b=(2.0, 0.0, 0.0))
+    b = {'origin_parent_b': (2.0, 0.0, 0.0)}
     with pytest.raises(ConfigError, match=r"^joint 'b'\.mimic: 'a' is a fixed joint; a mimic "):
         ArticulatedSimulator(models, states, [Joint('a', 'fixed', None, 0),
                                               Joint('b', 'revolute', None, 1, mimic='a', **b)])
