@@ -22,6 +22,10 @@ ROS-free: :class:`Diagnostics` reads the session and the :class:`rbd_ros.sim.pac
 import math
 import time
 
+import numpy as np
+from rbd_ros.core import layout
+from rbd_ros.core.rotations import quat_rotate
+
 
 def energy_and_momentum(session):
     """Return the kinetic energy (J) and angular momentum (N·m·s, world) of all bodies."""
@@ -29,12 +33,19 @@ def energy_and_momentum(session):
         sim = session.simulator.articulated
         energy = sum(float(s.kinetic_energy(m)) for m, s in zip(sim.models, sim.states))
         return energy, [float(v) for v in sim.momentum()[1]]
-    energy, momentum = 0.0, [0.0, 0.0, 0.0]
-    for i, body in enumerate(session.config.bodies):
-        state = session.body_state(i)
-        energy += float(state.kinetic_energy(body.model))
-        momentum = [a + float(b) for a, b in zip(momentum, state.angular_momentum_w(body.model))]
-    return energy, momentum
+    # Every body at once from the packed states (13, N): a BodyState per body took ~0.4 ms a
+    # body, 0.4 s a second of a 1000-body node's time.
+    x = session.columns
+    bodies = session.config.bodies
+    mass = np.array([b.model.mass_kg for b in bodies])
+    inertia_b = np.array([b.model.inertia_b for b in bodies])
+    v_w = x[layout.S_VEL:layout.S_VEL + 3].T
+    omega_b = x[layout.S_OMEGA:layout.S_OMEGA + 3].T
+    spin_b = np.einsum('nij,nj->ni', inertia_b, omega_b)  # I_b ω_b, each body's L in its frame
+    energy = 0.5 * (float(mass @ np.einsum('ni,ni->n', v_w, v_w))
+                    + float(np.einsum('ni,ni->', omega_b, spin_b)))
+    momentum = quat_rotate(x[layout.S_QUAT:layout.S_QUAT + 4].T, spin_b).sum(axis=0)
+    return energy, [float(v) for v in momentum]
 
 
 def status(session, values):

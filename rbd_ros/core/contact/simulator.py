@@ -20,7 +20,10 @@ layout, loads and accessors) whose step is the contact step of
 :mod:`rbd_ros.core.contact.step`.  It is built once from frozen values
 (:class:`WorldBody`, :class:`~rbd_ros.core.contact.world.StaticWorld`), which are checked
 then: materials, shapes, bodies starting inside each other or inside the static world, and
-whether the integrator can take contact.
+whether the integrator can take contact.  Bodies may be joined by
+:class:`~rbd_ros.core.joints.model.Joint` values (``joints=``): the step then gives the joints
+their impulses where Weinstein, Teran and Fedkiw 2006 put them (see
+:mod:`rbd_ros.core.contact.joints`).
 """
 
 from dataclasses import dataclass, field
@@ -30,14 +33,18 @@ from typing import Optional, Sequence
 import numpy as np
 
 from rbd_ros.core import jitcache, layout
+from rbd_ros.core.contact import joints as cj
 from rbd_ros.core.contact import kernels as ck
 from rbd_ros.core.contact import rows as cs
 from rbd_ros.core.contact.shapes import CollisionShape
 from rbd_ros.core.contact.step import world_step
 from rbd_ros.core.contact.world import (check_overlaps, DEFAULT_OVERLAP_TOLERANCE_M, Material,
                                         StaticWorld)
-from rbd_ros.core.errors import ConfigError, finite_vector, ModelError, NonFiniteError
+from rbd_ros.core.errors import (ConfigError, ConvergenceError, finite_vector, ModelError,
+                                 NonFiniteError)
 from rbd_ros.core.integrators import DEFAULT_INTEGRATOR, integrator_info
+from rbd_ros.core.joints import simulator as joints_simulator
+from rbd_ros.core.joints.model import Joint
 from rbd_ros.core.model import BodyModel
 from rbd_ros.core.rotations import quat_to_matrix
 from rbd_ros.core.simulator import BatchSimulator
@@ -245,14 +252,22 @@ class WorldSimulator(BatchSimulator):
     :param integrator: one of :data:`CONTACT_INTEGRATORS`.
     :param timestep_ns: the fixed step ``h``, integer nanoseconds > 0.
     :param overlap_tolerance_m: how deep bodies may start inside each other or the static world.
+    :param joints: :class:`~rbd_ros.core.joints.model.Joint` values between the bodies (by
+        index, ``parent=None`` the world), as :class:`~rbd_ros.core.joints.ArticulatedSimulator`
+        takes them and checks them; the states are projected onto them first, as there.
+        Without limits (a cone's too), motors, damping, friction or mimics for now (refused in one
+        line). A jointed body collides as any other; two bodies of one joint collide with
+        each other too (give them shapes that clear at the joint).
     :raises ModelError: a bad body, or bodies starting inside each other or the static world.
-    :raises ConfigError: an integrator that cannot take contact.
+    :raises ConfigError: an integrator that cannot take contact; a bad or unsupported joint.
+    :raises ConvergenceError: states that could not be projected onto the joints.
     """
 
     def __init__(self, bodies: Sequence[WorldBody], states: Sequence[BodyState],
                  static: Optional[StaticWorld] = None, *,
                  integrator: str = DEFAULT_INTEGRATOR, timestep_ns: int = 1_000_000,
-                 overlap_tolerance_m: float = DEFAULT_OVERLAP_TOLERANCE_M):
+                 overlap_tolerance_m: float = DEFAULT_OVERLAP_TOLERANCE_M,
+                 joints: Sequence[Joint] = ()):
         jitcache.configured()  # the kernel cache, before a first compile
         bodies = tuple(bodies)
         states = tuple(states)
@@ -275,6 +290,10 @@ class WorldSimulator(BatchSimulator):
             names.add(body.name)
         if len(states) != len(bodies):
             raise ConfigError(f'states: {len(states)} states for {len(bodies)} bodies')
+        self._joints = tuple(joints)
+        self._joint_stage = None
+        if self._joints:
+            states = self._project_onto_joints(bodies, states, timestep_ns)
         check_overlaps([(b.name, b.shape, s.position_w, s.orientation_wb)
                         for b, s in zip(bodies, states)], static, overlap_tolerance_m)
         super().__init__([b.model for b in bodies], states, integrator=integrator,
@@ -295,6 +314,67 @@ class WorldSimulator(BatchSimulator):
             warm_n=np.zeros((3, n), dtype=np.int64))
         self._contacts = np.zeros((0, cs.N_CONTACT))
 
+    def _project_onto_joints(self, bodies, states, timestep_ns):
+        """Check the joints, build their stage and return the states projected onto them."""
+        for i, joint in enumerate(self._joints):
+            if not isinstance(joint, Joint):
+                raise ConfigError(f'joints[{i}]: {type(joint).__name__} is not a Joint')
+            who = f'joint {joint.name!r}'
+            for name, value, unset in (('lower', joint.lower, None),
+                                       ('upper', joint.upper, None),
+                                       ('cone_rad', joint.cone_rad, None),
+                                       ('damping', joint.damping, 0.0),
+                                       ('friction', joint.friction, 0.0),
+                                       ('mimic', joint.mimic, None)):
+                if value != unset:
+                    raise ConfigError(f'{who}.{name}: {value!r}; a world with contact takes '
+                                      f'no joint {name} yet (leave it {unset!r})')
+        articulated = joints_simulator.ArticulatedSimulator(
+            [b.model for b in bodies], states, self._joints, timestep_ns=timestep_ns)
+        model, work = articulated.kernel_arrays()
+        n = len(bodies)
+        jointed = np.zeros(n, dtype=np.bool_)
+        for joint in self._joints:
+            jointed[joint.child] = True
+            if joint.parent is not None:
+                jointed[joint.parent] = True
+        self._joint_stage = cj.JointStage(model, work, np.zeros((n, 13)), np.zeros((n, 13)),
+                                          jointed, np.zeros(cj.J_STATS))
+        return articulated.states
+
+    @property
+    def joints(self):
+        """Return the joints, a tuple (empty without)."""
+        return self._joints
+
+    def joint_error(self):
+        """
+        Return ``(max anchor distance m, max axis angle rad)`` over all joints now, or None.
+
+        None for a world without joints.  The step keeps both at most
+        :data:`~rbd_ros.core.joints.simulator.PROJECTION_TOL` (see :meth:`step`).
+        """
+        if self._joint_stage is None:
+            return None
+        stage = self._joint_stage
+        x = np.ascontiguousarray(self._x.T)
+        return joints_simulator.joint_error(stage.model, stage.work, x)
+
+    @property
+    def joint_stats(self):
+        """
+        Return the joints' figures of the last :meth:`step` call, or None without joints.
+
+        ``(largest row error a pre-stabilization left at its drifted pose (m or rad), its
+        most Newton iterations, the most joint visits of one contact stage, the largest
+        violation of the contacts' normal conditions such a stage ended with (m/s))``.
+        """
+        if self._joint_stage is None:
+            return None
+        stats = self._joint_stage.stats
+        return (float(stats[cj.J_ERR]), int(stats[cj.J_ITER]), int(stats[cj.J_LOOPS]),
+                float(stats[cj.J_LEFT]))
+
     @property
     def bodies(self):
         """Return the :class:`WorldBody` values, in index order."""
@@ -311,7 +391,16 @@ class WorldSimulator(BatchSimulator):
         return self._static
 
     def reset(self, states=None) -> None:
-        """Put every body back to its initial state (or to ``states``); no contacts."""
+        """
+        Put every body back to its initial state (or to ``states``); no contacts.
+
+        :raises ConfigError: ``states`` in a world with joints (they would need projecting
+            onto the joints: build a new simulator).
+        """
+        if states is not None and getattr(self, '_joint_stage', None) is not None:
+            raise ConfigError('states: a world with joints resets only to its initial states '
+                              '(new states need projecting onto the joints: build a new '
+                              'WorldSimulator)')
         super().reset(states)
         if hasattr(self, '_wrench'):
             self._wrench[:] = 0.0
@@ -325,12 +414,20 @@ class WorldSimulator(BatchSimulator):
         :raises NonFiniteError: if a step would leave a body non-finite; the whole world then
             stays at its last finite state.
         """
+        joints = self._joint_stage
+        if joints is not None:
+            joints.stats[:] = 0.0
         done, contacts = world_step(self._x, self._params, self._loads, self._t,
                                     self._info.kernel_id, self._h, self._timestep_ns, n,
                                     tuple(self._geo), tuple(self._statics), self._wrench,
-                                    tuple(self._ws))  # plain tuples: see world_step
+                                    tuple(self._ws), joints)  # plain tuples: see world_step
         self._step_count += done
         self._contacts = contacts
+        if joints is not None and joints.stats[cj.J_FAIL] != 0.0:
+            raise ConvergenceError(
+                f'joints: the pre-stabilization did not reach {cj.PROJECTION_TOL} m or rad in '
+                f'{cj.PROJECTION_MAX_ITER} iterations (error {joints.stats[cj.J_ERR]:.3g}) at '
+                f't = {int(self._t[0])} ns; the world was left at the start of that step')
         if done != n:
             raise NonFiniteError(
                 f'state: the step at t = {int(self._t[0])} ns would be non-finite (forces, '

@@ -38,6 +38,10 @@ One step, in the paper's order (:func:`world_step`):
    the velocity the drift uses: a box sliding to a stop decelerates by exactly ``μ g`` over
    every whole step and stops within O(h²) of the exact distance.
 
+A world with joints (:mod:`rbd_ros.core.contact.joints`) also post-stabilizes them after 1 and
+2, and pre-stabilizes them (post-stabilizes, in the second contact stage) alternating with the
+sweeps of 3.
+
 **Detection.** Every stage maps each body's contact points (its surface points; a sphere's
 centre and a capsule's axis with their radius) to the candidate pose of the other shape and
 evaluates φ there.  A point whose candidate φ is below :data:`MARGIN_M` is a contact with
@@ -99,6 +103,8 @@ import numpy as np
 from rbd_ros.core import kernels as kk
 from rbd_ros.core.contact.bodies import prepare_bodies, store_velocities
 from rbd_ros.core.contact.broad_phase import broad_phase
+from rbd_ros.core.contact.joints import (J_FAIL, joint_sweeps, post_stabilize, visit,
+                                         VISIT_NONE, VISIT_POST, VISIT_PRE)
 from rbd_ros.core.contact.narrow_phase import keep_responses, narrow_phase
 from rbd_ros.core.contact.rows import (_inl, _jit, _raw, MARGIN_M, N_CONTACT, PHASE_COLLISION,
                                        PHASE_CONTACT, Q_A, Q_B, Shapes, Statics, Work)
@@ -112,7 +118,8 @@ from rbd_ros.core.layout import (N_STATE, P_ANG_DAMPING, P_INERTIA, P_INV_INERTI
 
 
 @_jit
-def contact_stage(x, prm, shapes, statics, h, phase, stage, shock, wrench, work, same_pose):
+def contact_stage(x, prm, shapes, statics, h, phase, stage, shock, wrench, work, same_pose,
+                  joints, kind, method):
     """
     One detection-and-impulse stage on the velocities stored in ``x``; return the contacts.
 
@@ -121,6 +128,10 @@ def contact_stage(x, prm, shapes, statics, h, phase, stage, shock, wrench, work,
     of the world; ``same_pose``: no orientation changed since the last stage (see
     :func:`prepare_bodies`).  The stages in order: the bodies' poses and velocities, the broad
     phase, the narrow phase, the sweeps with shock propagation, the velocities back.
+    ``joints``: None, or the world's :class:`~rbd_ros.core.contact.joints.JointStage`, whose
+    visits of ``kind`` (``VISIT_*``) then alternate with the sweeps and end the stage (a visit
+    alone when nothing touches); ``method`` is the integrator (a pre-stabilization drifts as
+    it does).  numba compiles a ``None`` world without any of the joints' code.
     """
     vel, inv_mass, inv_inertia_w = work.vel, work.inv_mass, work.inv_inertia_w
     rot, pos_c, rot_c, touched = work.rot, work.pos_c, work.rot_c, work.touched
@@ -134,14 +145,24 @@ def contact_stage(x, prm, shapes, statics, h, phase, stage, shock, wrench, work,
     if patches.shape[0] == 0:
         if slot >= 0:
             warm_n[slot, :] = 0
+        if joints is not None:
+            if kind != VISIT_NONE:
+                visit(joints, x, vel, False, prm, method, h, kind)
         return contacts
     touched[:] = False
     for q in range(patches.shape[0]):
         touched[int(patches[q, Q_A])] = True
         if patches[q, Q_B] < n:
             touched[int(patches[q, Q_B])] = True
-    if not solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n, x, wrench, shock,
-                       rot, warm, warm_n, slot, prm):
+    coupled = solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n, x, wrench, shock,
+                          rot, warm, warm_n, slot, prm)
+    if joints is not None:
+        if kind != VISIT_NONE:
+            for i in range(n):
+                touched[i] = touched[i] or joints.jointed[i]
+            joint_sweeps(joints, kind, patches, contacts, vel, inv_mass, inv_inertia_w, x,
+                         wrench, coupled, prm, method, h)
+    if not coupled:
         finish_contacts(contacts, patches)
     keep_responses(responses, patches, contacts, n, inv_mass, inv_inertia_w)
     store_velocities(x, prm, vel, touched)
@@ -172,7 +193,7 @@ def _half_damping(x, prm, h):
 
 @_jit
 def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fields, wrench,
-               work_fields):
+               work_fields, joints):
     """
     Advance the world ``n_steps`` steps; return ``(steps done, contacts of the last step)``.
 
@@ -184,6 +205,14 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
     receives the net contact force and torque about each COM (world) averaged over the last
     step.  A step that would leave any body non-finite is undone for every body (the world
     stays at its last finite state) and the loop stops.
+
+    ``joints``: None, or the :class:`~rbd_ros.core.contact.joints.JointStage` of a jointed
+    world, whose visits go where Weinstein, Teran and Fedkiw put them: post-stabilization
+    after the collision stage and after the velocity update, pre-stabilization alternating
+    with the sweeps of the contact stage before the drift (:func:`contact_stage`), and, with
+    kick–drift–kick, post-stabilization alternating with the second contact stage's sweeps.
+    A step whose pre-stabilization misses its tolerance is undone like a non-finite one
+    (``joints.stats[J_FAIL]`` says which).
     """
     shapes, statics, work = Shapes(*shape_fields), Statics(*static_fields), Work(*work_fields)
     n = x.shape[1]
@@ -199,7 +228,9 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
         _half_damping(x, prm, h)
         # 1. Collisions with restitution on the current velocities.
         c0 = contact_stage(x, prm, shapes, statics, h, PHASE_COLLISION, 0, False, wrench,
-                           work, same_pose)
+                           work, same_pose, joints, VISIT_NONE, method)
+        if joints is not None:
+            post_stabilize(joints, x, work.vel, False)
         if method == kk.MIDPOINT_CAYLEY:
             lmom = np.empty((n, 3))
             # 2. First half kick.
@@ -212,15 +243,20 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
                 wx, wy, wz = kk._matvec(prm, P_INV_INERTIA, j, lx, ly, lz)
                 x[S_OMEGA, i], x[S_OMEGA + 1, i], x[S_OMEGA + 2, i] = wx, wy, wz
                 lmom[i, 0], lmom[i, 1], lmom[i, 2] = lx, ly, lz
+            if joints is not None:
+                post_stabilize(joints, x, work.vel, False)
             # 3. Contacts on the kicked velocities.
             c1 = contact_stage(x, prm, shapes, statics, h, PHASE_CONTACT, 1, True, wrench,
-                               work, True)
+                               work, True, joints, VISIT_PRE, method)
             touched = work.touched
             # 4. Drift; then the second half kick and its contact stage.
             for i in range(n):
                 j = 0 if shared else i
                 px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = kk._read_state(x, i)
-                if c1.shape[0] > 0 and touched[i]:
+                spun = c1.shape[0] > 0 and touched[i]
+                if joints is not None:
+                    spun = spun or joints.jointed[i]   # the joints' visits changed its ω
+                if spun:
                     lx, ly, lz = kk._matvec(prm, P_INERTIA, j, wx, wy, wz)
                 else:
                     lx, ly, lz = lmom[i, 0], lmom[i, 1], lmom[i, 2]
@@ -234,7 +270,7 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
                     lx, ly, lz, wx, wy, wz)
                 kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
             c2 = contact_stage(x, prm, shapes, statics, h, PHASE_CONTACT, 2, True, wrench,
-                               work, False)
+                               work, False, joints, VISIT_POST, method)
             same_pose = True  # the next step's first stage sees this pose
         else:
             for i in range(n):
@@ -243,8 +279,10 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
                 vx, vy, vz, wx, wy, wz = kk.se_velocity(
                     prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz)
                 kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
+            if joints is not None:
+                post_stabilize(joints, x, work.vel, False)
             c1 = contact_stage(x, prm, shapes, statics, h, PHASE_CONTACT, 1, True, wrench,
-                               work, True)
+                               work, True, joints, VISIT_PRE, method)
             for i in range(n):
                 px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = kk._read_state(x, i)
                 px, py, pz, qw, qx, qy, qz = kk.se_position(
@@ -256,6 +294,9 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
             if not _all_finite(x, i):
                 ok = False
                 break
+        if joints is not None:
+            if joints.stats[J_FAIL] != 0.0:
+                ok = False
         if not ok:
             x[:] = saved
             break

@@ -18,24 +18,15 @@ A contact stage's solve: warm start, Gauss–Seidel sweeps, shock propagation.
 :func:`solve_stage` sweeps over the patches (from the last step's impulses where patches share
 bodies), then propagates shocks by levels of the contact graph, and writes the impulses back.
 
-**Where joints plug in** (Weinstein, Teran, Fedkiw 2006, as PhysBAM orders it; see
-``/work/shared/reference/joints-weinstein.md``).  A joint is one more kind of constraint
-between two bodies, solved by equal and opposite impulses like a patch, and one more edge of
-the contact graph:
-
-- *Post-stabilization* (project each joint's relative twist onto what it allows) runs twice a
-  step, outside this module: in :func:`rbd_ros.core.contact.step.world_step` right after the
-  collision stage (``contact_stage(..., PHASE_COLLISION, ...)``) and right after the velocity
-  update (the first half kick, or ``se_velocity``), before the contact stage.
-- *Pre-stabilization* (the joint impulse that satisfies the joint after the step's drift)
-  runs inside a contact stage, here: in :func:`_sweeps`, one more Gauss–Seidel visit a sweep,
-  interleaved with the patches by contact-graph level (the loop over ``q``: joints and patches
-  in one order, a joint at the higher level of its two bodies); and in :func:`_shock`, the
-  same visit in level order with the lower body held (``wa``/``wb`` = 0).
-- :func:`_levels` takes joints as edges too (a body hanging from a joint is one level above
-  its parent); :func:`solve_stage`'s ``coupled`` counts a joint's bodies like a patch's, so a
-  jointed stage is swept and shock-propagated.
-- Limits are a clamp inside the joint's projection, as the normal impulses' ``λ >= 0``.
+**Joints** (Weinstein, Teran, Fedkiw 2006; see ``/work/shared/reference/joints-weinstein.md``)
+are solved by equal and opposite impulses like a patch, in :mod:`rbd_ros.core.contact.joints`:
+post-stabilization in :func:`rbd_ros.core.contact.step.world_step` after the collision stage
+and after the velocity update; pre-stabilization alternating with :func:`_sweeps` after
+:func:`solve_stage` (``joint_sweeps``: a visit of all joints, a sweep of the patches, again).
+Not here yet: a joint as an edge of :func:`_levels` (a body hanging from a joint one level
+above its parent) and a visit per joint inside :func:`_sweeps` and :func:`_shock` with the
+lower body held; limits as a clamp inside the joint's visit, as the normal impulses'
+``λ >= 0``.
 """
 
 import math

@@ -150,6 +150,26 @@ def _check_mimics(joints):
             seen.add(chain.name)
 
 
+def joint_error(model, work, x):
+    """
+    Return ``(max anchor distance m, max axis angle rad)`` over all joints at ``x`` (N, 13).
+
+    ``model``, ``work``: the arrays of :mod:`rbd_ros.core.joints.kernels`; ``work.con`` is
+    overwritten.
+    """
+    jk.joint_rows(model, x, work, False)
+    con, rows = work.con, model.rows
+    dist, ang = 0.0, 0.0
+    for j in range(model.jint.shape[0]):
+        r0, n = model.jint[j, jk.J_ROW0], model.jint[j, jk.J_NROWS]
+        lin = [con[r] for r in range(r0, r0 + n) if rows[r, 1] == jk.ROW_LIN]
+        angs = [abs(con[r]) for r in range(r0, r0 + n) if rows[r, 1] == jk.ROW_ANG]
+        dist = max(dist, math.sqrt(sum(v * v for v in lin)))
+        if angs:
+            ang = max(ang, math.asin(min(1.0, max(angs))))
+    return dist, ang
+
+
 class ArticulatedSimulator:
     """
     Rigid bodies joined by :class:`~rbd_ros.core.joints.model.Joint` values, no contact.
@@ -716,17 +736,16 @@ class ArticulatedSimulator:
         """
         if not self._projected:
             return None
-        jk.joint_rows(self._model, self._x, self._work, False)
-        con, rows = self._work.con, self._model.rows
-        dist, ang = 0.0, 0.0
-        for j in range(len(self._joints)):
-            r0, n = self._model.jint[j, jk.J_ROW0], self._model.jint[j, jk.J_NROWS]
-            lin = [con[r] for r in range(r0, r0 + n) if rows[r, 1] == jk.ROW_LIN]
-            angs = [abs(con[r]) for r in range(r0, r0 + n) if rows[r, 1] == jk.ROW_ANG]
-            dist = max(dist, math.sqrt(sum(v * v for v in lin)))
-            if angs:
-                ang = max(ang, math.asin(min(1.0, max(angs))))
-        return dist, ang
+        return joint_error(self._model, self._work, self._x)
+
+    def kernel_arrays(self):
+        """
+        Return ``(model, work)``: the joints' arrays of :mod:`rbd_ros.core.joints.kernels`.
+
+        For a step that drives the joint kernels itself (the contact step's joint visits,
+        :mod:`rbd_ros.core.contact.joints`); this simulator's own state is then not stepped.
+        """
+        return self._model, self._work
 
     def energy(self) -> float:
         """Return kinetic plus gravitational potential energy, J (zero potential at the origin)."""

@@ -1,0 +1,292 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+The joints' side of the contact step (Weinstein, Teran, Fedkiw 2006): two visits, one loop.
+
+A joint is a set of constraint rows between two bodies (:mod:`rbd_ros.core.joints.kernels`:
+the rows, their Jacobians and the direct solve of ``J M⁻¹ Jᵀ``, reused here as they are). Its
+impulses are ``Jᵀ μ`` with the rows' Jacobian at the bodies' current pose, so they are equal
+and opposite on the two bodies (a force pair at the joint point, or a torque pair), and a
+free jointed system keeps its momentum.
+
+- :func:`post_stabilize` projects the bodies' twists onto what the joints allow,
+  ``u ← u − M⁻¹ Jᵀ (J M⁻¹ Jᵀ)⁻¹ J u`` (``jk._project_velocities``).
+- :func:`pre_stabilize` finds the impulse after which the step's own drift (the integrator's
+  position update, :func:`_drift`, the very function the step then calls) lands every joint
+  on its rows: Newton on ``C(drift(u + M⁻¹ Jᵀ μ)) = 0`` with the chord ``h J M⁻¹ Jᵀ`` (the
+  factor at the current pose), until every row's error at the drifted pose is at most
+  :data:`~rbd_ros.core.joints.simulator.PROJECTION_TOL`. The positions the step then reaches
+  satisfy the joints to that tolerance with no projection of positions afterwards.
+- :func:`joint_sweeps` interleaves either visit with a contact stage's Gauss–Seidel sweeps
+  (:func:`rbd_ros.core.contact.sweeps._sweeps`): a visit of all joints (one direct solve),
+  then a sweep of the patches from the impulses they hold, until a visit changes no velocity
+  by more than :data:`~rbd_ros.core.contact.rows.SWEEP_TOL_M_S`, or the velocities after two
+  visits differ by no more (impulses circulating between a patch and a joint, see below),
+  at most :data:`JOINT_LOOPS` visits. It ends on a visit, so the joints hold to their
+  tolerance; the contacts hold to what the loop converged to (``stats[J_LEFT]``).
+
+**Where the loop stalls.** A patch is solved as if its bodies were free. Where a joint and a
+patch both hold a motion the contact's linear prediction and the joint's drift disagree about
+at O((ω h)²) (a door landing flush on a post: two levers of one face, each allowed its own
+approach by the contact, one hinge angle), the patch keeps putting impulse on both levers and
+the joint keeps taking the difference back: the velocities are still while the impulses drift
+towards the one answer that loads a single lever, at a constant rate. The loop then stops on
+the still velocities, and the contact is left approaching by what the two disagree about
+(``stats[J_LEFT]``: 1.1e-8 m/s for the door at 1 ms, 2.5e-7 m/s at 10 ms), taken out by the
+contacts' push-out at the next steps. A solve of the patch with the joints' effective mass
+would not stall.
+
+Where each runs is :func:`rbd_ros.core.contact.step.world_step`'s order. Velocities are either
+the state's (``x``: ``v_w``, ``ω_b``) or a stage's (``vel``: ``v_w``, ``ω_w``).
+"""
+
+from collections import namedtuple
+
+import numpy as np
+
+from rbd_ros.core import kernels as kk
+from rbd_ros.core.contact.linalg import patch_scratch
+from rbd_ros.core.contact.rows import _inl, _jit, SWEEP_TOL_M_S
+from rbd_ros.core.contact.sweeps import _residual, _sweeps
+from rbd_ros.core.joints import kernels as jk
+from rbd_ros.core.joints.simulator import PROJECTION_MAX_ITER, PROJECTION_TOL
+from rbd_ros.core.layout import P_INERTIA, S_OMEGA, S_POS, S_QUAT, S_VEL
+
+#: What a jointed world's step carries: the joints' ``model`` and ``work``
+#: (:data:`rbd_ros.core.joints.kernels.ArtModel`, ``ArtWork``), the state in the joints'
+#: layout ``jx`` (N, 13) and a drifted copy ``xt`` (N, 13), ``jointed`` (N,) bool (a body of
+#: some joint), and ``stats``: see :data:`J_ERR` and after.
+JointStage = namedtuple('JointStage', ('model', 'work', 'jx', 'xt', 'jointed', 'stats'))
+#: stats: the largest row error a pre-stabilization left at its drifted pose (m or the cosine
+#: of a right angle), its most Newton iterations, the most visits of one stage's joint loop,
+#: 1 once a pre-stabilization failed to reach the tolerance, and the largest violation of the
+#: contacts' normal conditions a joint loop ended with (m/s, :func:`~rbd_ros.core.contact.
+#: sweeps._residual`).
+J_ERR = 0
+J_ITER = 1
+J_LOOPS = 2
+J_FAIL = 3
+J_LEFT = 4
+J_STATS = 5
+#: What a stage does with the joints (none, post- or pre-stabilization visits), and the cap
+#: of visits of one stage's joint loop.
+VISIT_NONE = 0
+VISIT_POST = 1
+VISIT_PRE = 2
+JOINT_LOOPS = 64
+
+
+@_jit
+def _load(joints, x, vel, from_vel):
+    """Fill ``jx`` from ``x`` (poses), velocities from ``vel`` (``from_vel``) or ``x``."""
+    jx = joints.jx
+    for b in range(jx.shape[0]):
+        for k in range(3):
+            jx[b, k] = x[S_POS + k, b]
+        for k in range(4):
+            jx[b, 3 + k] = x[S_QUAT + k, b]
+        if from_vel:
+            for k in range(3):
+                jx[b, 7 + k] = vel[b, k]
+            jx[b, 10], jx[b, 11], jx[b, 12] = kk._rotate_inv(
+                jx[b, 3], jx[b, 4], jx[b, 5], jx[b, 6], vel[b, 3], vel[b, 4], vel[b, 5])
+        else:
+            for k in range(3):
+                jx[b, 7 + k] = x[S_VEL + k, b]
+                jx[b, 10 + k] = x[S_OMEGA + k, b]
+
+
+@_jit
+def _store(joints, x):
+    """Write ``jx``'s velocities of the jointed bodies back into ``x``."""
+    jx = joints.jx
+    for b in range(jx.shape[0]):
+        if joints.jointed[b]:
+            for k in range(3):
+                x[S_VEL + k, b] = jx[b, 7 + k]
+                x[S_OMEGA + k, b] = jx[b, 10 + k]
+
+
+@_jit
+def _drift(joints, prm, method, h):
+    """
+    Fill ``xt``'s poses with the step's position update of ``jx`` (the integrator's own).
+
+    ``midpoint_cayley``: :func:`rbd_ros.core.kernels.midpoint_drift` from ``Π_b = I_b ω_b``
+    (what :func:`~rbd_ros.core.contact.step.world_step` passes for a jointed body); else
+    :func:`rbd_ros.core.kernels.se_position`. The same inputs give the same bits there.
+    """
+    jx, xt = joints.jx, joints.xt
+    shared = prm.shape[1] == 1
+    for b in range(jx.shape[0]):
+        if not joints.jointed[b]:
+            continue
+        j = 0 if shared else b
+        px, py, pz = jx[b, 0], jx[b, 1], jx[b, 2]
+        qw, qx, qy, qz = jx[b, 3], jx[b, 4], jx[b, 5], jx[b, 6]
+        vx, vy, vz = jx[b, 7], jx[b, 8], jx[b, 9]
+        wx, wy, wz = jx[b, 10], jx[b, 11], jx[b, 12]
+        if method == kk.MIDPOINT_CAYLEY:
+            lx, ly, lz = kk._matvec(prm, P_INERTIA, j, wx, wy, wz)
+            px, py, pz, qw, qx, qy, qz, lx, ly, lz, wx, wy, wz, _ = kk.midpoint_drift(
+                prm, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, lx, ly, lz)
+        else:
+            px, py, pz, qw, qx, qy, qz = kk.se_position(
+                method, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz)
+        xt[b, 0], xt[b, 1], xt[b, 2] = px, py, pz
+        xt[b, 3], xt[b, 4], xt[b, 5], xt[b, 6] = qw, qx, qy, qz
+
+
+@_jit
+def _factor_here(joints):
+    """Rows, Jacobians and the factor of ``J M⁻¹ Jᵀ`` at ``jx``'s pose."""
+    jk.body_derived(joints.model, joints.jx, joints.work)
+    jk.joint_rows(joints.model, joints.jx, joints.work, True)
+    jk.factor(joints.model, joints.work)
+
+
+@_inl
+def _largest(yb):
+    """Return the largest entry of a twist change ``yb`` (N, 6): m/s or rad/s."""
+    m = 0.0
+    for b in range(yb.shape[0]):
+        for k in range(6):
+            m = max(m, abs(yb[b, k]))
+    return m
+
+
+@_jit
+def post_stabilize(joints, x, vel, from_vel):
+    """
+    Project the twists onto the joints (``J u = 0``); return the largest change (m/s, rad/s).
+
+    ``from_vel``: the twists are a stage's ``vel`` (world ``ω``), changed in place; else the
+    state's in ``x``.
+    """
+    _load(joints, x, vel, from_vel)
+    _factor_here(joints)
+    jk._project_velocities(joints.model, joints.jx, joints.work)
+    yb = joints.work.yb
+    if from_vel:
+        for b in range(yb.shape[0]):
+            if joints.jointed[b]:
+                for k in range(6):
+                    vel[b, k] += yb[b, k]
+    else:
+        _store(joints, x)
+    return _largest(yb)
+
+
+@_jit
+def pre_stabilize(joints, x, vel, from_vel, prm, method, h):
+    """
+    Give the joints the impulses after which the drift satisfies them; return the change.
+
+    Newton with the chord ``h J M⁻¹ Jᵀ`` (rows and factor at the current pose, so every
+    impulse is ``Jᵀ μ`` there): ``μ`` solves ``h J M⁻¹ Jᵀ μ = −C(drift(u))`` and
+    ``u += M⁻¹ Jᵀ μ``, until every row's error at the drifted pose is at most
+    :data:`PROJECTION_TOL` (else ``stats[J_FAIL]`` is set). ``from_vel`` as :func:`post_stabilize`.
+    Return the largest change of a twist component one iteration made (m/s, rad/s).
+    """
+    model, work, jx, stats = joints.model, joints.work, joints.jx, joints.stats
+    _load(joints, x, vel, from_vel)
+    _factor_here(joints)
+    zero = work.xs[:, 0:6]
+    for b in range(zero.shape[0]):
+        for k in range(6):
+            zero[b, k] = 0.0
+    bd, yb = work.bd, work.yb
+    total = 0.0
+    for it in range(PROJECTION_MAX_ITER + 1):
+        _drift(joints, prm, method, h)
+        jk.joint_rows(model, joints.xt, work, False)   # C at the drifted pose; J stays here
+        err = jk._max_abs(work.con)
+        if err <= PROJECTION_TOL:
+            stats[J_ERR] = max(stats[J_ERR], err)
+            stats[J_ITER] = max(stats[J_ITER], it)
+            break
+        if it == PROJECTION_MAX_ITER:
+            stats[J_ERR] = max(stats[J_ERR], err)
+            stats[J_FAIL] = 1.0
+            break
+        for r in range(work.con.shape[0]):
+            work.bias[r] = -work.con[r] / h
+        jk.solve(model, work, zero, work.bias, yb, work.yj)
+        for b in range(jx.shape[0]):
+            if not joints.jointed[b]:
+                continue
+            for k in range(3):
+                jx[b, 7 + k] += yb[b, k]
+            if from_vel:
+                for k in range(6):
+                    vel[b, k] += yb[b, k]
+                jx[b, 10], jx[b, 11], jx[b, 12] = kk._rotate_inv(
+                    jx[b, 3], jx[b, 4], jx[b, 5], jx[b, 6], vel[b, 3], vel[b, 4], vel[b, 5])
+            else:
+                t0, t1, t2 = jk._mtv(bd, b, jk.B_ROT, yb[b, 3], yb[b, 4], yb[b, 5])
+                jx[b, 10] += t0
+                jx[b, 11] += t1
+                jx[b, 12] += t2
+        total = max(total, _largest(yb))
+    if not from_vel:
+        _store(joints, x)
+    return total
+
+
+@_jit
+def visit(joints, x, vel, from_vel, prm, method, h, kind):
+    """One visit of every joint of ``kind`` (:data:`VISIT_POST` or :data:`VISIT_PRE`)."""
+    if kind == VISIT_PRE:
+        return pre_stabilize(joints, x, vel, from_vel, prm, method, h)
+    return post_stabilize(joints, x, vel, from_vel)
+
+
+@_inl
+def _moved(vel, last):
+    """Return the largest change of a twist component since ``last`` (m/s, rad/s)."""
+    m = 0.0
+    for b in range(vel.shape[0]):
+        for k in range(6):
+            m = max(m, abs(vel[b, k] - last[b, k]))
+    return m
+
+
+@_jit
+def joint_sweeps(joints, kind, patches, contacts, vel, inv_mass, inv_inertia_w, x, wrench,
+                 coupled, prm, method, h):
+    """
+    Alternate joint visits and sweeps of a stage's patches; end on a visit (see the module).
+
+    The patches hold the impulses of the stage's own sweeps already (and go on from them,
+    clamped in total, as a warm start does).
+    """
+    n = x.shape[1]
+    scr = patch_scratch()
+    before = np.empty((contacts.shape[0], 3))
+    last = np.empty_like(vel)   # the velocities after the last visit
+    loops = 0
+    for loop in range(JOINT_LOOPS):
+        loops = loop + 1
+        change = visit(joints, x, vel, True, prm, method, h, kind)
+        if change <= SWEEP_TOL_M_S or loop == JOINT_LOOPS - 1:
+            break
+        if loop > 0 and _moved(vel, last) <= SWEEP_TOL_M_S:
+            break   # the velocities are still: the impulses only circulate (see the module)
+        last[:] = vel
+        _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n, x, wrench, scr, coupled,
+                True, before)
+    stats = joints.stats
+    stats[J_LOOPS] = max(stats[J_LOOPS], loops)
+    stats[J_LEFT] = max(stats[J_LEFT], _residual(patches, contacts, vel, n, scr))
