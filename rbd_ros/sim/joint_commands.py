@@ -28,7 +28,8 @@ Three ways in, each read into :class:`JointTarget` values (one motor target per 
 - ``<group>/joint_trajectory`` (:mod:`rbd_ros.sim.trajectory`): position targets every step.
 
 Rejected whole, counted by reason (:data:`REJECT_REASONS`), one line naming the field: a joint
-name that the robot does not have or that is given twice, an array whose length is neither 0 nor
+name that the robot does not have or that is given twice, a mimic joint (it follows its
+leader and takes no command), an array whose length is neither 0 nor
 the number of names (a Float64MultiArray: not the group's size), an infinite value (or NaN in a
 Float64MultiArray), a position beyond a limit (the core's rule,
 :func:`rbd_ros.core.joints.model.check_position_target`). A velocity target beyond the URDF's
@@ -48,7 +49,8 @@ from rbd_ros.sim.inputs import WrenchRejected
 from rbd_ros.sim.trajectory import parse_trajectory
 
 #: Rejection reasons, in the order they are checked.
-REJECT_REASONS = ('unknown_joint', 'duplicate_joint', 'length', 'non_finite', 'limit')
+REJECT_REASONS = ('unknown_joint', 'duplicate_joint', 'mimic_joint', 'length', 'non_finite',
+                  'limit')
 #: The interfaces of a command group (ros2_control's command interface names).
 INTERFACES = ('position', 'velocity', 'effort')
 
@@ -126,6 +128,10 @@ def joint_state_targets(topic: str, joints: Sequence[JointSpec], names: Sequence
             raise CommandRejected('duplicate_joint', f'{topic}: name[{k}]: {name!r} is also '
                                   f'name[{seen[name]}]')
         seen[name] = k
+        leader = joints[index[name]].core.mimic
+        if leader is not None:
+            raise CommandRejected('mimic_joint', f'{topic}: name[{k}]: {name!r} is a mimic joint '
+                                  f'(of {leader!r}) and takes no command; command {leader!r}')
     n = len(names)
     fields = [(mode, _floats(topic, mode, values, n))
               for mode, values in zip(INTERFACES, (position, velocity, effort))]

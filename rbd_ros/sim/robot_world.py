@@ -128,7 +128,8 @@ class RobotWorld:
             for joint in placement.joints:
                 joints.append(dataclasses.replace(
                     joint, name=f'{robot.name}/{joint.name}', child=joint.child + b0,
-                    parent=None if joint.parent is None else joint.parent + b0))
+                    parent=None if joint.parent is None else joint.parent + b0,
+                    mimic=None if joint.mimic is None else f'{robot.name}/{joint.mimic}'))
             self._moving.append(tuple(j0 + robot.robot.joint(name).core
                                       for name in robot.joint_names))
             self._bodies.append((b0, len(placement.models)))

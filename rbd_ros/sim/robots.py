@@ -35,7 +35,8 @@ The parameters (these names exactly; a list parameter is never the prefix of its
   :class:`rbd_ros.core.joints.Joint`); default the URDF's ``<dynamics damping friction>``, else
   0. A recording stores the values used, so replay does not depend on these defaults.
 - ``command_group_names`` (string[]) with ``command_groups.<g>.robot``, ``.joints`` (string[],
-  the group's joints in its order; ``[]`` = every moving joint of the robot) and
+  the group's joints in its order, no mimic joint; ``[]`` = every moving joint of the robot
+  but the mimics) and
   ``.interface`` (``position``, ``velocity`` or ``effort``): a ``Float64MultiArray`` on
   ``<g>/commands`` and a ``JointTrajectory`` on ``<g>/joint_trajectory``
   (:mod:`rbd_ros.sim.joint_commands`, :mod:`rbd_ros.sim.trajectory`).
@@ -76,8 +77,9 @@ def group_parameter_specs(name: str) -> Tuple[ParamSpec, ...]:
         ParamSpec(prefix + 'robot', STRING, '', '', f'Group {name!r}: its robot.',
                   rule='one of robot_names'),
         ParamSpec(prefix + 'joints', STRING_ARRAY, (), '',
-                  f'Group {name!r}: its joints in command order; [] = every moving joint.',
-                  rule="moving joints of the group's robot, each once"),
+                  f'Group {name!r}: its joints in command order; [] = every moving joint '
+                  'but the mimics.',
+                  rule="moving joints of the group's robot, each once, no mimic"),
         ParamSpec(prefix + 'interface', STRING, 'position', '',
                   f"Group {name!r}: what <group>/commands values are: 'position', "
                   "'velocity' or 'effort'.", rule='one of position, velocity, effort'),
@@ -120,12 +122,16 @@ def read_command_groups(params, robots) -> Tuple[CommandGroup, ...]:
         if robot_name not in by_name:
             fail(robot_spec, robot_name, f'must be one of robot_names ({", ".join(by_name)})')
         robot = robots[by_name[robot_name]]
-        joints = _value(params, joints_spec) or robot.joint_names
+        joints = _value(params, joints_spec) or robot.command_joints
         index = []
         for joint in joints:
             if joint not in robot.joint_names:
                 fail(joints_spec, list(joints), f'{joint!r} is not a moving joint of robot '
                      f'{robot_name!r} ({", ".join(robot.joint_names)})')
+            leader = robot.robot.joint(joint).mimic
+            if leader is not None:
+                fail(joints_spec, list(joints), f'{joint!r} is a mimic joint (of '
+                     f'{leader[0]!r}) and takes no command; list {leader[0]!r}')
             if robot.joint_names.index(joint) in index:
                 fail(joints_spec, list(joints), f'{joint!r} is listed twice')
             index.append(robot.joint_names.index(joint))
@@ -208,6 +214,12 @@ class RobotConfig:
     def joint_names(self) -> Tuple[str, ...]:
         """Return the moving joints, in ``joint_states`` order."""
         return self.robot.moving_joints
+
+    @property
+    def command_joints(self) -> Tuple[str, ...]:
+        """Return the moving joints that take commands: all but the mimics, in order."""
+        return tuple(name for name in self.robot.moving_joints
+                     if self.robot.joint(name).mimic is None)
 
     def joint_specs(self) -> Tuple[JointSpec, ...]:
         """Return each moving joint's :class:`~rbd_ros.sim.joint_commands.JointSpec`."""

@@ -40,8 +40,14 @@ The XML is parsed strictly by lxml (a malformed file is refused, not recovered) 
   become its core joint's ``damping`` (N m s/rad or N s/m) and ``friction`` (N m or N), each
   >= 0 (the robot's ``robots.<name>.joints.<joint>.damping`` and ``.friction`` parameters
   override them); a planar joint's are kept as data only.
+* **Mimic.** ``<mimic joint multiplier offset>`` on a revolute, continuous or prismatic joint
+  of one of those kinds holds ``q = multiplier q_joint + offset`` exactly (the core joint's
+  ``mimic``, a constraint row). Its initial position and velocity follow its leader's (a value
+  given for it must agree); it takes no command. Refused with one line naming the joint: a
+  mimic of itself, of an unknown joint, of a joint of another kind, a cycle of mimics, a
+  non-finite multiplier or offset.
 * **Kept as data, not simulated yet:** ``<limit velocity>`` (it clips commanded velocities in
-  :mod:`rbd_ros.sim.joint_commands`) and ``<mimic>`` (a mimic joint moves freely).
+  :mod:`rbd_ros.sim.joint_commands`).
 * **Collisions.** Every ``<collision>`` (box, cylinder, sphere, mesh with scale) becomes a
   :class:`RobotCollision`: the shape centred in its own frame and that frame's pose in the body
   frame. The core has no compound shape or shape offset yet; all elements are kept.
@@ -116,7 +122,8 @@ class RobotJoint:
 
     ``velocity`` (the ``<limit>`` velocity), ``damping`` and ``friction`` (``<dynamics>``, N m
     s/rad or N s/m and N m or N; simulated on revolute, continuous and prismatic joints) and
-    ``mimic`` (``(joint, multiplier, offset)``, data for later); ``core`` is the index of its
+    ``mimic`` (``(joint, multiplier, offset)``: held, see the module docstring); ``core`` is
+    the index of its
     :class:`Joint` in :attr:`Placement.joints`, or None (folded fixed joints, floating).
     """
 
@@ -413,7 +420,7 @@ def _joint_values(source, joint):
     mimic = None
     if joint.mimic is not None:
         mimic = (joint.mimic.joint, _number(joint.mimic.multiplier, source,
-                                            f'{who}.mimic.multiplier', '', 1.0),
+                                            f'{who}.mimic.multiplier', 'per leader unit', 1.0),
                  _number(joint.mimic.offset, source, f'{who}.mimic.offset', unit, 0.0))
     axis = np.asarray(joint.axis if joint.axis is not None else (1.0, 0.0, 0.0), float)
     norm = float(np.linalg.norm(axis)) if axis.shape == (3,) else 0.0
@@ -495,9 +502,62 @@ def load_urdf(path=None, *, xml=None) -> Robot:
         origin.flags.writeable = False
         joints.append(RobotJoint(joint.name, joint.type, joint.parent, joint.child, origin,
                                  values[7], *values[:7], index))
+    _check_mimics(source, joints)
     moving = tuple(j.name for j in joints if j.kind in MOVING_TYPES)
     return Robot(parsed.name, source, data.decode(), tuple(links), tuple(joints),
                  tuple(link_order), moving, fixed_to_world, root)
+
+
+def _check_mimics(source, joints):
+    """Refuse a ``<mimic>`` of itself, of an unknown joint or another kind, or a cycle."""
+    by_name = {joint.name: joint for joint in joints}
+    for joint in joints:
+        if joint.mimic is None:
+            continue
+        field, leader = f'joint {joint.name!r}.mimic.joint', joint.mimic[0]
+        if joint.kind not in MOVING_TYPES:
+            _fail(ModelError, source, field, f'{leader!r}; a {joint.kind} joint cannot mimic '
+                  f'(only {", ".join(MOVING_TYPES)} can)', leader)
+        if leader == joint.name:
+            _fail(ModelError, source, field, f'{leader!r} is the joint itself', leader)
+        if leader not in by_name:
+            _fail(ModelError, source, field, f'{leader!r} is not a joint of this robot', leader)
+        if by_name[leader].kind not in MOVING_TYPES:
+            _fail(ModelError, source, field, f'{leader!r} is a {by_name[leader].kind} joint; a '
+                  f'mimic follows a {", ".join(MOVING_TYPES)} joint', leader)
+        chain, seen = by_name[leader], {joint.name}
+        while chain is not None:
+            if chain.name in seen:
+                _fail(ModelError, source, field, f'{leader!r} leads back to {joint.name!r} (a '
+                      'cycle of mimics)', leader)
+            seen.add(chain.name)
+            chain = None if chain.mimic is None else by_name[chain.mimic[0]]
+
+
+def _mimic_values(source, robot, q_values, qd_values, given):
+    """Set each mimic's initial coordinate and rate from its leader's; refuse a mismatch."""
+    index = {name: k for k, name in enumerate(robot.moving_joints)}
+
+    def follow(name):
+        joint = robot.joint(name)
+        k = index[name]
+        if joint.mimic is not None:
+            lead, mult, offset = joint.mimic
+            q_l, qd_l = follow(lead)
+            for values, value, field, unit, was_given in (
+                    (q_values, mult * q_l + offset, 'initial_joint_positions', 'rad or m',
+                     given[0]),
+                    (qd_values, mult * qd_l, 'initial_joint_velocities', 'rad/s or m/s',
+                     given[1])):
+                if was_given and abs(values[k] - value) > 1e-9 * max(1.0, abs(value)):
+                    _fail(ConfigError, source, f'{field}[{k}]', f'{float(values[k])!r} for '
+                          f'joint {name!r}, a mimic of {lead!r}, must be {value!r} (multiplier '
+                          f'{mult!r} times its value plus offset)', float(values[k]), unit)
+                values[k] = value
+        return float(q_values[k]), float(qd_values[k])
+
+    for name in robot.moving_joints:
+        follow(name)
 
 
 def _perpendicular(axis):
@@ -559,6 +619,8 @@ def place_robot(robot: Robot, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0
     root_pose = np.eye(4)
     root_pose[:3, :3] = quat_to_matrix(quat / norm)
     root_pose[:3, 3] = position
+    _mimic_values(source, robot, q_values, qd_values,
+                  (joint_positions is not None, joint_velocities is not None))
     coordinate = dict(zip(robot.moving_joints, zip(q_values, qd_values)))
     for k, name in enumerate(robot.moving_joints):
         joint = robot.joint(name)
@@ -621,6 +683,9 @@ def place_robot(robot: Robot, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0
         if kind in MOVING_TYPES:
             extra.update(effort_limit=joint.effort, damping=joint.damping,
                          friction=joint.friction)
+            if joint.mimic is not None:
+                extra.update(mimic=joint.mimic[0], mimic_multiplier=joint.mimic[1],
+                             mimic_offset=joint.mimic[2])
         if kind == 'planar':
             extra['axis2_b'] = rot @ _perpendicular(joint.axis)
         joints.append(Joint(joint.name, kind, parent.body, child.body,

@@ -190,6 +190,20 @@ def _gravity_torques(q):
     return np.array([G * sum(x_com[i] - ends[k] for i in range(k, 3)) for k in range(3)])
 
 
+def _commanding(probe, robot, group_name):
+    """Return ``(latest, group, direct)``: the last joint_states and the two command topics."""
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64MultiArray
+    latest = {}
+    probe.node.create_subscription(JointState, f'{robot}/joint_states',
+                                   lambda m: latest.__setitem__('js', m), 10)
+    group = probe.node.create_publisher(Float64MultiArray, f'{group_name}/commands', 10)
+    direct = probe.node.create_publisher(JointState, f'{robot}/joint_command', 10)
+    probe.wait(lambda: group.get_subscription_count() and direct.get_subscription_count()
+               and 'js' in latest, 60, f'the {robot} node')
+    return latest, group, direct
+
+
 def test_commands_reach_their_targets_and_hold_them_against_gravity(
         start_node, probe_for, tmp_path):
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -197,13 +211,7 @@ def test_commands_reach_their_targets_and_hold_them_against_gravity(
     from std_msgs.msg import Float64MultiArray, String
     node = start_node({**_arm_params(), 'record_path': str(tmp_path / 'live')}, namespace=True)
     probe = probe_for(node, inputs=(), outputs=('diagnostics',))
-    latest = {}
-    probe.node.create_subscription(JointState, 'arm/joint_states',
-                                   lambda m: latest.__setitem__('js', m), 10)
-    group = probe.node.create_publisher(Float64MultiArray, 'arm_group/commands', 10)
-    direct = probe.node.create_publisher(JointState, 'arm/joint_command', 10)
-    probe.wait(lambda: group.get_subscription_count() and direct.get_subscription_count()
-               and 'js' in latest, 60, 'the arm node')
+    latest, group, direct = _commanding(probe, 'arm', 'arm_group')
 
     def settled(target):
         js = latest.get('js')
@@ -311,3 +319,47 @@ def test_a_relative_urdf_path_is_relative_to_the_params_file(start_node, tmp_pat
         'real_time_factor': 0.0})
     node = start_node(params_file=params)  # the node runs in tmp_path, not beside the file
     assert node.wait(120) == 0, node.stderr
+
+
+def test_a_mimic_gripper_is_an_atwood_machine_and_takes_commands_on_its_leader(
+        start_node, probe_for, tmp_path):
+    # gripper.urdf: finger_right mimics finger_left (multiplier 1), masses m_l = 0.1 kg and
+    # m_r = 0.3 kg sliding along ±y. Under gravity -y: q'' = g (m_r - m_l) / (m_l + m_r) and
+    # finger_right's effort, the mimic's constraint force, -2 m_l m_r g / (m_l + m_r).
+    m_l, m_r = 0.1, 0.3
+    bag = _run_to_end(start_node, tmp_path, {
+        'robot_names': ['gripper'], 'robots.gripper.urdf_path': str(URDF / 'gripper.urdf'),
+        'gravity': [0.0, -G, 0.0], 'duration_s': 0.2, 'publish_rate_hz': 100.0})
+    samples = _joint_states(bag, '/gripper/joint_states')
+    assert samples[0][1] == ['finger_left', 'finger_right'] and len(samples) == 21
+    acc = G * (m_r - m_l) / (m_l + m_r)
+    force = -2.0 * m_l * m_r * G / (m_l + m_r)
+    for stamp, _, position, velocity, effort in samples[1:]:
+        t = stamp * 1e-9
+        # RK4 integrates the constant acceleration exactly; the projection holds the mimic
+        # row to 1e-13 m: round-off of ~200 steps on 0.1 m values, 1e-12 m
+        assert abs(position[0] - 0.5 * acc * t * t) <= 1e-12, (t, position)
+        assert abs(position[1] - position[0]) <= 1e-12
+        assert abs(velocity[0] - acc * t) <= 1e-12 and abs(velocity[1] - velocity[0]) <= 1e-12
+        # the multiplier of a direct solve: round-off on O(1) N values
+        assert effort[0] == 0.0 and abs(effort[1] - force) <= 1e-12, effort
+    result = replay_bag(bag)
+    assert result.match, result.problems
+
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64MultiArray
+    node = start_node({'robot_names': ['gripper'],
+                       'robots.gripper.urdf_path': str(URDF / 'gripper.urdf'),
+                       'command_group_names': ['fingers'], 'command_groups.fingers.robot':
+                       'gripper'}, namespace=True)
+    probe = probe_for(node, inputs=(), outputs=('diagnostics',))
+    latest, group, direct = _commanding(probe, 'gripper', 'fingers')
+    # the default group is every joint but the mimic: one value, finger_left's position
+    group.publish(Float64MultiArray(data=[0.03]))
+    probe.wait(lambda: np.allclose(latest['js'].position, [0.03, 0.03], atol=1e-12, rtol=0),
+               30, 'both fingers at 0.03 m')
+    direct.publish(JointState(name=['finger_right'], position=[0.01]))
+    values = probe.diagnostic_values(lambda v: v.get('commands_rejected') == '1', 30)
+    assert values['commands_rejected_mimic_joint'] == '1'
+    assert np.allclose(latest['js'].position, [0.03, 0.03], atol=1e-12, rtol=0)
+    assert node.stop() == 0

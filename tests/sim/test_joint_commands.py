@@ -113,3 +113,30 @@ def test_bad_groups_are_refused_at_start(arm, extra, words):
     with pytest.raises(ConfigError) as caught:
         read_command_groups({'command_group_names': ['g'], **extra}, [arm])
     assert words in str(caught.value) and '\n' not in str(caught.value)
+
+
+GRIPPER = os.path.join(ROOT, 'msg_config', 'urdf', 'gripper.urdf')
+
+
+@pytest.fixture(scope='module')
+def gripper():
+    (robot,) = read_robots({'robot_names': ['gripper'], 'robots.gripper.urdf_path': GRIPPER})
+    return robot
+
+
+def test_a_mimic_joint_takes_no_command_and_no_place_in_a_group(gripper):
+    assert gripper.joint_names == ('finger_left', 'finger_right')
+    with pytest.raises(CommandRejected) as caught:
+        joint_state_targets('gripper/joint_command', gripper.joint_specs(),
+                            ['finger_left', 'finger_right'], position=[0.01, 0.01])
+    assert caught.value.reason == 'mimic_joint'
+    assert str(caught.value) == (
+        "gripper/joint_command: name[1]: 'finger_right' is a mimic joint (of 'finger_left') "
+        "and takes no command; command 'finger_left'")
+    (group,) = read_command_groups({'command_group_names': ['g'],
+                                    'command_groups.g.robot': 'gripper'}, [gripper])
+    assert group.joints == (0,)   # [] = every moving joint but the mimics
+    with pytest.raises(ConfigError, match=r"command_groups.g.joints.*'finger_right' is a mimic "
+                                          r"joint \(of 'finger_left'\) and takes no command"):
+        read_command_groups({'command_group_names': ['g'], 'command_groups.g.robot': 'gripper',
+                             'command_groups.g.joints': ['finger_right']}, [gripper])

@@ -206,10 +206,19 @@ def test_every_joint_type_maps_to_the_core(tmp_path):
     spin = robot.joint('spin')
     assert spin.mimic == ('slide', 2.0, 0.1) and spin.damping == 0.2 and spin.effort == 3.0
     assert robot.joint('loose').core is None
-    q, qd = np.array([0.3, 0.7]), np.array([0.2, -1.0])
+    # spin mimics slide: q_spin = 2 q_slide + 0.1, q̇_spin = 2 q̇_slide
+    q, qd = np.array([0.3, 0.7]), np.array([0.2, 0.4])
     placed = place_robot(robot, position_w=(0.0, 0.0, 1.0), joint_positions=q,
                          joint_velocities=qd, gravity_w=(0.0, 0.0, 0.0))
     assert [j.kind for j in placed.joints] == ['prismatic', 'continuous', 'planar', 'fixed']
+    mimic = placed.joints[1]
+    assert (mimic.mimic, mimic.mimic_multiplier, mimic.mimic_offset) == ('slide', 2.0, 0.1)
+    # a value for the mimic that disagrees with its leader is refused, naming both
+    with pytest.raises(ConfigError, match=r'initial_joint_velocities\[1\]: -1.0 for joint '
+                                          r"'spin', a mimic of 'slide', must be 0.4 "):
+        place_robot(robot, joint_positions=q, joint_velocities=[0.2, -1.0])
+    # none given: the mimic follows its leader from zeros, q_spin = offset
+    assert place_robot(robot).joints[1].mimic == 'slide'
     assert placed.joints[0].lower == -1.0 and placed.joints[1].effort_limit == 3.0
     # <dynamics damping="0.2"/> of the continuous joint is simulated; friction absent means 0
     assert (placed.joints[1].damping, placed.joints[1].friction) == (0.2, 0.0)
@@ -370,3 +379,37 @@ def test_missing_file_and_bad_xacro(tmp_path):
     path.write_text('<robot xmlns:xacro="http://www.ros.org/wiki/xacro" name="r">'
                     '<link name="${undefined}"/></robot>')
     refused(ConfigError, str(path), str(path), 'xacro failed')
+
+
+MIMIC_BASE = (link('base') + joint('a', 'revolute', 'base', 'one',
+                                   '<axis xyz="0 0 1"/><limit lower="-1" upper="1"/>')
+              + link('one'))
+
+
+@pytest.mark.parametrize('extra, words', [
+    ('<mimic joint="b"/>', "joint 'b'.mimic.joint: 'b' is the joint itself"),
+    ('<mimic joint="zz"/>', "joint 'b'.mimic.joint: 'zz' is not a joint of this robot"),
+    ('<mimic joint="weld"/>', "joint 'b'.mimic.joint: 'weld' is a fixed joint; a mimic "
+                              'follows a revolute, continuous, prismatic joint'),
+    ('<mimic joint="a" multiplier="nan"/>',
+     "joint 'b'.mimic.multiplier: nan per leader unit must be finite"),
+    ('<mimic joint="a" offset="inf"/>', "joint 'b'.mimic.offset: inf rad must be finite"),
+])
+def test_bad_mimics_are_refused_in_one_line(tmp_path, extra, words):
+    body = (MIMIC_BASE + joint('b', 'continuous', 'base', 'two', extra) + link('two')
+            + joint('weld', 'fixed', 'base', 'three') + link('three'))
+    with pytest.raises(ModelError) as info:
+        load_urdf(write(tmp_path, body))
+    assert words in str(info.value) and '\n' not in str(info.value)
+
+
+def test_a_cycle_of_mimics_and_a_planar_mimic_are_refused(tmp_path):
+    body = (link('base') + joint('a', 'continuous', 'base', 'one', '<mimic joint="b"/>')
+            + link('one') + joint('b', 'continuous', 'base', 'two', '<mimic joint="a"/>')
+            + link('two'))
+    with pytest.raises(ModelError, match=r"joint 'a'.mimic.joint: 'b' leads back to 'a'"):
+        load_urdf(write(tmp_path, body))
+    body = MIMIC_BASE + joint('p', 'planar', 'base', 'two', '<mimic joint="a"/>') + link('two')
+    with pytest.raises(ModelError, match=r"joint 'p'.mimic.joint: 'a'; a planar joint cannot "
+                                         'mimic'):
+        load_urdf(write(tmp_path, body))

@@ -255,7 +255,7 @@ class WorldSimulator(BatchSimulator):
     :param joints: :class:`~rbd_ros.core.joints.model.Joint` values between the bodies (by
         index, ``parent=None`` the world), as :class:`~rbd_ros.core.joints.ArticulatedSimulator`
         takes them and checks them; the states are projected onto them first, as there.
-        Without limits (a cone's too), motors, damping or friction for now (refused in one
+        Without limits (a cone's too), motors, damping, friction or mimics for now (refused in one
         line). A jointed body collides as any other; two bodies of one joint collide with
         each other too (give them shapes that clear at the joint).
     :raises ModelError: a bad body, or bodies starting inside each other or the static world.
@@ -324,7 +324,8 @@ class WorldSimulator(BatchSimulator):
                                        ('upper', joint.upper, None),
                                        ('cone_rad', joint.cone_rad, None),
                                        ('damping', joint.damping, 0.0),
-                                       ('friction', joint.friction, 0.0)):
+                                       ('friction', joint.friction, 0.0),
+                                       ('mimic', joint.mimic, None)):
                 if value != unset:
                     raise ConfigError(f'{who}.{name}: {value!r}; a world with contact takes '
                                       f'no joint {name} yet (leave it {unset!r})')

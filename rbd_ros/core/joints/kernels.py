@@ -66,6 +66,11 @@ ROW_MOTOR = 3
 #: velocity row, ``q̈ = 0`` inside the step), its multiplier bounded by the friction; absent
 #: from the position projection. Only joints with friction have one.
 ROW_FRICTION = 4
+#: A mimic row: ``C = q_m - k q_l - c`` between a mimic joint ``m`` (the row's joint) and its
+#: leader ``l`` (``rows[row, 3]``), ``k`` and ``c`` in ``jprm`` (:data:`J_MIMIC_K`,
+#: :data:`J_MIMIC_C`). Its Jacobian spans four bodies: columns 0-11 the mimic joint's axial
+#: row (parent, child), 12-23 ``-k`` times the leader's; always held, so the dense solver.
+ROW_MIMIC = 5
 MOTOR_OFF = 0
 MOTOR_EFFORT = 1
 MOTOR_VELOCITY = 2
@@ -118,7 +123,8 @@ J_NROWS = 4      # rows of the kind, plus one for a limit (the last; active or n
 J_LIMROW = 5     # index of the limit row, or -1
 J_MOTROW = 6     # index of the motor row (1-dof kinds), or -1
 J_FRICROW = 7    # index of the friction row (joints with friction), or -1
-J_INT_SIZE = 8
+J_MIMROW = 8     # index of the mimic row (a mimic joint), or -1
+J_INT_SIZE = 9
 # jprm columns
 J_ORIGIN_P = 0
 J_ORIGIN_C = 3
@@ -127,7 +133,9 @@ J_BASIS_C = 15   # the same three at rest, in child coordinates
 J_QREST = 24
 J_DAMPING = 28   # viscous damping, N m s/rad or N s/m
 J_FRICTION = 29  # Coulomb friction, N m or N
-J_PRM_SIZE = 30
+J_MIMIC_K = 30   # a mimic joint's multiplier (its leader's coordinate unit to its own)
+J_MIMIC_C = 31   # a mimic joint's offset, rad or m
+J_PRM_SIZE = 32
 # bd columns (derived per body at one configuration)
 B_ROT = 0
 B_IW = 9
@@ -139,7 +147,10 @@ B_SIZE = 27
 ArtModel = namedtuple('ArtModel', 'prm jint jprm jlim rows order node_par node_dim dense')
 #: Preallocated work arrays (nothing is allocated inside a step).
 ArtWork = namedtuple('ArtWork', 'bd jac con bias D Hp W rhs y A mj drop k xs yb yj lam '
-                     'wrench angle stats nrow dim active lim_state lim0 x0 k0 jrows motor fric')
+                     'wrench angle stats nrow dim active lim_state lim0 x0 k0 jrows motor fric '
+                     'axial')
+# work.axial columns: each one-coordinate joint's coordinate (rad, running for continuous
+# joints; m) and its axial row's J̇ u, from the last joint_rows (the mimic rows' parts)
 # work.fric columns: the friction state (the sliding direction s = ±1, the friction force
 # being -friction s; 0 stuck, its row held when no motor row or limit holds the joint; 2 not
 # decided yet), the state and the row's activity saved at a sub-step's start, the friction's
@@ -221,6 +232,24 @@ def _mtv(m, i, off, x0, x1, x2):
     return (m[i, off] * x0 + m[i, off + 3] * x1 + m[i, off + 6] * x2,
             m[i, off + 1] * x0 + m[i, off + 4] * x1 + m[i, off + 7] * x2,
             m[i, off + 2] * x0 + m[i, off + 5] * x1 + m[i, off + 8] * x2)
+
+
+@_inl
+def _side_body(model, row, side):
+    """Return the body of ``jac`` columns ``6 side..6 side + 5`` of ``row`` (-1: none, world)."""
+    if side < 2:
+        j = model.rows[row, 0]
+    elif model.rows[row, 1] == ROW_MIMIC:
+        j = model.rows[row, 3]
+    else:
+        return -1
+    return model.jint[j, J_CHILD] if side % 2 == 1 else model.jint[j, J_PARENT]
+
+
+@_inl
+def _n_sides(model, row):
+    """Return the number of body sides of ``row``'s Jacobian: 4 for a mimic row, else 2."""
+    return 4 if model.rows[row, 1] == ROW_MIMIC else 2
 
 
 @_jit
@@ -423,6 +452,8 @@ def joint_rows(model, x, work, full):
             acc0, acc1, acc2 = a0 - b0, a1 - b1, a2 - b2
         for r in range(jint[j, J_NROWS]):
             row = row0 + r
+            if rows[row, 1] == ROW_MIMIC:
+                continue   # filled below, once every joint's axial row is
             k = rows[row, 2]
             m0, m1, m2 = (jprm[j, J_BASIS_P + 3 * k], jprm[j, J_BASIS_P + 3 * k + 1],
                           jprm[j, J_BASIS_P + 3 * k + 2])
@@ -530,6 +561,9 @@ def joint_rows(model, x, work, full):
             elif kind == ROW_MOTOR:
                 # not a position row: the projection leaves the motor's coordinate alone
                 con[row] = 0.0
+                work.axial[j, 0] = coord
+                if full:
+                    work.axial[j, 1] = bias[row]
                 if full and work.motor[j, M_MODE] == MOTOR_POSITION:
                     # e'' = -2 w e' - w^2 e, e = q - q*(t): the exact critically damped
                     # response about the (moving) target
@@ -544,6 +578,21 @@ def joint_rows(model, x, work, full):
                 con[row] = 0.0
                 if full:
                     bias[row] = 0.0
+    # mimic rows, C = q_m - k q_l - c: J = (J_m, -k J_l) (the two joints' motor rows' J),
+    # J̇ u = (J̇ u)_m - k (J̇ u)_l
+    for j in range(jint.shape[0]):
+        row = jint[j, J_MIMROW]
+        if row < 0:
+            continue
+        lead = rows[row, 3]
+        k = jprm[j, J_MIMIC_K]
+        con[row] = work.axial[j, 0] - k * work.axial[lead, 0] - jprm[j, J_MIMIC_C]
+        if full:
+            rm, rl = jint[j, J_MOTROW], jint[lead, J_MOTROW]
+            for i in range(12):
+                jac[row, i] = jac[rm, i]
+                jac[row, 12 + i] = -k * jac[rl, i]
+            bias[row] = work.axial[j, 1] - k * work.axial[lead, 1]
 
 
 @_inl
@@ -702,14 +751,13 @@ def _eliminate(D, Hp, W, i, di, p, dp):
 
 @_jit
 def _dense_factor(model, work):
-    jint, rows, bd, jac, mj, A = model.jint, model.rows, work.bd, work.jac, work.mj, work.A
+    rows, bd, jac, mj, A = model.rows, work.bd, work.jac, work.mj, work.A
     n_r = rows.shape[0]
     prm = model.prm
     # M⁻¹ Jᵀ per row and body side: linear / m, angular R I_b⁻¹ Rᵀ
     for row in range(n_r):
-        j = rows[row, 0]
-        for side in range(2):
-            b = jint[j, J_CHILD] if side == 1 else jint[j, J_PARENT]
+        for side in range(_n_sides(model, row)):
+            b = _side_body(model, row, side)
             o = 6 * side
             if b < 0:
                 for k in range(6):
@@ -722,16 +770,14 @@ def _dense_factor(model, work):
             t0, t1, t2 = _mv(prm, b, P_INERTIA_INV, t0, t1, t2)
             mj[row, o + 3], mj[row, o + 4], mj[row, o + 5] = _mv(bd, b, B_ROT, t0, t1, t2)
     for r in range(n_r):
-        jr = rows[r, 0]
         for s in range(r + 1):
-            js = rows[s, 0]
             acc = 0.0
-            for sr in range(2):
-                br = jint[jr, J_CHILD] if sr == 1 else jint[jr, J_PARENT]
+            for sr in range(_n_sides(model, r)):
+                br = _side_body(model, r, sr)
                 if br < 0:
                     continue
-                for ss in range(2):
-                    bs = jint[js, J_CHILD] if ss == 1 else jint[js, J_PARENT]
+                for ss in range(_n_sides(model, s)):
+                    bs = _side_body(model, s, ss)
                     if bs != br:
                         continue
                     for k in range(6):
@@ -835,10 +881,9 @@ def solve(model, work, rb, rj, yb, yj):
         t0, t1, t2 = _mv(prm, b, P_INERTIA_INV, t0, t1, t2)
         yb[b, 3], yb[b, 4], yb[b, 5] = _mv(bd, b, B_ROT, t0, t1, t2)
     for r in range(n_r):
-        j = rows[r, 0]
         s = -rj[r]
-        for side in range(2):
-            b = jint[j, J_CHILD] if side == 1 else jint[j, J_PARENT]
+        for side in range(_n_sides(model, r)):
+            b = _side_body(model, r, side)
             if b >= 0:
                 for k in range(6):
                     s += jac[r, 6 * side + k] * yb[b, k]
@@ -856,9 +901,8 @@ def solve(model, work, rb, rj, yb, yj):
             s -= A[k, r] * yj[k]
         yj[r] = 0.0 if work.drop[r] else s
     for r in range(n_r):
-        j = rows[r, 0]
-        for side in range(2):
-            b = jint[j, J_CHILD] if side == 1 else jint[j, J_PARENT]
+        for side in range(_n_sides(model, r)):
+            b = _side_body(model, r, side)
             if b >= 0:
                 for k in range(6):
                     yb[b, k] -= mj[r, 6 * side + k] * yj[r]
@@ -1037,7 +1081,7 @@ def _project_positions(model, x, work, tol, max_iter, refactor_after):
 @_jit
 def _project_velocities(model, x, work):
     """With rows and factor at ``x``: ``u ← u - M⁻¹ Jᵀ (J M⁻¹ Jᵀ)⁻¹ J u``."""
-    jint, rows, jac, bd = model.jint, model.rows, work.jac, work.bd
+    rows, jac, bd = model.rows, work.jac, work.bd
     zero = work.xs[:, 0:6]
     for b in range(zero.shape[0]):
         for k in range(6):
@@ -1045,8 +1089,8 @@ def _project_velocities(model, x, work):
     for r in range(rows.shape[0]):
         j = rows[r, 0]
         s = 0.0
-        for side in range(2):
-            b = jint[j, J_CHILD] if side == 1 else jint[j, J_PARENT]
+        for side in range(_n_sides(model, r)):
+            b = _side_body(model, r, side)
             if b >= 0:
                 o = 6 * side
                 for k in range(3):

@@ -74,6 +74,12 @@ class Joint:
     :param friction: Coulomb friction along the joint coordinate (N m rotary, N prismatic),
         >= 0: the joint sticks while the force that holds it is within ``friction`` and slides
         against ``∓friction`` otherwise; one-coordinate kinds only.
+    :param mimic: the name of the joint this one mimics, or ``None``: the coordinate is held
+        at ``q = mimic_multiplier q_leader + mimic_offset`` by a constraint row (URDF
+        ``<mimic>``); both joints one-coordinate kinds (revolute, continuous, prismatic, in any
+        pairing: the multiplier carries the units). A mimic joint takes no motor.
+    :param mimic_multiplier: ``k``, finite (rad/rad, m/m, m/rad or rad/m).
+    :param mimic_offset: ``c``, finite, rad or m (this joint's unit).
     """
 
     name: str
@@ -91,6 +97,9 @@ class Joint:
     effort_limit: Optional[float] = None
     damping: float = 0.0
     friction: float = 0.0
+    mimic: Optional[str] = None
+    mimic_multiplier: float = 1.0
+    mimic_offset: float = 0.0
 
     def __post_init__(self):
         """Validate every field; one :class:`ModelError` line naming the joint and field."""
@@ -160,6 +169,20 @@ class Joint:
                 raise ModelError(f'{who}.{field}: {value!r}; a {self.kind} joint takes no '
                                  f'{field} (only {", ".join(MOTOR_KINDS)} do)')
             set_(self, field, value)
+        set_(self, 'mimic_multiplier', finite_scalar(self.mimic_multiplier,
+                                                     f'{who}.mimic_multiplier', 'per leader unit',
+                                                     error=ModelError))
+        set_(self, 'mimic_offset', finite_scalar(self.mimic_offset, f'{who}.mimic_offset',
+                                                 unit, error=ModelError))
+        if self.mimic is not None:
+            if not isinstance(self.mimic, str):
+                raise ModelError(f'{who}.mimic: {self.mimic!r} is not a joint name')
+            if self.mimic == self.name:
+                raise ModelError(f'{who}.mimic: {self.mimic!r} is the joint itself; a joint '
+                                 'cannot mimic itself')
+            if self.kind not in MOTOR_KINDS:
+                raise ModelError(f'{who}.mimic: {self.mimic!r}; a {self.kind} joint cannot '
+                                 f'mimic (only {", ".join(MOTOR_KINDS)} can)')
 
     @property
     def dof(self) -> int:

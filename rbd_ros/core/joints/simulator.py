@@ -128,6 +128,28 @@ def _tree(n_bodies, joints):
     return False, np.array(order, dtype=np.int64), np.array(par, dtype=np.int64)
 
 
+def _check_mimics(joints):
+    """Refuse a mimic of an unknown joint, of a joint without one coordinate, or a cycle."""
+    by_name = {joint.name: joint for joint in joints}
+    for joint in joints:
+        if joint.mimic is None:
+            continue
+        who = f'joint {joint.name!r}.mimic'
+        leader = by_name.get(joint.mimic)
+        if leader is None:
+            raise ConfigError(f'{who}: {joint.mimic!r} is not a joint of this system')
+        if leader.kind not in MOTOR_KINDS:
+            raise ConfigError(f'{who}: {joint.mimic!r} is a {leader.kind} joint; a mimic '
+                              f'follows a {", ".join(MOTOR_KINDS)} joint')
+        chain, seen = joint, {joint.name}
+        while chain.mimic is not None:
+            chain = by_name[chain.mimic]
+            if chain.name in seen:
+                raise ConfigError(f'{who}: {joint.mimic!r} leads back to {joint.name!r} (a '
+                                  'cycle of mimics); one joint of a chain must move freely')
+            seen.add(chain.name)
+
+
 def joint_error(model, work, x):
     """
     Return ``(max anchor distance m, max axis angle rad)`` over all joints at ``x`` (N, 13).
@@ -170,6 +192,10 @@ class ArticulatedSimulator:
         them), friction being 0 while the joint is at rest (``|q̇| <= 1e-12``). A spherical
         joint's ``cone_rad`` is a limit on the angle between its axis in the parent and in
         the child (:func:`~rbd_ros.core.joints.model.cone_angle`), a stop like the others.
+        A joint with ``mimic`` is held at ``q = k q_leader + c`` by one more row (its
+        Jacobian the mimic's axial row minus ``k`` times the leader's: equal and opposite
+        generalized forces, ``λ`` on the mimic and ``-k λ`` on the leader), projected with
+        the others; it couples two joints as a loop does, so the dense solver takes it.
     :param timestep_ns: the fixed step ``h``, integer ns > 0.
     :param solver: ``'auto'`` (the tree elimination when no loop closes, else dense) or
         ``'dense'`` (always the dense factorisation; the same answers, for checking).
@@ -221,6 +247,7 @@ class ArticulatedSimulator:
                                   f'{n_b - 1}) or None (world)')
             if joint.parent == joint.child:
                 raise ConfigError(f'{who}.parent: {joint.parent} is its own child')
+        _check_mimics(joints)
         self._models = tuple(models)
         self._joints = tuple(joints)
         self._readout = JointReadout(joints)
@@ -305,6 +332,7 @@ class ArticulatedSimulator:
             prm[b, jk.P_GRAVITY:jk.P_GRAVITY + 3] = m.gravity_w
             prm[b, jk.P_LIN_DAMP] = m.linear_damping_per_s
             prm[b, jk.P_ANG_DAMP] = m.angular_damping_per_s
+        names = [joint.name for joint in joints]
         jint = np.zeros((n_j, jk.J_INT_SIZE), dtype=np.int64)
         jprm = np.zeros((n_j, jk.J_PRM_SIZE))
         jlim = np.zeros((n_j, 4))
@@ -313,7 +341,7 @@ class ArticulatedSimulator:
             spec = ROWS[joint.kind]
             limited = (joint.lower is not None or joint.upper is not None
                        or joint.cone_rad is not None)
-            limit_row = motor_row = friction_row = -1
+            limit_row = motor_row = friction_row = mimic_row = -1
             if limited:
                 limit_row = len(rows) + len(spec)
                 spec = spec + (('limit', 2),)
@@ -323,9 +351,12 @@ class ArticulatedSimulator:
             if joint.friction > 0.0:
                 friction_row = len(rows) + len(spec)
                 spec = spec + (('friction', 2),)
+            if joint.mimic is not None:
+                mimic_row = len(rows) + len(spec)
+                spec = spec + (('mimic', 0, names.index(joint.mimic)),)
             jint[j] = (-1 if joint.parent is None else joint.parent, joint.child,
                        jk.KIND_CODES[joint.kind], len(rows), len(spec), limit_row, motor_row,
-                       friction_row)
+                       friction_row, mimic_row)
             jlim[j] = (joint.lower or 0.0, joint.upper or 0.0, joint.lower is not None,
                        joint.upper is not None)
             if joint.cone_rad is not None:   # the angle off the axis has an upper bound only
@@ -339,14 +370,17 @@ class ArticulatedSimulator:
             jprm[j, jk.J_QREST:jk.J_QREST + 4] = joint.q_rest
             jprm[j, jk.J_DAMPING] = joint.damping
             jprm[j, jk.J_FRICTION] = joint.friction
+            jprm[j, jk.J_MIMIC_K] = joint.mimic_multiplier
+            jprm[j, jk.J_MIMIC_C] = joint.mimic_offset
             code = {'lin': jk.ROW_LIN, 'ang': jk.ROW_ANG, 'limit': jk.ROW_LIMIT,
-                    'motor': jk.ROW_MOTOR, 'friction': jk.ROW_FRICTION}
+                    'motor': jk.ROW_MOTOR, 'friction': jk.ROW_FRICTION, 'mimic': jk.ROW_MIMIC}
             for r in spec:
                 rows.append((j, code[r[0]], r[1], r[2] if len(r) > 2 else 0))
         rows = np.array(rows, dtype=np.int64).reshape(-1, 4)
         n_r = rows.shape[0]
         dense, order, par = _tree(n_b, joints)
-        dense = dense or force_dense
+        # a mimic row couples two joints (up to four bodies): a loop for the tree elimination
+        dense = dense or force_dense or any(joint.mimic is not None for joint in joints)
         n_nodes = n_b + n_j
         dim = np.array([6] * n_b + [len(ROWS[jt.kind]) for jt in joints], dtype=np.int64)
         nrow = dim[n_b:].copy()
@@ -360,18 +394,19 @@ class ArticulatedSimulator:
         dn = n_r if dense else 1
         nd = 1 if dense else n_nodes
         work = jk.ArtWork(
-            bd=np.zeros((n_b, jk.B_SIZE)), jac=np.zeros((max(n_r, 1), 12)),
+            bd=np.zeros((n_b, jk.B_SIZE)), jac=np.zeros((max(n_r, 1), 24)),
             con=np.zeros(n_r), bias=np.zeros(n_r), D=np.zeros((nd, 6, 6)),
             Hp=np.zeros((nd, 6, 6)), W=np.zeros((nd, 6, 7)), rhs=np.zeros((nd, 6)),
-            y=np.zeros((nd, 6)), A=np.zeros((dn, dn)), mj=np.zeros((max(n_r, 1), 12)),
+            y=np.zeros((nd, 6)), A=np.zeros((dn, dn)), mj=np.zeros((max(n_r, 1), 24)),
             drop=np.zeros(dn, dtype=np.int64), k=np.zeros((4, n_b, 13)),
             xs=np.zeros((n_b, 13)), yb=np.zeros((n_b, 6)), yj=np.zeros(n_r),
             lam=np.zeros(n_r), wrench=np.zeros((max(n_j, 1), 6)), angle=np.zeros(max(n_j, 1)),
             stats=np.zeros(jk.S_SIZE), nrow=nrow, dim=dim, active=active,
             lim_state=np.zeros(max(n_j, 1), dtype=np.int64),
             lim0=np.zeros(max(n_j, 1), dtype=np.int64), x0=np.zeros((n_b, 13)),
-            k0=np.zeros((n_b, 13)), jrows=np.zeros((max(n_j, 1), 8), dtype=np.int64),
-            motor=np.zeros((max(n_j, 1), jk.M_SIZE)), fric=np.zeros((max(n_j, 1), jk.F_SIZE)))
+            k0=np.zeros((n_b, 13)), jrows=np.zeros((max(n_j, 1), 9), dtype=np.int64),
+            motor=np.zeros((max(n_j, 1), jk.M_SIZE)), fric=np.zeros((max(n_j, 1), jk.F_SIZE)),
+            axial=np.zeros((max(n_j, 1), 2)))
         work.fric[:, jk.F_SIGN] = 2.0   # each joint's friction state: decided at the start
         for j, joint in enumerate(joints):
             work.motor[j, jk.M_LIMIT] = (math.inf if joint.effort_limit is None
@@ -477,6 +512,9 @@ class ArticulatedSimulator:
         if given and joint.kind not in MOTOR_KINDS:
             raise ConfigError(f'{who}: a {joint.kind} joint takes no motor (only '
                               f'{", ".join(MOTOR_KINDS)})')
+        if given and joint.mimic is not None:
+            raise ConfigError(f'{who}: a mimic joint (of {joint.mimic!r}) takes no motor; '
+                              f'command {joint.mimic!r}')
         if len(given) > 1:
             raise ConfigError(f'{who}: give one of effort, velocity, position, not '
                               f'{" and ".join(name for name, _ in given)}')
@@ -540,9 +578,14 @@ class ArticulatedSimulator:
         Return (n_joints,): each motor's applied effort now, N m or N (0 without a motor).
 
         An effort motor: its clipped effort; a position or velocity motor: the force its row
-        applies (the multiplier), or ``±effort_limit`` when saturated.
+        applies (the multiplier), or ``±effort_limit`` when saturated. A mimic joint: its
+        mimic row's generalized force along its coordinate, ``λ`` (the leader takes ``-k λ``,
+        not included in the leader's effort).
         """
-        return self._work.motor[:len(self._joints), jk.M_APPLIED].copy()
+        out = self._work.motor[:len(self._joints), jk.M_APPLIED].copy()
+        for j in np.flatnonzero(self._model.jint[:, jk.J_MIMROW] >= 0):
+            out[j] = self._work.lam[self._model.jint[j, jk.J_MIMROW]]
+        return out
 
     def joint_friction_efforts(self) -> np.ndarray:
         """

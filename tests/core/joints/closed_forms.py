@@ -107,6 +107,42 @@ def cartpole_omega(cart_kg, pole_kg, half_length_m, g=G):
     return math.sqrt(3.0 * g * (big + small) / (half * (4.0 * big + small)))
 
 
+def mimic_pendulum_period(i1, mgl1, i2, mgl2, k, theta0_rad, nodes=200):
+    """
+    Period (s) of two pendulums whose angles are tied, ``q2 = k q1``, released at ``theta0``.
+
+    One degree of freedom: kinetic energy ``½ I_eff q̇1²``, ``I_eff = I1 + k² I2``, potential
+    ``V(q1) = -mgl1 cos q1 - mgl2 cos(k q1)`` (each pendulum's ``m g l``, ``l`` pivot to centre
+    of mass), so energy gives ``T = 4 ∫_0^θ0 dq / sqrt(2 (V(θ0) - V(q)) / I_eff)``. With
+    ``q = θ0 sin φ`` the integrand is smooth on ``[0, π/2]`` (``V(θ0) - V(q)`` vanishes like
+    ``cos² φ``); Gauss–Legendre with ``nodes`` points, every difference written without
+    cancellation (``cos a - cos b = 2 sin((a + b)/2) sin((b - a)/2)``). Small amplitudes:
+    ``T → 2π sqrt(I_eff / K_eff)``, ``K_eff = mgl1 + k² mgl2``.
+
+    :param i1, i2: the pendulums' moments of inertia about their pivots (kg m², > 0)
+    :param mgl1, mgl2: ``m g l`` of each (N m, > 0)
+    :param k: the multiplier (any finite, nonzero)
+    :param theta0_rad: release angle of pendulum 1 (rad, 0 < |θ0|, |k θ0| < π)
+    """
+    i1 = _positive('i1', i1, 'kg m^2')
+    i2 = _positive('i2', i2, 'kg m^2')
+    mgl1 = _positive('mgl1', mgl1, 'N m')
+    mgl2 = _positive('mgl2', mgl2, 'N m')
+    t0 = abs(theta0_rad)
+    if not (math.isfinite(t0) and 0.0 < t0 < math.pi and abs(k * t0) < math.pi):
+        raise ValueError(f'theta0_rad: {theta0_rad} rad must satisfy 0 < |theta0|, '
+                         f'|k theta0| < pi (k = {k})')
+    i_eff = i1 + k * k * i2
+    x, w = np.polynomial.legendre.leggauss(nodes)
+    phi = 0.25 * math.pi * (x + 1.0)
+    q = t0 * np.sin(phi)
+    gap = t0 * np.cos(phi) ** 2 / (1.0 + np.sin(phi))   # θ0 - q
+    drop = (2.0 * mgl1 * np.sin(0.5 * (t0 + q)) * np.sin(0.5 * gap)
+            + 2.0 * mgl2 * np.sin(0.5 * k * (t0 + q)) * np.sin(0.5 * k * gap))
+    integrand = t0 * np.cos(phi) / np.sqrt(2.0 * drop / i_eff)
+    return 4.0 * 0.25 * math.pi * float(integrand @ w)
+
+
 def heavy_top_precession(mass_kg, g, r_m, i1, i3, omega3, theta_rad):
     """
     Steady precession rates (rad/s) of a heavy symmetric top on a fixed point: ``(slow, fast)``.

@@ -20,7 +20,8 @@ from closed_forms import (BABYBOOT, babyboot_accelerations, babyboot_energy, car
                           chain_joint_forces, compound_pendulum_l_eq, cone_rim_torque,
                           cone_stop, coulomb_pendulum_turns, coulomb_stop,
                           cradle_rise_height, damped_oscillation, damped_rotor, ellipk,
-                          heavy_top_precession, limit_stop, pendulum_period)
+                          heavy_top_precession, limit_stop, mimic_pendulum_period,
+                          pendulum_period)
 import numpy as np
 import pytest
 
@@ -313,3 +314,28 @@ def test_coulomb_pendulum_turns_spend_the_friction_work():
     # it moved at every turn but the last, where the pivot holds it
     assert all(mgl * abs(math.sin(t)) > friction for t in turns[:-1])
     assert mgl * abs(math.sin(turns[-1])) <= friction
+
+
+@pytest.mark.parametrize('theta0', (0.1, 1.0, 2.5))
+def test_mimic_pendulum_period_reduces_to_one_pendulum(theta0):
+    # k = 1 with two equal rods is one rod of twice the mass: L_eq unchanged, pendulum_period;
+    # k -> 0 (1e-9) leaves pendulum 1 alone (the second's share is k² ~ 1e-18). Both are
+    # elliptic integrals by the AGM, the mimic's a 200-node Gauss-Legendre quadrature of a
+    # smooth integrand: round-off, a few 1e-15 relative (5e-14 at 2.5 rad, the integrand
+    # steeper near the turning point).
+    i_rod, mgl = 1.0 / 3.0, 9.81 * 0.5
+    expected = pendulum_period(compound_pendulum_l_eq(1.0), theta0)
+    assert mimic_pendulum_period(i_rod, mgl, i_rod, mgl, 1.0, theta0) == pytest.approx(
+        expected, rel=1e-13)
+    assert mimic_pendulum_period(i_rod, mgl, 0.2, 1.0, 1e-9, theta0) == pytest.approx(
+        expected, rel=1e-13)
+
+
+def test_mimic_pendulum_period_small_amplitude():
+    # T -> 2 pi sqrt(I_eff / K_eff) (1 + K4 t^2 / (16 K_eff)), K4 = mgl1 + k^4 mgl2: the next
+    # term is O(t^4), ~1e-13 relative at t = 1e-3 rad
+    i1, mgl1, i2, mgl2, k, t = 0.3, 4.0, 0.07, 1.5, -1.7, 1e-3
+    k_eff = mgl1 + k * k * mgl2
+    small = 2.0 * math.pi * math.sqrt((i1 + k * k * i2) / k_eff) * (
+        1.0 + (mgl1 + k ** 4 * mgl2) * t * t / (16.0 * k_eff))
+    assert mimic_pendulum_period(i1, mgl1, i2, mgl2, k, t) == pytest.approx(small, rel=1e-12)

@@ -310,3 +310,8 @@ def test_unsupported_joint_fields_are_refused_in_one_line():
                    axis_b=(0.0, 1.0, 0.0), damping=0.5)
     with pytest.raises(ConfigError, match=r"joint 'pivot'\.damping: 0\.5; .* \(leave it 0\.0\)"):
         WorldSimulator([bob], [BodyState(position_w=(0.0, 0.0, -L))], None, joints=[damped])
+    # a mimic row in the contact step's joint visits is untested: refused for now
+    tied = Joint('pivot', 'revolute', None, 0, origin_child_b=(0.0, 0.0, L),
+                 axis_b=(0.0, 1.0, 0.0), mimic='other')
+    with pytest.raises(ConfigError, match=r"joint 'pivot'\.mimic: 'other'; .* \(leave it None\)"):
+        WorldSimulator([bob], [BodyState(position_w=(0.0, 0.0, -L))], None, joints=[tied])
