@@ -393,11 +393,13 @@ class ArticulatedSimulator:
         model = jk.ArtModel(prm, jint, jprm, jlim, rows, order, par, dim.copy(), bool(dense))
         dn = n_r if dense else 1
         nd = 1 if dense else n_nodes
+        # a row's Jacobian: 6 columns a body side, 2 sides (4 for a mimic row: its leader's)
+        cols = 24 if any(jt.mimic is not None for jt in joints) else 12
         work = jk.ArtWork(
-            bd=np.zeros((n_b, jk.B_SIZE)), jac=np.zeros((max(n_r, 1), 24)),
+            bd=np.zeros((n_b, jk.B_SIZE)), jac=np.zeros((max(n_r, 1), cols)),
             con=np.zeros(n_r), bias=np.zeros(n_r), D=np.zeros((nd, 6, 6)),
             Hp=np.zeros((nd, 6, 6)), W=np.zeros((nd, 6, 7)), rhs=np.zeros((nd, 6)),
-            y=np.zeros((nd, 6)), A=np.zeros((dn, dn)), mj=np.zeros((max(n_r, 1), 24)),
+            y=np.zeros((nd, 6)), A=np.zeros((dn, dn)), mj=np.zeros((max(n_r, 1), cols)),
             drop=np.zeros(dn, dtype=np.int64), k=np.zeros((4, n_b, 13)),
             xs=np.zeros((n_b, 13)), yb=np.zeros((n_b, 6)), yj=np.zeros(n_r),
             lam=np.zeros(n_r), wrench=np.zeros((max(n_j, 1), 6)), angle=np.zeros(max(n_j, 1)),
