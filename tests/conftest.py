@@ -234,6 +234,12 @@ NO_KERNEL_TESTS = tuple(
 #: tests outside contact/, joints/ and the batch kernel, and these (no contact, no timing that a
 #: compile on the other core would disturb).
 FREE_KERNEL_DIR = 'core/'
+FREE_KERNEL_FILES = ('ros/test_sim_session.py', 'ros/test_node_physics.py',
+                     'ros/test_node_inputs.py', 'ros/test_node_outputs.py',
+                     'ros/test_node_across_hosts.py',
+                     'recording/test_recording.py', 'recording/test_public_api.py',
+                     'recording/test_replay.py', 'recording/test_replay_integrity.py',
+                     'recording/test_bag_limits.py')
 #: Below FREE_KERNEL_DIR, what needs more than the free-body step.
 NOT_FREE_DIRS = ('core/contact/', 'core/joints/')
 #: The test files of the threaded batch kernel: the last tier (the warm-up compiles it last).
@@ -241,12 +247,6 @@ BATCH_KERNEL_FILES = ('core/test_batch.py',)
 #: The kernel kinds (jitcache.KIND_MODULES) each tier waits for; the last tier waits for the
 #: warm-up's end.
 TIER_KINDS = {1: ('free',), 2: ('free', 'contact', 'joints')}
-FREE_KERNEL_FILES = ('ros/test_sim_session.py', 'ros/test_node_physics.py',
-                     'ros/test_node_inputs.py', 'ros/test_node_outputs.py',
-                     'ros/test_node_across_hosts.py',
-                     'recording/test_recording.py', 'recording/test_public_api.py',
-                     'recording/test_replay.py', 'recording/test_replay_integrity.py',
-                     'recording/test_bag_limits.py')
 _WARM_UP = {}
 
 

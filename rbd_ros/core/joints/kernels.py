@@ -918,21 +918,6 @@ def _accelerations(model, x, work, kout):
     _dynamics_solve(model, x, work, kout)
 
 
-@_inl
-def _rate(model, x, work, row):
-    """Return row ``row``'s ``J u`` at ``x`` (``work.jac`` and ``work.bd`` filled there)."""
-    jint, jac, bd = model.jint, work.jac, work.bd
-    j = model.rows[row, 0]
-    s = 0.0
-    for side in range(2):
-        b = jint[j, J_CHILD] if side == 1 else jint[j, J_PARENT]
-        if b >= 0:
-            for i in range(3):
-                s += (jac[row, 6 * side + i] * x[b, 7 + i]
-                      + jac[row, 6 * side + 3 + i] * bd[b, B_OMEGA_W + i])
-    return s
-
-
 @_jit
 def _motor_forces(model, x, work):
     """
@@ -962,7 +947,7 @@ def _motor_forces(model, x, work):
             push = True
         damping = jprm[j, J_DAMPING]
         if damping != 0.0:
-            tau -= damping * _rate(model, x, work, row)
+            tau -= damping * _row_rate(model, x, work, row, 2)
             push = True
         sign = work.fric[j, F_SIGN]
         if sign == 1.0 or sign == -1.0:
@@ -1080,7 +1065,12 @@ def _project_positions(model, x, work, tol, max_iter, refactor_after):
 
 @_inl
 def _row_rate(model, x, work, r, sides):
-    """Return row ``r``'s ``J u`` over its first ``sides`` body sides (a constant: unrolled)."""
+    """
+    Return row ``r``'s ``J u`` at ``x`` over its first ``sides`` body sides.
+
+    ``sides`` a constant (2, or 4 for a mimic row), so the loop unrolls; ``work.jac`` and
+    ``work.bd`` filled at ``x``.
+    """
     jac, bd = work.jac, work.bd
     s = 0.0
     for side in range(sides):
@@ -1266,7 +1256,7 @@ def _friction_rows(model, x, work, update):
         motor_on = work.active[jint[j, J_MOTROW]] != 0
         held = work.lim_state[j] != 0
         if update and (motor_on or held or fric[j, F_SIGN] == 2.0):
-            rate = _rate(model, x, work, row)
+            rate = _row_rate(model, x, work, row, 2)
             if abs(rate) <= FRICTION_REST_RATE:
                 fric[j, F_SIGN] = 0.0
             else:
@@ -1318,7 +1308,7 @@ def _friction_stops(model, x, work):
         if not (sign == 1.0 or sign == -1.0) or work.active[jint[j, J_MOTROW]] != 0 \
                 or work.lim_state[j] != 0:
             continue
-        rate = _rate(model, x, work, row)
+        rate = _row_rate(model, x, work, row, 2)
         fric[j, F_RATE_END] = rate
         if sign * rate <= 0.0:
             fric[j, F_SIGN] = 0.0
@@ -1585,7 +1575,7 @@ def step(model, x, work, h, n_steps, tol, max_iter):
                     work.fric[j, F_SIGN0] = work.fric[j, F_SIGN]
                     work.fric[j, F_ACTIVE0] = work.active[model.jint[j, J_FRICROW]]
                     # rows and ω_w are at x (left by the last dynamics evaluation)
-                    work.fric[j, F_RATE0] = _rate(model, x, work, model.jint[j, J_FRICROW])
+                    work.fric[j, F_RATE0] = _row_rate(model, x, work, model.jint[j, J_FRICROW], 2)
             it = _rk4(model, x, work, left, tol, max_iter)
             if it < 0:
                 _restore(model, x, work)  # stays finite: back to the sub-step start
