@@ -40,6 +40,11 @@ multiplier is bounded by the friction, decided at step boundaries. Two solvers, 
 
 The same factorisation serves the projections: positions by Newton with the mass-weighted
 minimal change (right side ``[0; -C]``), velocities by ``[0; -J u]``.
+
+No kernel here allocates (every buffer is in :data:`ArtWork`), so all are compiled without
+numba's reference counting (:func:`rbd_ros.core.jitcache.raw_kernel`, as the contact step's
+loops): each call of a function taking ``model`` and ``work`` (some 40 arrays) otherwise paid
+two atomic updates per array.
 """
 
 from collections import namedtuple
@@ -47,7 +52,7 @@ import math
 
 from rbd_ros.core import jitcache
 
-_jit = jitcache.kernel()
+_jit = jitcache.raw_kernel()
 _inl = jitcache.kernel(inline='always')
 
 #: Joint kind codes (the order of :data:`rbd_ros.core.joints.model.JOINT_KINDS`).
