@@ -50,7 +50,6 @@ no traceback).
 """
 
 import argparse
-import dataclasses
 import hashlib
 import json
 import math
@@ -58,13 +57,14 @@ import os
 from pathlib import Path
 import sys
 import tempfile
-from typing import Collection, Dict, Iterable, List, Optional, Tuple, Union
+from typing import Collection, Iterable, List, Optional, Tuple, Union
 import warnings
 
 import numpy as np
 from rbd_ros.bag import recorder as run_record
 from rbd_ros.bag.cli import open_bag_with_notes, run_on_bag
 from rbd_ros.bag.recording import Bag, open_bag, RawMessage
+from rbd_ros.bag.replay_result import format_summary, ReplayResult, TopicResult  # noqa: F401
 from rbd_ros.core import cachedir, NonFiniteError
 from rbd_ros.core.errors import InputError, RbdError
 from rbd_ros.core.rotations import quat_angle_between
@@ -97,99 +97,6 @@ class ReplayError(RbdError):
 
     An :class:`RbdError`, not an :class:`OSError`: the file was read; what it holds is wrong.
     """
-
-
-@dataclasses.dataclass
-class TopicResult:
-    """
-    Comparison results of one recorded topic.
-
-    Errors are maxima over the samples: position in m, orientation in rad, linear velocity in
-    m/s, angular velocity in rad/s (None when the topic has no such field).
-    """
-
-    topic: str
-    kind: str
-    samples: int = 0
-    mismatches: int = 0
-    bit_exact: bool = True
-    max_position_error_m: Optional[float] = None
-    max_orientation_error_rad: Optional[float] = None
-    max_linear_velocity_error_m_s: Optional[float] = None
-    max_angular_velocity_error_rad_s: Optional[float] = None
-    max_force_error_n: Optional[float] = None
-    max_torque_error_nm: Optional[float] = None
-    max_joint_position_error: Optional[float] = None  # rad or m, norm over the joints
-    max_joint_velocity_error: Optional[float] = None  # rad/s or m/s
-    max_joint_effort_error: Optional[float] = None  # N m or N
-    first_mismatch: Optional[str] = None
-
-    def take_error(self, name: str, value: float) -> None:
-        """Raise the maximum error ``name`` (one of the ``max_*`` fields) to ``value``."""
-        current = getattr(self, name)
-        setattr(self, name, value if current is None else max(current, value))
-
-
-@dataclasses.dataclass
-class ReplayResult:
-    """The outcome of :func:`replay_bag` (:class:`Replayer`); ``match`` decides the exit status."""
-
-    bag: str
-    finalised: bool
-    notes: List[str]
-    integrator: str
-    timestep_ns: int
-    recorded_integrator: str
-    recorded_timestep_ns: int
-    tolerance: Optional[float]
-    topics: Dict[str, TopicResult]
-    wrenches: int = 0
-    wrench_mismatches: int = 0
-    wrench_digest_checked: bool = False
-    failure_reproduced: Optional[str] = None
-    run_crashed: Optional[str] = None
-    remarks: List[str] = dataclasses.field(default_factory=list)
-    problems: List[str] = dataclasses.field(default_factory=list)
-
-    @property
-    def run_failed(self) -> Optional[str]:
-        """Return why the recorded run failed (non-finite step, exception), or None."""
-        return self.failure_reproduced or self.run_crashed
-
-    @property
-    def compared(self) -> int:
-        """Return the number of output samples compared."""
-        return sum(t.samples for t in self.topics.values())
-
-    @property
-    def match(self) -> bool:
-        """Return True when every sample and wrench matched and nothing else went wrong."""
-        return (not self.problems and self.wrench_mismatches == 0
-                and all(t.mismatches == 0 for t in self.topics.values()))
-
-    def to_dict(self) -> dict:
-        """Return a JSON-ready dict."""
-        return {
-            'bag': self.bag,
-            'match': self.match,
-            'finalised': self.finalised,
-            'notes': list(self.notes),
-            'integrator': self.integrator,
-            'timestep_ns': self.timestep_ns,
-            'recorded_integrator': self.recorded_integrator,
-            'recorded_timestep_ns': self.recorded_timestep_ns,
-            'tolerance': self.tolerance,
-            'samples_compared': self.compared,
-            'wrenches': self.wrenches,
-            'wrench_mismatches': self.wrench_mismatches,
-            'wrench_digest_checked': self.wrench_digest_checked,
-            'failure_reproduced': self.failure_reproduced,
-            'run_crashed': self.run_crashed,
-            'run_failed': self.run_failed is not None,
-            'remarks': list(self.remarks),
-            'problems': list(self.problems),
-            'topics': {name: dataclasses.asdict(t) for name, t in self.topics.items()},
-        }
 
 
 def config_from_bag(bag: Bag, integrator: Optional[str] = None,
@@ -846,56 +753,6 @@ def _restamp(kind, msg, t_ns):
     else:
         msg.header.stamp = stamp
     return msg
-
-
-def _fmt_error(value):
-    return '-' if value is None else f'{value:.3g}'
-
-
-def format_summary(result: ReplayResult) -> str:
-    """Return the human-readable per-topic summary as a string."""
-    lines = []
-    what = 'bit-exact' if result.tolerance is None else f'tolerance {result.tolerance:g}'
-    lines.append(f'replay of {result.bag} ({what})')
-    if (result.integrator, result.timestep_ns) != (result.recorded_integrator,
-                                                   result.recorded_timestep_ns):
-        lines.append(f'  recorded with {result.recorded_integrator}, '
-                     f'{result.recorded_timestep_ns} ns step; replayed with '
-                     f'{result.integrator}, {result.timestep_ns} ns step')
-    else:
-        lines.append(f'  integrator {result.integrator}, step {result.timestep_ns} ns')
-    if not result.finalised:
-        lines.append('  NOTE: the bag was not finalised; replaying what it holds')
-    lines.append(f'  wrenches: {result.wrenches} recorded, {result.wrench_mismatches} '
-                 'mismatched' + ('; applied wrenches checked bit for bit against the digest '
-                                 'of the node' if result.wrench_digest_checked else ''))
-    if result.failure_reproduced:
-        lines.append(f'  failure reproduced: {result.failure_reproduced}')
-    header = (f'  {"topic":<16} {"samples":>8} {"mismatch":>8} {"pos m":>9} {"ori rad":>9} '
-              f'{"lin m/s":>9} {"ang rad/s":>9}')
-    lines.append(header)
-    for t in result.topics.values():
-        lines.append(
-            f'  {t.topic:<16} {t.samples:>8} {t.mismatches:>8} '
-            f'{_fmt_error(t.max_position_error_m):>9} '
-            f'{_fmt_error(t.max_orientation_error_rad):>9} '
-            f'{_fmt_error(t.max_linear_velocity_error_m_s):>9} '
-            f'{_fmt_error(t.max_angular_velocity_error_rad_s):>9}')
-        if t.first_mismatch:
-            lines.append(f'    first mismatch: {t.first_mismatch}')
-    for remark in result.remarks:
-        lines.append(f'  note: {remark}')
-    for problem in result.problems:
-        lines.append(f'  problem: {problem}')
-    if result.run_crashed:
-        lines.append(f'  run crashed: {result.run_crashed}')
-    if not result.match:
-        lines.append('MISMATCH')
-    elif result.run_failed:
-        lines.append('RUN FAILED (the replay matches the recording of a run that failed)')
-    else:
-        lines.append('MATCH')
-    return '\n'.join(lines)
 
 
 def build_parser() -> argparse.ArgumentParser:
