@@ -118,8 +118,26 @@ class ReplayResult:
         }
 
 
-def _fmt_error(value):
-    return '-' if value is None else f'{value:.3g}'
+#: The errors a summary line shows, in this order: (field, what, unit); a topic shows the ones
+#: its kind has (None: not compared for it).
+SHOWN_ERRORS = (
+    ('max_position_error_m', 'position', 'm'),
+    ('max_orientation_error_rad', 'orientation', 'rad'),
+    ('max_linear_velocity_error_m_s', 'linear velocity', 'm/s'),
+    ('max_angular_velocity_error_rad_s', 'angular velocity', 'rad/s'),
+    ('max_force_error_n', 'force', 'N'),
+    ('max_torque_error_nm', 'torque', 'N m'),
+    ('max_joint_position_error', 'joint position', 'rad or m'),
+    ('max_joint_velocity_error', 'joint velocity', 'rad/s or m/s'),
+    ('max_joint_effort_error', 'joint effort', 'N m or N'),
+)
+
+
+def largest_errors(topic: TopicResult) -> str:
+    """Return the topic's largest errors with their units (``-`` when it has none: clock)."""
+    shown = [f'{what} {value:.3g} {unit}' for field, what, unit in SHOWN_ERRORS
+             if (value := getattr(topic, field)) is not None]
+    return ', '.join(shown) or '-'
 
 
 def format_summary(result: ReplayResult) -> str:
@@ -141,16 +159,11 @@ def format_summary(result: ReplayResult) -> str:
                                  'of the node' if result.wrench_digest_checked else ''))
     if result.failure_reproduced:
         lines.append(f'  failure reproduced: {result.failure_reproduced}')
-    header = (f'  {"topic":<16} {"samples":>8} {"mismatch":>8} {"pos m":>9} {"ori rad":>9} '
-              f'{"lin m/s":>9} {"ang rad/s":>9}')
-    lines.append(header)
+    width = max([len('topic')] + [len(t.topic) for t in result.topics.values()])
+    lines.append(f'  {"topic":<{width}} {"samples":>8} {"mismatch":>8}  largest errors')
     for t in result.topics.values():
-        lines.append(
-            f'  {t.topic:<16} {t.samples:>8} {t.mismatches:>8} '
-            f'{_fmt_error(t.max_position_error_m):>9} '
-            f'{_fmt_error(t.max_orientation_error_rad):>9} '
-            f'{_fmt_error(t.max_linear_velocity_error_m_s):>9} '
-            f'{_fmt_error(t.max_angular_velocity_error_rad_s):>9}')
+        lines.append(f'  {t.topic:<{width}} {t.samples:>8} {t.mismatches:>8}  '
+                     f'{largest_errors(t)}')
         if t.first_mismatch:
             lines.append(f'    first mismatch: {t.first_mismatch}')
     for remark in result.remarks:

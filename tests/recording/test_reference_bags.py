@@ -39,6 +39,18 @@ def test_at_least_three_small_bags_each_described():
         assert f'`{bag.name}`' in readme, f'{bag.name} has no line in bags/README.md'
 
 
+#: What the summary says of a bit-exact topic of each kind (written out here, not taken from
+#: rbd_ros): each compared field's largest error and unit.
+_POSE = 'position 0 m, orientation 0 rad'
+_TWIST = 'linear velocity 0 m/s, angular velocity 0 rad/s'
+_WRENCH = 'force 0 N, torque 0 N m'
+SUMMARY_ERRORS = {
+    'pose': _POSE, 'twist': _TWIST, 'odom': f'{_POSE}, {_TWIST}', 'contact_wrench': _WRENCH,
+    'joint_wrenches': _WRENCH, 'clock': '-',
+    'joint_states': 'joint position 0 rad or m, joint velocity 0 rad/s or m/s, '
+                    'joint effort 0 N m or N'}
+
+
 @pytest.mark.parametrize('bag', BAGS, ids=[b.name for b in BAGS])
 def test_reference_bag_replays_bit_exact(bag, capsys):
     opened = open_bag(str(bag))
@@ -52,7 +64,14 @@ def test_reference_bag_replays_bit_exact(bag, capsys):
     assert all(t.bit_exact for t in result.topics.values())
     assert result.wrench_digest_checked  # recorded by the node: it holds the rbd_ros.run record
     assert main([str(bag), '--no-progress']) == 0
-    assert capsys.readouterr().out.strip().endswith('MATCH')
+    out = capsys.readouterr().out
+    assert out.strip().endswith('MATCH')
+    # The text summary gives every compared topic's largest errors with their units (0 for a
+    # bit-exact replay), whatever its kind: joint topics showed only '-' before.
+    rows = {line.split()[0]: line for line in out.splitlines() if line.startswith('  /')}
+    for name, topic in result.topics.items():
+        errors = rows[name].split(None, 3)[3]
+        assert errors == SUMMARY_ERRORS[topic.kind.rsplit('/', 1)[-1]], rows[name]
 
 
 @pytest.mark.parametrize('bag', BAGS, ids=[b.name for b in BAGS])
