@@ -757,7 +757,8 @@ class Replayer:
         if self.session.time_ns != t:
             return False
         if self._expected_time_ns != t:
-            robots = self.session.simulator if self.config.robots else None
+            robots = self.session.simulator if self.config.robots or self.config.world_joints \
+                else None
             self._expected = dict(self._builder.serialize(
                 t, self.session.columns, self.session.contact_wrenches_w, robots))
             self._expected_time_ns = t
