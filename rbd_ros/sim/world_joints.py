@@ -75,6 +75,7 @@ _CORE_FIELDS = {'kind': 'type', 'parent': 'parent', 'child': 'child', 'axis_b': 
                 'origin_parent_b': 'position', 'origin_child_b': 'position',
                 'lower': 'lower', 'upper': 'upper', 'effort_limit': 'effort_limit',
                 'damping': 'damping', 'friction': 'friction'}
+_CORE_UNIT = re.compile(r'\A(?: (?:N m s/rad|N s/m|N m|rad|N|m)\b)?;? ?')
 _CORE_MESSAGE = re.compile(r"joint '([A-Za-z0-9_]+)'\.([a-z_0-9]+): (.*)\Z", re.S)
 
 
@@ -230,10 +231,10 @@ def parameter_error(exc, given):
     base = _CORE_FIELDS[field]
     spec = next(s for s in joint_parameter_specs(name) if s.name.endswith('.' + base))
     value = given.get(name, {}).get(base, getattr(exc, 'value', None))
-    for lead in (f'{fmt(value)} {spec.unit} ', f'{fmt(value)}; ', f'{fmt(value)} '):
-        if detail.startswith(lead):
-            detail = detail[len(lead):]
-            break
+    if detail.startswith(fmt(value)):  # the value again, in the core's unit: said already
+        detail = _CORE_UNIT.sub('', detail[len(fmt(value)):], count=1)
+    if base in ('lower', 'upper'):  # the core's None is this file's lower = upper = 0
+        detail = detail.replace('(leave it None)', '(leave lower = upper = 0: no limits)')
     unit = f' {spec.unit}' if spec.unit else ''
     return type(exc)(f'parameter {spec.name} = {fmt(value)}{unit}: {detail}', field=spec.name,
                      value=value, unit=spec.unit, detail=detail)
