@@ -98,7 +98,7 @@ class JointOutputs:
         self._names = [v for name in names for v in (len(name), name)]
 
     def tf_fields(self):
-        """Return the ``layout`` fields of this group's transforms (none but a robot's) (appended to ``/tf``'s)."""
+        """Return the ``layout`` fields of this group's transforms (appended to ``/tf``'s)."""
         fields = []
         for _, _, parent, child in self.transforms:
             fields += ['i', 'I', parent, child, *'d' * 7]

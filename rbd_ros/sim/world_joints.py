@@ -39,7 +39,9 @@ in a world with contact, for now) is refused at start under the parameter's name
 
 :class:`JointedWorldSimulator` is the world's simulator with them: a
 :class:`~rbd_ros.core.contact.simulator.WorldSimulator` that also reads its joints out as a
-robot's are (``joint_states``, ``joint_wrenches``; :mod:`rbd_ros.msgs.robot_outputs`).
+robot's are (``joint_states``, ``joint_wrenches``; :mod:`rbd_ros.msgs.robot_outputs`); the
+wrenches from the bodies' momentum over the last step, as the contact step does not report
+its joint impulses.
 :class:`WorldJointInputs` is the ``joint_command`` input: the core has no motors in a world
 with contact yet, so every command is checked as a robot's is and then rejected (reason
 ``'no_motor'``), counted in ``/diagnostics``.
@@ -50,10 +52,11 @@ import math
 import re
 from typing import Optional, Tuple
 
-from rbd_ros.core import RbdError
+import numpy as np
+from rbd_ros.core import kernels, RbdError
 from rbd_ros.core.contact.simulator import WorldSimulator
 from rbd_ros.core.joints.model import Joint
-from rbd_ros.core.joints.readout import JointReadout, KINDS as MOVING_KINDS
+from rbd_ros.core.joints.readout import JointReadout, KINDS as MOVING_KINDS, rotate
 from rbd_ros.core.rotations import quat_conjugate, quat_multiply, quat_to_matrix
 from rbd_ros.sim.joint_commands import CommandInput, CommandRejected, JointSpec, RobotInputs
 from rbd_ros.sim.params import (coerce, DOUBLE, DOUBLE_ARRAY, fail, fmt, MAX_BODIES,
@@ -240,6 +243,44 @@ def parameter_error(exc, given):
                      value=value, unit=spec.unit, detail=detail)
 
 
+def _tree_order(joints):
+    """
+    Return the joint indices children first, or None unless the joints form trees.
+
+    Trees: each body the child of one joint at most and no loop (a loop's split of an internal
+    force among its joints is not given by the bodies' motion).
+    """
+    children = {}
+    for k, joint in enumerate(joints):
+        if joint.child in children:
+            return None
+        children[joint.child] = k
+    below = {}  # body -> the joints it is the parent of
+    for k, joint in enumerate(joints):
+        if joint.parent is not None:
+            below.setdefault(joint.parent, []).append(k)
+    order, done, pending = [], set(), list(range(len(joints)))
+    while pending:
+        ready = [k for k in pending if all(c in done for c in below.get(joints[k].child, ()))]
+        if not ready:
+            return None
+        order += ready
+        done.update(ready)
+        pending = [k for k in pending if k not in done]
+    return order, below
+
+
+def _cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _spin_w(row, inertia):
+    """Return the angular momentum ``Π_w = R I_b ω_b`` of a packed state row, plain floats."""
+    wx, wy, wz = row[10], row[11], row[12]
+    return rotate(row[3], row[4], row[5], row[6], *(i[0] * wx + i[1] * wy + i[2] * wz
+                                                   for i in inertia))
+
+
 class JointedWorldSimulator(WorldSimulator):
     """
     A world with joints between its bodies, read out per sample as a robot is.
@@ -255,8 +296,10 @@ class JointedWorldSimulator(WorldSimulator):
     - :meth:`joint_states`: per one-coordinate joint (revolute, continuous, prismatic; in
       ``joint_names`` order) its position (rad or m, a continuous joint's in (-π, π]), rate
       and effort (0: no motor).
-    - :meth:`joint_wrenches`: per joint (``joint_names`` order) the force and torque the parent
-      exerts on the child: NaN, as the contact step does not report its joints' impulses yet.
+    - :meth:`joint_wrenches`: per joint (``joint_names`` order) the force (N) and torque (N m)
+      the parent exerts on the child over the last step, in the child body's frame, the torque
+      about the joint point; see there. NaN at time 0, after a reset, and for every joint when
+      the joints do not form trees.
     """
 
     def __init__(self, bodies, states, static, world_joints, **kwargs):
@@ -271,12 +314,36 @@ class JointedWorldSimulator(WorldSimulator):
             raise parameter_error(exc, given) from None
         self._readout = JointReadout(joints)
         self._moving = tuple(k for k, j in enumerate(self.world_joints) if j.moving)
-        self._wrenches = [[math.nan] * 6 for _ in self.world_joints]
+        self._tree = _tree_order(joints)
+        self._masses = [b.model.mass_kg for b in self.bodies]
+        self._inertias = [b.model.inertia_b.tolist() for b in self.bodies]
+        self._nan = [[math.nan] * 6 for _ in joints]
+        self._before = None  # the packed states at the start of the last step, (13, N)
+        self._wrenches = (None, self._nan)  # (time ns, rows) of the last readout
 
     @property
     def articulated(self):
         """Return what answers ``joint_error()`` for ``/diagnostics`` (this simulator)."""
         return self
+
+    def step(self, n: int = 1) -> None:
+        """
+        Advance ``n`` steps, keeping the states at the start of the last (for the wrenches).
+
+        The core's chunking does not change the result, so the last step taken apart gives
+        the same bits as one call of ``n``.
+        """
+        if n > 1:
+            super().step(n - 1)
+        before = self._x.copy()
+        self._before = None
+        super().step(1)
+        self._before = before
+
+    def reset(self, states=None) -> None:
+        """Put every body back to its initial state; the wrenches are NaN until a step."""
+        super().reset(states)
+        self._before = None
 
     def joint_states(self, index=0):
         """Return ``(positions, rates, efforts)`` of the one-coordinate joints, plain floats."""
@@ -290,8 +357,73 @@ class JointedWorldSimulator(WorldSimulator):
         return positions, rates, [0.0] * len(positions)
 
     def joint_wrenches(self, index=0):
-        """Return per joint ``(fx, fy, fz, tx, ty, tz)``: NaN (see the class)."""
-        return self._wrenches
+        """
+        Return per joint ``(fx, fy, fz, tx, ty, tz)``: the parent's wrench on the child.
+
+        From each body's momentum over the last step (the core's contact step does not report
+        its joint impulses), children first: the child ``c`` of joint ``j`` gets, averaged over
+        the step, world frame, about its COM,
+
+        ``f_j = m (v₁ − v₀)/h − ½ (F₀ + F₁) − f_contact + Σ_k f_k`` and
+        ``τ_j = (Π₁ − Π₀)/h − ½ (T₀ + T₁) − τ_contact + Σ_k (τ_k + (c_k − c) × f_k)``,
+
+        ``Π = R I_b ω_b``, ``(F, T)`` the net gravity and applied loads at the step's two ends
+        (:func:`rbd_ros.core.kernels.net_wrench_batch`, the forces' one sum), the contact wrench
+        of :attr:`contact_wrench_w`, ``k`` the joints whose parent is ``c`` (their reaction on
+        it; ``c_k`` their children's COM, each COM at the middle of the step), then
+        ``f = R_cᵀ f_j`` and ``τ = R_cᵀ τ_j − o_c × f`` about the joint point (``o_c`` =
+        ``origin_child_b``), ``R_c`` the child's orientation at the middle of the step
+        (``(q₀ + q₁)/|q₀ + q₁|``), where the step's impulses act on average: a force turning
+        with the body is then off by O((ω h)²), not O(ω h). For the two ends' load average to be the step's, loads are
+        constant or smooth over a step; a body's ``linear_damping``/``angular_damping`` (applied
+        as an exact flow, not a force) reads as part of its joint's wrench.
+        """
+        time_ns, rows = self._wrenches
+        if time_ns == self.time_ns:
+            return rows
+        rows = self._nan
+        if self._before is not None and self._tree is not None:
+            rows = self._momentum_wrenches()
+        self._wrenches = (self.time_ns, rows)
+        return rows
+
+    def _momentum_wrenches(self):
+        n = self.size
+        net0, net1 = np.zeros((6, n)), np.zeros((6, n))
+        kernels.net_wrench_batch(self._before, self._params, self._loads, net0)
+        kernels.net_wrench_batch(self._x, self._params, self._loads, net1)
+        x0, x1 = self._before.T.tolist(), self._x.T.tolist()
+        net0, net1, contact = net0.T.tolist(), net1.T.tolist(), self._wrench.tolist()
+        inv_h = 1.0 / self._h
+        order, below = self._tree
+        joints = self.joints
+        world = [None] * len(joints)
+        rows = [None] * len(joints)
+        for k in order:
+            c = joints[k].child
+            a, b, m = x0[c], x1[c], self._masses[c]
+            spin0, spin1 = _spin_w(a, self._inertias[c]), _spin_w(b, self._inertias[c])
+            f = [m * (b[7 + i] - a[7 + i]) * inv_h - 0.5 * (net0[c][i] + net1[c][i])
+                 - contact[c][i] for i in range(3)]
+            t = [(spin1[i] - spin0[i]) * inv_h - 0.5 * (net0[c][3 + i] + net1[c][3 + i])
+                 - contact[c][3 + i] for i in range(3)]
+            for kk in below.get(c, ()):
+                fk, tk = world[kk]
+                ck = joints[kk].child
+                d = [0.5 * ((x0[ck][i] + x1[ck][i]) - (a[i] + b[i])) for i in range(3)]
+                arm = _cross(d, fk)
+                f = [f[i] + fk[i] for i in range(3)]
+                t = [t[i] + tk[i] + arm[i] for i in range(3)]
+            world[k] = (f, t)
+            # the child's frame at the middle of the step: (q₀ + q₁)/|q₀ + q₁|, inverted
+            qw, qx, qy, qz = (a[i] + b[i] for i in range(3, 7))
+            norm = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
+            qw, qx, qy, qz = qw / norm, -qx / norm, -qy / norm, -qz / norm
+            f_b = rotate(qw, qx, qy, qz, *f)
+            lever = _cross(joints[k].origin_child_b.tolist(), f_b)
+            t_b = rotate(qw, qx, qy, qz, *t)
+            rows[k] = [*f_b, *(t_b[i] - lever[i] for i in range(3))]
+        return rows
 
     def link_poses(self, index=0):
         """Return no frames: each body is on ``/tf`` already (world → body)."""
@@ -334,4 +466,3 @@ def check_world_joints(values, robots):
     if values[JOINT_NAMES] and robots:
         fail(JOINT_NAMES_SPEC, list(values[JOINT_NAMES]), 'a file with robots has no free '
              'bodies to join yet: leave joint_names out')
-

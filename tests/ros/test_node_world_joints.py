@@ -192,14 +192,37 @@ def test_the_balls_tf_keeps_its_hinge_point_and_the_box_is_knocked_over(run):
     assert p_end[0] > 0.475 + 0.05 and tilt > 0.5, (p_end, tilt)
 
 
-def test_joint_wrenches_name_every_joint_and_are_not_reported_yet(run):
-    samples = run['got']['joint_wrenches']
-    assert sorted(samples) == list(range(0, DURATION_NS + 1, PERIOD_NS))
-    for msg in samples.values():
+def test_joint_wrenches_are_the_hinge_force_of_the_closed_form_before_the_knock(run):
+    wrenches, states = run['got']['joint_wrenches'], run['got']['joint_states']
+    assert sorted(wrenches) == list(range(0, DURATION_NS + 1, PERIOD_NS))
+    for msg in wrenches.values():
         assert list(msg.joint_names) == ['hinge'] and len(msg.wrench) == 1
-        w = msg.wrench[0]
-        assert all(math.isnan(v) for v in (w.force.x, w.force.y, w.force.z, w.torque.x,
-                                           w.torque.y, w.torque.z))
+    w = wrenches[0].wrench[0]
+    assert all(math.isnan(v) for v in (w.force.x, w.force.y, w.force.z, w.torque.x,
+                                       w.torque.y, w.torque.z))  # before the first step
+    # In the ball's frame, which turns with the rod: the pivot is along o = PIVOT - BOB0.
+    # The hinge pulls the ball towards the pivot by m g cos θ + m L θ̇² and across the rod by
+    # m g sin θ (1 - m L² / I_pivot) (the ball's own spin takes the rest of the weight's
+    # moment), θ = theta0 + q from the vertical; no torque about the hinge point.
+    u = (PIVOT - BOB0) / np.linalg.norm(PIVOT - BOB0)
+    worst = [0.0, 0.0, 0.0]
+    for t in range(PERIOD_NS, 450_000_000, PERIOD_NS):  # the ball meets the box after 0.5 s
+        w = wrenches[t].wrench[0]
+        force = np.array([w.force.x, w.force.y, w.force.z])
+        torque = np.array([w.torque.x, w.torque.y, w.torque.z])
+        theta, rate = THETA0 + states[t].position[0], states[t].velocity[0]
+        radial = M * G * math.cos(theta) + M * L * rate * rate
+        across = M * G * math.sin(theta) * (1.0 - M * L * L / I_PIVOT)
+        worst = [max(worst[0], abs(force @ u - radial)),
+                 max(worst[1], abs(np.linalg.norm(force - (force @ u) * u) - across)),
+                 max(worst[2], float(np.linalg.norm(torque)))]
+    print(f'joint_wrenches against the closed form: radial {worst[0]:.3g} N, across '
+          f'{worst[1]:.3g} N, torque {worst[2]:.3g} N m')
+    # The message is the step's average: the radial force (7-15 N) lags its value at the
+    # sample by h/2 dF/dt <= 0.5 ms x 20 N/s = 0.01 N (measured 0.014 N at most: the O((ω h)²)
+    # of the integrator besides); across the rod and the torque the average is taken in the
+    # ball's mid-step frame, off by O((ω h)²) (measured 8e-5 N and 4e-6 N m).
+    assert worst[0] < 0.03 and worst[1] < 1e-3 and worst[2] < 1e-4, worst
 
 
 def test_a_joint_command_is_rejected_and_counted(run):
