@@ -277,8 +277,8 @@ def _cross(a, b):
 def _spin_w(row, inertia):
     """Return the angular momentum ``Π_w = R I_b ω_b`` of a packed state row, plain floats."""
     wx, wy, wz = row[10], row[11], row[12]
-    return rotate(row[3], row[4], row[5], row[6], *(i[0] * wx + i[1] * wy + i[2] * wz
-                                                   for i in inertia))
+    spin_b = (i[0] * wx + i[1] * wy + i[2] * wz for i in inertia)
+    return rotate(row[3], row[4], row[5], row[6], *spin_b)
 
 
 class JointedWorldSimulator(WorldSimulator):
@@ -305,6 +305,7 @@ class JointedWorldSimulator(WorldSimulator):
     def __init__(self, bodies, states, static, world_joints, **kwargs):
         self.world_joints = tuple(world_joints)
         joints = [j.joint for j in self.world_joints]
+        self._nan = [[math.nan] * 6 for _ in joints]
         try:
             super().__init__(bodies, states, static, joints=joints, **kwargs)
         except RbdError as exc:
@@ -317,7 +318,6 @@ class JointedWorldSimulator(WorldSimulator):
         self._tree = _tree_order(joints)
         self._masses = [b.model.mass_kg for b in self.bodies]
         self._inertias = [b.model.inertia_b.tolist() for b in self.bodies]
-        self._nan = [[math.nan] * 6 for _ in joints]
         self._before = None  # the packed states at the start of the last step, (13, N)
         self._wrenches = (None, self._nan)  # (time ns, rows) of the last readout
 
@@ -336,14 +336,14 @@ class JointedWorldSimulator(WorldSimulator):
         if n > 1:
             super().step(n - 1)
         before = self._x.copy()
-        self._before = None
+        self._before, self._wrenches = None, (None, self._nan)
         super().step(1)
         self._before = before
 
     def reset(self, states=None) -> None:
         """Put every body back to its initial state; the wrenches are NaN until a step."""
         super().reset(states)
-        self._before = None
+        self._before, self._wrenches = None, (None, self._nan)
 
     def joint_states(self, index=0):
         """Return ``(positions, rates, efforts)`` of the one-coordinate joints, plain floats."""
@@ -374,9 +374,10 @@ class JointedWorldSimulator(WorldSimulator):
         ``f = R_cᵀ f_j`` and ``τ = R_cᵀ τ_j − o_c × f`` about the joint point (``o_c`` =
         ``origin_child_b``), ``R_c`` the child's orientation at the middle of the step
         (``(q₀ + q₁)/|q₀ + q₁|``), where the step's impulses act on average: a force turning
-        with the body is then off by O((ω h)²), not O(ω h). For the two ends' load average to be the step's, loads are
-        constant or smooth over a step; a body's ``linear_damping``/``angular_damping`` (applied
-        as an exact flow, not a force) reads as part of its joint's wrench.
+        with the body is then off by O((ω h)²), not O(ω h). For the two ends' load average to
+        be the step's, loads are constant or smooth over a step; a body's
+        ``linear_damping``/``angular_damping`` (applied as an exact flow, not a force) reads as
+        part of its joint's wrench.
         """
         time_ns, rows = self._wrenches
         if time_ns == self.time_ns:
