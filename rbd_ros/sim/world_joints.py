@@ -333,10 +333,12 @@ class JointedWorldSimulator(WorldSimulator):
         The core's chunking does not change the result, so the last step taken apart gives
         the same bits as one call of ``n``.
         """
+        self._before, self._wrenches = None, (None, self._nan)
+        if n < 1:
+            return super().step(n)
         if n > 1:
             super().step(n - 1)
         before = self._x.copy()
-        self._before, self._wrenches = None, (None, self._nan)
         super().step(1)
         self._before = before
 
