@@ -222,8 +222,9 @@ def parameter_error(exc, given):
     """
     Return the core's error about a joint's field as the parameter error naming it.
 
-    ``joint 'door'.damping: 0.5; a world with contact takes no joint damping yet`` becomes
-    ``parameter joints.door.damping = 0.5 N·m·s/rad: a world with contact takes ...``.
+    ``joint 'door'.damping: 0.5; a world with contact takes no joint damping yet ...``
+    becomes ``parameter joints.door.damping = 0.5 N·m·s/rad or N·s/m: a world with contact
+    takes no joint damping yet ...``; any other error is returned as it is.
 
     :param given: joint name → its parameter values (base name → value).
     """
@@ -245,16 +246,16 @@ def parameter_error(exc, given):
 
 def _tree_order(joints):
     """
-    Return the joint indices children first, or None unless the joints form trees.
+    Return ``(joint indices children first, body → the joints it is the parent of)``.
 
-    Trees: each body the child of one joint at most and no loop (a loop's split of an internal
-    force among its joints is not given by the bodies' motion).
+    None unless the joints form trees: each body the child of one joint at most and no loop (a
+    loop's split of an internal force among its joints is not given by the bodies' motion).
     """
-    children = {}
-    for k, joint in enumerate(joints):
-        if joint.child in children:
+    seen = set()
+    for joint in joints:
+        if joint.child in seen:
             return None
-        children[joint.child] = k
+        seen.add(joint.child)
     below = {}  # body -> the joints it is the parent of
     for k, joint in enumerate(joints):
         if joint.parent is not None:
