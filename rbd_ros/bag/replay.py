@@ -18,7 +18,8 @@ Replay a recording and check that the simulator reproduces it (``ros2 run rbd_ro
 The recording holds the node's parameters (MCAP metadata record ``rbd_ros``), every wrench as it
 took effect (log time = sim time of the start of the step it was applied at) and the output
 samples (``pose``, ``twist``, ``odom``, ``/clock``, a robot's ``joint_states``, ``odom`` and
-``joint_wrenches``; log time = sim time of the sample).  Replay
+``joint_wrenches``, a world's ``joint_states`` and ``joint_wrenches``; log time = sim time of
+the sample).  Replay
 rebuilds :class:`rbd_ros.sim.config.NodeConfig` from the stored parameters; a :class:`Replayer`
 drives a fresh :class:`rbd_ros.sim.session.SimSession` to each recorded time, submits each recorded
 wrench so that it takes effect at the step starting at its recorded time, recomputes every
@@ -664,7 +665,8 @@ class Replayer:
         if self.session.time_ns != t:
             return False
         if self._expected_time_ns != t:
-            robots = self.session.simulator if self.config.robots else None
+            robots = self.session.simulator if self.config.robots or self.config.world_joints \
+                else None
             self._expected = dict(self._builder.serialize(
                 t, self.session.columns, self.session.contact_wrenches_w, robots))
             self._expected_time_ns = t

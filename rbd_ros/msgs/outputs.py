@@ -66,7 +66,7 @@ from rbd_ros.core import BodyState, layout
 from rbd_ros.msgs import conversions as conv
 from rbd_ros.msgs import type_names as types
 from rbd_ros.msgs.cdr import cdr_string as _cdr_string, layout as _layout
-from rbd_ros.msgs.robot_outputs import RobotOutputs
+from rbd_ros.msgs.robot_outputs import JointOutputs, RobotOutputs
 from rbd_ros.sim.params import NS_PER_S
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState, MultiDOFJointState
@@ -239,7 +239,7 @@ class BodyOutputs:
 
 def sample_builder(config, tf=True):
     """Return a (shared) :class:`SampleBuilder` for ``config``."""
-    if config.robots:  # not shared: a robot's outputs are built from its URDF
+    if config.robots or getattr(config, 'world_joints', ()):  # not shared: built from joints
         return SampleBuilder(config, tf)
     bodies = tuple((b.prefix, b.body_frame) for b in config.bodies)
     return _cached_builder(config.world_frame, config.twist_frame, config.publish_clock,
@@ -260,9 +260,10 @@ def type_of(kind):
     """Return the message class of an output kind (``<body>/pose`` is a ``pose``)."""
     if kind == 'poses':
         return PoseArray
-    if kind.endswith('/joint_states'):
+    base = kind.rsplit('/', 1)[-1]
+    if base == 'joint_states':
         return JointState
-    if kind.endswith('/joint_wrenches'):
+    if base == 'joint_wrenches':
         return MultiDOFJointState
     return MESSAGE_TYPES[kind.rsplit('/', 1)[-1]]
 
@@ -292,6 +293,10 @@ class SampleBuilder:
             config.contact)) for body in config.bodies)
         self.robots = tuple(RobotOutputs(robot, r, config.world_frame)
                             for r, robot in enumerate(getattr(config, 'robots', ())))
+        joints = getattr(config, 'world_joints', ())
+        if joints:  # the world's joints: joint_states and joint_wrenches, no prefix
+            self.robots += (JointOutputs('', 0, [j.name for j in joints if j.moving],
+                                         [j.name for j in joints]),)
         self.per_body = getattr(config, 'per_body_topics', True) or not config.named
         self.kinds = tuple(prefix + kind for prefix, body in zip(self.prefixes, self.bodies)
                            for kind in body.kinds if self.per_body) \
@@ -351,7 +356,8 @@ class SampleBuilder:
         :param wrenches: (N, 6) contact force and torque per body (N, N·m; world, about COMs),
             or None without contact
             (:attr:`rbd_ros.sim.session.SimSession.contact_wrenches_w`).
-        :param robots: the :class:`rbd_ros.sim.robot_world.RobotWorld` of a robot file.
+        :param robots: the :class:`rbd_ros.sim.robot_world.RobotWorld` of a robot file, the
+            :class:`rbd_ros.sim.world_joints.JointedWorldSimulator` of a world with joints.
         :param wanted: the kinds to build (a set; the others are neither built nor returned),
             or None for every kind. The bytes of a kind do not depend on which others are built.
         """

@@ -39,6 +39,11 @@ every machine.
   transform is the parent's frame pose inverted times the child's, from the simulated link
   poses (:meth:`rbd_ros.sim.robot_world.RobotWorld.link_poses`), so it agrees with
   ``joint_states`` through the URDF's kinematics to the joints' projection tolerance.
+
+The joints of a world (``joint_names``, :mod:`rbd_ros.sim.world_joints`) are a group of
+:class:`JointOutputs` without a prefix: ``joint_states`` (the one-coordinate joints in
+``joint_names`` order) and ``joint_wrenches`` (every joint), from
+:class:`rbd_ros.sim.world_joints.JointedWorldSimulator`; their bodies are on ``/tf`` as bodies.
 """
 
 from rbd_ros.msgs.cdr import cdr_string, layout
@@ -56,9 +61,81 @@ def relative_pose(parent, child):
     return rotate(qp_inv, d), multiply(qp_inv, qc)
 
 
-class RobotOutputs:
+class JointOutputs:
     """
-    One robot's joint_states and link transforms, as CDR bytes.
+    A group of joints' ``joint_states`` and ``joint_wrenches``, as CDR bytes.
+
+    The world's joints (``joint_names``) are one such group, with no prefix: ``joint_states``
+    and ``joint_wrenches``; a robot's (:class:`RobotOutputs`) are under its name.
+
+    :param prefix: the topics' prefix (``'<robot>/'``, or ``''``).
+    :param index: the group's index for the readouts (``world.joint_states(index)``).
+    :param joint_names: ``joint_states``' names, in order. :param wrench_joints:
+        ``joint_wrenches``' names, in order.
+    """
+
+    #: No odom and no link frames of its own (a robot's: :class:`RobotOutputs`).
+    odom_kind = None
+    transforms = ()
+
+    def __init__(self, prefix, index, joint_names, wrench_joints):
+        self.index = index
+        self.kind = f'{prefix}joint_states'
+        self.wrench_kind = f'{prefix}joint_wrenches'
+        #: The sample kinds, in publishing order.
+        self.kinds = (self.kind, self.wrench_kind)
+        self.wrench_joints = tuple(wrench_joints)
+        wrench_names = [cdr_string(name) for name in self.wrench_joints]
+        m = len(wrench_names)
+        self._wrenches = layout('i', 'I', cdr_string(''), 'I', *wrench_names, 'I', 'I', 'I',
+                                *'d' * (6 * m))
+        self._wrench_names = [v for name in wrench_names for v in (len(name), name)]
+        self.joint_names = tuple(joint_names)
+        names = [cdr_string(name) for name in self.joint_names]
+        n = len(names)
+        self._joint_states = layout('i', 'I', cdr_string(''), 'I', *names, 'I', *'d' * n, 'I',
+                                    *'d' * n, 'I', *'d' * n)
+        self._names = [v for name in names for v in (len(name), name)]
+
+    def tf_fields(self):
+        """Return the ``layout`` fields of this group's transforms (appended to ``/tf``'s)."""
+        fields = []
+        for _, _, parent, child in self.transforms:
+            fields += ['i', 'I', parent, child, *'d' * 7]
+        return fields
+
+    def tf_values(self, sec, nanosec, poses):
+        """Return the values of :meth:`tf_fields` at ``poses`` (``link_poses`` of the group)."""
+        out = []
+        for parent, child, parent_frame, child_frame in self.transforms:
+            if parent is None:
+                (px, py, pz), (qw, qx, qy, qz) = poses[child]
+            else:
+                (px, py, pz), (qw, qx, qy, qz) = relative_pose(poses[parent], poses[child])
+            out += (sec, nanosec, len(parent_frame), parent_frame, len(child_frame),
+                    child_frame, px, py, pz, qx, qy, qz, qw)
+        return out
+
+    def joint_states(self, time_ns, world):
+        """Return the CDR bytes of this group's ``JointState`` now."""
+        sec, nanosec = divmod(time_ns, NS_PER_S)
+        q, qd, effort = world.joint_states(self.index)
+        n = len(q)
+        return self._joint_states.pack(ENCAPSULATION, sec, nanosec, 1, b'\x00', n, *self._names,
+                                       n, *q, n, *qd, n, *effort)
+
+    def joint_wrenches(self, time_ns, world):
+        """Return the CDR bytes of this group's ``MultiDOFJointState`` of joint wrenches."""
+        sec, nanosec = divmod(time_ns, NS_PER_S)
+        values = [v for row in world.joint_wrenches(self.index) for v in row]
+        m = len(self.wrench_joints)
+        return self._wrenches.pack(ENCAPSULATION, sec, nanosec, 1, b'\x00', m,
+                                   *self._wrench_names, 0, 0, m, *values)
+
+
+class RobotOutputs(JointOutputs):
+    """
+    One robot's joint_states, odom, joint_wrenches and link transforms, as CDR bytes.
 
     :param robot: its :class:`rbd_ros.sim.robots.RobotConfig`.
     :param index: its index in the node's robots (the :class:`RobotWorld`'s).
@@ -66,29 +143,14 @@ class RobotOutputs:
     """
 
     def __init__(self, robot, index, world_frame):
-        self.index = index
-        self.kind = f'{robot.name}/joint_states'
         urdf = robot.robot
+        super().__init__(f'{robot.name}/', index, urdf.moving_joints,
+                         (joint.name for joint in urdf.joints))
         #: ``<robot>/odom`` of a floating robot, None for one fixed to the world.
         self.odom_kind = None if urdf.fixed_to_world else f'{robot.name}/odom'
-        self.wrench_kind = f'{robot.name}/joint_wrenches'
-        #: This robot's sample kinds, in publishing order.
         self.kinds = tuple(k for k in (self.kind, self.odom_kind, self.wrench_kind) if k)
         #: The root link's frame id (odom's ``child_frame_id``).
         self.root_frame = urdf.root
-        #: Every URDF joint, document order: the ``joint_wrenches`` order.
-        self.wrench_joints = tuple(joint.name for joint in urdf.joints)
-        wrench_names = [cdr_string(name) for name in self.wrench_joints]
-        m = len(wrench_names)
-        self._wrenches = layout('i', 'I', cdr_string(''), 'I', *wrench_names, 'I', 'I', 'I',
-                                *'d' * (6 * m))
-        self._wrench_names = [v for name in wrench_names for v in (len(name), name)]
-        self.joint_names = urdf.moving_joints
-        names = [cdr_string(name) for name in self.joint_names]
-        n = len(names)
-        self._joint_states = layout('i', 'I', cdr_string(''), 'I', *names, 'I', *'d' * n, 'I',
-                                    *'d' * n, 'I', *'d' * n)
-        self._names = [v for name in names for v in (len(name), name)]
         frame = {link.name: (world_frame if link.name == 'world' and urdf.fixed_to_world
                              else link.name) for link in urdf.links}
         link_index = {link.name: k for k, link in enumerate(urdf.links)}
@@ -101,38 +163,3 @@ class RobotOutputs:
             self.transforms.append((link_index[joint.parent], link_index[joint.child],
                                     cdr_string(frame[joint.parent]),
                                     cdr_string(frame[joint.child])))
-
-    def tf_fields(self):
-        """Return the ``layout`` fields of this robot's transforms (appended to ``/tf``'s)."""
-        fields = []
-        for _, _, parent, child in self.transforms:
-            fields += ['i', 'I', parent, child, *'d' * 7]
-        return fields
-
-    def tf_values(self, sec, nanosec, poses):
-        """Return the values of :meth:`tf_fields` at ``poses`` (``link_poses`` of the robot)."""
-        out = []
-        for parent, child, parent_frame, child_frame in self.transforms:
-            if parent is None:
-                (px, py, pz), (qw, qx, qy, qz) = poses[child]
-            else:
-                (px, py, pz), (qw, qx, qy, qz) = relative_pose(poses[parent], poses[child])
-            out += (sec, nanosec, len(parent_frame), parent_frame, len(child_frame),
-                    child_frame, px, py, pz, qx, qy, qz, qw)
-        return out
-
-    def joint_states(self, time_ns, world):
-        """Return the CDR bytes of this robot's ``JointState`` now."""
-        sec, nanosec = divmod(time_ns, NS_PER_S)
-        q, qd, effort = world.joint_states(self.index)
-        n = len(q)
-        return self._joint_states.pack(ENCAPSULATION, sec, nanosec, 1, b'\x00', n, *self._names,
-                                       n, *q, n, *qd, n, *effort)
-
-    def joint_wrenches(self, time_ns, world):
-        """Return the CDR bytes of this robot's ``MultiDOFJointState`` of joint wrenches now."""
-        sec, nanosec = divmod(time_ns, NS_PER_S)
-        values = [v for row in world.joint_wrenches(self.index) for v in row]
-        m = len(self.wrench_joints)
-        return self._wrenches.pack(ENCAPSULATION, sec, nanosec, 1, b'\x00', m,
-                                   *self._wrench_names, 0, 0, m, *values)

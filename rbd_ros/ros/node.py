@@ -230,7 +230,7 @@ class RigidBodyNode(Node):
         self._subscribed = [(kind, self._pubs[kind].handle.get_subscription_count)
                             for kind in self._builder.kinds]
         self._unpublished = set()  # kinds whose latest sample was not built (nobody listened)
-        self._robots = self.session.simulator if config.robots else None
+        self._robots = self.session.simulator if config.robots or config.world_joints else None
         # Each robot's URDF as loaded (after xacro), once, transient local: RViz's RobotModel
         # and every late subscriber get it.
         for robot in config.robots:

@@ -37,7 +37,8 @@ _ARRAY_TYPES = {sim_params.DOUBLE_ARRAY: Parameter.Type.DOUBLE_ARRAY,
 RCLPY_PARAMETERS = ('use_sim_time', 'start_type_description_service')
 # Parameters whose names depend on a list (wrench_input_names, obstacle_names, body_names):
 # wrench_inputs.<name>.*, obstacles.<name>.*, bodies.<name>.*
-_DYNAMIC_PREFIXES = ('wrench_inputs.', 'obstacles.', 'bodies.', 'robots.', 'command_groups.')
+_DYNAMIC_PREFIXES = ('wrench_inputs.', 'obstacles.', 'bodies.', 'robots.', 'command_groups.',
+                     'joints.')
 
 
 def is_ours(name):

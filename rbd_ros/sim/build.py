@@ -31,6 +31,7 @@ from rbd_ros.core.contact.simulator import WorldBody, WorldSimulator
 from rbd_ros.sim.config import NodeConfig
 from rbd_ros.sim.params import fail, fmt, PARAMETERS_BY_NAME
 from rbd_ros.sim.robot_world import RobotWorld
+from rbd_ros.sim.world_joints import JointedWorldSimulator
 
 _FIRST_STEP_SUSPECTS = ('initial_angular_velocity', 'initial_linear_velocity',
                         'initial_position', 'gravity', 'mass_kg', 'inertia', 'dimensions_m',
@@ -63,7 +64,8 @@ def make_simulator(config):
     With contact (named bodies, a ground or obstacles) a :class:`WorldSimulator` of every body
     of ``config.bodies`` and the static world; else the free-body simulator of the one body.
     Both answer ``time_ns``, ``arrays``, ``body_state(i)``, ``set_body_loads(i, ...)``,
-    ``step``, ``reset``, ``contact_wrench_w`` and ``contacts`` (None without contact).
+    ``step``, ``reset``, ``contact_wrench_w`` and ``contacts`` (None without contact). A world
+    with ``joint_names`` is a :class:`rbd_ros.sim.world_joints.JointedWorldSimulator`.
     """
     if config.robots:
         return RobotWorld(config.robots, config.timestep_ns)
@@ -71,10 +73,14 @@ def make_simulator(config):
         (body,) = config.bodies
         return _FreeBodySimulator(body.model, body.initial_state, integrator=config.integrator,
                                   timestep_ns=config.timestep_ns)
-    return WorldSimulator(
-        [WorldBody(b.name, b.model, b.collision_shape, b.material) for b in config.bodies],
-        [b.initial_state for b in config.bodies], config.static_world,
-        integrator=config.integrator, timestep_ns=config.timestep_ns)
+    bodies = [WorldBody(b.name, b.model, b.collision_shape, b.material) for b in config.bodies]
+    states = [b.initial_state for b in config.bodies]
+    if config.world_joints:
+        return JointedWorldSimulator(bodies, states, config.static_world, config.world_joints,
+                                     integrator=config.integrator,
+                                     timestep_ns=config.timestep_ns)
+    return WorldSimulator(bodies, states, config.static_world, integrator=config.integrator,
+                          timestep_ns=config.timestep_ns)
 
 
 def _quantities(state, model):

@@ -49,6 +49,7 @@ from rbd_ros.core.contact.world import (check_overlaps, ground_plane, is_valid_n
                                         obstacle, StaticWorld, validate_material)
 from rbd_ros.core.inertia import from_shape, inertia_from_components, SHAPES
 from rbd_ros.sim import robots as robot_params
+from rbd_ros.sim import world_joints as joint_params
 from rbd_ros.sim.meshes import check_sizes, mesh_file, mesh_shape
 from rbd_ros.sim.params import (body_parameter_specs, BODY_PARAMETERS, check_min_size,
                                 check_range, check_real_time_factor, coerce,
@@ -142,6 +143,8 @@ class NodeConfig:
         A file with robots has no free bodies (:attr:`bodies` is empty), ground or obstacles
         yet: robots do not touch anything until contact and joints share one step.
     :ivar command_groups: the :class:`rbd_ros.sim.robots.CommandGroup` tuple.
+    :ivar world_joints: the :class:`rbd_ros.sim.world_joints.WorldJoint` tuple
+        (``joint_names`` order): joints between the bodies of a world.
     """
 
     bodies: tuple
@@ -167,6 +170,7 @@ class NodeConfig:
     static_world: object = None
     robots: tuple = ()
     command_groups: tuple = ()
+    world_joints: tuple = ()
 
     @property
     def named(self):
@@ -233,6 +237,7 @@ class NodeConfig:
         obstacle_names = _obstacle_values(values, params)
         body_inputs = _body_values(values, params)
         robots, groups = _robot_values(values, params)
+        joint_params.take_parameters(values, params)
         if params:
             unknown = sorted(params)[0]
             raise ConfigError(
@@ -243,6 +248,7 @@ class NodeConfig:
         static_world = _static_world(values, obstacle_names)
         integrator = time_settings['integrator']
         if robots:
+            joint_params.check_world_joints(values, robots)
             _refuse_with_robots(values, body_inputs, obstacle_names)
             return cls(bodies=(), **time_settings, **_frame_settings(values),
                        **_limits_and_recording(values), parameters=values, static_world=None,
@@ -264,8 +270,10 @@ class NodeConfig:
                 body, wrench_inputs=_wrench_inputs(values, input_names),
                 material=_reraise(PARAMETERS_BY_NAME['friction'], values['friction'],
                                   validate_material, values['friction'], values['restitution'])),)
+        world_joints = joint_params.read_world_joints(
+            values, {b.name: b for b in bodies} if body_inputs else {})
         return cls(bodies=bodies, **time_settings, **settings, parameters=values,
-                   static_world=static_world)
+                   static_world=static_world, world_joints=world_joints)
 
     def to_parameters(self):
         """Return the parameters as a plain dict (lists for arrays), valid for from_parameters."""
@@ -285,8 +293,8 @@ class NodeConfig:
                 specs.extend(_body_input_specs(body_name, input_name))
         for robot in self.robots:
             specs.extend(robot.specs)
-        for group in self.command_groups:
-            specs.extend(group.specs)
+        for item in self.command_groups + self.world_joints:
+            specs.extend(item.specs)
         return tuple(specs)
 
 

@@ -231,6 +231,9 @@ PARAMETERS = (
               'Names of the bodies of a world, each with bodies.<name>.* (the per-body '
               'parameters above); [] = one body from the parameters above.',
               rule='distinct names of letters, digits and _; not with per-body parameters'),
+    ParamSpec('joint_names', STRING_ARRAY, (), '',
+              'Joints between the bodies of a world (body_names), each with joints.<name>.* '
+              '(see doc/joints.md).', rule='distinct names of letters, digits and _'),
     ParamSpec('robot_names', STRING_ARRAY, (), '',
               'Robots read from URDF, each with robots.<name>.* (see doc/robots.md).',
               rule='distinct names of letters, digits and _'),

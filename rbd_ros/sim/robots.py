@@ -112,17 +112,17 @@ def read_command_groups(params, robots) -> Tuple[CommandGroup, ...]:
 
     :raises ConfigError: one line naming the parameter and its value.
     """
-    names = _names(params, GROUP_NAMES_SPEC, MAX_ROBOTS)
+    names = list_names(params, GROUP_NAMES_SPEC, MAX_ROBOTS)
     by_name = {robot.name: k for k, robot in enumerate(robots)}
     groups = []
     for name in names:
         specs = group_parameter_specs(name)
         robot_spec, joints_spec, interface_spec = specs
-        robot_name = _value(params, robot_spec)
+        robot_name = param_value(params, robot_spec)
         if robot_name not in by_name:
             fail(robot_spec, robot_name, f'must be one of robot_names ({", ".join(by_name)})')
         robot = robots[by_name[robot_name]]
-        joints = _value(params, joints_spec) or robot.command_joints
+        joints = param_value(params, joints_spec) or robot.command_joints
         index = []
         for joint in joints:
             if joint not in robot.joint_names:
@@ -135,7 +135,7 @@ def read_command_groups(params, robots) -> Tuple[CommandGroup, ...]:
             if robot.joint_names.index(joint) in index:
                 fail(joints_spec, list(joints), f'{joint!r} is listed twice')
             index.append(robot.joint_names.index(joint))
-        interface = _value(params, interface_spec)
+        interface = param_value(params, interface_spec)
         if interface not in INTERFACES:
             fail(interface_spec, interface, f'must be one of {", ".join(INTERFACES)}')
         groups.append(CommandGroup(name, by_name[robot_name], tuple(index), interface, specs))
@@ -234,7 +234,7 @@ class RobotConfig:
         return ('m', 'm/s', 'N') if linear else ('rad', 'rad/s', 'N m')
 
 
-def _value(params, spec):
+def param_value(params, spec):
     """Return the coerced value of ``spec`` in ``params`` (its default when absent)."""
     value = params.get(spec.name, spec.default)
     value = coerce(spec, value)
@@ -255,7 +255,7 @@ def _renamed(prefix, exc):
 def _read_robot(params, name, gravity_w):
     specs = robot_parameter_specs(name)
     by_base = {spec.name.rsplit('.', 1)[1]: spec for spec in specs}
-    values = {base: _value(params, spec) for base, spec in by_base.items()}
+    values = {base: param_value(params, spec) for base, spec in by_base.items()}
     prefix = f'robots.{name}.'
     path, xml = values['urdf_path'], values['robot_description']
     if bool(path) == bool(xml):
@@ -280,7 +280,7 @@ def _read_robot(params, name, gravity_w):
     joint_specs = tuple(s for joint in robot.moving_joints
                         for s in joint_parameter_specs(name, joint, robot.joint(joint).damping,
                                                        robot.joint(joint).friction))
-    given = {spec.name: _value(params, spec) for spec in joint_specs}
+    given = {spec.name: param_value(params, spec) for spec in joint_specs}
     joints = list(placement.joints)
     for joint in robot.moving_joints:
         core, base = robot.joint(joint).core, f'{prefix}joints.{joint}.'
@@ -300,11 +300,11 @@ def read_robots(params: Dict[str, object], gravity_w=(0.0, 0.0, 0.0)) -> Tuple[R
     :raises ConfigError, ModelError: one line naming the parameter (or the URDF's file, link,
         joint and field), its value and unit.
     """
-    names = _names(params, ROBOT_NAMES_SPEC, MAX_ROBOTS)
+    names = list_names(params, ROBOT_NAMES_SPEC, MAX_ROBOTS)
     return tuple(_read_robot(params, name, gravity_w) for name in names)
 
 
-def _names(params, spec, most):
+def list_names(params, spec, most):
     """Return the names of list parameter ``spec``: at most ``most``, valid, unique."""
     names = coerce(spec, params.get(spec.name, ()))
     if len(names) > most:

@@ -67,6 +67,7 @@ from rbd_ros.sim.drag import DragInputs
 from rbd_ros.sim.inputs import WorldInputs
 from rbd_ros.sim.joint_commands import CommandEvent, RobotInputs
 from rbd_ros.sim.limits import step_chunk
+from rbd_ros.sim.world_joints import WorldJointInputs
 
 
 @dataclass(frozen=True)
@@ -171,9 +172,12 @@ class SimSession:
             config.bodies, world_frame=config.world_frame, timeout_ns=config.wrench_timeout_ns,
             max_force_n=config.max_force_n, max_torque_nm=config.max_torque_nm)
         self.drags = _drag_inputs(config)
-        #: The robots' command inputs (:mod:`rbd_ros.sim.joint_commands`), None without robots.
+        #: The command inputs of the robots (:mod:`rbd_ros.sim.joint_commands`) or of the
+        #: world's joints (:class:`rbd_ros.sim.world_joints.WorldJointInputs`); None without.
         self.commands = (RobotInputs(config.robots, config.command_groups,
-                                     config.wrench_timeout_ns) if config.robots else None)
+                                     config.wrench_timeout_ns) if config.robots
+                         else WorldJointInputs(config.world_joints) if config.world_joints
+                         else None)
         self.paused = config.start_paused
         # Steps per compiled call: a signal is seen between calls (rbd_ros.sim.limits.step_chunk).
         self._chunk_max = step_chunk(len(config.bodies))

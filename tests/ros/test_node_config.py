@@ -29,6 +29,7 @@ from rbd_ros.ros import ros_args
 from rbd_ros.sim import build
 from rbd_ros.sim import params as sim_params
 from rbd_ros.sim import robots as robot_params
+from rbd_ros.sim import world_joints as joint_params
 from rbd_ros.sim.config import NodeConfig
 import yaml
 
@@ -224,7 +225,8 @@ def test_the_docs_document_every_parameter():
                  + sim_params.obstacle_parameter_specs('<name>')
                  + robot_params.robot_parameter_specs('<name>')
                  + robot_params.joint_parameter_specs('<name>', '<joint>')
-                 + robot_params.group_parameter_specs('<name>')):
+                 + robot_params.group_parameter_specs('<name>')
+                 + joint_params.joint_parameter_specs('<name>')):
         assert f'| `{spec.name}` |' in reference, spec.name
 
 
@@ -259,7 +261,8 @@ def test_the_documented_parameter_table_is_the_parameter_table():
         for spec in sim_params.obstacle_parameter_specs('x')] + list(
         robot_params.robot_parameter_specs('<name>')
         + robot_params.joint_parameter_specs('<name>', '<joint>')
-        + robot_params.group_parameter_specs('<name>'))
+        + robot_params.group_parameter_specs('<name>')
+        + joint_params.joint_parameter_specs('<name>'))
     assert sorted(rows) == sorted(spec.name for spec in specs)
     for spec in specs:
         kind, default, unit = rows[spec.name]
