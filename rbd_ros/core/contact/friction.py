@@ -24,7 +24,7 @@ import math
 from rbd_ros.core.contact.linalg import _mat_vec, _tangent_basis
 from rbd_ros.core.contact.response import _apply, _point_velocity, _record, _response
 from rbd_ros.core.contact.rows import (_inl, _raw, C_FRICTION, C_LAMBDA, C_NORMAL, C_POINT, C_RA,
-                                       C_RB, Q_FT, Q_MT)
+                                       C_RB, C_TK, C_TK_SET, Q_FT, Q_MT)
 from rbd_ros.core.layout import S_POS
 
 
@@ -207,8 +207,12 @@ def _friction_points(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b, d
     cone (:func:`_coulomb`).  Used where patches share a body: the patch friction at a moving
     normal-impulse centre leaves a couple each iteration that Gauss–Seidel over coupled
     patches amplifies.  Four points sticking also hold the twist, so no torsion term.
+    With both bodies free a point's tangential response is kept in the contact row
+    (``C_TK``): the lever arms and inverse inertias are fixed within a stage, so the kept
+    values are the same bits as computing them again.
     """
     change = 0.0
+    free = wa == 1.0 and (not dyn_b or wb == 1.0)
     for c in range(s0, s0 + m):
         nx, ny, nz = contacts[c, C_NORMAL], contacts[c, C_NORMAL + 1], contacts[c, C_NORMAL + 2]
         rax, ray, raz = contacts[c, C_RA], contacts[c, C_RA + 1], contacts[c, C_RA + 2]
@@ -218,8 +222,15 @@ def _friction_points(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b, d
             bx, by, bz = _point_velocity(vel, b, rbx, rby, rbz)
             ux, uy, uz = ux - bx, uy - by, uz - bz
         t1x, t1y, t1z, t2x, t2y, t2z = _tangent_basis(nx, ny, nz)
-        k11, k12, k22 = _tangent_response(inv_mass, inv_inertia_w, a, b, dyn_b, wa, wb, rax, ray,
-                                          raz, rbx, rby, rbz, t1x, t1y, t1z, t2x, t2y, t2z)
+        if free and contacts[c, C_TK_SET] != 0.0:
+            k11, k12, k22 = contacts[c, C_TK], contacts[c, C_TK + 1], contacts[c, C_TK + 2]
+        else:
+            k11, k12, k22 = _tangent_response(inv_mass, inv_inertia_w, a, b, dyn_b, wa, wb,
+                                              rax, ray, raz, rbx, rby, rbz, t1x, t1y, t1z,
+                                              t2x, t2y, t2z)
+            if free:
+                contacts[c, C_TK], contacts[c, C_TK + 1], contacts[c, C_TK + 2] = k11, k12, k22
+                contacts[c, C_TK_SET] = 1.0
         if not k11 * k22 - k12 * k12 > 0.0:
             continue
         fx = contacts[c, C_FRICTION]

@@ -155,7 +155,7 @@ def contact_stage(x, prm, shapes, statics, h, phase, stage, shock, wrench, work,
         if patches[q, Q_B] < n:
             touched[int(patches[q, Q_B])] = True
     coupled = solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n, x, wrench, shock,
-                          rot, warm, warm_n, slot, prm)
+                          rot, warm, warm_n, slot, prm, work.stats)
     if joints is not None:
         if kind != VISIT_NONE:
             for i in range(n):

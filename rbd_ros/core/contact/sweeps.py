@@ -39,8 +39,9 @@ from rbd_ros.core.contact.patch import (_collision_targets, _held, _idle, _norma
 from rbd_ros.core.contact.response import _apply, _point_velocity, _record
 from rbd_ros.core.contact.rows import (_inl, _jit, _raw, C_BIAS, C_FRICTION, C_LAMBDA, C_NORMAL,
                                        C_RA, C_RB, Q_A, Q_B, Q_COUNT, Q_EPS, Q_FT, Q_MU, Q_START,
-                                       SWEEP_TOL_M_S, SWEEPS, VELOCITY_TOL_M_S, W_B, W_COUNT,
-                                       W_POINTS, W_SLOTS, W_STRIDE, WARM_COS_MIN,
+                                       ST_COLD, ST_PATCHES, ST_STAGES, ST_SWEEPS, SWEEP_TOL_M_S,
+                                       SWEEPS, VELOCITY_TOL_M_S, W_B, W_COUNT, W_POINTS, W_SLOTS,
+                                       W_STRIDE, WARM_COS_MIN,
                                        WARM_LEFT_MAX_M_S, WARM_MATCH_M)
 from rbd_ros.core.layout import P_GRAVITY
 
@@ -74,9 +75,9 @@ def _levels(patches, n_bodies):
 @_raw
 def _relative_velocities(patches, contacts, vel, n_bodies, out, compare):
     """
-    Store every point's relative velocity in ``out`` (C, 3), or compare with it.
+    Store every point's relative velocity in ``out`` (C, 3); with ``compare``, compare first.
 
-    ``compare``: return the largest change since it was stored (m/s), else 0.
+    ``compare``: return the largest change since it was last stored (m/s), else 0.
     """
     largest = 0.0
     for q in range(patches.shape[0]):
@@ -93,10 +94,9 @@ def _relative_velocities(patches, contacts, vel, n_bodies, out, compare):
             if compare:
                 dx, dy, dz = ux - out[c, 0], uy - out[c, 1], uz - out[c, 2]
                 largest = max(largest, math.sqrt(dx * dx + dy * dy + dz * dz))
-            else:
-                out[c, 0] = ux
-                out[c, 1] = uy
-                out[c, 2] = uz
+            out[c, 0] = ux
+            out[c, 1] = uy
+            out[c, 2] = uz
     return largest
 
 
@@ -289,17 +289,20 @@ def _keep_warm(patches, contacts, rot, warm, warm_n, slot):
 def _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, scr, coupled,
             warmed, before):
     """
-    Run the Gauss–Seidel sweeps of a stage, at most SWEEPS, until they converge.
+    Run the Gauss–Seidel sweeps of a stage, at most SWEEPS, until they converge; return how many.
 
     ``warmed``: the points may hold impulses already (a warm start).  ``before`` (C, 3) is
     scratch: a sweep's net change of every point's relative velocity is measured against it,
     since the updates of a sweep can each move by more than the tolerance while cancelling
     (impulses circulating between patches in the null space of a statically indeterminate
     stack), so each update's change alone does not tell when the velocities have converged.
+    The comparison at a sweep's end stores the velocities the next sweep is measured against.
     """
+    if coupled:
+        _relative_velocities(patches, contacts, vel, n_bodies, before, False)
+    done = 0
     for sweep in range(SWEEPS if coupled else 1):
-        if coupled:
-            _relative_velocities(patches, contacts, vel, n_bodies, before, False)
+        done = sweep + 1
         change = 0.0
         for q in range(patches.shape[0]):
             if sweep == 0:
@@ -322,17 +325,19 @@ def _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench
             else 0.0
         if change <= VELOCITY_TOL_M_S or net <= SWEEP_TOL_M_S:
             break
+    return done
 
 
 @_jit
 def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, shock,
-                rot, warm, warm_n, slot, prm):
+                rot, warm, warm_n, slot, prm, stats):
     """
     Gauss–Seidel sweeps over the patches, then (``shock``) one shock-propagation pass.
 
     ``slot`` >= 0: the stage's row of the warm-start table (see :data:`W_SLOTS`), read before
-    the sweeps and rewritten after them; -1 for none.  Return whether patches share a body
-    (then friction is per point, else per patch).
+    the sweeps and rewritten after them, and of the counters ``stats`` (see
+    :data:`ST_STAGES`); -1 for none.  Return whether patches share a body (then friction is
+    per point, else per patch).
     """
     scr = patch_scratch()
     before = np.empty((contacts.shape[0], 3))  # scratch of _sweeps
@@ -359,8 +364,8 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
         saved = (contacts.copy(), patches.copy(), vel.copy(), wrench.copy())
         _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrench, rot,
                     warm, warm_n, slot, prm, np.empty(n_bodies, dtype=np.bool_))
-        _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, scr,
-                coupled, True, before)
+        swept = _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench,
+                        scr, coupled, True, before)
         left = _residual(patches, contacts, vel, n_bodies, scr)
         # Kept either way: the sweeps go on from there next step, so a stack that needs more
         # sweeps than the cap (a tall column converges by ~0.97 a sweep) gets them over steps.
@@ -370,13 +375,18 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
             patches[:] = saved[1]
             vel[:] = saved[2]
             wrench[:] = saved[3]
-            _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, scr,
-                    coupled, False, before)
+            swept += _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x,
+                             wrench, scr, coupled, False, before)
+            stats[slot, ST_COLD] += 1.0
     else:
         if slot >= 0:
             warm_n[slot, :] = 0
-        _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, scr,
-                coupled, False, before)
+        swept = _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench,
+                        scr, coupled, False, before)
+    if coupled and slot >= 0:
+        stats[slot, ST_STAGES] += 1.0
+        stats[slot, ST_SWEEPS] += swept
+        stats[slot, ST_PATCHES] += patches.shape[0]
     if not shock or not coupled:
         return coupled
     level = _levels(patches, n_bodies)
