@@ -102,10 +102,10 @@ C_PHASE = 20     # the stage: 0 collision, 1 first contact stage, 2 second
 C_TARGET = 21    # the target without restitution (m/s): C_BIAS of a contact stage
 C_TOUCH_U = 22   # restitution applies while u_n is below this (m/s): the point then ends the
 #                  step within TOUCH_M of the other shape (see _collision_targets)
-C_TK = 23        # the point's 2×2 tangential response (k11, k12, k22) with both bodies free,
-#                  fixed within a stage: kept once computed (see _friction_points), 3
-C_TK_SET = 26    # 1.0 once C_TK holds it, 0.0 from the narrow phase
-N_CONTACT = 27
+C_TK = 23        # the point's 2×2 tangential response (k11, k12, k22) of body A, then of B,
+#                  fixed within a stage: kept once computed (see _friction_points), 6
+C_TK_SET = 29    # 1.0 once C_TK holds them, 0.0 from the narrow phase
+N_CONTACT = 30
 
 # Patch record fields (rows of the (Q, N_PATCH) float64 patch table).
 Q_A = 0

@@ -141,9 +141,10 @@ def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrenc
     Apply the kept impulses of ``slot`` to the matching points (see :data:`W_SLOTS`).
 
     ``sideways`` (N,) bool is scratch: whether a body has a patch whose normal is not within
-    60° of gravity (a neighbour beside it).
+    60° of gravity (a neighbour beside it).  Return how many points took a kept impulse.
     """
     shared = prm.shape[1] == 1
+    started = 0
     sideways[:] = False
     for q in range(patches.shape[0]):
         a = int(patches[q, Q_A])
@@ -216,6 +217,7 @@ def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrenc
             taken += 1
         if taken == 0:
             continue
+        started += taken
         mean = total / taken
         for k in range(m):
             c = s0 + k
@@ -253,6 +255,7 @@ def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrenc
                 _apply(vel, inv_mass, inv_inertia_w, b, -1.0, rbx, rby, rbz, jx, jy, jz,
                        0.0, 0.0, 0.0)
                 _record(wrench, b, -1.0, rbx, rby, rbz, jx, jy, jz, 0.0, 0.0, 0.0)
+    return started
 
 
 @_raw
@@ -362,15 +365,17 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
         # Within it the warm answer is the better one (from zero the sweeps end at their cap
         # and a resting column's bottom box read 3.5 N of contact force for its 9.81 N).
         saved = (contacts.copy(), patches.copy(), vel.copy(), wrench.copy())
-        _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrench, rot,
-                    warm, warm_n, slot, prm, np.empty(n_bodies, dtype=np.bool_))
+        started = _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrench,
+                              rot, warm, warm_n, slot, prm, np.empty(n_bodies, dtype=np.bool_))
         swept = _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench,
                         scr, coupled, True, before)
         left = _residual(patches, contacts, vel, n_bodies, scr)
         # Kept either way: the sweeps go on from there next step, so a stack that needs more
         # sweeps than the cap (a tall column converges by ~0.97 a sweep) gets them over steps.
         _keep_warm(patches, contacts, rot, warm, warm_n, slot)
-        if left > WARM_LEFT_MAX_M_S:
+        # (A stage no point of which took a kept impulse was solved from zero already: its
+        # sweeps were those of the retry, bit for bit.)
+        if left > WARM_LEFT_MAX_M_S and started > 0:
             contacts[:] = saved[0]
             patches[:] = saved[1]
             vel[:] = saved[2]
