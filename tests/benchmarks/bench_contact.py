@@ -96,6 +96,13 @@ class OursWorld:
             deepest = max(deepest, -low)
         return deepest
 
+    def breakdown(self):
+        """Sweeps per coupled stage (collision / first contact / second) and cold restarts."""
+        stats = self.sim.solve_stats()
+        per = [s and w / s for s, w in zip(stats['stages'], stats['sweeps'])]
+        return {'sweeps_per_stage': ' / '.join(f'{v:.3g}' for v in per),
+                'cold_restarts': int(sum(stats['cold']))}
+
     def close(self):
         pass
 

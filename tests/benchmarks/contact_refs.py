@@ -446,7 +446,8 @@ def _stack(world_cls, h_s, bodies, quick):
 
     The top's drift is taken from where it was placed (it includes the settling of the
     contacts) and, separately, from t = 1 s to the end; the wall time is that of the steps
-    alone, over the whole run (the first step, which may compile, excluded).
+    alone, over the whole run (the first step, which may compile, excluded).  A world with a
+    ``breakdown()`` adds its figures (ours: sweeps per stage, cold restarts).
     """
     duration = 2.0 if quick else 10.0
     world = world_cls(Scene(h_s, bodies, 0.5))
@@ -471,10 +472,11 @@ def _stack(world_cls, h_s, bodies, quick):
             ke_max = max(ke_max, kinetic_energy(bodies, vel, omega))
         p1 = world.state()[0][-1]
         pen_end = world.penetration_m()
+        extra = world.breakdown() if hasattr(world, 'breakdown') else {}
     finally:
         world.close()
     d = p1 - p0
-    return {'duration_s': duration, 'top_drift_m': float(np.linalg.norm(d)),
+    return {**extra, 'duration_s': duration, 'top_drift_m': float(np.linalg.norm(d)),
             'top_sideways_m': float(np.linalg.norm(d[:2])), 'top_dz_m': float(d[2]),
             'top_drift_after_1s_m': float(np.linalg.norm(p1 - p_1s)),
             'ke_max_last_s_J': ke_max, 'penetration_1s_m': pen_1s,

@@ -24,27 +24,31 @@ import math
 from rbd_ros.core.contact.linalg import _mat_vec, _tangent_basis
 from rbd_ros.core.contact.response import _apply, _point_velocity, _record, _response
 from rbd_ros.core.contact.rows import (_inl, _raw, C_FRICTION, C_LAMBDA, C_NORMAL, C_POINT, C_RA,
-                                       C_RB, Q_FT, Q_MT)
+                                       C_RB, C_TK, C_TK_SET, Q_FT, Q_MT)
 from rbd_ros.core.layout import S_POS
+
+
+@_inl
+def _tangent_part(inv_mass, inv_inertia_w, i, rx, ry, rz, t1x, t1y, t1z, t2x, t2y, t2z):
+    """Return body ``i``'s share ``(k11, k12, k22)`` of a point's 2×2 tangential response."""
+    return (_response(inv_mass, inv_inertia_w, i, rx, ry, rz, t1x, t1y, t1z, t1x, t1y, t1z),
+            _response(inv_mass, inv_inertia_w, i, rx, ry, rz, t2x, t2y, t2z, t1x, t1y, t1z),
+            _response(inv_mass, inv_inertia_w, i, rx, ry, rz, t2x, t2y, t2z, t2x, t2y, t2z))
 
 
 @_inl
 def _tangent_response(inv_mass, inv_inertia_w, a, b, dyn_b, wa, wb, rax, ray, raz, rbx, rby,
                       rbz, t1x, t1y, t1z, t2x, t2y, t2z):
     """Return the 2×2 response ``(k11, k12, k22)`` of a point's tangential velocity."""
-    k11 = wa * _response(inv_mass, inv_inertia_w, a, rax, ray, raz, t1x, t1y, t1z,
-                         t1x, t1y, t1z)
-    k12 = wa * _response(inv_mass, inv_inertia_w, a, rax, ray, raz, t2x, t2y, t2z,
-                         t1x, t1y, t1z)
-    k22 = wa * _response(inv_mass, inv_inertia_w, a, rax, ray, raz, t2x, t2y, t2z,
-                         t2x, t2y, t2z)
+    a11, a12, a22 = _tangent_part(inv_mass, inv_inertia_w, a, rax, ray, raz, t1x, t1y, t1z,
+                                  t2x, t2y, t2z)
+    k11, k12, k22 = wa * a11, wa * a12, wa * a22
     if dyn_b:
-        k11 += wb * _response(inv_mass, inv_inertia_w, b, rbx, rby, rbz, t1x, t1y, t1z,
-                              t1x, t1y, t1z)
-        k12 += wb * _response(inv_mass, inv_inertia_w, b, rbx, rby, rbz, t2x, t2y, t2z,
-                              t1x, t1y, t1z)
-        k22 += wb * _response(inv_mass, inv_inertia_w, b, rbx, rby, rbz, t2x, t2y, t2z,
-                              t2x, t2y, t2z)
+        b11, b12, b22 = _tangent_part(inv_mass, inv_inertia_w, b, rbx, rby, rbz, t1x, t1y, t1z,
+                                      t2x, t2y, t2z)
+        k11 += wb * b11
+        k12 += wb * b12
+        k22 += wb * b22
     return k11, k12, k22
 
 
@@ -207,6 +211,10 @@ def _friction_points(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b, d
     cone (:func:`_coulomb`).  Used where patches share a body: the patch friction at a moving
     normal-impulse centre leaves a couple each iteration that Gauss–Seidel over coupled
     patches amplifies.  Four points sticking also hold the twist, so no torsion term.
+    Each body's share of a point's tangential response is kept in the contact row
+    (``C_TK``): the lever arms and inverse inertias are fixed within a stage, so the kept
+    shares, scaled by ``wa`` and ``wb``, are the same bits as computing them again (shock
+    propagation's held bodies included).
     """
     change = 0.0
     for c in range(s0, s0 + m):
@@ -218,8 +226,24 @@ def _friction_points(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b, d
             bx, by, bz = _point_velocity(vel, b, rbx, rby, rbz)
             ux, uy, uz = ux - bx, uy - by, uz - bz
         t1x, t1y, t1z, t2x, t2y, t2z = _tangent_basis(nx, ny, nz)
-        k11, k12, k22 = _tangent_response(inv_mass, inv_inertia_w, a, b, dyn_b, wa, wb, rax, ray,
-                                          raz, rbx, rby, rbz, t1x, t1y, t1z, t2x, t2y, t2z)
+        if contacts[c, C_TK_SET] == 0.0:
+            a11, a12, a22 = _tangent_part(inv_mass, inv_inertia_w, a, rax, ray, raz, t1x, t1y,
+                                          t1z, t2x, t2y, t2z)
+            contacts[c, C_TK], contacts[c, C_TK + 1], contacts[c, C_TK + 2] = a11, a12, a22
+            if dyn_b:
+                b11, b12, b22 = _tangent_part(inv_mass, inv_inertia_w, b, rbx, rby, rbz, t1x,
+                                              t1y, t1z, t2x, t2y, t2z)
+                contacts[c, C_TK + 3], contacts[c, C_TK + 4] = b11, b12
+                contacts[c, C_TK + 5] = b22
+            contacts[c, C_TK_SET] = 1.0
+        # As _tangent_response, from the kept shares (the same bits).
+        k11 = wa * contacts[c, C_TK]
+        k12 = wa * contacts[c, C_TK + 1]
+        k22 = wa * contacts[c, C_TK + 2]
+        if dyn_b:
+            k11 += wb * contacts[c, C_TK + 3]
+            k12 += wb * contacts[c, C_TK + 4]
+            k22 += wb * contacts[c, C_TK + 5]
         if not k11 * k22 - k12 * k12 > 0.0:
             continue
         fx = contacts[c, C_FRICTION]

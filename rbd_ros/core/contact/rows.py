@@ -102,7 +102,10 @@ C_PHASE = 20     # the stage: 0 collision, 1 first contact stage, 2 second
 C_TARGET = 21    # the target without restitution (m/s): C_BIAS of a contact stage
 C_TOUCH_U = 22   # restitution applies while u_n is below this (m/s): the point then ends the
 #                  step within TOUCH_M of the other shape (see _collision_targets)
-N_CONTACT = 23
+C_TK = 23        # the point's 2×2 tangential response (k11, k12, k22) of body A, then of B,
+#                  fixed within a stage: kept once computed (see _friction_points), 6
+C_TK_SET = 29    # 1.0 once C_TK holds them, 0.0 from the narrow phase
+N_CONTACT = 30
 
 # Patch record fields (rows of the (Q, N_PATCH) float64 patch table).
 Q_A = 0
@@ -170,6 +173,15 @@ WARM_MATCH_M = 1e-4
 WARM_COS_MIN = 0.5
 WARM_LEFT_MAX_M_S = 1e-6
 
+# Counters of the contact stages whose patches share bodies, per stage of the step (rows of the
+# (3, N_SOLVE_STATS) float64 table ``Work.stats``, summed from step to step until the simulator
+# resets them; see WorldSimulator.solve_stats): what bench_contact.py prints per stage.
+ST_STAGES = 0    # coupled stages solved
+ST_SWEEPS = 1    # Gauss–Seidel sweeps run (a cold retry's included)
+ST_COLD = 2      # warm-started stages solved again from zero (see solve_stage)
+ST_PATCHES = 3   # patches of those stages
+N_SOLVE_STATS = 4
+
 _jit = jitcache.kernel()
 _inl = jitcache.kernel(inline='always')
 #: Functions that allocate nothing (the loops per pair, per patch, per body) are compiled
@@ -196,9 +208,10 @@ Statics = namedtuple('Statics', ('kind', 'params', 'rot', 'pos', 'lo', 'hi'))
 #: ``vel`` (N, 6: v then ω), ``inv_mass`` (1/kg), ``inv_inertia_w`` (N, 3, 3, world), current
 #: rotation ``rot``, candidate position ``pos_c`` and rotation ``rot_c``, ``touched`` (a body
 #: with a patch this stage), the response cache ``responses`` (N, N_RESPONSE) and the warm
-#: start ``warm`` (3, N, W_SLOTS, W_FIELDS) with its counts ``warm_n`` (3, N).
+#: start ``warm`` (3, N, W_SLOTS, W_FIELDS) with its counts ``warm_n`` (3, N), and the solve
+#: counters ``stats`` (3, N_SOLVE_STATS).
 Work = namedtuple('Work', ('vel', 'inv_mass', 'inv_inertia_w', 'rot', 'pos_c', 'rot_c',
-                           'touched', 'responses', 'warm', 'warm_n'))
+                           'touched', 'responses', 'warm', 'warm_n', 'stats'))
 
 
 @_inl

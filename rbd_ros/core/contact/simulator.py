@@ -311,7 +311,7 @@ class WorldSimulator(BatchSimulator):
             rot=np.zeros((n, 3, 3)), pos_c=np.zeros((n, 3)), rot_c=np.zeros((n, 3, 3)),
             touched=np.zeros(n, dtype=np.bool_), responses=np.full((n, cs.N_RESPONSE), -1.0),
             warm=np.zeros((3, n, cs.W_SLOTS, cs.W_FIELDS)),
-            warm_n=np.zeros((3, n), dtype=np.int64))
+            warm_n=np.zeros((3, n), dtype=np.int64), stats=np.zeros((3, cs.N_SOLVE_STATS)))
         self._contacts = np.zeros((0, cs.N_CONTACT))
 
     def _project_onto_joints(self, bodies, states, timestep_ns):
@@ -405,6 +405,7 @@ class WorldSimulator(BatchSimulator):
         if hasattr(self, '_wrench'):
             self._wrench[:] = 0.0
             self._ws.warm_n[:] = 0  # no warm start from before the reset
+            self._ws.stats[:] = 0.0
             self._contacts = np.zeros((0, cs.N_CONTACT))
 
     def step(self, n: int = 1) -> None:
@@ -433,6 +434,21 @@ class WorldSimulator(BatchSimulator):
                 f'state: the step at t = {int(self._t[0])} ns would be non-finite (forces, '
                 f'velocities or spin too large for h = {self._timestep_ns} ns with '
                 f'{self.integrator}); the world was left at its last finite state')
+
+    def solve_stats(self) -> dict:
+        """
+        Return the counters of the contact stages whose patches share bodies, per stage.
+
+        ``{'stages', 'sweeps', 'cold', 'patches'}``, each a tuple of three (the collision
+        stage, the first contact stage, the second: ``midpoint_cayley`` only), summed since
+        the simulator was built or reset (see :data:`~rbd_ros.core.contact.rows.ST_STAGES`):
+        coupled stages solved, Gauss–Seidel sweeps run, warm-started stages solved again from
+        zero, their patches.
+        """
+        s = self._ws.stats
+        return {name: tuple(float(v) for v in s[:, k]) for name, k in (
+            ('stages', cs.ST_STAGES), ('sweeps', cs.ST_SWEEPS), ('cold', cs.ST_COLD),
+            ('patches', cs.ST_PATCHES))}
 
     def set_gravity_w(self, gravity_w) -> None:
         """Set every body's gravitational acceleration (m/s², world) from the next step on."""

@@ -28,9 +28,10 @@ One step, in the paper's order (:func:`world_step`):
    ε = 0, Gauss–Seidel sweeps over the patches, then one **shock propagation** pass: bodies are
    put in levels of the contact graph from the static world up, and a patch between two
    levels is solved with the lower body held as if of infinite mass.  Where patches share
-   bodies (a stack) the sweeps start from the normal impulses the same stage of the last
-   step ended with (a **warm start**, :data:`W_SLOTS`); they stop when a sweep changes no
-   point's relative velocity by more than :data:`SWEEP_TOL_M_S`.  So a resting stack's
+   bodies (a stack) the sweeps start from the normal impulses (and each point's friction)
+   the same stage of the last step ended with (a **warm start**, :data:`W_SLOTS`); they stop
+   when a sweep changes no point's relative velocity by more than :data:`SWEEP_TOL_M_S`
+   (``WorldSimulator.solve_stats`` counts them).  So a resting stack's
    sweeps converge, in two or three, and each box's recorded contact force is its weight;
    from zero they ran to their cap and shock propagation made up the rest.
 4. **Positions** with the final velocities.  ``midpoint_cayley`` (kick–drift–kick) then does
@@ -155,7 +156,7 @@ def contact_stage(x, prm, shapes, statics, h, phase, stage, shock, wrench, work,
         if patches[q, Q_B] < n:
             touched[int(patches[q, Q_B])] = True
     coupled = solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n, x, wrench, shock,
-                          rot, warm, warm_n, slot, prm)
+                          rot, warm, warm_n, slot, prm, work.stats)
     if joints is not None:
         if kind != VISIT_NONE:
             for i in range(n):

@@ -39,8 +39,9 @@ from rbd_ros.core.contact.patch import (_collision_targets, _held, _idle, _norma
 from rbd_ros.core.contact.response import _apply, _point_velocity, _record
 from rbd_ros.core.contact.rows import (_inl, _jit, _raw, C_BIAS, C_FRICTION, C_LAMBDA, C_NORMAL,
                                        C_RA, C_RB, Q_A, Q_B, Q_COUNT, Q_EPS, Q_FT, Q_MU, Q_START,
-                                       SWEEP_TOL_M_S, SWEEPS, VELOCITY_TOL_M_S, W_B, W_COUNT,
-                                       W_POINTS, W_SLOTS, W_STRIDE, WARM_COS_MIN,
+                                       ST_COLD, ST_PATCHES, ST_STAGES, ST_SWEEPS, SWEEP_TOL_M_S,
+                                       SWEEPS, VELOCITY_TOL_M_S, W_B, W_COUNT, W_POINTS, W_SLOTS,
+                                       W_STRIDE, WARM_COS_MIN,
                                        WARM_LEFT_MAX_M_S, WARM_MATCH_M)
 from rbd_ros.core.layout import P_GRAVITY
 
@@ -74,9 +75,9 @@ def _levels(patches, n_bodies):
 @_raw
 def _relative_velocities(patches, contacts, vel, n_bodies, out, compare):
     """
-    Store every point's relative velocity in ``out`` (C, 3), or compare with it.
+    Store every point's relative velocity in ``out`` (C, 3); with ``compare``, compare first.
 
-    ``compare``: return the largest change since it was stored (m/s), else 0.
+    ``compare``: return the largest change since it was last stored (m/s), else 0.
     """
     largest = 0.0
     for q in range(patches.shape[0]):
@@ -93,10 +94,9 @@ def _relative_velocities(patches, contacts, vel, n_bodies, out, compare):
             if compare:
                 dx, dy, dz = ux - out[c, 0], uy - out[c, 1], uz - out[c, 2]
                 largest = max(largest, math.sqrt(dx * dx + dy * dy + dz * dz))
-            else:
-                out[c, 0] = ux
-                out[c, 1] = uy
-                out[c, 2] = uz
+            out[c, 0] = ux
+            out[c, 1] = uy
+            out[c, 2] = uz
     return largest
 
 
@@ -141,9 +141,10 @@ def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrenc
     Apply the kept impulses of ``slot`` to the matching points (see :data:`W_SLOTS`).
 
     ``sideways`` (N,) bool is scratch: whether a body has a patch whose normal is not within
-    60° of gravity (a neighbour beside it).
+    60° of gravity (a neighbour beside it).  Return how many points took a kept impulse.
     """
     shared = prm.shape[1] == 1
+    started = 0
     sideways[:] = False
     for q in range(patches.shape[0]):
         a = int(patches[q, Q_A])
@@ -216,6 +217,7 @@ def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrenc
             taken += 1
         if taken == 0:
             continue
+        started += taken
         mean = total / taken
         for k in range(m):
             c = s0 + k
@@ -253,6 +255,7 @@ def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrenc
                 _apply(vel, inv_mass, inv_inertia_w, b, -1.0, rbx, rby, rbz, jx, jy, jz,
                        0.0, 0.0, 0.0)
                 _record(wrench, b, -1.0, rbx, rby, rbz, jx, jy, jz, 0.0, 0.0, 0.0)
+    return started
 
 
 @_raw
@@ -289,17 +292,20 @@ def _keep_warm(patches, contacts, rot, warm, warm_n, slot):
 def _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, scr, coupled,
             warmed, before):
     """
-    Run the Gauss–Seidel sweeps of a stage, at most SWEEPS, until they converge.
+    Run the Gauss–Seidel sweeps of a stage, at most SWEEPS, until they converge; return how many.
 
     ``warmed``: the points may hold impulses already (a warm start).  ``before`` (C, 3) is
     scratch: a sweep's net change of every point's relative velocity is measured against it,
     since the updates of a sweep can each move by more than the tolerance while cancelling
     (impulses circulating between patches in the null space of a statically indeterminate
     stack), so each update's change alone does not tell when the velocities have converged.
+    The comparison at a sweep's end stores the velocities the next sweep is measured against.
     """
+    if coupled:
+        _relative_velocities(patches, contacts, vel, n_bodies, before, False)
+    done = 0
     for sweep in range(SWEEPS if coupled else 1):
-        if coupled:
-            _relative_velocities(patches, contacts, vel, n_bodies, before, False)
+        done = sweep + 1
         change = 0.0
         for q in range(patches.shape[0]):
             if sweep == 0:
@@ -322,17 +328,19 @@ def _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench
             else 0.0
         if change <= VELOCITY_TOL_M_S or net <= SWEEP_TOL_M_S:
             break
+    return done
 
 
 @_jit
 def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, shock,
-                rot, warm, warm_n, slot, prm):
+                rot, warm, warm_n, slot, prm, stats):
     """
     Gauss–Seidel sweeps over the patches, then (``shock``) one shock-propagation pass.
 
     ``slot`` >= 0: the stage's row of the warm-start table (see :data:`W_SLOTS`), read before
-    the sweeps and rewritten after them; -1 for none.  Return whether patches share a body
-    (then friction is per point, else per patch).
+    the sweeps and rewritten after them, and of the counters ``stats`` (see
+    :data:`ST_STAGES`); -1 for none.  Return whether patches share a body (then friction is
+    per point, else per patch).
     """
     scr = patch_scratch()
     before = np.empty((contacts.shape[0], 3))  # scratch of _sweeps
@@ -357,26 +365,33 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
         # Within it the warm answer is the better one (from zero the sweeps end at their cap
         # and a resting column's bottom box read 3.5 N of contact force for its 9.81 N).
         saved = (contacts.copy(), patches.copy(), vel.copy(), wrench.copy())
-        _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrench, rot,
-                    warm, warm_n, slot, prm, np.empty(n_bodies, dtype=np.bool_))
-        _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, scr,
-                coupled, True, before)
+        started = _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrench,
+                              rot, warm, warm_n, slot, prm, np.empty(n_bodies, dtype=np.bool_))
+        swept = _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench,
+                        scr, coupled, True, before)
         left = _residual(patches, contacts, vel, n_bodies, scr)
         # Kept either way: the sweeps go on from there next step, so a stack that needs more
         # sweeps than the cap (a tall column converges by ~0.97 a sweep) gets them over steps.
         _keep_warm(patches, contacts, rot, warm, warm_n, slot)
-        if left > WARM_LEFT_MAX_M_S:
+        # (A stage no point of which took a kept impulse was solved from zero already: its
+        # sweeps were those of the retry, bit for bit.)
+        if left > WARM_LEFT_MAX_M_S and started > 0:
             contacts[:] = saved[0]
             patches[:] = saved[1]
             vel[:] = saved[2]
             wrench[:] = saved[3]
-            _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, scr,
-                    coupled, False, before)
+            swept += _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x,
+                             wrench, scr, coupled, False, before)
+            stats[slot, ST_COLD] += 1.0
     else:
         if slot >= 0:
             warm_n[slot, :] = 0
-        _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, scr,
-                coupled, False, before)
+        swept = _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench,
+                        scr, coupled, False, before)
+    if coupled and slot >= 0:
+        stats[slot, ST_STAGES] += 1.0
+        stats[slot, ST_SWEEPS] += swept
+        stats[slot, ST_PATCHES] += patches.shape[0]
     if not shock or not coupled:
         return coupled
     level = _levels(patches, n_bodies)

@@ -74,7 +74,8 @@ def contacts(sim, x, geo, stage):
                    touched=np.zeros(n, dtype=np.bool_),
                    responses=np.full((n, cs.N_RESPONSE), -1.0),
                    warm=np.zeros((3, n, cs.W_SLOTS, cs.W_FIELDS)),
-                   warm_n=np.zeros((3, n), dtype=np.int64))
+                   warm_n=np.zeros((3, n), dtype=np.int64),
+                   stats=np.zeros((3, cs.N_SOLVE_STATS)))
     h = 1e-3
     prepare_bodies(x, sim._params, work.vel, work.inv_mass, work.inv_inertia_w, work.rot,
                    work.pos_c, work.rot_c, h, False)
