@@ -207,13 +207,15 @@ def module_tmp(tmp_path_factory):
 # --- The kernels compile once, in the background, while tests that need none run -----------
 #
 # A fresh clone's first contact test compiles the contact step for ~2 min of one core, a joints
-# test the joints step for ~1.5 min and the batch test the threaded kernel for ~1 min, while the
-# other core idles. So the session starts `python -m rbd_ros.core.warmup --batch` in a background
-# process (it fills the same per-user cache the tests and their nodes read; free, contact, joints,
-# then batch) and runs the tests in tiers: first those that compile nothing, then those that
-# need only the free-body step (compiled first, ~20 s), then, once the free, contact and joints
-# kinds are marked on disk (jitcache.kernels_on_disk), the rest but the batch tests, which come
-# last, once the warm-up has ended. A test that waited for its kinds never compiles them again
+# test the joints step for ~1.5 min, a world with joints its own specialisation of the contact
+# step and the batch test the threaded kernel for ~1 min, while the other core idles. So the
+# session starts `python -m rbd_ros.core.warmup --batch` in a background process (it fills the
+# same per-user cache the tests and their nodes read; free, contact, joints, world_joints, then
+# batch) and runs the tests in tiers: first those that compile nothing, then those that need only
+# the free-body step (compiled first, ~20 s), then, once the free, contact and joints kinds are
+# marked on disk (jitcache.kernels_on_disk), the rest but the jointed worlds' and the batch
+# tests; the jointed worlds' once their kind is marked too, and the batch tests last, once the
+# warm-up has ended. A test that waited for its kinds never compiles them again
 # beside the warm-up. Nothing is skipped: a warm-up that fails only means the tests compile the
 # kernels themselves, as they would without it. With a warm cache the process ends in ~2 s.
 
@@ -242,19 +244,27 @@ FREE_KERNEL_FILES = ('ros/test_sim_session.py', 'ros/test_node_physics.py',
                      'recording/test_bag_limits.py')
 #: Below FREE_KERNEL_DIR, what needs more than the free-body step.
 NOT_FREE_DIRS = ('core/contact/', 'core/joints/')
+#: Test files that step worlds with joints (their own specialisation of the contact step), or
+#: start a node on every file of msg_config/ (``pendulum_world.yaml`` has joints).
+WORLD_JOINTS_FILES = ('core/joints/test_joints_contact.py', 'sim/test_world_joints.py',
+                      'ros/test_node_world_joints.py', 'ros/test_node_lifecycle.py',
+                      'ros/test_param_dump.py')
 #: The test files of the threaded batch kernel: the last tier (the warm-up compiles it last).
 BATCH_KERNEL_FILES = ('core/test_batch.py',)
 #: The kernel kinds (jitcache.KIND_MODULES) each tier waits for; the last tier waits for the
 #: warm-up's end.
-TIER_KINDS = {1: ('free',), 2: ('free', 'contact', 'joints')}
+TIER_KINDS = {1: ('free',), 2: ('free', 'contact', 'joints'),
+              3: ('free', 'contact', 'joints', 'world_joints')}
 _WARM_UP = {}
 
 
 def _tier_of(path, name):
-    """Return the tier (0, 1, 2, 3) of test ``name`` in ``path`` (relative to tests/, posix)."""
+    """Return the tier (0 to 4) of test ``name`` in ``path`` (relative to tests/, posix)."""
     if path in NO_KERNEL_FILES or f'{path}::{name}' in NO_KERNEL_TESTS:
         return 0
     if path in BATCH_KERNEL_FILES:
+        return 4
+    if path in WORLD_JOINTS_FILES:
         return 3
     if path in FREE_KERNEL_FILES or path.startswith(FREE_KERNEL_DIR) and not path.startswith(
             NOT_FREE_DIRS):

@@ -18,7 +18,8 @@ Compile every physics kernel once, or load it from the cache: ``python -m rbd_ro
 What a first step compiles, without a node or a parameter file: the free-body step
 (:class:`~rbd_ros.core.Simulator`), the contact step (a box on a ground plane, the same compiled
 specialisation every world uses), the joints step (a hinged rod: the same specialisation every
-robot uses) and, with ``--batch``, the threaded batch kernel. Each kind is
+robot uses), the contact step with joints (a ball hinged above the ground: the specialisation of
+every world with ``joint_names``) and, with ``--batch``, the threaded batch kernel. Each kind is
 marked in the cache (:func:`jitcache.mark_compiled`) once it compiled, as the node does, so a
 node started afterwards loads them and says nothing about compiling. The test suite runs this in
 a background process while it runs the tests that need no kernel (``tests/conftest.py``); a
@@ -38,7 +39,7 @@ from rbd_ros.core.simulator import BatchSimulator, Simulator
 from rbd_ros.core.state import BodyState
 
 #: The kinds of kernel, in the order :func:`compile_kernels` compiles them.
-KINDS = ('free', 'contact', 'joints', 'batch')
+KINDS = ('free', 'contact', 'joints', 'world_joints', 'batch')
 
 
 def _model():
@@ -69,12 +70,27 @@ def _joints():
                          timestep_ns=1_000_000).step(1)
 
 
+def _world_joints():
+    from rbd_ros.core.contact import ground_plane, Material, primitive_shape, StaticWorld
+    from rbd_ros.core.contact.simulator import WorldBody, WorldSimulator
+    from rbd_ros.core.joints import Joint
+    shape = primitive_shape('sphere', [0.1])
+    model = BodyModel(1.0, shape.mass_properties(1.0).inertia_b, gravity_w=(0, 0, -9.81))
+    hinge = Joint('pivot', 'revolute', None, 0, origin_parent_b=(0, 0, 0.7),
+                  origin_child_b=(0, 0, 0.5), axis_b=(0, 1, 0))
+    WorldSimulator([WorldBody('ball', model, shape, Material(friction=0.5))],
+                   [BodyState(position_w=(0, 0, 0.2))],
+                   StaticWorld(ground_plane(material=Material(friction=0.5))),
+                   joints=[hinge]).step(1)
+
+
 def _batch():
     model = _model()
     BatchSimulator([model, model], [BodyState(), BodyState()], threads=2).step(1)
 
 
-COMPILERS = {'free': _free, 'contact': _contact, 'joints': _joints, 'batch': _batch}
+COMPILERS = {'free': _free, 'contact': _contact, 'joints': _joints,
+             'world_joints': _world_joints, 'batch': _batch}
 
 
 def compile_kernels(kinds=KINDS, log=print):
@@ -100,14 +116,14 @@ def compile_kernels(kinds=KINDS, log=print):
 
 
 def main(argv=None):
-    """Compile the free-body, contact and joints kernels (and with ``--batch`` the batch one)."""
+    """Compile the free-body, contact, joints and jointed-world kernels (``--batch``: batch too)."""
     parser = argparse.ArgumentParser(prog='python -m rbd_ros.core.warmup',
                                      description=main.__doc__)
     parser.add_argument('--batch', action='store_true', help='also the threaded batch kernel')
     parser.add_argument('--only', choices=KINDS, action='append',
                         help='compile only this kind (repeatable)')
     args = parser.parse_args(argv)
-    compile_kernels(args.only or (KINDS if args.batch else KINDS[:3]))
+    compile_kernels(args.only or (KINDS if args.batch else KINDS[:-1]))
     return 0
 
 

@@ -567,7 +567,7 @@ class RigidBodyNode(Node):
         placement onto the joints at its first step, so building it compiles nothing).
         """
         config = self.config
-        kind = 'joints' if config.robots else 'contact' if config.contact else 'free'
+        kind = build.kernel_kind(config)
         on_disk = jitcache.kernels_on_disk(kind)
         if not on_disk:
             self.get_logger().info(jitcache.compile_notice(kind))

@@ -158,6 +158,21 @@ def _blame_world_body(params, reason):
                           f'physics step is not finite ({reason})')
 
 
+def kernel_kind(config):
+    """
+    Return the kind of compiled step ``config``'s first step needs (:data:`jitcache.KIND_MODULES`).
+
+    ``joints`` for robots, ``world_joints`` for a world with ``joint_names`` (the contact step
+    compiled with the joints' visits, a specialisation of its own), ``contact`` for any other
+    world that can touch something, else ``free``.
+    """
+    if config.robots:
+        return 'joints'
+    if config.world_joints:
+        return 'world_joints'
+    return 'contact' if config.contact else 'free'
+
+
 def check_first_step(config):
     """
     Take one physics step from the initial state on a throw-away simulator.

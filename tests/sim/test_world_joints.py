@@ -34,7 +34,7 @@ from rbd_ros.core.contact.simulator import WorldSimulator
 from rbd_ros.core.joints.model import joint_position
 from rbd_ros.core.joints.readout import KINDS as MOVING_KINDS
 from rbd_ros.msgs import outputs
-from rbd_ros.sim.build import make_simulator
+from rbd_ros.sim.build import kernel_kind, make_simulator
 from rbd_ros.sim.config import NodeConfig
 from rbd_ros.sim.joint_commands import CommandRejected
 from rbd_ros.sim.session import SimSession
@@ -51,6 +51,19 @@ def _pendulum(**changes):
     params = yaml.safe_load(PENDULUM.read_text())['/**']['ros__parameters']
     params.update(changes)
     return params
+
+
+def test_a_world_with_joints_compiles_its_own_kind_and_says_so():
+    # The contact step with joints is a specialisation of its own (minutes cold): a node on a
+    # world with joint_names must not take the plain contact step's mark on disk for it, and
+    # sit silent while it compiles.
+    from rbd_ros.core import jitcache, warmup
+    assert kernel_kind(NodeConfig.from_parameters(_pendulum())) == 'world_joints'
+    plain = {k: v for k, v in _pendulum().items()
+             if k != 'joint_names' and not k.startswith('joints.')}
+    assert kernel_kind(NodeConfig.from_parameters(plain)) == 'contact'
+    assert 'world_joints' in warmup.KINDS and 'world_joints' in jitcache.KIND_MODULES
+    assert 'the contact step with joints' in jitcache.compile_notice('world_joints')
 
 
 def test_the_pendulum_file_reads_its_hinge_in_the_bodies_frames():

@@ -154,8 +154,9 @@ def joint_error(model, work, x):
     """
     Return ``(max anchor distance m, max axis angle rad)`` over all joints at ``x`` (N, 13).
 
-    ``model``, ``work``: the arrays of :mod:`rbd_ros.core.joints.kernels`; ``work.con`` is
-    overwritten.
+    A mimic joint's ``|q - k q_leader - c|`` counts as an angle (rad) when the mimic is
+    revolute or continuous, as a distance (m) when prismatic. ``model``, ``work``: the arrays
+    of :mod:`rbd_ros.core.joints.kernels`; ``work.con`` is overwritten.
     """
     jk.joint_rows(model, x, work, False)
     con, rows = work.con, model.rows
@@ -167,6 +168,12 @@ def joint_error(model, work, x):
         dist = max(dist, math.sqrt(sum(v * v for v in lin)))
         if angs:
             ang = max(ang, math.asin(min(1.0, max(angs))))
+        mimic = model.jint[j, jk.J_MIMROW]
+        if mimic >= 0:
+            if model.jint[j, jk.J_KIND] == jk.KIND_CODES['prismatic']:
+                dist = max(dist, abs(con[mimic]))
+            else:
+                ang = max(ang, abs(con[mimic]))
     return dist, ang
 
 

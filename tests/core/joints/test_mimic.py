@@ -220,3 +220,26 @@ def test_a_mimic_joint_takes_no_motor():
     with pytest.raises(ConfigError, match=r"^joint 'b': a mimic joint \(of 'a'\) takes no "
                                           r"motor; command 'a'$"):
         sim.set_motor(1, effort=1.0)
+
+
+def test_joint_error_reports_a_broken_mimic_tie():
+    # /diagnostics' joint_error covers the mimic row: turn the mimic rod about its own pivot by
+    # delta, which leaves its hinge's rows satisfied and breaks only q_b = k q_a + c by delta.
+    from rbd_ros.core.joints.simulator import joint_error
+    from rbd_ros.core.rotations import quat_multiply
+    k, c, delta = -0.8, 0.1, 1e-6
+    sim = pendulums(k, theta0=0.3, c=c)
+    dist, ang = sim.joint_error()
+    assert dist <= 1e-13 and ang <= 1e-13  # the projection's tolerance (PROJECTION_TOL)
+    x = sim._x.copy()
+    pivot = np.array([2.0, 0.0, 0.0])
+    turn = y_rotation(delta)
+    rot = np.array([[math.cos(delta), 0.0, math.sin(delta)], [0.0, 1.0, 0.0],
+                    [-math.sin(delta), 0.0, math.cos(delta)]])   # R_y(delta)
+    x[1, 0:3] = pivot + rot @ (x[1, 0:3] - pivot)
+    x[1, 3:7] = quat_multiply(turn, x[1, 3:7])
+    dist, ang = joint_error(sim._model, sim._work, x)
+    # the hinge point moved by round-off only; the tie is off by delta (to the hinge's own
+    # sub-1e-13 error and the rotation's round-off)
+    assert dist <= 1e-13
+    assert ang == pytest.approx(delta, abs=1e-12)
