@@ -116,7 +116,7 @@ def compile_kernels(kinds=KINDS, log=print):
 
 
 def main(argv=None):
-    """Compile the free-body, contact, joints and jointed-world kernels (``--batch``: batch too)."""
+    """Compile every kernel kind but the threaded batch one (``--batch``: that one too)."""
     parser = argparse.ArgumentParser(prog='python -m rbd_ros.core.warmup',
                                      description=main.__doc__)
     parser.add_argument('--batch', action='store_true', help='also the threaded batch kernel')
