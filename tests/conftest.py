@@ -246,7 +246,8 @@ FREE_KERNEL_FILES = ('ros/test_sim_session.py', 'ros/test_node_physics.py',
 NOT_FREE_DIRS = ('core/contact/', 'core/joints/')
 #: Test files that step worlds with joints (their own specialisation of the contact step), or
 #: start a node on every file of msg_config/ (``pendulum_world.yaml`` has joints).
-WORLD_JOINTS_FILES = ('core/joints/test_joints_contact.py', 'sim/test_world_joints.py',
+WORLD_JOINTS_FILES = ('core/joints/test_joints_contact.py', 'core/joints/test_motors_contact.py',
+                      'sim/test_world_joints.py',
                       'ros/test_node_world_joints.py', 'ros/test_node_lifecycle.py',
                       'ros/test_param_dump.py')
 #: The test files of the threaded batch kernel: the last tier (the warm-up compiles it last).

@@ -17,7 +17,7 @@ Joints between the bodies of a world (``joint_names``, ``joints.<name>.*``): rea
 
 In process, through :meth:`NodeConfig.from_parameters` (what the node calls at start): every bad
 value is one line naming the parameter, its value and unit; what the core refuses in a world
-with contact (limits, damping, friction for now) surfaces under the parameter's name when the
+with contact (damping, friction for now) surfaces under the parameter's name when the
 simulator is built (the node's first-step check), whatever the core accepts later. The readout
 is the core's joint coordinate, and ``joint_command`` is checked as a robot's, then rejected
 (``no_motor``). The node's topics, ``/tf``, the closed forms and replay are in

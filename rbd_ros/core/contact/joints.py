@@ -48,6 +48,11 @@ the still velocities, and the contact is left approaching by what the two disagr
 contacts' push-out at the next steps. A solve of the patch with the joints' effective mass
 would not stall.
 
+A joint's motor row and limit row take part in both visits: the motors' as
+:mod:`rbd_ros.core.contact.motors` says (a velocity row, or a position motor's goal for the
+drift), the limits' as one-sided rows (:mod:`rbd_ros.core.contact.limits`: held where the
+drift would cross the bound, let go where their impulse would pull or the joint leaves).
+
 Where each runs is :func:`rbd_ros.core.contact.step.world_step`'s order. Velocities are either
 the state's (``x``: ``v_w``, ``ω_b``) or a stage's (``vel``: ``v_w``, ``ω_w``).
 """
@@ -57,6 +62,8 @@ from collections import namedtuple
 import numpy as np
 
 from rbd_ros.core import kernels as kk
+from rbd_ros.core.contact import limits as cl
+from rbd_ros.core.contact import motors as cm
 from rbd_ros.core.contact.linalg import patch_scratch
 from rbd_ros.core.contact.rows import _inl, _jit, SWEEP_TOL_M_S
 from rbd_ros.core.contact.sweeps import _residual, _sweeps
@@ -67,8 +74,10 @@ from rbd_ros.core.layout import P_INERTIA, S_OMEGA, S_POS, S_QUAT, S_VEL
 #: What a jointed world's step carries: the joints' ``model`` and ``work``
 #: (:data:`rbd_ros.core.joints.kernels.ArtModel`, ``ArtWork``), the state in the joints'
 #: layout ``jx`` (N, 13) and a drifted copy ``xt`` (N, 13), ``jointed`` (N,) bool (a body of
-#: some joint), and ``stats``: see :data:`J_ERR` and after.
-JointStage = namedtuple('JointStage', ('model', 'work', 'jx', 'xt', 'jointed', 'stats'))
+#: some joint), ``stats``: see :data:`J_ERR` and after, and ``drive`` (n_joints,
+#: :data:`~rbd_ros.core.contact.motors.D_SIZE`), the motors' state in the step.
+JointStage = namedtuple('JointStage', ('model', 'work', 'jx', 'xt', 'jointed', 'stats',
+                                       'drive'))
 #: stats: the largest row error a pre-stabilization left at its drifted pose (m or the cosine
 #: of a right angle), its most Newton iterations, the most visits of one stage's joint loop,
 #: 1 once a pre-stabilization failed to reach the tolerance, and the largest violation of the
@@ -177,7 +186,11 @@ def post_stabilize(joints, x, vel, from_vel):
     """
     _load(joints, x, vel, from_vel)
     _factor_here(joints)
+    if cl.let_go(joints, True):
+        jk.factor(joints.model, joints.work)
     jk._project_velocities(joints.model, joints.jx, joints.work)
+    cm.tally(joints)
+    cl.let_go(joints, False)
     yb = joints.work.yb
     if from_vel:
         for b in range(yb.shape[0]):
@@ -212,6 +225,10 @@ def pre_stabilize(joints, x, vel, from_vel, prm, method, h):
     for it in range(PROJECTION_MAX_ITER + 1):
         _drift(joints, prm, method, h)
         jk.joint_rows(model, joints.xt, work, False)   # C at the drifted pose; J stays here
+        if cl.catch(joints):   # the drift crosses a limit: hold its row (J is at jx already)
+            jk.factor(model, work)
+            jk.joint_rows(model, joints.xt, work, False)
+        cm.motor_rows(joints)
         err = jk._max_abs(work.con)
         if err <= PROJECTION_TOL:
             stats[J_ERR] = max(stats[J_ERR], err)
@@ -224,6 +241,9 @@ def pre_stabilize(joints, x, vel, from_vel, prm, method, h):
         for r in range(work.con.shape[0]):
             work.bias[r] = -work.con[r] / h
         jk.solve(model, work, zero, work.bias, yb, work.yj)
+        cm.tally(joints)
+        if cl.let_go(joints, False):
+            jk.factor(model, work)
         for b in range(jx.shape[0]):
             if not joints.jointed[b]:
                 continue
@@ -243,6 +263,29 @@ def pre_stabilize(joints, x, vel, from_vel, prm, method, h):
     if not from_vel:
         _store(joints, x)
     return total
+
+
+@_jit
+def motors_start(joints, x, vel, attempt, h):
+    """Begin a step's motors from the state ``x`` (:func:`~rbd_ros.core.contact.motors.start`)."""
+    _load(joints, x, vel, False)
+    cl.free_all(joints)
+    cm.start(joints, attempt, h)
+
+
+@_jit
+def motors_kick(joints, x, vel, dt, end):
+    """Give ``x`` the effort motors' impulses over ``dt`` (:func:`~.motors.kick`)."""
+    _load(joints, x, vel, False)
+    if cm.kick(joints, dt, end):
+        _store(joints, x)
+
+
+@_jit
+def motors_finish(joints, x, vel, h):
+    """End a step's motors at the state ``x`` (:func:`~rbd_ros.core.contact.motors.finish`)."""
+    _load(joints, x, vel, False)
+    cm.finish(joints, h)
 
 
 @_jit

@@ -35,6 +35,8 @@ import numpy as np
 from rbd_ros.core import jitcache, layout
 from rbd_ros.core.contact import joints as cj
 from rbd_ros.core.contact import kernels as ck
+from rbd_ros.core.contact import limits as cl
+from rbd_ros.core.contact import motors as cm
 from rbd_ros.core.contact import rows as cs
 from rbd_ros.core.contact.shapes import CollisionShape
 from rbd_ros.core.contact.step import world_step
@@ -43,6 +45,7 @@ from rbd_ros.core.contact.world import (check_overlaps, DEFAULT_OVERLAP_TOLERANC
 from rbd_ros.core.errors import (ConfigError, ConvergenceError, finite_vector, ModelError,
                                  NonFiniteError)
 from rbd_ros.core.integrators import DEFAULT_INTEGRATOR, integrator_info
+from rbd_ros.core.joints import kernels as jk
 from rbd_ros.core.joints import simulator as joints_simulator
 from rbd_ros.core.joints.model import Joint
 from rbd_ros.core.model import BodyModel
@@ -255,9 +258,11 @@ class WorldSimulator(BatchSimulator):
     :param joints: :class:`~rbd_ros.core.joints.model.Joint` values between the bodies (by
         index, ``parent=None`` the world), as :class:`~rbd_ros.core.joints.ArticulatedSimulator`
         takes them and checks them; the states are projected onto them first, as there.
-        Without limits (a cone's too), motors, damping, friction or mimics for now (refused in one
-        line). A jointed body collides as any other; two bodies of one joint collide with
-        each other too (give them shapes that clear at the joint).
+        Motors as there (:meth:`set_motor`); limits (``lower``, ``upper``) as speculative
+        inelastic stops (:mod:`rbd_ros.core.contact.limits`). Without cone limits, damping,
+        friction or mimics for now (refused in one line). A jointed body collides as any
+        other; two bodies of one joint collide with each other too (give them shapes that
+        clear at the joint).
     :raises ModelError: a bad body, or bodies starting inside each other or the static world.
     :raises ConfigError: an integrator that cannot take contact; a bad or unsupported joint.
     :raises ConvergenceError: states that could not be projected onto the joints.
@@ -320,9 +325,7 @@ class WorldSimulator(BatchSimulator):
             if not isinstance(joint, Joint):
                 raise ConfigError(f'joints[{i}]: {type(joint).__name__} is not a Joint')
             who = f'joint {joint.name!r}'
-            for name, value, unset in (('lower', joint.lower, None),
-                                       ('upper', joint.upper, None),
-                                       ('cone_rad', joint.cone_rad, None),
+            for name, value, unset in (('cone_rad', joint.cone_rad, None),
                                        ('damping', joint.damping, 0.0),
                                        ('friction', joint.friction, 0.0),
                                        ('mimic', joint.mimic, None)):
@@ -338,8 +341,10 @@ class WorldSimulator(BatchSimulator):
             jointed[joint.child] = True
             if joint.parent is not None:
                 jointed[joint.parent] = True
+        self._articulated = articulated   # checks and sets the motors' commands
         self._joint_stage = cj.JointStage(model, work, np.zeros((n, 13)), np.zeros((n, 13)),
-                                          jointed, np.zeros(cj.J_STATS))
+                                          jointed, np.zeros(cj.J_STATS),
+                                          np.zeros((len(self._joints), cm.D_SIZE)))
         return articulated.states
 
     @property
@@ -359,6 +364,61 @@ class WorldSimulator(BatchSimulator):
         stage = self._joint_stage
         x = np.ascontiguousarray(self._x.T)
         return joints_simulator.joint_error(stage.model, stage.work, x)
+
+    def _articulated_or_refuse(self):
+        if self._joint_stage is None:
+            raise ConfigError('joint_index: a world without joints has no motors')
+        return self._articulated
+
+    def set_motor(self, joint_index: int, **targets) -> None:
+        """
+        Set (or, with no target, clear) joint ``joint_index``'s motor; held until changed.
+
+        The arguments, their checks and their meaning are those of
+        :meth:`rbd_ros.core.joints.ArticulatedSimulator.set_motor` (``effort``, ``velocity``,
+        or ``position`` with ``time_constant_s`` and optional ``reference_rates``); the
+        contact step drives them by impulses (:mod:`rbd_ros.core.contact.motors`): an effort
+        as a force through each velocity update, a velocity target as a velocity row (the
+        coordinate growing by ``v* h`` a step), a position target's exact critically damped
+        response as the coordinate the joint lands on at every step's end. A position or
+        velocity motor that would need more than the joint's ``effort_limit`` over a step
+        saturates (the step is taken again with it pushing ``±effort_limit``).
+
+        :raises ConfigError: a bad joint index or target (one line naming the joint, value
+            and unit).
+        """
+        self.set_motors([(joint_index, targets)])
+
+    def set_motors(self, targets) -> None:
+        """Set several motors at once, as :meth:`set_motor` each; a bad one sets none."""
+        articulated = self._articulated_or_refuse()
+        targets = list(targets)
+        articulated.set_motors(targets, refresh=False)
+        drive, motor = self._joint_stage.drive, self._joint_stage.work.motor
+        for joint_index, _ in targets:
+            drive[joint_index, :] = 0.0   # its time from now, its rate from the state's
+            motor[joint_index, jk.M_HOLD] = 0.0
+            motor[joint_index, jk.M_SAT] = 0.0
+
+    def joint_efforts(self) -> np.ndarray:
+        """
+        Return (n_joints,): each motor's effort over the last step, N m or N (0 without).
+
+        An effort motor: its clipped effort; a position or velocity motor: its row's impulses
+        over the step divided by ``h`` (the step's average force along the joint coordinate
+        on the child), or ``±effort_limit`` when saturated.
+        """
+        self._articulated_or_refuse()
+        return self._joint_stage.work.motor[:len(self._joints), jk.M_APPLIED].copy()
+
+    def motor_saturated(self):
+        """Return per joint True when its position or velocity motor is at its effort limit."""
+        return self._articulated_or_refuse().motor_saturated()
+
+    @property
+    def held_limits(self):
+        """Return per joint +1 (held at upper at the last step's end), -1 (at lower) or 0."""
+        return [] if self._joint_stage is None else self._articulated.held_limits
 
     @property
     def joint_stats(self):
@@ -394,13 +454,26 @@ class WorldSimulator(BatchSimulator):
         """
         Put every body back to its initial state (or to ``states``); no contacts.
 
-        :raises ConfigError: ``states`` in a world with joints (they would need projecting
-            onto the joints: build a new simulator).
+        With joints, ``states`` are projected onto them first, as the constructor does (and
+        checked against the limits); the motors keep their commands and start their
+        responses again from the new states.
+
+        :raises ConfigError: a bad state, or one beyond a joint's limit.
+        :raises ConvergenceError: states that could not be projected onto the joints.
         """
-        if states is not None and getattr(self, '_joint_stage', None) is not None:
-            raise ConfigError('states: a world with joints resets only to its initial states '
-                              '(new states need projecting onto the joints: build a new '
-                              'WorldSimulator)')
+        stage = getattr(self, '_joint_stage', None)
+        if stage is not None and hasattr(self, '_bodies'):   # not from the constructor
+            states = self._initial_states if states is None else tuple(states)
+            if len(states) != self.size:
+                raise ConfigError(f'states: {len(states)} states for {self.size} bodies')
+            projected = joints_simulator.ArticulatedSimulator(
+                [b.model for b in self._bodies], states, self._joints,
+                timestep_ns=self._timestep_ns)
+            stage.work.angle[:] = projected.kernel_arrays()[1].angle
+            stage.drive[:] = 0.0
+            stage.work.motor[:, jk.M_HOLD] = 0.0
+            cl.free_all(stage)
+            states = projected.states
         super().reset(states)
         if hasattr(self, '_wrench'):
             self._wrench[:] = 0.0

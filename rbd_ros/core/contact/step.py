@@ -104,8 +104,10 @@ import numpy as np
 from rbd_ros.core import kernels as kk
 from rbd_ros.core.contact.bodies import prepare_bodies, store_velocities
 from rbd_ros.core.contact.broad_phase import broad_phase
-from rbd_ros.core.contact.joints import (J_FAIL, joint_sweeps, post_stabilize, visit,
-                                         VISIT_NONE, VISIT_POST, VISIT_PRE)
+from rbd_ros.core.contact.joints import (J_FAIL, joint_sweeps, motors_finish, motors_kick,
+                                         motors_start, post_stabilize, visit, VISIT_NONE,
+                                         VISIT_POST, VISIT_PRE)
+from rbd_ros.core.contact.motors import saturate
 from rbd_ros.core.contact.narrow_phase import keep_responses, narrow_phase
 from rbd_ros.core.contact.rows import (_inl, _jit, _raw, MARGIN_M, N_CONTACT, PHASE_COLLISION,
                                        PHASE_CONTACT, Q_A, Q_B, Shapes, Statics, Work)
@@ -213,7 +215,13 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
     with the sweeps of the contact stage before the drift (:func:`contact_stage`), and, with
     kick–drift–kick, post-stabilization alternating with the second contact stage's sweeps.
     A step whose pre-stabilization misses its tolerance is undone like a non-finite one
-    (``joints.stats[J_FAIL]`` says which).
+    (``joints.stats[J_FAIL]`` says which). The joints' motors (:mod:`~rbd_ros.core.contact.
+    motors`) begin each step from its start (``motors_start``), give their efforts with each
+    velocity update (``motors_kick``) and their rows in the visits; a step in which a position
+    or velocity motor needed more than its effort limit is taken again from its start with
+    that motor saturated (``saturate``), at most once more per joint. Limits
+    (:mod:`~rbd_ros.core.contact.limits`) are freed at each step's start and held by the
+    pre-stabilization where the drift would cross them.
     """
     shapes, statics, work = Shapes(*shape_fields), Statics(*static_fields), Work(*work_fields)
     n = x.shape[1]
@@ -224,83 +232,106 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
     same_pose = False  # the pose arrays in ws hold the current pose (see prepare_bodies)
     for _ in range(n_steps):
         saved[:] = x
-        wrench[:] = 0.0
-        # Damping's exact flow, half before and half after the step (as the free kernel).
-        _half_damping(x, prm, h)
-        # 1. Collisions with restitution on the current velocities.
-        c0 = contact_stage(x, prm, shapes, statics, h, PHASE_COLLISION, 0, False, wrench,
-                           work, same_pose, joints, VISIT_NONE, method)
+        same0 = same_pose
+        attempts = 1
         if joints is not None:
-            post_stabilize(joints, x, work.vel, False)
-        if method == kk.MIDPOINT_CAYLEY:
-            lmom = np.empty((n, 3))
-            # 2. First half kick.
-            for i in range(n):
-                j = 0 if shared else i
-                px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = kk._read_state(x, i)
-                vx, vy, vz, lx, ly, lz = kk.midpoint_first_kick(
-                    prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz)
-                x[S_VEL, i], x[S_VEL + 1, i], x[S_VEL + 2, i] = vx, vy, vz
-                wx, wy, wz = kk._matvec(prm, P_INV_INERTIA, j, lx, ly, lz)
-                x[S_OMEGA, i], x[S_OMEGA + 1, i], x[S_OMEGA + 2, i] = wx, wy, wz
-                lmom[i, 0], lmom[i, 1], lmom[i, 2] = lx, ly, lz
-            if joints is not None:
-                post_stabilize(joints, x, work.vel, False)
-            # 3. Contacts on the kicked velocities.
-            c1 = contact_stage(x, prm, shapes, statics, h, PHASE_CONTACT, 1, True, wrench,
-                               work, True, joints, VISIT_PRE, method)
-            touched = work.touched
-            # 4. Drift; then the second half kick and its contact stage.
-            for i in range(n):
-                j = 0 if shared else i
-                px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = kk._read_state(x, i)
-                spun = c1.shape[0] > 0 and touched[i]
-                if joints is not None:
-                    spun = spun or joints.jointed[i]   # the joints' visits changed its ω
-                if spun:
-                    lx, ly, lz = kk._matvec(prm, P_INERTIA, j, wx, wy, wz)
-                else:
-                    lx, ly, lz = lmom[i, 0], lmom[i, 1], lmom[i, 2]
-                (px, py, pz, qw, qx, qy, qz, lx, ly, lz, wx, wy, wz,
-                 converged) = kk.midpoint_drift(prm, j, h, px, py, pz, qw, qx, qy, qz,
-                                                vx, vy, vz, lx, ly, lz)
-                if not converged:
-                    px = math.nan
-                vx, vy, vz, wx, wy, wz = kk.midpoint_second_kick(
-                    prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz,
-                    lx, ly, lz, wx, wy, wz)
-                kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
-            c2 = contact_stage(x, prm, shapes, statics, h, PHASE_CONTACT, 2, True, wrench,
-                               work, False, joints, VISIT_POST, method)
-            same_pose = True  # the next step's first stage sees this pose
-        else:
-            for i in range(n):
-                j = 0 if shared else i
-                px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = kk._read_state(x, i)
-                vx, vy, vz, wx, wy, wz = kk.se_velocity(
-                    prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz)
-                kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
-            if joints is not None:
-                post_stabilize(joints, x, work.vel, False)
-            c1 = contact_stage(x, prm, shapes, statics, h, PHASE_CONTACT, 1, True, wrench,
-                               work, True, joints, VISIT_PRE, method)
-            for i in range(n):
-                px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = kk._read_state(x, i)
-                px, py, pz, qw, qx, qy, qz = kk.se_position(
-                    method, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz)
-                kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
-        _half_damping(x, prm, h)
+            attempts = joints.work.motor.shape[0] + 1
         ok = True
-        for i in range(n):
-            if not _all_finite(x, i):
-                ok = False
+        for attempt in range(attempts):
+            if attempt > 0:   # a motor beyond its effort limit: the step again, it saturated
+                x[:] = saved
+                same_pose = same0
+            wrench[:] = 0.0
+            if joints is not None:
+                motors_start(joints, x, work.vel, attempt, h)
+            # Damping's exact flow, half before and half after the step (as the free kernel).
+            _half_damping(x, prm, h)
+            # 1. Collisions with restitution on the current velocities.
+            c0 = contact_stage(x, prm, shapes, statics, h, PHASE_COLLISION, 0, False, wrench,
+                               work, same_pose, joints, VISIT_NONE, method)
+            if joints is not None:
+                post_stabilize(joints, x, work.vel, False)
+            if method == kk.MIDPOINT_CAYLEY:
+                lmom = np.empty((n, 3))
+                # 2. First half kick.
+                for i in range(n):
+                    j = 0 if shared else i
+                    px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = kk._read_state(x, i)
+                    vx, vy, vz, lx, ly, lz = kk.midpoint_first_kick(
+                        prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz)
+                    x[S_VEL, i], x[S_VEL + 1, i], x[S_VEL + 2, i] = vx, vy, vz
+                    wx, wy, wz = kk._matvec(prm, P_INV_INERTIA, j, lx, ly, lz)
+                    x[S_OMEGA, i], x[S_OMEGA + 1, i], x[S_OMEGA + 2, i] = wx, wy, wz
+                    lmom[i, 0], lmom[i, 1], lmom[i, 2] = lx, ly, lz
+                if joints is not None:
+                    motors_kick(joints, x, work.vel, 0.5 * h, False)
+                    post_stabilize(joints, x, work.vel, False)
+                # 3. Contacts on the kicked velocities.
+                c1 = contact_stage(x, prm, shapes, statics, h, PHASE_CONTACT, 1, True, wrench,
+                                   work, True, joints, VISIT_PRE, method)
+                touched = work.touched
+                # 4. Drift; then the second half kick and its contact stage.
+                for i in range(n):
+                    j = 0 if shared else i
+                    px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = kk._read_state(x, i)
+                    spun = c1.shape[0] > 0 and touched[i]
+                    if joints is not None:
+                        spun = spun or joints.jointed[i]   # the joints' visits changed its ω
+                    if spun:
+                        lx, ly, lz = kk._matvec(prm, P_INERTIA, j, wx, wy, wz)
+                    else:
+                        lx, ly, lz = lmom[i, 0], lmom[i, 1], lmom[i, 2]
+                    (px, py, pz, qw, qx, qy, qz, lx, ly, lz, wx, wy, wz,
+                     converged) = kk.midpoint_drift(prm, j, h, px, py, pz, qw, qx, qy, qz,
+                                                    vx, vy, vz, lx, ly, lz)
+                    if not converged:
+                        px = math.nan
+                    vx, vy, vz, wx, wy, wz = kk.midpoint_second_kick(
+                        prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz,
+                        lx, ly, lz, wx, wy, wz)
+                    kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
+                if joints is not None:
+                    motors_kick(joints, x, work.vel, 0.5 * h, True)
+                c2 = contact_stage(x, prm, shapes, statics, h, PHASE_CONTACT, 2, True, wrench,
+                                   work, False, joints, VISIT_POST, method)
+                same_pose = True  # the next step's first stage sees this pose
+            else:
+                for i in range(n):
+                    j = 0 if shared else i
+                    px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = kk._read_state(x, i)
+                    vx, vy, vz, wx, wy, wz = kk.se_velocity(
+                        prm, ld, i, j, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz)
+                    kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
+                if joints is not None:
+                    motors_kick(joints, x, work.vel, h, False)
+                    post_stabilize(joints, x, work.vel, False)
+                c1 = contact_stage(x, prm, shapes, statics, h, PHASE_CONTACT, 1, True, wrench,
+                                   work, True, joints, VISIT_PRE, method)
+                for i in range(n):
+                    px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz = kk._read_state(x, i)
+                    px, py, pz, qw, qx, qy, qz = kk.se_position(
+                        method, h, px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz)
+                    kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
+            _half_damping(x, prm, h)
+            for i in range(n):
+                if not _all_finite(x, i):
+                    ok = False
+                    break
+            if joints is not None:
+                if joints.stats[J_FAIL] != 0.0:
+                    ok = False
+            if not ok:
                 break
-        if joints is not None:
-            if joints.stats[J_FAIL] != 0.0:
-                ok = False
+            redo = False
+            if joints is not None:
+                redo = saturate(joints, h)
+            if not redo:
+                break
         if not ok:
             x[:] = saved
             break
+        if joints is not None:
+            motors_finish(joints, x, work.vel, h)
         for i in range(n):
             t[i] += dt_ns
         done += 1

@@ -83,7 +83,9 @@ MOTOR_POSITION = 3
 # work.motor columns: mode, effort (N m or N), velocity target, position target, omega (1/s),
 # effort limit (inf for none), saturation sign (-1, 0, 1), applied effort (the readout), and a
 # position target's reference rate and acceleration at its time M_TREF (s): the target moves
-# as q* + q̇* s + q̈* s²/2, s the time since M_TREF (a followed trajectory's feed-forward)
+# as q* + q̇* s + q̈* s²/2, s the time since M_TREF (a followed trajectory's feed-forward);
+# then 1 when a velocity projection holds a position motor's rate at M_HOLD_RATE (rad/s or m/s;
+# only the contact step's does, :mod:`rbd_ros.core.contact.motors`)
 M_MODE = 0
 M_EFFORT = 1
 M_VELOCITY = 2
@@ -95,7 +97,9 @@ M_APPLIED = 7
 M_VREF = 8
 M_AREF = 9
 M_TREF = 10
-M_SIZE = 11
+M_HOLD = 11
+M_HOLD_RATE = 12
+M_SIZE = 13
 #: A limit is crossed when the joint is beyond its bound by more than this (rad or m); the
 #: crossing is then located inside the step to :data:`LOCATE_TOL`.
 CROSS_TOL = 1e-13
@@ -1106,9 +1110,15 @@ def _project_velocities(model, x, work):
         work.bias[r] = -s
         if rows[r, 1] == ROW_MOTOR:
             # a velocity target is a velocity row, J u = v*; a position target's row is an
-            # acceleration row only, so the projection leaves that rate alone
+            # acceleration row only, so the projection leaves that rate alone (unless the
+            # contact step holds it at its exact response's rate, M_HOLD)
             mode = work.motor[j, M_MODE]
-            work.bias[r] = work.motor[j, M_VELOCITY] - s if mode == MOTOR_VELOCITY else 0.0
+            if mode == MOTOR_VELOCITY:
+                work.bias[r] = work.motor[j, M_VELOCITY] - s
+            elif mode == MOTOR_POSITION and work.motor[j, M_HOLD] != 0.0:
+                work.bias[r] = work.motor[j, M_HOLD_RATE] - s
+            else:
+                work.bias[r] = 0.0
     solve(model, work, zero, work.bias, work.yb, work.yj)
     yb = work.yb
     for b in range(x.shape[0]):

@@ -565,12 +565,14 @@ class ArticulatedSimulator:
         if refresh:
             jk.refresh_dynamics(self._model, self._x, self._work)
 
-    def set_motors(self, targets) -> None:
+    def set_motors(self, targets, refresh=True) -> None:
         """
         Set several motors at once, as :meth:`set_motor` each (one refresh of the dynamics).
 
         :param targets: ``(joint_index, keyword arguments of set_motor)`` pairs. A bad one is
             refused before any is set.
+        :param refresh: False leaves the dynamics of the new targets to the caller (the
+            contact step, which drives these arrays itself).
         """
         self._project_initial()
         saved = self._work.motor.copy()
@@ -580,7 +582,8 @@ class ArticulatedSimulator:
         except ConfigError:
             self._work.motor[:] = saved
             raise
-        jk.refresh_dynamics(self._model, self._x, self._work)
+        if refresh:
+            jk.refresh_dynamics(self._model, self._x, self._work)
 
     def joint_efforts(self) -> np.ndarray:
         """
