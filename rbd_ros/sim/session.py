@@ -176,7 +176,8 @@ class SimSession:
         #: world's joints (:class:`rbd_ros.sim.world_joints.WorldJointInputs`); None without.
         self.commands = (RobotInputs(config.robots, config.command_groups,
                                      config.wrench_timeout_ns) if config.robots
-                         else WorldJointInputs(config.world_joints) if config.world_joints
+                         else WorldJointInputs(config.world_joints, config.wrench_timeout_ns)
+                         if config.world_joints
                          else None)
         self.paused = config.start_paused
         # Steps per compiled call: a signal is seen between calls (rbd_ros.sim.limits.step_chunk).

@@ -58,7 +58,7 @@ from rbd_ros.core.contact.simulator import WorldSimulator
 from rbd_ros.core.joints.model import Joint
 from rbd_ros.core.joints.readout import JointReadout, KINDS as MOVING_KINDS, rotate
 from rbd_ros.core.rotations import quat_conjugate, quat_multiply, quat_to_matrix
-from rbd_ros.sim.joint_commands import CommandInput, CommandRejected, JointSpec, RobotInputs
+from rbd_ros.sim.joint_commands import CommandInput, JointSpec, RobotInputs
 from rbd_ros.sim.params import (coerce, DOUBLE, DOUBLE_ARRAY, fail, fmt, MAX_BODIES,
                                 PARAMETERS_BY_NAME, ParamSpec, STRING)
 from rbd_ros.sim.robots import (DEFAULT_POSITION_TIME_CONSTANT_S, list_names,
@@ -70,8 +70,6 @@ JOINT_NAMES_SPEC = PARAMETERS_BY_NAME[JOINT_NAMES]
 KINDS = ('fixed', 'revolute', 'continuous', 'prismatic', 'spherical')
 #: The parent that is the world frame (not a body).
 WORLD = 'world'
-#: The reason a ``joint_command`` is rejected while the core takes no motor in a world.
-NO_MOTOR = 'no_motor'
 _MAX = 1e12  # the bound advertised for a quantity with no natural limit (as params')
 # The core Joint's fields -> the parameter that gives them.
 _CORE_FIELDS = {'kind': 'type', 'parent': 'parent', 'child': 'child', 'axis_b': 'axis',
@@ -296,7 +294,7 @@ class JointedWorldSimulator(WorldSimulator):
 
     - :meth:`joint_states`: per one-coordinate joint (revolute, continuous, prismatic; in
       ``joint_names`` order) its position (rad or m, a continuous joint's in (-π, π]), rate
-      and effort (0: no motor).
+      and its motor's effort over the last step (N m or N; 0 without a motor).
     - :meth:`joint_wrenches`: per joint (``joint_names`` order) the force (N) and torque (N m)
       the parent exerts on the child over the last step, in the child body's frame, the torque
       about the joint point; see there. NaN at time 0, after a reset, and for every joint when
@@ -357,7 +355,8 @@ class JointedWorldSimulator(WorldSimulator):
             q, qd = read(rows, j)
             positions.append(q)
             rates.append(qd)
-        return positions, rates, [0.0] * len(positions)
+        efforts = self.joint_efforts()
+        return positions, rates, [float(efforts[k]) for k in self._moving]
 
     def joint_wrenches(self, index=0):
         """
@@ -433,15 +432,38 @@ class JointedWorldSimulator(WorldSimulator):
         """Return no frames: each body is on ``/tf`` already (world → body)."""
         return []
 
+    def set_targets(self, index, targets) -> None:
+        """
+        Hold motor targets on moving joints: ``(joint, mode, value, rates or None)``.
+
+        ``joint`` indexes the one-coordinate joints (``joint_states`` order); a position
+        target takes the joint's ``position_time_constant_s``. What
+        :class:`rbd_ros.sim.joint_commands.RobotInputs` asks of a robot's world.
+        """
+        motors = []
+        for joint, mode, value, _ in targets:
+            k = self._moving[joint]
+            kwargs = {mode: value}
+            if mode == 'position':
+                kwargs['time_constant_s'] = self.world_joints[k].time_constant_s
+            motors.append((k, kwargs))
+        self.set_motors(motors)
+
+    def release(self, index, joint) -> None:
+        """Turn the motor of moving joint ``joint`` off (the joint is free)."""
+        self.set_motor(self._moving[joint])
+
 
 class WorldJointInputs(RobotInputs):
     """
     The world joints' ``joint_command`` (``sensor_msgs/JointState`` by name), as a robot's.
 
     A command is checked as a robot's is (unknown or repeated joint names, lengths, finite
-    values, limits: :func:`rbd_ros.sim.joint_commands.joint_state_targets`) and then rejected
-    with reason :data:`NO_MOTOR`: the core takes no motor in a world with contact yet. Both are
-    counted in ``/diagnostics`` (``commands_rejected_<reason>``).
+    values, limits: :func:`rbd_ros.sim.joint_commands.joint_state_targets`; a rejected one is
+    counted in ``/diagnostics``, ``commands_rejected_<reason>``), applied at the next step
+    start on the core's motors (:meth:`JointedWorldSimulator.set_targets`) and held in sim time
+    like a wrench (``wrench_timeout_s``). No group commands or trajectories: those are a
+    robot's.
     """
 
     def __init__(self, world_joints, timeout_ns=0):
@@ -451,11 +473,6 @@ class WorldJointInputs(RobotInputs):
         self.received = {spec.name: 0}
         self._specs = [tuple(JointSpec(j.name, j.joint, j.velocity_limit)
                              for j in world_joints if j.moving)]
-
-    def _check(self, spec, payload, state, effect_ns=0):
-        super()._check(spec, payload, state, effect_ns)
-        raise CommandRejected(NO_MOTOR, f'{spec.name}: the joints of a world with contact take '
-                              'no motor yet (the core refuses motors there); nothing applied')
 
 
 def take_parameters(values, params):

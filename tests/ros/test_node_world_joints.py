@@ -17,10 +17,12 @@ A world's joints in the node (``msg_config/pendulum_world.yaml``), through real 
 
 One node on the file as shipped (started paused, recorded, run 1.5 s of sim time at the file's
 real-time factor), one probe: the node's graph, ``joint_states``, ``joint_wrenches`` and ``/tf``
-as received, a ``joint_command`` rejected and counted in ``/diagnostics``, and the recording
-replayed. The expected values are closed forms of the file's numbers (repeated here from its
-comments, so that a change of the file is seen): the ball of radius r = 0.1 m, 1 kg, hangs
-L = 0.8 m below the hinge at (0, 0, 1.2) m and is released from rest at 45 degrees.
+as received, a ``joint_command`` naming no joint rejected and counted in ``/diagnostics``, and
+the recording replayed. A second node takes a position command on the hinge (the core's motor)
+and holds the ball where it was released, against gravity, recorded and replayed. The expected
+values are closed forms of the file's numbers (repeated here from its comments, so that a
+change of the file is seen): the ball of radius r = 0.1 m, 1 kg, hangs L = 0.8 m below the
+hinge at (0, 0, 1.2) m and is released from rest at 45 degrees.
 """
 
 import math
@@ -76,10 +78,10 @@ def run(module_tmp):
                    and probe.clients['pause'].service_is_ready(), 120, 'the node on the graph')
         ns = node.namespace.rstrip('/')
         topics = dict(probe.node.get_topic_names_and_types())
-        # While paused: a position command for the hinge, checked and rejected on receipt.
-        command.publish(JointState(name=['hinge'], position=[0.1]))
+        # While paused: a command naming no joint of the world, checked and rejected on receipt.
+        command.publish(JointState(name=['door'], position=[0.1]))
         rejected = probe.diagnostic_values(
-            lambda v: v.get('commands_rejected_no_motor') == '1', 30)
+            lambda v: v.get('commands_rejected_unknown_joint') == '1', 30)
         probe.pause(False)
         probe.wait(lambda: DURATION_NS in got['joint_states'] and DURATION_NS in got['tf'],
                    120, 'the last sample')
@@ -108,7 +110,7 @@ def _series(run):
     for t in times:
         msg = samples[t]
         assert list(msg.name) == ['hinge'] and msg.header.frame_id == ''
-        assert list(msg.effort) == [0.0]  # no motor
+        assert list(msg.effort) == [0.0]  # no motor: the command named no joint
     return (np.array(times) * 1e-9, np.array([samples[t].position[0] for t in times]),
             np.array([samples[t].velocity[0] for t in times]))
 
@@ -225,9 +227,48 @@ def test_joint_wrenches_are_the_hinge_force_of_the_closed_form_before_the_knock(
     assert worst[0] < 0.03 and worst[1] < 1e-3 and worst[2] < 1e-4, worst
 
 
-def test_a_joint_command_is_rejected_and_counted(run):
+def test_a_joint_command_naming_no_joint_is_rejected_and_counted(run):
     values = run['rejected']
     assert values['commands_received'] == '1' and values['commands_rejected'] == '1'
+
+
+def test_a_position_command_holds_the_ball_against_gravity_and_replays(tmp_path):
+    # The hinge commanded to 0 (the release pose, 45 deg) before the first step: the critically
+    # damped response from e0 = 0 keeps it there, and its motor carries gravity's torque about
+    # the hinge, m g L sin(theta0) = 5.549 N m, every sample. Bounds: the coordinate lands on
+    # the response to the projection's 1e-13 per step; a static hold's effort is gravity's to
+    # round-off (in process: 0 and 8.9e-16 N m); 1e-9 leaves margin for neither.
+    from ros_probe import Probe
+    from sensor_msgs.msg import JointState
+    bag = tmp_path / 'held'
+    node = NodeProcess(tmp_path, {'start_paused': True, 'duration_s': 0.5,
+                                  'real_time_factor': 0.0, 'record_path': str(bag)},
+                       params_file=PENDULUM, namespace=True)
+    probe = Probe(node.namespace, inputs=(), outputs=('diagnostics',))
+    got = {}
+    sub = probe.node.create_subscription(
+        JointState, 'joint_states',
+        lambda m: got.__setitem__(time_from_msg(m.header.stamp), m), 1000)
+    command = probe.node.create_publisher(JointState, 'joint_command', 10)
+    try:
+        probe.wait(lambda: sub.get_publisher_count() >= 1
+                   and command.get_subscription_count() >= 1
+                   and probe.clients['pause'].service_is_ready(), 120, 'the node on the graph')
+        command.publish(JointState(name=['hinge'], position=[0.0]))
+        probe.diagnostic_values(lambda v: v.get('commands_received') == '1', 30)
+        probe.pause(False)
+        probe.wait(lambda: 500_000_000 in got, 120, 'the last sample')
+        assert node.wait(60) == 0, node.stderr
+    finally:
+        probe.close()
+        node.stop()
+    hold = M * G * L * math.sin(THETA0)
+    for t in range(PERIOD_NS, 500_000_001, PERIOD_NS):
+        (q,), (effort,) = got[t].position, got[t].effort
+        assert abs(q) <= 1e-12 and effort == pytest.approx(hold, rel=1e-9), (t, q, effort)
+    result = replay_bag(bag)
+    assert result.match, (result.problems, {k: r.first_mismatch
+                                            for k, r in result.topics.items()})
 
 
 def test_the_recording_replays_bit_for_bit(run):

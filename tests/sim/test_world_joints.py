@@ -19,8 +19,8 @@ In process, through :meth:`NodeConfig.from_parameters` (what the node calls at s
 value is one line naming the parameter, its value and unit; what the core refuses in a world
 with contact (damping, friction for now) surfaces under the parameter's name when the
 simulator is built (the node's first-step check), whatever the core accepts later. The readout
-is the core's joint coordinate, and ``joint_command`` is checked as a robot's, then rejected
-(``no_motor``). The node's topics, ``/tf``, the closed forms and replay are in
+is the core's joint coordinate, and ``joint_command`` is checked as a robot's and drives the
+core's motors (a position hold against gravity, a velocity target). The node's topics, ``/tf``, the closed forms and replay are in
 ``tests/ros/test_node_world_joints.py``.
 """
 
@@ -38,7 +38,7 @@ from rbd_ros.sim.build import kernel_kind, make_simulator
 from rbd_ros.sim.config import NodeConfig
 from rbd_ros.sim.joint_commands import CommandRejected
 from rbd_ros.sim.session import SimSession
-from rbd_ros.sim.world_joints import JointedWorldSimulator, KINDS, NO_MOTOR
+from rbd_ros.sim.world_joints import JointedWorldSimulator, KINDS
 from tests.core.joints.closed_forms import pendulum_period
 import yaml
 
@@ -212,7 +212,7 @@ def test_a_world_without_joints_is_todays_world():
     assert not [k for k in kinds if 'joint' in k], kinds
 
 
-def test_the_readout_is_the_cores_joint_coordinate_and_commands_are_rejected():
+def test_the_readout_is_the_cores_joint_coordinate_and_bad_commands_are_rejected():
     config = NodeConfig.from_parameters(_pendulum())
     session = SimSession(config)
     session.paused = False
@@ -227,19 +227,51 @@ def test_the_readout_is_the_cores_joint_coordinate_and_commands_are_rejected():
     state = world.body_state(0)
     expected = joint_position(world.joints[0], None, None, state.position_w,
                               state.orientation_wb)
-    assert abs(q - expected[0]) < 1e-14 and qd < 0.0 and effort == 0.0
+    assert abs(q - expected[0]) < 1e-14 and qd < 0.0 and effort == 0.0  # no motor
     message = builder.robot_message('joint_states', session.time_ns, world)
     assert list(message.name) == ['hinge'] and list(message.position) == [q]
     commands = session.commands
     assert list(commands.inputs) == ['joint_command']
     with pytest.raises(CommandRejected) as info:
-        session.submit_command('joint_command', (['hinge'], [0.1], [], []))
-    assert info.value.reason == NO_MOTOR and 'no motor' in str(info.value)
-    with pytest.raises(CommandRejected) as info:
         session.submit_command('joint_command', (['door'], [0.1], [], []))
     assert info.value.reason == 'unknown_joint'
-    assert commands.received_total == 2 and commands.rejected == {NO_MOTOR: 1,
-                                                                  'unknown_joint': 1}
+    with pytest.raises(CommandRejected) as info:
+        session.submit_command('joint_command', (['hinge'], [math.inf], [], []))
+    assert info.value.reason == 'non_finite'
+    assert commands.received_total == 2 and commands.rejected == {'unknown_joint': 1,
+                                                                  'non_finite': 1}
+
+
+@pytest.mark.parametrize('integrator', ['midpoint_cayley', 'symplectic_euler_quat_exp'])
+def test_a_position_command_holds_the_ball_where_it_was_released(integrator):
+    # joint_command through the session (as the node submits it) on the core's motor: a
+    # position target of 0 (the release pose, 45 deg up) from rest is the critically damped
+    # response with e0 = 0, so the hinge stays at 0 and its motor carries gravity's torque
+    # about the hinge, m g L sin(theta0) = 5.549 N m (positive: gravity turns it negative,
+    # towards the bottom at -theta0). Bounds: the pre-stabilization lands the coordinate on
+    # the response to PROJECTION_TOL (1e-13), and a static hold's effort is gravity's to
+    # round-off (1e-9 relative is a wide margin for it).
+    config = NodeConfig.from_parameters(_pendulum(integrator=integrator))
+    session = SimSession(config)
+    world = session.simulator
+    session.submit_command('joint_command', (['hinge'], [0.0], [], []))
+    session.paused = False
+    while session.time_ns < 1_000_000_000:
+        session.advance(1000)
+    (q,), (qd,), (effort,) = world.joint_states()
+    hold = 1.0 * 9.81 * 0.8 * math.sin(math.pi / 4.0)
+    print(f'{integrator}: q {q:.3g} rad, rate {qd:.3g} rad/s, effort - m g L sin theta0 '
+          f'{effort - hold:.3g} N m')
+    assert abs(q) <= 1e-12 and abs(qd) <= 1e-9
+    assert effort == pytest.approx(hold, rel=1e-9)
+    assert session.commands.received_total == 1 and session.commands.rejected == {}
+    # a velocity command then turns it at that rate: q grows by v t (the velocity row)
+    session.submit_command('joint_command', (['hinge'], [], [0.5], []))
+    start = session.time_ns
+    while session.time_ns < start + 200_000_000:
+        session.advance(1000)
+    (q,), (qd,), _ = world.joint_states()
+    assert qd == pytest.approx(0.5, abs=1e-9) and q == pytest.approx(0.1, abs=1e-9)
 
 
 def test_joint_wrenches_are_what_holds_a_chain_at_rest_and_a_swinging_ball():
