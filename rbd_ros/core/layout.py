@@ -96,7 +96,8 @@ KERNEL_SOURCES = ('layout.py', 'jitcache.py', 'kernels.py', 'contact/kernels.py'
                   'contact/bodies.py', 'contact/broad_phase.py', 'contact/points.py',
                   'contact/manifold.py', 'contact/narrow_phase.py', 'contact/response.py',
                   'contact/patch.py', 'contact/friction.py', 'contact/sweeps.py',
-                  'contact/step.py', 'contact/joints.py', 'joints/kernels.py')
+                  'contact/step.py', 'contact/joints.py', 'contact/motors.py',
+                  'contact/limits.py', 'joints/kernels.py')
 
 
 def fingerprint_hash() -> str:

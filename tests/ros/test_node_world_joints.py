@@ -52,10 +52,14 @@ PERIOD_NS = 10_000_000  # the file's publish_rate_hz: 100
 @pytest.fixture(scope='module')
 def run(module_tmp):
     """Run the node on the file once; return what the probe received and the bag."""
+    from rclpy.qos import DurabilityPolicy, QoSProfile
     from ros_probe import Probe
     from sensor_msgs.msg import JointState, MultiDOFJointState
     from tf2_msgs.msg import TFMessage
     bag = module_tmp / 'pendulum'
+    # joint_states and joint_wrenches are transient local (keep last 1): a subscription matched
+    # after the node's t = 0 sample (published once, while paused) still gets it.
+    latched = QoSProfile(depth=1000, durability=DurabilityPolicy.TRANSIENT_LOCAL)
     node = NodeProcess(module_tmp, {'start_paused': True, 'duration_s': DURATION_NS * 1e-9,
                                     'record_path': str(bag)},
                        params_file=PENDULUM, namespace=True)
@@ -65,10 +69,11 @@ def run(module_tmp):
     def keep(kind, stamp_of):
         return lambda msg: got[kind].__setitem__(time_from_msg(stamp_of(msg)), msg)
     subs = [probe.node.create_subscription(JointState, 'joint_states',
-                                           keep('joint_states', lambda m: m.header.stamp), 1000),
+                                           keep('joint_states', lambda m: m.header.stamp),
+                                           latched),
             probe.node.create_subscription(MultiDOFJointState, 'joint_wrenches',
                                            keep('joint_wrenches', lambda m: m.header.stamp),
-                                           1000),
+                                           latched),
             probe.node.create_subscription(TFMessage, '/tf', keep(
                 'tf', lambda m: m.transforms[0].header.stamp), 1000)]
     command = probe.node.create_publisher(JointState, 'joint_command', 10)
