@@ -214,6 +214,27 @@ def command_inputs(robots, groups) -> Tuple[CommandInput, ...]:
     return tuple(inputs)
 
 
+def motor_settings(targets, core_joints, time_constants_s):
+    """
+    Return ``[(core joint index, set_motor keywords)]`` for held ``targets``.
+
+    ``targets``: ``(joint, mode, value, rates or None)``, ``joint`` indexing the moving joints
+    (``joint_states`` order) that ``core_joints`` maps to the core's; a position target takes
+    that joint's ``time_constants_s`` (s) and, when given, ``rates`` (a followed trajectory's
+    reference rate and acceleration). What a robot's and a world's ``set_targets`` hand to the
+    core's ``set_motors``.
+    """
+    motors = []
+    for joint, mode, value, rates in targets:
+        kwargs = {mode: value}
+        if mode == 'position':
+            kwargs['time_constant_s'] = time_constants_s[joint]
+            if rates is not None:
+                kwargs['reference_rates'] = rates
+        motors.append((core_joints[joint], kwargs))
+    return motors
+
+
 class RobotInputs:
     """
     The robots' command inputs: checked when received, applied at a step start, held.

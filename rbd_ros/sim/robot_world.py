@@ -55,6 +55,7 @@ import numpy as np
 from rbd_ros.core import layout
 from rbd_ros.core.joints import ArticulatedSimulator
 from rbd_ros.core.joints.readout import multiply, rotate as _rotate
+from rbd_ros.sim.joint_commands import motor_settings
 
 
 def rotate(q, v):
@@ -237,15 +238,8 @@ class RobotWorld:
         A position target takes the joint's ``position_time_constant_s``; ``rates`` are a
         position target's reference rate and acceleration (a followed trajectory).
         """
-        motors = []
-        for joint, mode, value, rates in targets:
-            kwargs = {mode: value}
-            if mode == 'position':
-                kwargs['time_constant_s'] = self.robots[r].time_constants_s[joint]
-                if rates is not None:
-                    kwargs['reference_rates'] = rates
-            motors.append((self._moving[r][joint], kwargs))
-        self._sim.set_motors(motors)
+        self._sim.set_motors(motor_settings(targets, self._moving[r],
+                                            self.robots[r].time_constants_s))
 
     def release(self, r: int, joint: int) -> None:
         """Turn the motor of moving joint ``joint`` of robot ``r`` off (the joint is free)."""

@@ -56,9 +56,9 @@ import numpy as np
 from rbd_ros.core import kernels, RbdError
 from rbd_ros.core.contact.simulator import WorldSimulator
 from rbd_ros.core.joints.model import Joint
-from rbd_ros.core.joints.readout import JointReadout, KINDS as MOVING_KINDS, rotate
+from rbd_ros.core.joints.readout import cross, JointReadout, KINDS as MOVING_KINDS, rotate
 from rbd_ros.core.rotations import quat_conjugate, quat_multiply, quat_to_matrix
-from rbd_ros.sim.joint_commands import CommandInput, JointSpec, RobotInputs
+from rbd_ros.sim.joint_commands import CommandInput, JointSpec, motor_settings, RobotInputs
 from rbd_ros.sim.params import (coerce, DOUBLE, DOUBLE_ARRAY, fail, fmt, MAX_BODIES,
                                 PARAMETERS_BY_NAME, ParamSpec, STRING)
 from rbd_ros.sim.robots import (DEFAULT_POSITION_TIME_CONSTANT_S, list_names,
@@ -269,10 +269,6 @@ def _tree_order(joints):
     return order, below
 
 
-def _cross(a, b):
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-
 def _spin_w(row, inertia):
     """Return the angular momentum ``Π_w = R I_b ω_b`` of a packed state row, plain floats."""
     wx, wy, wz = row[10], row[11], row[12]
@@ -314,6 +310,7 @@ class JointedWorldSimulator(WorldSimulator):
             raise parameter_error(exc, given) from None
         self._readout = JointReadout(joints)
         self._moving = tuple(k for k, j in enumerate(self.world_joints) if j.moving)
+        self._time_constants_s = tuple(self.world_joints[k].time_constant_s for k in self._moving)
         self._tree = _tree_order(joints)
         self._masses = [b.model.mass_kg for b in self.bodies]
         self._inertias = [b.model.inertia_b.tolist() for b in self.bodies]
@@ -414,7 +411,7 @@ class JointedWorldSimulator(WorldSimulator):
                 fk, tk = world[kk]
                 ck = joints[kk].child
                 d = [0.5 * ((x0[ck][i] + x1[ck][i]) - (a[i] + b[i])) for i in range(3)]
-                arm = _cross(d, fk)
+                arm = cross(d, fk)
                 f = [f[i] + fk[i] for i in range(3)]
                 t = [t[i] + tk[i] + arm[i] for i in range(3)]
             world[k] = (f, t)
@@ -423,7 +420,7 @@ class JointedWorldSimulator(WorldSimulator):
             norm = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)
             qw, qx, qy, qz = qw / norm, -qx / norm, -qy / norm, -qz / norm
             f_b = rotate(qw, qx, qy, qz, *f)
-            lever = _cross(joints[k].origin_child_b.tolist(), f_b)
+            lever = cross(joints[k].origin_child_b.tolist(), f_b)
             t_b = rotate(qw, qx, qy, qz, *t)
             rows[k] = [*f_b, *(t_b[i] - lever[i] for i in range(3))]
         return rows
@@ -440,14 +437,7 @@ class JointedWorldSimulator(WorldSimulator):
         target takes the joint's ``position_time_constant_s``. What
         :class:`rbd_ros.sim.joint_commands.RobotInputs` asks of a robot's world.
         """
-        motors = []
-        for joint, mode, value, _ in targets:
-            k = self._moving[joint]
-            kwargs = {mode: value}
-            if mode == 'position':
-                kwargs['time_constant_s'] = self.world_joints[k].time_constant_s
-            motors.append((k, kwargs))
-        self.set_motors(motors)
+        self.set_motors(motor_settings(targets, self._moving, self._time_constants_s))
 
     def release(self, index, joint) -> None:
         """Turn the motor of moving joint ``joint`` off (the joint is free)."""

@@ -47,6 +47,11 @@ def multiply(a, b):
             aw * bz + ax * by - ay * bx + az * bw)
 
 
+def cross(a, b):
+    """Return ``a × b`` of two 3-vectors, plain floats."""
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
 def rotate(w, x, y, z, vx, vy, vz):
     """Return ``R(q) v`` for a unit quaternion ``q = (w, x, y, z)``, plain floats."""
     tx = 2.0 * (y * vz - z * vy)
