@@ -255,6 +255,23 @@ def test_plot_animates_a_world_bag_from_its_recorded_poses(tmp_path, capsys):
         assert not np.array_equal(first, np.asarray(image.convert('RGB')))
 
 
+def _joint_messages(bag_dir, prefix):
+    """
+    Return ``({log time: joint_states}, {log time: joint_wrenches})`` of ``<prefix>joint_*``.
+
+    The recorded values, decoded with mcap_ros2 (not rbd_ros's reader).
+    """
+    states, forces = {}, {}
+    with open(next(bag_dir.glob('*.mcap')), 'rb') as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        for _, channel, message, msg in reader.iter_decoded_messages():
+            if channel.topic == prefix + 'joint_states':
+                states[message.log_time] = msg
+            elif channel.topic == prefix + 'joint_wrenches':
+                forces[message.log_time] = msg
+    return states, forces
+
+
 def test_a_robot_plot_draws_every_joint_from_the_recorded_samples(tmp_path, capsys):
     from sim_recorder import record_scripted_run
     bag = tmp_path / 'arm'
@@ -267,15 +284,7 @@ def test_a_robot_plot_draws_every_joint_from_the_recorded_samples(tmp_path, caps
     assert main([str(bag), '-o', str(out)]) == 0
     assert capsys.readouterr().out.strip() == f'plot: wrote {out}'
     assert image.imread(str(out)).shape[0] > 600
-    # The recorded values, decoded with mcap_ros2 (not rbd_ros's reader).
-    states, forces = {}, {}
-    with open(next(bag.glob('*.mcap')), 'rb') as f:
-        reader = make_reader(f, decoder_factories=[DecoderFactory()])
-        for _, channel, message, msg in reader.iter_decoded_messages():
-            if channel.topic == '/arm/joint_states':
-                states[message.log_time] = msg
-            elif channel.topic == '/arm/joint_wrenches':
-                forces[message.log_time] = msg
+    states, forces = _joint_messages(bag, '/arm/')
     assert len(states) == len(forces) == 51
     figure, panels = draw_robots(open_bag(str(bag)))
     pyplot.close(figure)
@@ -329,14 +338,7 @@ def test_a_world_plot_draws_its_joints_as_a_robots(tmp_path, capsys):
     # positions, velocities, efforts and force magnitudes as a robot's, each curve the recorded
     # values (decoded here with mcap_ros2), labelled by joint name.
     bag_dir = REPO / 'bags' / 'door_world'
-    states, forces = {}, {}
-    with open(next(bag_dir.glob('*.mcap')), 'rb') as f:
-        reader = make_reader(f, decoder_factories=[DecoderFactory()])
-        for _, channel, message, msg in reader.iter_decoded_messages():
-            if channel.topic == '/joint_states':
-                states[message.log_time] = msg
-            elif channel.topic == '/joint_wrenches':
-                forces[message.log_time] = msg
+    states, forces = _joint_messages(bag_dir, '/')
     assert len(states) == len(forces) == 301
     figure, data = draw_world(open_bag(str(bag_dir)))
     pyplot.close(figure)
