@@ -416,8 +416,9 @@ class WorldSimulator(BatchSimulator):
         Return per joint its running angle, rad, plain floats: a continuous joint's position.
 
         Not wrapped: the step keeps it at every step's end (``jk._unwrap``: the twist's change
-        over one step taken in (-π, π]), so it counts whole turns at any rate below π rad a
-        step, however many steps a call takes. 0 for the other kinds. Empty without joints.
+        over one step taken as the nearest to zero mod 2π), so it counts whole turns at any
+        rate below π rad a step, however many steps a call takes; a reset starts it again
+        from the states' twist. 0 for the other kinds. Empty without joints.
         """
         if self._joint_stage is None:
             return []
