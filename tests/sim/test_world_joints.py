@@ -19,8 +19,9 @@ In process, through :meth:`NodeConfig.from_parameters` (what the node calls at s
 value is one line naming the parameter, its value and unit; what the core refuses in a world
 with contact (damping, friction for now) surfaces under the parameter's name when the
 simulator is built (the node's first-step check), whatever the core accepts later. The readout
-is the core's joint coordinate (a continuous joint's counting whole turns, a wheel's), and ``joint_command`` is checked as a robot's and drives the
-core's motors (a position hold against gravity, a velocity target). The node's topics,
+is the core's joint coordinate (a continuous joint's counting whole turns, a wheel's), and
+``joint_command`` is checked as a robot's and drives the core's motors (a position hold against
+gravity, a velocity target). The node's topics,
 ``/tf``, the closed forms and replay are in ``tests/ros/test_node_world_joints.py``.
 """
 
