@@ -400,3 +400,36 @@ def test_a_door_swung_onto_its_limit_stops_dead_and_holds_a_push(tmp_path):
     result = replay_bag(bag_path)
     assert result.match, (result.problems, {k: r.first_mismatch
                                             for k, r in result.topics.items()})
+
+
+def test_a_wheel_on_a_continuous_axle_counts_its_turns_in_the_recording(tmp_path):
+    # A wheel (a cylinder, no gravity) on a continuous axle to the world, spun at 20 rad/s
+    # about it (a principal axis: the rate stays), recorded for 1 s: joint_states reads the
+    # angle not wrapped, 3.2 turns at the end. midpoint_cayley turns it by the Cayley map's
+    # 2 atan(ω h / 2) a step, so after n steps q = n 2 atan(ω h / 2) (to round-off: 1e-12 rad
+    # bounds the sum's ~1e-14, tests/sim/test_world_joints.py); wrapped, it would read
+    # 20 - 6 π = 1.15 rad at the end. The recording replays MATCH.
+    omega, h_ns = 20.0, 1_000_000
+    bag_path = tmp_path / 'wheel'
+    node = NodeProcess(tmp_path, {
+        'gravity': [0.0, 0.0, 0.0], 'integrator': 'midpoint_cayley', 'body_names': ['wheel'],
+        'bodies.wheel.shape': 'cylinder', 'bodies.wheel.dimensions_m': [0.3, 0.05],
+        'bodies.wheel.initial_position': [0.0, 0.0, 1.0],
+        'bodies.wheel.initial_angular_velocity': [0.0, 0.0, omega],
+        'joint_names': ['axle'], 'joints.axle.type': 'continuous',
+        'joints.axle.child': 'wheel', 'joints.axle.position': [0.0, 0.0, 1.0],
+        'timestep_s': h_ns * 1e-9, 'publish_rate_hz': 100.0, 'duration_s': 1.0,
+        'real_time_factor': 0.0, 'record_path': str(bag_path)}, namespace=True)
+    try:
+        assert node.wait(120) == 0, node.stderr
+    finally:
+        node.stop()
+    states = _samples(open_bag(str(bag_path)), '/' + node.namespace.strip('/') + '/joint_states')
+    assert sorted(states) == list(range(0, 1_000_000_001, PERIOD_NS))
+    per_step = 2.0 * math.atan(0.5 * omega * h_ns * 1e-9)
+    worst = max(abs(msg.position[0] - t // h_ns * per_step) for t, msg in states.items())
+    print(f'wheel: {states[1_000_000_000].position[0]!r} rad at 1 s, off the closed form by '
+          f'at most {worst:.3g} rad')
+    assert worst <= 1e-12 and states[1_000_000_000].position[0] > 6.0 * math.pi
+    result = replay_bag(bag_path)
+    assert result.match, result.problems
