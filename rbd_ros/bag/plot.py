@@ -26,7 +26,8 @@ A robot recording (``robot_names``) gets its own figure (:func:`draw_robots`): e
 joint's position, velocity and motor effort from ``<robot>/joint_states`` (rad or m, rad/s or
 m/s, N m or N, as the joint is revolute or prismatic), and the magnitude of every joint's
 constraint force from ``<robot>/joint_wrenches`` (N). A world of several bodies gets
-:func:`draw_world`.
+:func:`draw_world`, and with joints between its bodies (``joint_names``) the same four joint
+panels below, from its ``joint_states`` and ``joint_wrenches`` (:func:`load_joints`).
 
 The state comes from ``odom`` (pose in world, twist in body coordinates, REP 105), or from
 ``pose`` + ``twist`` when there is no odometry.  Energy and momentum need the body model, which
@@ -37,7 +38,7 @@ schemas stored in the file; rclpy is not imported.
 import argparse
 import os
 import sys
-from typing import Any, Dict, List, Optional, Tuple, Union
+from typing import Any, Dict, List, NamedTuple, Optional, Tuple, Union
 
 import numpy as np
 from rbd_ros.bag.cli import open_bag_with_notes, run_on_bag
@@ -48,6 +49,7 @@ from rbd_ros.core.rotations import quat_log, quat_to_matrix
 from rbd_ros.msgs import type_names as types
 from rbd_ros.msgs.conversions import quaternion_from_msg as _quat, vector_from_msg as _vec
 from rbd_ros.sim.params import NS_PER_S, recorded_parameters
+from rbd_ros.sim.robots import joint_units
 
 SAVE_DPI = 90
 
@@ -305,6 +307,13 @@ def _panel_summaries(axes, notes: List[Optional[str]]) -> List[Dict[str, Any]]:
              'note': note} for ax, note in zip(axes, notes)]
 
 
+def _finish(fig, bag: Bag, title: Optional[str]) -> None:
+    """Title the figure (the bag's name, and whether it was finalised); lay it out."""
+    status = '' if bag.finalised else '  [not finalised]'
+    fig.suptitle(title or f'{os.path.basename(os.path.normpath(bag.path))}{status}')
+    fig.tight_layout()
+
+
 def _pyplot():
     """Return ``matplotlib.pyplot`` on the Agg backend (no display needed)."""
     import matplotlib
@@ -334,9 +343,7 @@ def draw(bag: Union[str, os.PathLike, Bag],
     _draw_state(axes, data)
     _draw_wrenches(axes, data, notes)
     _draw_invariants(axes, data, notes)
-    status = '' if bag.finalised else '  [not finalised]'
-    fig.suptitle(title or f'{os.path.basename(os.path.normpath(bag.path))}{status}')
-    fig.tight_layout()
+    _finish(fig, bag, title)
     return fig, _panel_summaries(axes, notes)
 
 
@@ -385,11 +392,31 @@ def load_world(bag: Bag) -> Dict[str, Any]:
 
 
 def draw_world(bag: Bag, title: Optional[str] = None) -> Tuple[Any, Dict[str, Any]]:
-    """Draw a world recording: top view, heights, kinetic energy, bodies in contact."""
+    """
+    Draw a world recording: top view, heights, kinetic energy, bodies in contact.
+
+    A world with joints (``joint_names``) gets four panels more below, as a robot's
+    (:func:`draw_robots`): its joints' positions, velocities, efforts and force magnitudes,
+    labelled by joint name.
+
+    :returns: ``(figure, data)``: :func:`load_world`'s dict, with ``'joints'`` (the joints'
+        :func:`load_joints` dict, None without joints) and ``'panels'`` (every panel in reading
+        order, as :func:`draw` describes them).
+    """
     data = load_world(bag)  # a bag refused is refused before matplotlib's ~0.5 s import
+    joints = load_joints(bag) if recorded_parameters(bag.config).get('joint_names') else None
     plt = _pyplot()
-    fig, axes = plt.subplots(2, 2, figsize=(13, 9))
-    top, height, energy, contact = axes.ravel()
+    rows = 2 if joints is None else 4
+    fig, axes = plt.subplots(rows, 2, figsize=(13, 4.5 * rows))
+    axes = axes.ravel()
+    top, height, energy, contact = axes[:4]
+    notes = [None] * len(axes)
+    if joints is not None:
+        for ax in axes[4:]:
+            ax.sharex(height)
+        below = notes[4:]
+        _draw_joints(axes[4:], joints, below)
+        notes[4:] = below
     t = data['t_s']
     for name in data['names']:
         p = data['position_w'][name]
@@ -407,48 +434,84 @@ def draw_world(bag: Bag, title: Optional[str] = None) -> Tuple[Any, Dict[str, An
     contact.set_title('bodies with a non-zero contact wrench', fontsize=10)
     for ax in (height, energy, contact):
         ax.set_xlabel('sim time (s)')
-    for ax in axes.ravel():
+    for ax in axes[:4]:
         ax.grid(True, alpha=0.3)
         if len(data['names']) <= 12:
             ax.legend(fontsize=8)
-    status = '' if bag.finalised else '  [not finalised]'
-    fig.suptitle(title or f'{os.path.basename(os.path.normpath(bag.path))}{status}')
-    fig.tight_layout()
-    return fig, data
+    _finish(fig, bag, title)
+    return fig, {**data, 'joints': joints, 'panels': _panel_summaries(axes, notes)}
 
 
-def load_robots(bag: Bag) -> Dict[str, Any]:
+class JointGroup(NamedTuple):
     """
-    Return a robot recording's joint series, from the recorded samples only.
+    Joints that publish their own ``joint_states`` and ``joint_wrenches``: a robot's, a world's.
+
+    :ivar topic_end: how their topics' names end before ``joint_states``: ``/<robot>/`` for a
+        robot's, ``/`` for a world's (at the node's namespace).
+    :ivar prefix: their curves' label prefix: ``<robot>/``, or none for a world's.
+    :ivar moving: the one-coordinate joints, in ``joint_states`` order.
+    :ivar units: ``(position, velocity, effort)`` units of each of ``moving``.
+    :ivar every: every joint, in ``joint_wrenches`` order.
+    """
+
+    topic_end: str
+    prefix: str
+    moving: List[str]
+    units: List[Tuple[str, str, str]]
+    every: List[str]
+
+
+def _joint_groups(config) -> List[JointGroup]:
+    """Return the robots' joint groups (``robot_names`` order), then a world's joints'."""
+    groups = [JointGroup(f'/{robot.name}/', f'{robot.name}/', list(robot.joint_names),
+                         [robot.units(joint) for joint in robot.joint_names],
+                         [joint.name for joint in robot.robot.joints])
+              for robot in config.robots]
+    if config.world_joints:
+        moving = [j for j in config.world_joints if j.moving]
+        groups.append(JointGroup('/', '', [j.name for j in moving],
+                                 [joint_units(j.joint.kind) for j in moving],
+                                 [j.name for j in config.world_joints]))
+    return groups
+
+
+def load_joints(bag: Bag) -> Dict[str, Any]:
+    """
+    Return a recording's joint series (a robot's, or a world's joints), recorded samples only.
 
     ``{'t_s' (N,), 'joints' [label], 'units' [(position, velocity, effort)], 'position',
     'velocity', 'effort' (N, n_joints), 'wrench_t_s' (M,), 'wrench_joints' [label],
-    'force_n' (M, n_wrench_joints)}``; a label is ``<robot>/<joint>``, the joints in each
-    robot's ``joint_states`` order, robots in ``robot_names`` order; NaN where a sample lacks a
-    value (the forces are NaN at t = 0, before the first step has solved them).
+    'force_n' (M, n_wrench_joints)}``; a label is ``<robot>/<joint>`` for a robot's joint (in
+    its ``joint_states`` order, robots in ``robot_names`` order), ``<joint>`` for a world's
+    (``joint_names`` order); NaN where a sample lacks a value (the forces are NaN at t = 0,
+    before the first step has solved them).
 
-    :raises RbdError: the recording holds no ``joint_states`` of its robots.
+    :raises RbdError: the recording holds no ``joint_states`` of its joints.
     """
     from rbd_ros.bag.replay import config_from_bag  # the stored config, its URDFs inside
     config = config_from_bag(bag)
+    groups = _joint_groups(config)
     states, wrenches = {}, {}
     for topic, info in bag.topics.items():
-        for r, robot in enumerate(config.robots):
-            if topic.endswith(f'/{robot.name}/joint_states') and \
-                    info.type_name == types.JOINT_STATE:
+        # the first group whose end the topic has: a robot's before the world's '/'
+        for r, group in enumerate(groups):
+            end = group.topic_end
+            if topic.endswith(end + 'joint_states') and info.type_name == types.JOINT_STATE:
                 states[topic] = r
-            elif topic.endswith(f'/{robot.name}/joint_wrenches') and \
+                break
+            if topic.endswith(end + 'joint_wrenches') and \
                     info.type_name == types.MULTI_DOF_JOINT_STATE:
                 wrenches[topic] = r
+                break
     if not states:
-        raise RbdError(f'{bag.mcap_path}: no <robot>/joint_states recorded for the robots '
-                       f'{[robot.name for robot in config.robots]} (topics: {sorted(bag.topics)})')
-    labels = [f'{robot.name}/{joint}' for robot in config.robots for joint in robot.joint_names]
-    units = [robot.units(joint) for robot in config.robots for joint in robot.joint_names]
-    first = np.cumsum([0] + [len(robot.joint_names) for robot in config.robots])
-    wrench_labels = [f'{robot.name}/{joint.name}' for robot in config.robots
-                     for joint in robot.robot.joints]
-    wrench_first = np.cumsum([0] + [len(robot.robot.joints) for robot in config.robots])
+        raise RbdError(f'{bag.mcap_path}: no joint_states recorded for the joints of '
+                       f'{[robot.name for robot in config.robots] or "the world"} (topics: '
+                       f'{sorted(bag.topics)})')
+    labels = [group.prefix + joint for group in groups for joint in group.moving]
+    units = [u for group in groups for u in group.units]
+    first = np.cumsum([0] + [len(group.moving) for group in groups])
+    wrench_labels = [group.prefix + joint for group in groups for joint in group.every]
+    wrench_first = np.cumsum([0] + [len(group.every) for group in groups])
     rows, force_rows = {}, {}
     n, m = len(labels), len(wrench_labels)
     for raw, msg in bag.decoded_messages(list(states) + list(wrenches)):
@@ -456,7 +519,7 @@ def load_robots(bag: Bag) -> Dict[str, Any]:
         if raw.topic in states:
             r = states[raw.topic]
             row = rows.setdefault(t, np.full((3, n), np.nan))
-            index = {name: first[r] + k for k, name in enumerate(config.robots[r].joint_names)}
+            index = {name: first[r] + k for k, name in enumerate(groups[r].moving)}
             for field, values in enumerate((msg.position, msg.velocity, msg.effort)):
                 for name, value in zip(msg.name, values):
                     if name in index:
@@ -464,8 +527,7 @@ def load_robots(bag: Bag) -> Dict[str, Any]:
         else:
             r = wrenches[raw.topic]
             row = force_rows.setdefault(t, np.full(m, np.nan))
-            index = {joint.name: wrench_first[r] + k
-                     for k, joint in enumerate(config.robots[r].robot.joints)}
+            index = {name: wrench_first[r] + k for k, name in enumerate(groups[r].every)}
             for name, wrench in zip(msg.joint_names, msg.wrench):
                 if name in index:
                     row[index[name]] = np.linalg.norm(_vec(wrench.force))
@@ -478,18 +540,12 @@ def load_robots(bag: Bag) -> Dict[str, Any]:
             'force_n': np.array([force_rows[t] for t in force_times]).reshape(-1, m)}
 
 
-def draw_robots(bag: Bag, title: Optional[str] = None) -> Tuple[Any, List[Dict[str, Any]]]:
-    """
-    Draw a robot recording: joint positions, velocities, efforts, and joint force magnitudes.
+#: A robot recording's joint series: :func:`load_joints`.
+load_robots = load_joints
 
-    :returns: ``(figure, panels)`` as :func:`draw` (four panels, reading order); a curve's
-        label is ``<robot>/<joint>``.
-    """
-    data = load_robots(bag)  # a bag refused is refused before matplotlib's ~0.5 s import
-    plt = _pyplot()
-    fig, axes = plt.subplots(2, 2, figsize=(13, 9), sharex=True)
-    axes = axes.ravel()
-    notes = [None] * len(axes)
+
+def _draw_joints(axes, data: Dict[str, Any], notes: List[Optional[str]]) -> None:
+    """Four panels: joint positions, velocities, efforts, and joint force magnitudes."""
     t = data['t_s']
     for k, label in enumerate(data['joints']):
         for panel, field in enumerate(('position', 'velocity', 'effort')):
@@ -518,9 +574,22 @@ def draw_robots(bag: Bag, title: Optional[str] = None) -> Tuple[Any, List[Dict[s
             ax.legend(fontsize=8, loc='best')
     for ax in axes[2:]:
         ax.set_xlabel('sim time (s)')
-    status = '' if bag.finalised else '  [not finalised]'
-    fig.suptitle(title or f'{os.path.basename(os.path.normpath(bag.path))}{status}')
-    fig.tight_layout()
+
+
+def draw_robots(bag: Bag, title: Optional[str] = None) -> Tuple[Any, List[Dict[str, Any]]]:
+    """
+    Draw a robot recording: joint positions, velocities, efforts, and joint force magnitudes.
+
+    :returns: ``(figure, panels)`` as :func:`draw` (four panels, reading order); a curve's
+        label is ``<robot>/<joint>``.
+    """
+    data = load_joints(bag)  # a bag refused is refused before matplotlib's ~0.5 s import
+    plt = _pyplot()
+    fig, axes = plt.subplots(2, 2, figsize=(13, 9), sharex=True)
+    axes = axes.ravel()
+    notes = [None] * len(axes)
+    _draw_joints(axes, data, notes)
+    _finish(fig, bag, title)
     return fig, _panel_summaries(axes, notes)
 
 

@@ -230,8 +230,12 @@ class RobotConfig:
 
     def units(self, joint: str) -> Tuple[str, str, str]:
         """Return ``(position, velocity, effort)`` units of a moving joint."""
-        linear = self.robot.joint(joint).kind == 'prismatic'
-        return ('m', 'm/s', 'N') if linear else ('rad', 'rad/s', 'N m')
+        return joint_units(self.robot.joint(joint).kind)
+
+
+def joint_units(kind: str) -> Tuple[str, str, str]:
+    """Return ``(position, velocity, effort)`` units of a moving joint of ``kind``."""
+    return ('m', 'm/s', 'N') if kind == 'prismatic' else ('rad', 'rad/s', 'N m')
 
 
 def param_value(params, spec):

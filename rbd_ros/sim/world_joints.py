@@ -33,8 +33,8 @@ The parameters (these names exactly; the list is not the prefix of its items, so
   (:mod:`rbd_ros.sim.robots`).
 
 Everything is handed to the core's :class:`~rbd_ros.core.joints.model.Joint` as given (origins
-and axis turned into the bodies' frames); what the core refuses (a limit, damping or friction
-in a world with contact, for now) is refused at start under the parameter's name
+and axis turned into the bodies' frames); what the core refuses (damping or friction in a
+world with contact, for now) is refused at start under the parameter's name
 (:func:`parameter_error`), so this module needs no change when the core accepts it.
 
 :class:`JointedWorldSimulator` is the world's simulator with them: a
@@ -42,9 +42,8 @@ in a world with contact, for now) is refused at start under the parameter's name
 robot's are (``joint_states``, ``joint_wrenches``; :mod:`rbd_ros.msgs.robot_outputs`); the
 wrenches from the bodies' momentum over the last step, as the contact step does not report
 its joint impulses.
-:class:`WorldJointInputs` is the ``joint_command`` input: the core has no motors in a world
-with contact yet, so every command is checked as a robot's is and then rejected (reason
-``'no_motor'``), counted in ``/diagnostics``.
+:class:`WorldJointInputs` is the ``joint_command`` input: every command is checked as a
+robot's is (a rejected one counted in ``/diagnostics``) and drives the contact step's motors.
 """
 
 from dataclasses import dataclass
@@ -289,8 +288,10 @@ class JointedWorldSimulator(WorldSimulator):
     (a world's joints are one group, index 0):
 
     - :meth:`joint_states`: per one-coordinate joint (revolute, continuous, prismatic; in
-      ``joint_names`` order) its position (rad or m, a continuous joint's in (-π, π]), rate
-      and its motor's effort over the last step (N m or N; 0 without a motor).
+      ``joint_names`` order) its position (rad or m; a continuous joint's not wrapped: the
+      running angle the step keeps, :meth:`~rbd_ros.core.contact.simulator.WorldSimulator.
+      running_angles`, 6π after three turns), rate and its motor's effort over the last step
+      (N m or N; 0 without a motor).
     - :meth:`joint_wrenches`: per joint (``joint_names`` order) the force (N) and torque (N m)
       the parent exerts on the child over the last step, in the child body's frame, the torque
       about the joint point; see there. NaN at time 0, after a reset, and for every joint when
@@ -310,6 +311,7 @@ class JointedWorldSimulator(WorldSimulator):
             raise parameter_error(exc, given) from None
         self._readout = JointReadout(joints)
         self._moving = tuple(k for k, j in enumerate(self.world_joints) if j.moving)
+        self._continuous = frozenset(k for k, j in enumerate(joints) if j.kind == 'continuous')
         self._time_constants_s = tuple(self.world_joints[k].time_constant_s for k in self._moving)
         self._tree = _tree_order(joints)
         self._masses = [b.model.mass_kg for b in self.bodies]
@@ -347,10 +349,11 @@ class JointedWorldSimulator(WorldSimulator):
         """Return ``(positions, rates, efforts)`` of the one-coordinate joints, plain floats."""
         rows = self._x.T.tolist()
         read = self._readout.read
+        running = self.running_angles()
         positions, rates = [], []
         for j in self._moving:
             q, qd = read(rows, j)
-            positions.append(q)
+            positions.append(running[j] if j in self._continuous else q)
             rates.append(qd)
         efforts = self.joint_efforts()
         return positions, rates, [float(efforts[k]) for k in self._moving]

@@ -69,6 +69,16 @@ REFERENCE_BAGS = {
             (1.0, 'pushed/wrench', 'world', (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
         ],
     ),
+    'door_world': (
+        # The door pushed shut: -10 N m about the hinge for 0.5 s, then -1 N m holding it on
+        # the post it reaches at ~1.7 s.
+        'msg_config/door_world.yaml',
+        {'duration_s': 3.0, 'real_time_factor': 1.0, 'start_paused': True},
+        [
+            (0.2, 'door/wrench', 'world', (0.0, 0.0, 0.0), (0.0, 0.0, -10.0)),
+            (0.7, 'door/wrench', 'world', (0.0, 0.0, 0.0), (0.0, 0.0, -1.0)),
+        ],
+    ),
     'l_block_bin': (
         'msg_config/l_block_bin.yaml',
         {'duration_s': 3.0, 'real_time_factor': 0.0},

@@ -28,8 +28,8 @@ from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 import numpy as np
 import pytest
-from rbd_ros.bag.plot import (draw, draw_robots, load_series, load_world, main, render,
-                              SAVE_DPI)
+from rbd_ros.bag.plot import (draw, draw_robots, draw_world, load_series, load_world, main,
+                              render, SAVE_DPI)
 from rbd_ros.bag.recording import open_bag
 from rbd_ros.sim.config import NodeConfig
 from rbd_ros.sim.params import recorded_parameters
@@ -255,6 +255,23 @@ def test_plot_animates_a_world_bag_from_its_recorded_poses(tmp_path, capsys):
         assert not np.array_equal(first, np.asarray(image.convert('RGB')))
 
 
+def _joint_messages(bag_dir, prefix):
+    """
+    Return ``({log time: joint_states}, {log time: joint_wrenches})`` of ``<prefix>joint_*``.
+
+    The recorded values, decoded with mcap_ros2 (not rbd_ros's reader).
+    """
+    states, forces = {}, {}
+    with open(next(bag_dir.glob('*.mcap')), 'rb') as f:
+        reader = make_reader(f, decoder_factories=[DecoderFactory()])
+        for _, channel, message, msg in reader.iter_decoded_messages():
+            if channel.topic == prefix + 'joint_states':
+                states[message.log_time] = msg
+            elif channel.topic == prefix + 'joint_wrenches':
+                forces[message.log_time] = msg
+    return states, forces
+
+
 def test_a_robot_plot_draws_every_joint_from_the_recorded_samples(tmp_path, capsys):
     from sim_recorder import record_scripted_run
     bag = tmp_path / 'arm'
@@ -267,15 +284,7 @@ def test_a_robot_plot_draws_every_joint_from_the_recorded_samples(tmp_path, caps
     assert main([str(bag), '-o', str(out)]) == 0
     assert capsys.readouterr().out.strip() == f'plot: wrote {out}'
     assert image.imread(str(out)).shape[0] > 600
-    # The recorded values, decoded with mcap_ros2 (not rbd_ros's reader).
-    states, forces = {}, {}
-    with open(next(bag.glob('*.mcap')), 'rb') as f:
-        reader = make_reader(f, decoder_factories=[DecoderFactory()])
-        for _, channel, message, msg in reader.iter_decoded_messages():
-            if channel.topic == '/arm/joint_states':
-                states[message.log_time] = msg
-            elif channel.topic == '/arm/joint_wrenches':
-                forces[message.log_time] = msg
+    states, forces = _joint_messages(bag, '/arm/')
     assert len(states) == len(forces) == 51
     figure, panels = draw_robots(open_bag(str(bag)))
     pyplot.close(figure)
@@ -322,3 +331,37 @@ def test_the_robot_reference_bag_plots_its_swing(tmp_path):
     assert set(panels[3]['lines']) == {'pendulum/pivot'}
     out = render(bag, str(tmp_path / 'pendulum.png'))
     assert Path(out).stat().st_size > 10_000
+
+
+def test_a_world_plot_draws_its_joints_as_a_robots(tmp_path, capsys):
+    # The door bag (a world with joint_names): the world's four panels, then its joints'
+    # positions, velocities, efforts and force magnitudes as a robot's, each curve the recorded
+    # values (decoded here with mcap_ros2), labelled by joint name.
+    bag_dir = REPO / 'bags' / 'door_world'
+    states, forces = _joint_messages(bag_dir, '/')
+    assert len(states) == len(forces) == 301
+    figure, data = draw_world(open_bag(str(bag_dir)))
+    pyplot.close(figure)
+    panels = data['panels']
+    assert len(panels) == 8 and data['names'] == ['door']
+    assert [p['title'].split(' (')[0] for p in panels[4:7]] == [
+        'joint positions', 'joint velocities', 'joint efforts']
+    assert [p['note'] for p in panels] == [None] * 8
+    t = np.array(sorted(states)) / 1e9
+    for panel, field in zip(panels[4:7], ('position', 'velocity', 'effort')):
+        (x, y), = panel['lines'].values()
+        assert list(panel['lines']) == ['hinge'] and np.array_equal(x, t)
+        assert np.array_equal(y, [getattr(states[s], field)[0] for s in sorted(states)])
+    assert panels[4]['lines']['hinge'][1][-1] == pytest.approx(-np.pi / 2, abs=1e-12)  # shut
+    x, y = panels[7]['lines']['hinge']
+    want = [np.linalg.norm([w.x, w.y, w.z]) for w in
+            (forces[s].wrench[0].force for s in sorted(forces))]
+    assert np.array_equal(x, np.array(sorted(forces)) / 1e9)
+    assert np.allclose(y, want, rtol=RTOL, atol=0, equal_nan=True)
+    # it carries the door's weight, m g = 196.2 N (on the post, whose friction takes 0.3 N of
+    # it, a little less)
+    assert np.isnan(y[0]) and np.all(y[1:] > 195.0)
+    out = tmp_path / 'door.png'
+    assert main([str(bag_dir), '-o', str(out)]) == 0
+    assert capsys.readouterr().out.strip() == f'plot: wrote {out}'
+    assert image.imread(str(out)).shape[0] > 1000  # eight panels: twice the world's height

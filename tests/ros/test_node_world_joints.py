@@ -22,7 +22,9 @@ the recording replayed. A second node takes a position command on the hinge (the
 and holds the ball where it was released, against gravity, recorded and replayed. The expected
 values are closed forms of the file's numbers (repeated here from its comments, so that a
 change of the file is seen): the ball of radius r = 0.1 m, 1 kg, hangs L = 0.8 m below the
-hinge at (0, 0, 1.2) m and is released from rest at 45 degrees.
+hinge at (0, 0, 1.2) m and is released from rest at 45 degrees. A third node on
+``msg_config/door_world.yaml`` swings the door onto its hinge's limit, where it stops dead and
+then holds a push, read back from the node's own recording.
 """
 
 import math
@@ -299,3 +301,135 @@ def test_a_bad_joint_parameter_stops_the_node_with_one_line(tmp_path):
                      'length: a joint axis needs a direction'], lines
     assert time.monotonic() - started < 60
     wait_until(lambda: node.process.poll() is not None, 1)
+
+
+#: ``msg_config/door_world.yaml``'s door (repeated from its comments): a 20 kg box 0.04 x 0.8 x
+#: 2.0 m hung by its edge on a hinge about z, its COM r = 0.4 m off the axis, upper limit 0.35
+#: rad from its start.
+DOOR = REPO / 'msg_config' / 'door_world.yaml'
+DOOR_M, DOOR_R, DOOR_UPPER = 20.0, 0.4, 0.35  # kg, m, rad
+DOOR_I = DOOR_M * (0.04 ** 2 + 0.8 ** 2) / 12.0 + DOOR_M * DOOR_R ** 2  # kg m², about the hinge
+
+
+def _samples(bag, topic):
+    """Return ``{t ns: message}`` of a topic of the node's recording."""
+    return {time_from_msg(msg.header.stamp): msg for _, msg in bag.decoded_messages([topic])}
+
+
+def test_a_door_swung_onto_its_limit_stops_dead_and_holds_a_push(tmp_path):
+    # The door of door_world.yaml launched open at w0 = 1.5 rad/s about its hinge (its COM at
+    # v = w0 x r = (-0.6, 0, 0) m/s, so nothing is lost to the start's projection) swings onto
+    # its upper limit at 0.35 / 1.5 = 0.233 s: the stop is inelastic, so it stays there with no
+    # rebound. From 0.4 s of sim time a +10 N m torque pushes it further open, against the
+    # stop, which holds it. Everything is read back from the node's own recording.
+    from ros_probe import Probe
+    from sensor_msgs.msg import JointState
+    bag_path = tmp_path / 'door'
+    w0 = 1.5
+    node = NodeProcess(tmp_path, {
+        'start_paused': True, 'duration_s': 1.0, 'real_time_factor': 1.0,
+        'record_path': str(bag_path), 'bodies.door.initial_angular_velocity': [0.0, 0.0, w0],
+        'bodies.door.initial_linear_velocity': [-w0 * DOOR_R, 0.0, 0.0]},
+        params_file=DOOR, namespace=True)
+    probe = Probe(node.namespace, inputs=('door/wrench',), outputs=('diagnostics',))
+    newest = [-1]
+    sub = probe.node.create_subscription(
+        JointState, 'joint_states',
+        lambda m: newest.__setitem__(0, max(newest[0], time_from_msg(m.header.stamp))), 1000)
+    try:
+        probe.wait(lambda: sub.get_publisher_count() >= 1
+                   and probe.publishers['door/wrench'].get_subscription_count() >= 1
+                   and probe.clients['pause'].service_is_ready(), 120, 'the node on the graph')
+        probe.pause(False)
+        probe.wait(lambda: newest[0] >= 400_000_000, 120, 'sim time 0.4 s')
+        probe.publish('door/wrench', 'world', torque=(0.0, 0.0, 10.0))
+        assert node.wait(120) == 0, node.stderr
+    finally:
+        probe.close()
+        node.stop()
+    bag = open_bag(str(bag_path))
+    ns = '/' + node.namespace.strip('/')
+    states = _samples(bag, f'{ns}/joint_states')
+    wrenches = _samples(bag, f'{ns}/joint_wrenches')
+    assert sorted(states) == sorted(wrenches) == list(range(0, 1_000_000_001, PERIOD_NS))
+    g = G
+    stop_ns = DOOR_UPPER / w0 * 1e9
+    pushed, worst_free, worst_over, worst_rate = None, 0.0, -math.inf, 0.0
+    for t, msg in sorted(states.items()):
+        (q,), (rate,), (effort,) = msg.position, msg.velocity, msg.effort
+        assert list(msg.name) == ['hinge'] and effort == 0.0  # no motor
+        worst_over = max(worst_over, q - DOOR_UPPER)
+        w = wrenches[t].wrench[0]
+        force = [w.force.x, w.force.y, w.force.z]
+        torque = [w.torque.x, w.torque.y, w.torque.z]
+        if t == 0:
+            assert q == 0.0 and rate == pytest.approx(w0, abs=1e-12)
+            continue
+        # The hinge carries the weight m g and its moment m g r about the door's own x (the
+        # door frame turns with it: its width along y, the hinge at -r y); while it swings,
+        # the centripetal force m w0² r towards the hinge (-y).
+        if t < stop_ns:
+            worst_free = max(worst_free, abs(q - w0 * t * 1e-9))
+            assert rate == pytest.approx(w0, abs=1e-12), (t, rate)
+            expected = [0.0, -DOOR_M * w0 * w0 * DOOR_R, DOOR_M * g, DOOR_M * g * DOOR_R, 0.0,
+                        0.0]
+        else:
+            assert abs(q - DOOR_UPPER) <= 1e-12, (t, q)
+            worst_rate = max(worst_rate, abs(rate))
+            if pushed is None and abs(torque[2] + 10.0) < 1e-9:
+                pushed = t
+            # at rest on the stop, and from the push on the stop's -10 N m about z besides
+            expected = [0.0, 0.0, DOOR_M * g, DOOR_M * g * DOOR_R, 0.0,
+                        0.0 if pushed is None else -10.0]
+        # Bounds: the weight and its moment to round-off (1e-9 N, N m: relative 5e-12); the
+        # centripetal 18 N is the step's average through the integrator, O((w0 h)²) = 2e-6
+        # of it (measured 2.5e-6 N); 1e-4 N leaves margin.
+        np.testing.assert_allclose(force + torque, expected, rtol=0.0, atol=1e-4,
+                                   err_msg=f't = {t} ns')
+        np.testing.assert_allclose([force[2], torque[0]], expected[2:4], rtol=0.0, atol=1e-9,
+                                   err_msg=f't = {t} ns')
+    print(f'door: free swing off w0 t by {worst_free:.3g} rad, beyond the limit by at most '
+          f'{worst_over:.3g} rad, |rate| on the stop at most {worst_rate:.3g} rad/s, pushed '
+          f'from {pushed} ns')
+    # Bounds: the swing is the closed form to O((w0 h)²) of the angle (2e-6 of 0.35 rad; 8e-8
+    # rad measured in process); the stop lands the joint on its bound to the pre-stabilization's
+    # PROJECTION_TOL (1e-13; measured 5.6e-17), and holds it at rest: a rate left on the stop
+    # is let go above LEAVE_RATE = 1e-12 rad/s (measured 2.6e-16 rad/s); no rebound.
+    assert worst_free < 1e-6 and worst_over <= 1e-12 and worst_rate <= 1e-12
+    assert pushed is not None and 400_000_000 < pushed < 1_000_000_000, pushed
+    result = replay_bag(bag_path)
+    assert result.match, (result.problems, {k: r.first_mismatch
+                                            for k, r in result.topics.items()})
+
+
+def test_a_wheel_on_a_continuous_axle_counts_its_turns_in_the_recording(tmp_path):
+    # A wheel (a cylinder, no gravity) on a continuous axle to the world, spun at 20 rad/s
+    # about it (a principal axis: the rate stays), recorded for 1 s: joint_states reads the
+    # angle not wrapped, 3.2 turns at the end. midpoint_cayley turns it by the Cayley map's
+    # 2 atan(ω h / 2) a step, so after n steps q = n 2 atan(ω h / 2) (to round-off: 1e-12 rad
+    # bounds the sum's ~1e-14, tests/sim/test_world_joints.py); wrapped, it would read
+    # 20 - 6 π = 1.15 rad at the end. The recording replays MATCH.
+    omega, h_ns = 20.0, 1_000_000
+    bag_path = tmp_path / 'wheel'
+    node = NodeProcess(tmp_path, {
+        'gravity': [0.0, 0.0, 0.0], 'integrator': 'midpoint_cayley', 'body_names': ['wheel'],
+        'bodies.wheel.shape': 'cylinder', 'bodies.wheel.dimensions_m': [0.3, 0.05],
+        'bodies.wheel.initial_position': [0.0, 0.0, 1.0],
+        'bodies.wheel.initial_angular_velocity': [0.0, 0.0, omega],
+        'joint_names': ['axle'], 'joints.axle.type': 'continuous',
+        'joints.axle.child': 'wheel', 'joints.axle.position': [0.0, 0.0, 1.0],
+        'timestep_s': h_ns * 1e-9, 'publish_rate_hz': 100.0, 'duration_s': 1.0,
+        'real_time_factor': 0.0, 'record_path': str(bag_path)}, namespace=True)
+    try:
+        assert node.wait(120) == 0, node.stderr
+    finally:
+        node.stop()
+    states = _samples(open_bag(str(bag_path)), '/' + node.namespace.strip('/') + '/joint_states')
+    assert sorted(states) == list(range(0, 1_000_000_001, PERIOD_NS))
+    per_step = 2.0 * math.atan(0.5 * omega * h_ns * 1e-9)
+    worst = max(abs(msg.position[0] - t // h_ns * per_step) for t, msg in states.items())
+    print(f'wheel: {states[1_000_000_000].position[0]!r} rad at 1 s, off the closed form by '
+          f'at most {worst:.3g} rad')
+    assert worst <= 1e-12 and states[1_000_000_000].position[0] > 6.0 * math.pi
+    result = replay_bag(bag_path)
+    assert result.match, result.problems

@@ -19,8 +19,9 @@ In process, through :meth:`NodeConfig.from_parameters` (what the node calls at s
 value is one line naming the parameter, its value and unit; what the core refuses in a world
 with contact (damping, friction for now) surfaces under the parameter's name when the
 simulator is built (the node's first-step check), whatever the core accepts later. The readout
-is the core's joint coordinate, and ``joint_command`` is checked as a robot's and drives the
-core's motors (a position hold against gravity, a velocity target). The node's topics,
+is the core's joint coordinate (a continuous joint's counting whole turns, a wheel's), and
+``joint_command`` is checked as a robot's and drives the core's motors (a position hold against
+gravity, a velocity target). The node's topics,
 ``/tf``, the closed forms and replay are in ``tests/ros/test_node_world_joints.py``.
 """
 
@@ -385,3 +386,47 @@ def test_a_closed_loop_swings_with_its_closed_form_period_and_reports_no_wrenche
     assert abs((up[1] - up[0]) - period) < 1e-5, (up, period)
     assert worst <= 1e-12, worst  # the cranks turn together: the loop holds
     assert all(math.isnan(v) for row in world.joint_wrenches() for v in row)  # a loop's split
+
+
+def _wheel(integrator, omega):
+    """Return a wheel on a continuous axle to the world, spun at ``omega`` rad/s, no gravity."""
+    return {'gravity': [0.0, 0.0, 0.0], 'integrator': integrator, 'body_names': ['wheel'],
+            'bodies.wheel.shape': 'cylinder', 'bodies.wheel.dimensions_m': [0.3, 0.05],
+            'bodies.wheel.initial_position': [0.0, 0.0, 1.0],
+            'bodies.wheel.initial_angular_velocity': [0.0, 0.0, omega],
+            'joint_names': ['axle'], 'joints.axle.type': 'continuous',
+            'joints.axle.child': 'wheel', 'joints.axle.position': [0.0, 0.0, 1.0],
+            'joints.axle.axis': [0.0, 0.0, 1.0]}
+
+
+@pytest.mark.parametrize('integrator, omega, chunk', [
+    ('symplectic_euler_quat_exp', 20.0, 100), ('symplectic_euler_quat_exp', 3000.0, 7),
+    ('midpoint_cayley', 20.0, 100), ('midpoint_cayley', 3000.0, 7)])
+def test_a_continuous_joint_counts_its_turns(integrator, omega, chunk):
+    # A wheel spun about its axle (a principal axis: ω stays constant, no gravity) turns by the
+    # integrator's rotation of ω h every step: exactly ω h for the exponential map, the Cayley
+    # map's 2 atan(ω h / 2) for midpoint_cayley. joint_states reads the sum, not wrapped: 20
+    # rad (3.2 turns) after 1 s at 20 rad/s; at 3000 rad/s (3 rad a step, just below π) read
+    # every 7 steps (21 rad, 3.3 turns, between two readouts), 478 turns (313 with Cayley):
+    # the count is kept every step, not every readout. Bound: the running angle is the twist
+    # read from the orientation plus whole turns, so it is off by the orientation's round-off
+    # (a product a step, ~eps each: a random walk of √1000 eps ~ 1e-14 rad) and its own
+    # rounding (eps |q|, 4 eps for margin). Measured: 3.6e-15 rad at 20 rad, 4.5e-13 rad (1
+    # ulp) at 3003 rad. The reset starts the count again from 0.
+    world = make_simulator(NodeConfig.from_parameters(_wheel(integrator, omega)))
+    h, eps = 1e-3, np.finfo(float).eps
+    per_step = omega * h if integrator.endswith('_exp') else 2.0 * math.atan(0.5 * omega * h)
+    steps, worst = 0, 0.0
+    while steps < 1000:
+        world.step(chunk)
+        steps += chunk
+        (q,), (rate,), _ = world.joint_states()
+        error = abs(q - steps * per_step)
+        worst = max(worst, error)
+        assert error <= 1e-14 + 4.0 * eps * abs(q), (steps, q, steps * per_step)
+        assert rate == pytest.approx(omega, rel=1e-14)  # constant to round-off
+    print(f'{integrator} at {omega} rad/s: {q!r} rad after {steps} steps, worst error '
+          f'{worst:.2g} rad')
+    assert abs(q) > 6.0 * math.pi  # over three turns
+    world.reset()
+    assert world.joint_states()[0] == [0.0]

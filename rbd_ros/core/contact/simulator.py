@@ -411,6 +411,19 @@ class WorldSimulator(BatchSimulator):
         self._articulated_or_refuse()
         return self._joint_stage.work.motor[:len(self._joints), jk.M_APPLIED].copy()
 
+    def running_angles(self):
+        """
+        Return per joint its running angle, rad, plain floats: a continuous joint's position.
+
+        Not wrapped: the step keeps it at every step's end (``jk._unwrap``: the twist's change
+        over one step taken as the nearest to zero mod 2π), so it counts whole turns at any
+        rate below π rad a step, however many steps a call takes; a reset starts it again
+        from the states' twist. 0 for the other kinds. Empty without joints.
+        """
+        if self._joint_stage is None:
+            return []
+        return self._joint_stage.work.angle[:len(self._joints)].tolist()
+
     def motor_saturated(self):
         """Return per joint True when its position or velocity motor is at its effort limit."""
         return self._articulated_or_refuse().motor_saturated()
