@@ -33,9 +33,11 @@ The parameters (these names exactly; the list is not the prefix of its items, so
   (:mod:`rbd_ros.sim.robots`).
 
 Everything is handed to the core's :class:`~rbd_ros.core.joints.model.Joint` as given (origins
-and axis turned into the bodies' frames); what the core refuses (damping or friction in a
-world with contact, for now) is refused at start under the parameter's name
-(:func:`parameter_error`), so this module needs no change when the core accepts it.
+and axis turned into the bodies' frames): limits, damping (its exact flow) and Coulomb
+friction (a joint sticks while the effort holding it is within it) are the contact step's
+(:mod:`rbd_ros.core.contact.motors`); what the core refuses in a world with contact is refused
+at start under the parameter's name (:func:`parameter_error`), so this module needs no change
+when the core accepts it.
 
 :class:`JointedWorldSimulator` is the world's simulator with them: a
 :class:`~rbd_ros.core.contact.simulator.WorldSimulator` that also reads its joints out as a
@@ -219,9 +221,9 @@ def parameter_error(exc, given):
     """
     Return the core's error about a joint's field as the parameter error naming it.
 
-    ``joint 'door'.damping: 0.5; a world with contact takes no joint damping yet ...``
-    becomes ``parameter joints.door.damping = 0.5 N·m·s/rad or N·s/m: a world with contact
-    takes no joint damping yet ...``; any other error is returned as it is.
+    ``joint 'door'.friction: 0.5; a fixed joint takes no friction ...`` becomes
+    ``parameter joints.door.friction = 0.5 N·m or N: a fixed joint takes no friction ...``;
+    any other error is returned as it is.
 
     :param given: joint name → its parameter values (base name → value).
     """
@@ -379,7 +381,8 @@ class JointedWorldSimulator(WorldSimulator):
         with the body is then off by O((ω h)²), not O(ω h). For the two ends' load average to
         be the step's, loads are constant or smooth over a step; a body's
         ``linear_damping``/``angular_damping`` (applied as an exact flow, not a force) reads as
-        part of its joint's wrench.
+        part of its joint's wrench. A joint's own damping and friction are transmitted by the
+        joint, so they are part of its wrench (the torque or force along its axis).
         """
         time_ns, rows = self._wrenches
         if time_ns == self.time_ns:

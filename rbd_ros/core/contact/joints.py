@@ -74,10 +74,12 @@ from rbd_ros.core.layout import P_INERTIA, S_OMEGA, S_POS, S_QUAT, S_VEL
 #: What a jointed world's step carries: the joints' ``model`` and ``work``
 #: (:data:`rbd_ros.core.joints.kernels.ArtModel`, ``ArtWork``), the state in the joints'
 #: layout ``jx`` (N, 13) and a drifted copy ``xt`` (N, 13), ``jointed`` (N,) bool (a body of
-#: some joint), ``stats``: see :data:`J_ERR` and after, and ``drive`` (n_joints,
-#: :data:`~rbd_ros.core.contact.motors.D_SIZE`), the motors' state in the step.
+#: some joint), ``stats``: see :data:`J_ERR` and after, ``drive`` (n_joints,
+#: :data:`~rbd_ros.core.contact.motors.D_SIZE`), the motors' and frictions' state in the step,
+#: and ``rows_on`` (n_rows,) int, where the damping flow keeps the rows' activity
+#: (:func:`~rbd_ros.core.contact.motors.damp`).
 JointStage = namedtuple('JointStage', ('model', 'work', 'jx', 'xt', 'jointed', 'stats',
-                                       'drive'))
+                                       'drive', 'rows_on'))
 #: stats: the largest row error a pre-stabilization left at its drifted pose (m or the cosine
 #: of a right angle), its most Newton iterations, the most visits of one stage's joint loop,
 #: 1 once a pre-stabilization failed to reach the tolerance, and the largest violation of the
@@ -279,6 +281,24 @@ def motors_kick(joints, x, vel, dt, end):
     _load(joints, x, vel, False)
     if cm.kick(joints, dt, end):
         _store(joints, x)
+
+
+@_jit
+def damp(joints, x, vel, dt):
+    """
+    Give ``x`` the exact flow of the joints' damping over ``dt`` (:func:`~.motors.damp`).
+
+    Nothing (not a bit) when no joint has damping.
+    """
+    damped = False
+    for j in range(joints.model.jint.shape[0]):
+        if joints.model.jprm[j, jk.J_DAMPING] != 0.0:
+            damped = True
+    if not damped:
+        return
+    _load(joints, x, vel, False)
+    cm.damp(joints, dt)
+    _store(joints, x)
 
 
 @_jit

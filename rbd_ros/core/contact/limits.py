@@ -31,11 +31,11 @@ may only push the joint off its bound; a row whose total would pull is let go, a
 post-stabilization lets a joint leave its bound when it moves away (:func:`let_go`). Every
 step starts with every limit free (:func:`free_all`), so nothing sticks: a joint at rest on
 its stop is caught again by each step's drift and takes its load's impulse.
-A held limit pauses the joint's motor (``jk.set_limit``), as in the tree step; the motor
-tries its row again once the limit is let go.
+A held limit pauses the joint's motor and friction rows (``jk.set_limit``), as in the tree
+step; they try their rows again once the limit is let go.
 """
 
-from rbd_ros.core.contact.motors import D_STOP
+from rbd_ros.core.contact.motors import D_STOP, friction_row
 from rbd_ros.core.contact.rows import _jit
 from rbd_ros.core.joints import kernels as jk
 
@@ -46,7 +46,11 @@ LEAVE_RATE = 1e-12
 
 @_jit
 def _free(joints, j):
-    """Let joint ``j``'s limit go; its motor row back on if it drives the joint, unsaturated."""
+    """
+    Let joint ``j``'s limit go; its motor row back on if it drives the joint, unsaturated.
+
+    Its friction row too, if the friction sticks it and no motor row drives it.
+    """
     model, work = joints.model, joints.work
     jk.set_limit(model, work, j, 0)
     joints.drive[j, D_STOP] = 0.0
@@ -57,6 +61,7 @@ def _free(joints, j):
                 and work.motor[j, jk.M_SAT] == 0.0:
             work.active[row] = 1
             jk.refresh_rows(model, work, j)
+    friction_row(joints, j)
 
 
 @_jit

@@ -45,11 +45,29 @@ exceed its joint's effort limit **saturates**: the step is taken again from its 
 that row off and the motor pushing with ``±effort_limit`` (an effort, :func:`kick`), and it
 tries its row again at the next step (:func:`saturate`); the tree step decides the same at
 each evaluation of its dynamics.
+
+**Coulomb friction** ``f`` of a joint is a velocity target 0 with the effort bound ``f``,
+solved as the motors are: its friction row (``ROW_FRICTION``, the joint's axial Jacobian) is a
+velocity row ``J u = 0`` in the post-stabilization visits, and the pre-stabilization lands
+the coordinate where the step started (:data:`D_REST`), so a joint that sticks does not move
+at all. Its impulses over the step (:data:`D_FRICTION`) are the effort holding it; one beyond
+``f h`` lets it slip: the step is taken again with the row off and the friction pushing with
+``f`` against the slip (``work.fric[j, F_SIGN]``, the sliding direction ``s``, the force
+``-f s``; :func:`kick`), ``s`` opposite to the holding effort. So a sliding joint slows at
+``f`` exactly and stops in the step whose stop needs no more than ``f h``, where it stays
+while the effort holding it is within ``f``. Every step starts by trying the row again
+(:func:`start`). A joint whose position or velocity motor row drives it (or whose limit
+holds it) has its row off: the friction then pushes against the joint's rate at the step's
+start, ``-f sign(q̇)``, 0 while ``|q̇| <= FRICTION_REST_RATE``, and the motor takes it up (its
+effort includes it), as in the tree step. The friction's effort over the step is
+``work.fric[j, F_APPLIED]`` (:func:`finish`).
+
+**Damping** ``d`` is the exact flow of ``-d q̇`` over each velocity update (:func:`damp`).
 """
 
 import math
 
-from rbd_ros.core.contact.rows import _jit
+from rbd_ros.core.contact.rows import _inl, _jit
 from rbd_ros.core.joints import kernels as jk
 
 #: ``drive`` columns, one row a joint: the motor row's generalized impulse over the step so far
@@ -57,7 +75,9 @@ from rbd_ros.core.joints import kernels as jk
 #: (rad or m), the rate its exact response has at the step's end (rad/s or m/s), 1 when that
 #: rate of the last step is the joint's rate now (0: start from the state's), the time since
 #: the target was set (s), the rate the step started from (rad/s or m/s), and the limit
-#: row's generalized impulse since it was held (:mod:`rbd_ros.core.contact.limits`).
+#: row's generalized impulse since it was held (:mod:`rbd_ros.core.contact.limits`), the
+#: friction row's generalized impulse over the step (N m s or N s, on the child along q) and
+#: the coordinate a stuck joint stays at (rad or m: the step's start).
 D_IMPULSE = 0
 D_GOAL = 1
 D_RATE_END = 2
@@ -65,7 +85,38 @@ D_HELD = 3
 D_TIME = 4
 D_RATE0 = 5
 D_STOP = 6
-D_SIZE = 7
+D_FRICTION = 7
+D_REST = 8
+D_SIZE = 9
+
+
+@_jit
+def friction_row(joints, j):
+    """
+    Set joint ``j``'s friction row on when its friction sticks it and nothing else holds it.
+
+    On: friction (a row), not slipping (``F_SIGN`` 0), no limit held, no motor row on.
+    """
+    model, work = joints.model, joints.work
+    row = model.jint[j, jk.J_FRICROW]
+    if row < 0:
+        return
+    motor_row = model.jint[j, jk.J_MOTROW]
+    want = 1 if (work.fric[j, jk.F_SIGN] == 0.0 and work.lim_state[j] == 0
+                 and work.active[motor_row] == 0) else 0
+    if work.active[row] != want:
+        work.active[row] = want
+        jk.refresh_rows(model, work, j)
+
+
+@_jit
+def count_friction(joints):
+    """Return the number of joints with Coulomb friction (each may slip once a step)."""
+    n = 0
+    for j in range(joints.model.jint.shape[0]):
+        if joints.model.jint[j, jk.J_FRICROW] >= 0:
+            n += 1
+    return n
 
 
 @_jit
@@ -74,25 +125,46 @@ def start(joints, attempt, h):
     Begin a step (``attempt`` 0) or its retry: motor rows on, the motors' goals for the drift.
 
     ``joints.jx`` holds the state at the step's start. At attempt 0 every position and
-    velocity motor tries its row (``jk._motor_rows_on``); a retry keeps the motors
-    :func:`saturate` switched off. A velocity motor's goal is ``q + v* h``.
+    velocity motor tries its row (``jk._motor_rows_on``), and every joint with friction its
+    friction row unless a motor row drives it (its friction then pushes against its rate);
+    a retry keeps the motors and frictions :func:`saturate` switched off. A velocity motor's
+    goal is ``q + v* h``, a stuck joint's ``q``.
     """
     model, work, drive, jx = joints.model, joints.work, joints.drive, joints.jx
-    motor = work.motor
+    motor, jint = work.motor, model.jint
     if attempt == 0:
         jk._motor_rows_on(model, work)
     driven = False
-    for j in range(model.jint.shape[0]):
+    rubbing = False
+    for j in range(jint.shape[0]):
         drive[j, D_IMPULSE] = 0.0
-        row = model.jint[j, jk.J_MOTROW]
+        row = jint[j, jk.J_MOTROW]
         if row >= 0 and work.active[row] != 0:
             driven = True
-    if not driven:
+        if jint[j, jk.J_FRICROW] >= 0:
+            drive[j, D_FRICTION] = 0.0
+            rubbing = True
+    if not driven and not rubbing:
         return
     jk.body_derived(model, jx, work)
     jk.joint_rows(model, jx, work, True)
-    for j in range(model.jint.shape[0]):
-        row = model.jint[j, jk.J_MOTROW]
+    if rubbing:
+        for j in range(jint.shape[0]):
+            if jint[j, jk.J_FRICROW] < 0:
+                continue
+            drive[j, D_REST] = work.axial[j, 0]
+            if attempt == 0:
+                work.fric[j, jk.F_SIGN] = 0.0
+                row = jint[j, jk.J_MOTROW]
+                if work.active[row] != 0:   # the motor moves it: friction against its rate
+                    rate = jk._row_rate(model, jx, work, row, 2)
+                    if abs(rate) > jk.FRICTION_REST_RATE:
+                        work.fric[j, jk.F_SIGN] = 1.0 if rate > 0.0 else -1.0
+            friction_row(joints, j)
+    if not driven:
+        return
+    for j in range(jint.shape[0]):
+        row = jint[j, jk.J_MOTROW]
         if row < 0 or work.active[row] == 0:
             continue
         if motor[j, jk.M_MODE] == jk.MOTOR_VELOCITY:
@@ -125,35 +197,53 @@ def motor_rows(joints):
     ``C`` is the coordinate there (``work.axial``) less :data:`D_GOAL`: a position motor's
     exact response, or a velocity motor's ``q + v* h``, so that its coordinate grows by
     exactly ``v* h`` a step whatever the drift's map of rates to turns (kick–drift–kick's
-    Cayley map turns by ``2 atan(ω h / 2)``).
+    Cayley map turns by ``2 atan(ω h / 2)``). A friction row's ``C`` is the coordinate less
+    :data:`D_REST`: a stuck joint does not move over the step.
     """
     model, work, drive = joints.model, joints.work, joints.drive
     for j in range(model.jint.shape[0]):
         row = model.jint[j, jk.J_MOTROW]
         if row >= 0 and work.active[row] != 0:
             work.con[row] = work.axial[j, 0] - drive[j, D_GOAL]
+        row = model.jint[j, jk.J_FRICROW]
+        if row >= 0 and work.active[row] != 0:   # a stuck joint stays where it started
+            work.con[row] = work.axial[j, 0] - drive[j, D_REST]
 
 
 @_jit
 def tally(joints):
-    """Add the last solve's motor multipliers (``−yj``: along q on the child) to the step's."""
+    """Add the last solve's motor and friction multipliers (``−yj``: along q on the child)."""
     model, work, drive = joints.model, joints.work, joints.drive
     for j in range(model.jint.shape[0]):
         row = model.jint[j, jk.J_MOTROW]
         if row >= 0 and work.active[row] != 0:
             drive[j, D_IMPULSE] -= work.yj[row]
+        row = model.jint[j, jk.J_FRICROW]
+        if row >= 0 and work.active[row] != 0:
+            drive[j, D_FRICTION] -= work.yj[row]
+
+
+@_inl
+def _rubs(model, work, j):
+    """Return the friction force joint ``j`` pushes with over this step (``-f s``; 0 stuck)."""
+    if model.jint[j, jk.J_FRICROW] < 0:
+        return 0.0
+    sign = work.fric[j, jk.F_SIGN]
+    if sign == 1.0 or sign == -1.0:
+        return -model.jprm[j, jk.J_FRICTION] * sign
+    return 0.0
 
 
 @_jit
 def kick(joints, dt, end):
     """
-    Give every effort motor (and saturated motor) its impulse ``Jᵀ τ dt`` at ``jx``.
+    Give every effort motor (and saturated motor, slipping friction) ``Jᵀ τ dt`` at ``jx``.
 
     Return whether any did (``jx``'s velocities then changed).
 
-    ``τ`` the effort clipped by the effort limit, or ``±effort_limit`` for a saturated motor;
-    ``end``: the kick at the step's end (the post-stabilization then holds a position motor
-    at its end rate).
+    ``τ`` the effort clipped by the effort limit, or ``±effort_limit`` for a saturated motor,
+    plus a slipping joint's friction ``-f s``; ``end``: the kick at the step's end (the
+    post-stabilization then holds a position motor at its end rate).
     """
     model, work, drive, jx = joints.model, joints.work, joints.drive, joints.jx
     motor, jint = work.motor, model.jint
@@ -165,13 +255,14 @@ def kick(joints, dt, end):
         mode = motor[j, jk.M_MODE]
         if mode == jk.MOTOR_EFFORT or (mode != jk.MOTOR_OFF and motor[j, jk.M_SAT] != 0.0):
             pushed = True
+        if _rubs(model, work, j) != 0.0:
+            pushed = True
         if end and mode == jk.MOTOR_POSITION and work.active[row] != 0:
             motor[j, jk.M_HOLD_RATE] = drive[j, D_RATE_END]
     if not pushed:
         return False
     jk.body_derived(model, jx, work)
     jk.joint_rows(model, jx, work, True)
-    prm, bd, jac = model.prm, work.bd, work.jac
     for j in range(jint.shape[0]):
         row = jint[j, jk.J_MOTROW]
         if row < 0:
@@ -181,25 +272,36 @@ def kick(joints, dt, end):
             tau = min(max(motor[j, jk.M_EFFORT], -motor[j, jk.M_LIMIT]), motor[j, jk.M_LIMIT])
         elif mode != jk.MOTOR_OFF and motor[j, jk.M_SAT] != 0.0:
             tau = motor[j, jk.M_SAT] * motor[j, jk.M_LIMIT]
-        else:
+        elif _rubs(model, work, j) == 0.0:
             continue
-        p = tau * dt
-        for side in range(2):
-            b = jk._side_body(model, row, side)
-            if b < 0:
-                continue
-            o = 6 * side
-            inv_m = 1.0 / prm[b, jk.P_MASS]
-            for k in range(3):
-                jx[b, 7 + k] += p * jac[row, o + k] * inv_m
-            # Δω_b = I_b⁻¹ Rᵀ (p J_ω)
-            t0, t1, t2 = jk._mtv(bd, b, jk.B_ROT, p * jac[row, o + 3], p * jac[row, o + 4],
-                                 p * jac[row, o + 5])
-            t0, t1, t2 = jk._mv(prm, b, jk.P_INERTIA_INV, t0, t1, t2)
-            jx[b, 10] += t0
-            jx[b, 11] += t1
-            jx[b, 12] += t2
+        else:
+            tau = 0.0
+        rub = _rubs(model, work, j)
+        if rub != 0.0:
+            tau += rub
+        _push(model, work, jx, row, tau * dt)
     return True
+
+
+@_inl
+def _push(model, work, jx, row, p):
+    """Give ``jx`` the generalized impulse ``p`` along ``row`` (``M⁻¹ Jᵀ p``, ``jac`` at jx)."""
+    prm, bd, jac = model.prm, work.bd, work.jac
+    for side in range(2):
+        b = jk._side_body(model, row, side)
+        if b < 0:
+            continue
+        o = 6 * side
+        inv_m = 1.0 / prm[b, jk.P_MASS]
+        for k in range(3):
+            jx[b, 7 + k] += p * jac[row, o + k] * inv_m
+        # Δω_b = I_b⁻¹ Rᵀ (p J_ω)
+        t0, t1, t2 = jk._mtv(bd, b, jk.B_ROT, p * jac[row, o + 3], p * jac[row, o + 4],
+                             p * jac[row, o + 5])
+        t0, t1, t2 = jk._mv(prm, b, jk.P_INERTIA_INV, t0, t1, t2)
+        jx[b, 10] += t0
+        jx[b, 11] += t1
+        jx[b, 12] += t2
 
 
 @_jit
@@ -208,12 +310,21 @@ def saturate(joints, h):
     Switch off every motor row whose step's effort exceeded its limit; return whether any.
 
     Such a motor pushes with ``±effort_limit`` (its sign the effort's) when the step is taken
-    again (:func:`kick`); its exact response starts again from the joint's state.
+    again (:func:`kick`); its exact response starts again from the joint's state. Likewise a
+    friction row whose step's effort exceeded the friction: the joint slips, against it.
     """
     model, work, drive = joints.model, joints.work, joints.drive
     motor = work.motor
     changed = False
     for j in range(model.jint.shape[0]):
+        row = model.jint[j, jk.J_FRICROW]
+        if row >= 0 and work.active[row] != 0 \
+                and abs(drive[j, D_FRICTION]) > model.jprm[j, jk.J_FRICTION] * h:
+            # it slides away from the effort that would have held it
+            work.fric[j, jk.F_SIGN] = -1.0 if drive[j, D_FRICTION] > 0.0 else 1.0
+            work.active[row] = 0
+            jk.refresh_rows(model, work, j)
+            changed = True
         row = model.jint[j, jk.J_MOTROW]
         if row < 0 or work.active[row] == 0:
             continue
@@ -231,6 +342,9 @@ def saturate(joints, h):
 def finish(joints, h):
     """
     End a step: the efforts (``work.motor[:, M_APPLIED]``), the targets' time, the unwrap.
+
+    The frictions' efforts too (``work.fric[:, F_APPLIED]``): a stuck joint's row impulses
+    over ``h``, a slipping or driven one's ``-f s``.
 
     ``jx`` holds the step's end pose, from which each continuous joint's running angle is
     kept (``jk._unwrap``).
@@ -254,4 +368,89 @@ def finish(joints, h):
             motor[j, jk.M_APPLIED] = motor[j, jk.M_SAT] * motor[j, jk.M_LIMIT]
         else:
             motor[j, jk.M_APPLIED] = 0.0
+        if model.jint[j, jk.J_FRICROW] >= 0:
+            fric_row = model.jint[j, jk.J_FRICROW]
+            work.fric[j, jk.F_APPLIED] = (drive[j, D_FRICTION] / h if work.active[fric_row] != 0
+                                          else _rubs(model, work, j))
     jk._unwrap(model, joints.jx, work)
+
+
+@_inl
+def _refresh_spin(model, x, work):
+    """Refresh ``work.bd``'s world angular velocities from ``x``'s (the pose unchanged)."""
+    bd = work.bd
+    for b in range(x.shape[0]):
+        bd[b, jk.B_OMEGA_W], bd[b, jk.B_OMEGA_W + 1], bd[b, jk.B_OMEGA_W + 2] = jk._mv(
+            bd, b, jk.B_ROT, x[b, 10], x[b, 11], x[b, 12])
+
+
+@_jit
+def damp(joints, dt):
+    """
+    Give ``jx`` the exact flow of every joint's damping ``-d q̇`` over ``dt``, joint by joint.
+
+    The flow of one damped joint in the mechanism its joints' own rows make (its limit,
+    motor and friction rows off: the visits after it take up what they hold, so a motor's
+    effort includes the damping it overcomes): a generalized force along ``q`` moves the
+    bodies along ``δu = P M⁻¹ Jᵀ`` (the constrained response to a unit force, one solve with
+    the factor of the rows), so ``q̇' = −d a q̇`` with ``a = J δu`` (the joint's inverse
+    effective inertia) and ``q̇(dt) = q̇ exp(−d a dt)`` exactly: the impulse
+    ``q̇ (exp(−d a dt) − 1) / a`` along ``δu``. The twists are first projected onto the rows
+    (the rate is then the mechanism's). One damped joint (a hinge or slider to the world, the
+    joints' rows alone) decays exactly as ``exp(−d t / I)``; several are taken in index order,
+    a splitting of their coupled flow (each exact, the coupling O(dt²)).
+    """
+    model, work, jx, saved = joints.model, joints.work, joints.jx, joints.rows_on
+    jint, jprm, active = model.jint, model.jprm, work.active
+    for r in range(active.shape[0]):
+        saved[r] = active[r]
+    for j in range(jint.shape[0]):
+        for column in (jk.J_LIMROW, jk.J_MOTROW, jk.J_FRICROW):
+            row = jint[j, column]
+            if row >= 0:
+                active[row] = 0
+        jk.refresh_rows(model, work, j)
+    jk.body_derived(model, jx, work)
+    jk.joint_rows(model, jx, work, True)
+    jk.factor(model, work)
+    jk._project_velocities(model, jx, work)
+    rb, rj, yb, jac = work.xs[:, 0:6], work.bias, work.yb, work.jac
+    for j in range(jint.shape[0]):
+        d = jprm[j, jk.J_DAMPING]
+        if d == 0.0:
+            continue
+        row = jint[j, jk.J_MOTROW]
+        _refresh_spin(model, jx, work)
+        rate = jk._row_rate(model, jx, work, row, 2)
+        for b in range(rb.shape[0]):
+            for k in range(6):
+                rb[b, k] = 0.0
+        for r in range(rj.shape[0]):
+            rj[r] = 0.0
+        for side in range(2):
+            b = jk._side_body(model, row, side)
+            if b >= 0:
+                for k in range(6):
+                    rb[b, k] += jac[row, 6 * side + k]
+        jk.solve(model, work, rb, rj, yb, work.yj)
+        a = 0.0
+        for side in range(2):
+            b = jk._side_body(model, row, side)
+            if b >= 0:
+                for k in range(6):
+                    a += jac[row, 6 * side + k] * yb[b, k]
+        if not a > 0.0:
+            continue
+        p = rate * math.expm1(-d * a * dt) / a
+        for b in range(jx.shape[0]):
+            for k in range(3):
+                jx[b, 7 + k] += p * yb[b, k]
+            t0, t1, t2 = jk._mtv(work.bd, b, jk.B_ROT, p * yb[b, 3], p * yb[b, 4],
+                                 p * yb[b, 5])
+            jx[b, 10] += t0
+            jx[b, 11] += t1
+            jx[b, 12] += t2
+    for r in range(active.shape[0]):
+        active[r] = saved[r]
+    for j in range(jint.shape[0]):
+        jk.refresh_rows(model, work, j)

@@ -259,8 +259,11 @@ class WorldSimulator(BatchSimulator):
         index, ``parent=None`` the world), as :class:`~rbd_ros.core.joints.ArticulatedSimulator`
         takes them and checks them; the states are projected onto them first, as there.
         Motors as there (:meth:`set_motor`); limits (``lower``, ``upper``) as speculative
-        inelastic stops (:mod:`rbd_ros.core.contact.limits`). Without cone limits, damping,
-        friction or mimics for now (refused in one line). A jointed body collides as any
+        inelastic stops (:mod:`rbd_ros.core.contact.limits`); ``damping`` as its exact flow
+        over each velocity update and ``friction`` as a velocity target 0 bounded by the
+        friction (:mod:`rbd_ros.core.contact.motors`: a joint sticks exactly while the effort
+        holding it is within its friction, else slides against it). Without cone limits or
+        mimics for now (refused in one line). A jointed body collides as any
         other; two bodies of one joint collide with each other too (give them shapes that
         clear at the joint).
     :raises ModelError: a bad body, or bodies starting inside each other or the static world.
@@ -326,8 +329,6 @@ class WorldSimulator(BatchSimulator):
                 raise ConfigError(f'joints[{i}]: {type(joint).__name__} is not a Joint')
             who = f'joint {joint.name!r}'
             for name, value, unset in (('cone_rad', joint.cone_rad, None),
-                                       ('damping', joint.damping, 0.0),
-                                       ('friction', joint.friction, 0.0),
                                        ('mimic', joint.mimic, None)):
                 if value != unset:
                     raise ConfigError(f'{who}.{name}: {value!r}; a world with contact takes '
@@ -344,7 +345,8 @@ class WorldSimulator(BatchSimulator):
         self._articulated = articulated   # checks and sets the motors' commands
         self._joint_stage = cj.JointStage(model, work, np.zeros((n, 13)), np.zeros((n, 13)),
                                           jointed, np.zeros(cj.J_STATS),
-                                          np.zeros((len(self._joints), cm.D_SIZE)))
+                                          np.zeros((len(self._joints), cm.D_SIZE)),
+                                          np.zeros(model.rows.shape[0], dtype=np.int64))
         return articulated.states
 
     @property
@@ -423,6 +425,21 @@ class WorldSimulator(BatchSimulator):
         if self._joint_stage is None:
             return []
         return self._joint_stage.work.angle[:len(self._joints)].tolist()
+
+    def joint_friction_efforts(self) -> np.ndarray:
+        """
+        Return (n_joints,): each joint's Coulomb friction over the last step, N m or N.
+
+        On the child along q, as :meth:`rbd_ros.core.joints.ArticulatedSimulator.
+        joint_friction_efforts`: a stuck joint's holding effort (its friction row's impulses
+        over the step divided by ``h``, within ``±friction``); a slipping or driven one's
+        ``-friction·sign(q̇)``; 0 without friction, or while a motor or a limit holds it at
+        rest. Not in :meth:`joint_efforts` (the motors'), nor is the damping.
+        """
+        self._articulated_or_refuse()
+        stage = self._joint_stage
+        return np.where(stage.model.jint[:, jk.J_FRICROW] >= 0,
+                        stage.work.fric[:len(self._joints), jk.F_APPLIED], 0.0)
 
     def motor_saturated(self):
         """Return per joint True when its position or velocity motor is at its effort limit."""

@@ -104,10 +104,10 @@ import numpy as np
 from rbd_ros.core import kernels as kk
 from rbd_ros.core.contact.bodies import prepare_bodies, store_velocities
 from rbd_ros.core.contact.broad_phase import broad_phase
-from rbd_ros.core.contact.joints import (J_FAIL, joint_sweeps, motors_finish, motors_kick,
-                                         motors_start, post_stabilize, visit, VISIT_NONE,
-                                         VISIT_POST, VISIT_PRE)
-from rbd_ros.core.contact.motors import saturate
+from rbd_ros.core.contact.joints import (damp, J_FAIL, joint_sweeps, motors_finish,
+                                         motors_kick, motors_start, post_stabilize, visit,
+                                         VISIT_NONE, VISIT_POST, VISIT_PRE)
+from rbd_ros.core.contact.motors import count_friction, saturate
 from rbd_ros.core.contact.narrow_phase import keep_responses, narrow_phase
 from rbd_ros.core.contact.rows import (_inl, _jit, _raw, MARGIN_M, N_CONTACT, PHASE_COLLISION,
                                        PHASE_CONTACT, Q_A, Q_B, Shapes, Statics, Work)
@@ -218,8 +218,10 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
     (``joints.stats[J_FAIL]`` says which). The joints' motors (:mod:`~rbd_ros.core.contact.
     motors`) begin each step from its start (``motors_start``), give their efforts with each
     velocity update (``motors_kick``) and their rows in the visits; a step in which a position
-    or velocity motor needed more than its effort limit is taken again from its start with
-    that motor saturated (``saturate``), at most once more per joint. Limits
+    or velocity motor needed more than its effort limit, or a stuck joint more than its
+    friction, is taken again from its start with that motor saturated or that joint slipping
+    (``saturate``), at most once more per joint and friction. The joints' damping is its
+    exact flow over each velocity update (``damp``, after the motors' kick). Limits
     (:mod:`~rbd_ros.core.contact.limits`) are freed at each step's start and held by the
     pre-stabilization where the drift would cross them.
     """
@@ -235,7 +237,7 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
         same0 = same_pose
         attempts = 1
         if joints is not None:
-            attempts = joints.work.motor.shape[0] + 1
+            attempts = joints.work.motor.shape[0] + 1 + count_friction(joints)
         ok = True
         for attempt in range(attempts):
             if attempt > 0:   # a motor beyond its effort limit: the step again, it saturated
@@ -265,6 +267,7 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
                     lmom[i, 0], lmom[i, 1], lmom[i, 2] = lx, ly, lz
                 if joints is not None:
                     motors_kick(joints, x, work.vel, 0.5 * h, False)
+                    damp(joints, x, work.vel, 0.5 * h)
                     post_stabilize(joints, x, work.vel, False)
                 # 3. Contacts on the kicked velocities.
                 c1 = contact_stage(x, prm, shapes, statics, h, PHASE_CONTACT, 1, True, wrench,
@@ -292,6 +295,7 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
                     kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
                 if joints is not None:
                     motors_kick(joints, x, work.vel, 0.5 * h, True)
+                    damp(joints, x, work.vel, 0.5 * h)
                 c2 = contact_stage(x, prm, shapes, statics, h, PHASE_CONTACT, 2, True, wrench,
                                    work, False, joints, VISIT_POST, method)
                 same_pose = True  # the next step's first stage sees this pose
@@ -304,6 +308,7 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
                     kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
                 if joints is not None:
                     motors_kick(joints, x, work.vel, h, False)
+                    damp(joints, x, work.vel, h)
                     post_stabilize(joints, x, work.vel, False)
                 c1 = contact_stage(x, prm, shapes, statics, h, PHASE_CONTACT, 1, True, wrench,
                                    work, True, joints, VISIT_PRE, method)
