@@ -66,9 +66,12 @@ CLIP_ROWS = 16
 CLIP_COLS = 6
 
 _raw = jitcache.raw_kernel()
+#: The helpers :func:`box_box` calls ~25 times a pair are inlined: a call copied the fields of
+#: the arrays it takes onto the stack.
+_inl = jitcache.kernel(inline='always')
 
 
-@_raw
+@_inl
 def _clip(poly, src, n, dst, col, sign, limit):
     """
     Clip the polygon in rows ``src … src+n-1`` of ``poly`` to ``sign · poly[:, col] <= limit``.
@@ -96,7 +99,7 @@ def _clip(poly, src, n, dst, col, sign, limit):
     return m
 
 
-@_raw
+@_inl
 def _repeated(poly, k, out, count):
     """Tell whether clipped vertex ``k`` is within :data:`MERGE_M` of a point in ``out``."""
     for j in range(count):
@@ -106,7 +109,7 @@ def _repeated(poly, k, out, count):
     return False
 
 
-@_raw
+@_inl
 def _extent(half, rot, i, lx, ly, lz):
     """Return how far box ``i`` (``half``, axes ``rot[i]``) reaches from its centre along ``l``."""
     r = 0.0
@@ -115,7 +118,7 @@ def _extent(half, rot, i, lx, ly, lz):
     return r
 
 
-@_raw
+@_inl
 def _faces(half, rot, s, t, dx, dy, dz):
     """Return the largest separation of boxes ``s``, ``t`` along ``s``'s face normals, its axis."""
     best = -math.inf

@@ -94,7 +94,8 @@ phase's and the narrow phase's buffers, a stage's scratch) only call them: about
 left a step.  A raw
 function cannot call one that allocates (numba compiles the callee without reference
 counting too), which is why :func:`_consistent_normals`, which sorts, is called from
-:func:`narrow_phase` between :func:`_pair_points` and :func:`_pair_patch`.
+:func:`narrow_phase` between two calls of ``_pair_rows``, which makes the pairs' points and
+patches.
 """
 
 import math
