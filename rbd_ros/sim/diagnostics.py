@@ -36,8 +36,10 @@ def energy_and_momentum(session):
         return energy, [float(v) for v in sim.momentum()[1]]
     # Every body at once from the packed states (13, N): a BodyState per body took ~0.4 ms a
     # body, 0.4 s a second of a 1000-body node's time. With robots, their links too.
-    x = session.columns
-    bodies = session.simulator.bodies if config.robots else config.bodies
+    x, bodies = session.columns, config.bodies
+    if config.robots:  # the contact world's every body: the free bodies, then the links
+        world = session.simulator.world
+        x, bodies = world.arrays[0], world.bodies
     mass = np.array([b.model.mass_kg for b in bodies])
     inertia_b = np.array([b.model.inertia_b for b in bodies])
     v_w = x[layout.S_VEL:layout.S_VEL + 3].T

@@ -158,6 +158,7 @@ class RobotContactWorld(RobotWorld):
 
     def __init__(self, robots, bodies, static, integrator, timestep_ns):
         free = [WorldBody(b.name, b.model, b.collision_shape, b.material) for b in bodies]
+        self._free = len(free)
         self._assemble(robots, timestep_ns, len(free))
         links, labels = _link_bodies(self.robots)
         _, link_states, joints = self._args
@@ -213,8 +214,14 @@ class RobotContactWorld(RobotWorld):
 
     @property
     def arrays(self):
-        """Return every body's packed states and times (the free bodies first)."""
-        return self._sim.arrays
+        """Return the free bodies' packed states and times (views: the links follow them)."""
+        x, t = self._sim.arrays
+        return x[:, :self._free], t[:self._free]
+
+    @property
+    def world(self):
+        """Return the contact world itself (every body: the free bodies, then the links)."""
+        return self._sim
 
     @property
     def contact_wrench_w(self):

@@ -99,9 +99,9 @@ def test_a_floating_box_robot_lands_as_a_free_box_and_rests_at_its_half_height()
     for _ in range(300):  # 3 s in 10 ms chunks
         robot.step(10)
         free.step(10)
-        worst = max(worst, float(np.abs(robot.arrays[0] - free.arrays[0]).max()))
+        worst = max(worst, float(np.abs(robot.world.arrays[0] - free.arrays[0]).max()))
         # its odom (root link frame = body frame here) is the body's state
-        assert robot.root_state(0)[:7] == robot.arrays[0][:7, 0].tolist()
+        assert robot.root_state(0)[:7] == robot.world.arrays[0][:7, 0].tolist()
     print(f'\nfloating box robot vs free box over 3 s: largest state difference {worst:.3e}')
     # The same bodies (mass, the inertia to the bit, the shape, the material) in the same
     # contact step. Only the start differs, by round-off: the robot's orientation goes through
@@ -109,7 +109,8 @@ def test_a_floating_box_robot_lands_as_a_free_box_and_rests_at_its_half_height()
     # body's; landing on a corner and rocking onto a face amplify it (measured 5.2e-14 over
     # 3 s). 1e-12 is far below any physical difference (a mm, a mrad) and above that.
     assert worst < 1e-12
-    x = robot.arrays[0][:, 0]
+    assert robot.arrays[0].shape == (13, 0)  # no free body
+    x = robot.world.arrays[0][:, 0]
     # At rest on its largest face (0.2 m x 0.3 m): its COM half its 0.1 m height above the
     # ground, level, still.
     assert abs(x[2] - BOX_M[2] / 2) <= REST_TOL
@@ -182,11 +183,11 @@ def test_a_rod_pendulum_knocks_a_box_off_its_spot_and_never_gains_energy():
         'bodies.box.mass_kg': 0.5, 'bodies.box.initial_position': [0.13, 0.0, 0.5]})
     config = NodeConfig.from_parameters(params)
     world = make_simulator(config)
-    models = [b.model for b in world.bodies]
-    assert [b.name for b in world.bodies][0] == 'box'
+    models = [b.model for b in world.world.bodies]
+    assert [b.name for b in world.world.bodies][0] == 'box'
 
     def energy():
-        x = world.arrays[0]
+        x = world.world.arrays[0]
         total = 0.0
         for i, model in enumerate(models):
             v, w = x[layout.S_VEL:layout.S_VEL + 3, i], x[layout.S_OMEGA:layout.S_OMEGA + 3, i]
