@@ -37,6 +37,12 @@ A body without collision, with several, or with an offset primitive is refused a
 one line naming the URDF file, the link and why. The collisions of links fixed to the world
 (``world`` → fixed → ``mount``) are not part of the contact world: only moving links touch.
 
+**Which links touch** (:func:`no_collision_pairs`, the contact step's ``no_collision``): the
+parent and child links of a joint never collide with each other (they meet at the joint);
+a robot's other links do, unless ``robots.<name>.self_collision`` is false; links of
+different robots and free bodies always do. A world's own joints (``joint_names``) keep
+today's rule: their bodies collide (they are given shapes that clear at the joint).
+
 **Joints.** What the contact step does not take yet (joint damping and friction, mimic) is
 refused at start in one line naming the robot's parameter (``robots.<r>.joints.<j>.damping``)
 or the URDF joint, from the core's own refusal, so nothing here changes when the core takes
@@ -117,6 +123,29 @@ def link_shape(robot, body):
     return shape
 
 
+def no_collision_pairs(robots, offsets):
+    """
+    Return the body index pairs of the robots' links that never collide with each other.
+
+    Parent and child of every URDF joint between two moving links (adjacent links), and every
+    pair of a robot's links when its ``self_collision`` is false. ``offsets``: each robot's
+    first body index in the world.
+    """
+    pairs = set()
+    for robot, first in zip(robots, offsets):
+        links = {link.name: link.body for link in robot.robot.links}
+        count = len(robot.robot.body_links)
+        if not robot.self_collision:
+            pairs.update((first + a, first + b) for a in range(count)
+                         for b in range(a + 1, count))
+            continue
+        for joint in robot.robot.joints:
+            a, b = links[joint.parent], links[joint.child]
+            if a is not None and b is not None and a != b:
+                pairs.add((first + min(a, b), first + max(a, b)))
+    return sorted(pairs)
+
+
 def _link_bodies(robots):
     """Return the robots' link bodies as :class:`WorldBody` values and their labels."""
     bodies, labels = [], {}
@@ -166,7 +195,9 @@ class RobotContactWorld(RobotWorld):
         states = [b.initial_state for b in bodies] + list(link_states)
         try:
             self._sim = _RobotCore(free + links, states, static, world_joints,
-                                   integrator=integrator, timestep_ns=timestep_ns)
+                                   integrator=integrator, timestep_ns=timestep_ns,
+                                   no_collision=no_collision_pairs(
+                                       self.robots, [b0 for b0, _ in self._bodies]))
         except RbdError as exc:
             raise self._named(exc, labels) from None
 

@@ -28,7 +28,9 @@ The parameters (these names exactly; a list parameter is never the prefix of its
   or m/s): one value per moving joint in ``joint_states`` order (the URDF's revolute,
   continuous and prismatic joints, in document order), or ``[]`` for zeros.
 - ``robots.<name>.friction`` and ``.restitution``: its links' contact material (as a body's
-  ``friction`` and ``restitution``), in a world with contact (:mod:`rbd_ros.sim.robot_contact`).
+  ``friction`` and ``restitution``), in a world with contact (:mod:`rbd_ros.sim.robot_contact`);
+  ``.self_collision`` (default true): its links that are not parent and child of one joint
+  collide with each other there (adjacent links never do).
 - ``robots.<name>.joints.<joint>.position_time_constant_s`` (s, > 0, default
   :data:`DEFAULT_POSITION_TIME_CONSTANT_S`): the time constant of that joint's position
   commands (the exact critically damped response, see :mod:`rbd_ros.core.joints`).
@@ -54,7 +56,7 @@ from typing import Dict, Tuple
 from rbd_ros.core import ConfigError, RbdError
 from rbd_ros.core.contact.world import is_valid_name, NAME_RULE
 from rbd_ros.sim.joint_commands import INTERFACES, JointSpec
-from rbd_ros.sim.params import (check_range, coerce, DOUBLE, DOUBLE_ARRAY, fail,
+from rbd_ros.sim.params import (BOOL, check_range, coerce, DOUBLE, DOUBLE_ARRAY, fail,
                                 PARAMETERS_BY_NAME, ParamSpec, STRING, STRING_ARRAY,
                                 unit_quaternion)
 
@@ -172,6 +174,9 @@ def robot_parameter_specs(name: str) -> Tuple[ParamSpec, ...]:
         ParamSpec(prefix + 'restitution', DOUBLE, 0.0, '',
                   f'Robot {name!r}: coefficient of restitution ε of its links (a pair: the '
                   'larger); in a world with contact.', (0.0, 1.0)),
+        ParamSpec(prefix + 'self_collision', BOOL, True, '',
+                  f'Robot {name!r}: in a world with contact, its links that are not parent '
+                  'and child of one joint collide with each other.'),
     )
 
 
@@ -212,6 +217,7 @@ class RobotConfig:
         constant, s.
     :ivar specs: every parameter of this robot, its joints' included.
     :ivar friction, restitution: its links' contact material (a world with contact).
+    :ivar self_collision: its non-adjacent links collide with each other (a world with contact).
     """
 
     name: str
@@ -221,6 +227,7 @@ class RobotConfig:
     specs: Tuple[ParamSpec, ...]
     friction: float = 0.5
     restitution: float = 0.0
+    self_collision: bool = True
 
     @property
     def joint_names(self) -> Tuple[str, ...]:
@@ -301,7 +308,8 @@ def _read_robot(params, name, gravity_w):
     constants = tuple(given[f'{prefix}joints.{joint}.position_time_constant_s']
                       for joint in robot.moving_joints)
     return RobotConfig(name, robot, replace(placement, joints=tuple(joints)), constants,
-                       specs + joint_specs, values['friction'], values['restitution'])
+                       specs + joint_specs, values['friction'], values['restitution'],
+                       values['self_collision'])
 
 
 def read_robots(params: Dict[str, object], gravity_w=(0.0, 0.0, 0.0)) -> Tuple[RobotConfig, ...]:

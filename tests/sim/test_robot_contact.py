@@ -35,7 +35,9 @@ from rbd_ros.sim.build import kernel_kind, make_simulator
 from rbd_ros.sim.config import NodeConfig
 from rbd_ros.sim.robot_contact import RobotContactWorld
 from rbd_ros.sim.robot_world import RobotWorld
+from rbd_ros.sim.session import SimSession
 from tests.core.joints.closed_forms import pendulum_period
+import yaml
 
 REPO = Path(__file__).resolve().parents[2]
 PENDULUM_URDF = REPO / 'msg_config' / 'urdf' / 'pendulum.urdf'
@@ -280,3 +282,104 @@ def test_what_the_contact_step_cannot_take_is_refused_naming_the_parameter_or_th
     assert line.startswith('parameter robots.pendulum.initial_position (with '
                            ".initial_orientation and .initial_joint_positions) puts link 'rod' "
                            "of robot 'pendulum' 0.325962 m deep inside ground"), line
+
+
+ARM3_URDF = REPO / 'msg_config' / 'urdf' / 'arm3.urdf'
+#: arm3's URDF damps its shoulder and elbow: the contact step takes no joint damping yet.
+UNDAMPED = {f'robots.arm.joints.{joint}.{field}': 0.0 for joint in ('shoulder', 'elbow')
+            for field in ('damping', 'friction')}
+
+
+def _arm(**more):
+    return NodeConfig.from_parameters({
+        'robot_names': ['arm'], 'robots.arm.urdf_path': str(ARM3_URDF), 'ground.enabled': True,
+        'gravity': [0.0, 0.0, -G], 'timestep_s': 0.001, **UNDAMPED, **more})
+
+
+def test_adjacent_links_never_touch_each_other():
+    # arm3 hangs straight down: its cylinders meet end to end at the elbow and the wrist (and
+    # the hand's box at the wrist), touching. They are parent and child of one joint: no
+    # contact between them, so the arm hangs still as on the joints-only core.
+    world = make_simulator(_arm())
+    world.step(500)
+    assert len(world.contacts) == 0
+    q, qd, _ = world.joint_states(0)
+    print(f'\narm3 hanging 0.5 s in a world with contact: |q| <= {max(map(abs, q)):.3g} rad, '
+          f'|qd| <= {max(map(abs, qd)):.3g} rad/s')
+    # At rest on its joints (no contact to push it): each coordinate stays 0 but for
+    # round-off of the joint impulses (~1e-16 per step, 500 steps).
+    assert max(map(abs, q)) < 1e-12 and max(map(abs, qd)) < 1e-12
+    # Folded at the elbow by 2.5 rad the upper arm and the forearm cross near the elbow (their
+    # 0.03 m cylinders overlap over ~0.03 m): allowed, as they never collide.
+    make_simulator(_arm(**{'robots.arm.initial_joint_positions': [0.0, 2.5, 0.0]}))
+
+
+#: arm3 folded so that the hand (elbow 2.5 rad, wrist 1.0 rad) points back at the upper arm.
+FOLDED = {'robots.arm.initial_joint_positions': [0.0, 2.5, 1.0],
+          'robots.arm.initial_joint_velocities': [0.0, 0.0, 3.0], 'gravity': [0.0, 0.0, 0.0]}
+
+
+def _hand_upper_contacts(world, steps):
+    """Return how many steps had a contact between the hand (body 2) and the upper (body 0)."""
+    count = 0
+    for _ in range(steps):
+        world.step(1)
+        c = world.contacts
+        count += any({int(a), int(b)} == {0, 2} for a, b in zip(c.body_a, c.body_b))
+    return count
+
+
+def test_other_links_of_a_robot_collide_unless_self_collision_is_off():
+    # No gravity; the wrist turns at 3 rad/s toward the upper arm: the hand strikes it within
+    # ~0.5 s (the hand's end sweeps ~1 rad to the upper arm's line).
+    colliding = make_simulator(_arm(**FOLDED))
+    hits = _hand_upper_contacts(colliding, 800)
+    passing = make_simulator(_arm(**FOLDED, **{'robots.arm.self_collision': False}))
+    through = _hand_upper_contacts(passing, 800)
+    wrist_a = colliding.joint_states(0)[0][2]
+    wrist_b = passing.joint_states(0)[0][2]
+    print(f'\nfolded arm3: hand-upper contact steps {hits} (self_collision on), {through} (off); '
+          f'wrist {wrist_a:.4f} rad vs {wrist_b:.4f} rad')
+    assert hits > 0 and through == 0
+    assert wrist_b > wrist_a + 0.1  # the hand was stopped by the upper arm only when on
+    # Started inside each other: refused with self_collision on, in one line naming both links.
+    inside = {'robots.arm.initial_joint_positions': [0.0, 2.5, 2.5]}
+    with pytest.raises(ModelError) as caught:
+        make_simulator(_arm(**inside))
+    line = str(caught.value)
+    assert line.startswith('parameter robots.arm.initial_position (with .initial_orientation '
+                           "and .initial_joint_positions) puts link 'upper' of robot 'arm' "), line
+    assert "deep inside link 'hand' of robot 'arm'" in line, line
+    make_simulator(_arm(**inside, **{'robots.arm.self_collision': False}))
+
+
+ARM_TABLE = REPO / 'msg_config' / 'arm_table.yaml'
+
+
+def test_the_arm_table_file_sweeps_the_box_off_the_table():
+    # msg_config/arm_table.yaml as shipped (its URDF path made absolute, as the node does), in
+    # a session: the arm hangs still beside the table, then the file's joint_command swings
+    # the shoulder to -0.6 rad and the hand sweeps the box off the table onto the floor.
+    params = yaml.safe_load(ARM_TABLE.read_text())['/**']['ros__parameters']
+    params['robots.arm.urdf_path'] = str(ARM_TABLE.parent / params['robots.arm.urdf_path'])
+    config = NodeConfig.from_parameters(params)
+    assert kernel_kind(config) == 'world_joints'
+    session = SimSession(config)
+    session.paused = False
+    while session.time_ns < 200_000_000:  # 0.2 s at rest: nothing touches the arm
+        session.advance(1000)
+    box0 = session.body_state(0).position_w.copy()
+    assert np.abs(box0 - (0.25, 0.0, 0.475)).max() < 1e-9  # resting on the table
+    assert max(map(abs, session.simulator.joint_states(0)[0])) < 1e-12
+    session.submit_command('arm/joint_command', (['shoulder', 'elbow', 'wrist'],
+                                                 [-0.6, 0.0, 0.0], [], []))
+    while session.time_ns < 2_200_000_000:
+        session.advance(1000)
+    box = session.body_state(0).position_w
+    print(f'\narm_table: box from {box0.tolist()} to {box.tolist()} m after 2 s; shoulder '
+          f'{session.simulator.joint_states(0)[0][0]:.4f} rad')
+    # Off the table (its far edge x = 0.7 m, the box's half width 0.125 m) and down at the
+    # floor: its centre below the table's top (0.35 m) means it left the table.
+    assert box[2] < 0.35 and (box[0] > 0.7 or box[2] < 0.2)
+    # The shoulder reached its target (the position motor's critically damped response).
+    assert abs(session.simulator.joint_states(0)[0][0] + 0.6) < 1e-3
