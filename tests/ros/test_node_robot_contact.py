@@ -94,13 +94,14 @@ def run(module_tmp):
 
 def test_the_robots_and_the_boxs_topics_are_on_the_graph(run):
     assert run['status'] == 0, run['stderr']
-    ns, topics = run['ns'], run['topics']
-    assert topics[f'{ns}/pendulum/joint_states'] == ['sensor_msgs/msg/JointState']
-    assert topics[f'{ns}/pendulum/joint_wrenches'] == ['sensor_msgs/msg/MultiDOFJointState']
-    assert topics[f'{ns}/pendulum/joint_command'] == ['sensor_msgs/msg/JointState']
-    assert topics[f'{ns}/pendulum/robot_description'] == ['std_msgs/msg/String']
-    assert topics[f'{ns}/box/pose'] == ['geometry_msgs/msg/PoseStamped']
-    assert topics[f'{ns}/box/twist'] == ['geometry_msgs/msg/TwistStamped']
+    expected = {'pendulum/joint_states': 'sensor_msgs/msg/JointState',
+                'pendulum/joint_wrenches': 'sensor_msgs/msg/MultiDOFJointState',
+                'pendulum/joint_command': 'sensor_msgs/msg/JointState',
+                'pendulum/robot_description': 'std_msgs/msg/String',
+                'box/pose': 'geometry_msgs/msg/PoseStamped',
+                'box/twist': 'geometry_msgs/msg/TwistStamped'}
+    for topic, type_name in expected.items():
+        assert run['topics'][f"{run['ns']}/{topic}"] == [type_name], topic
 
 
 def test_every_sample_arrives_and_the_rods_tf_is_its_joint_angle(run):
