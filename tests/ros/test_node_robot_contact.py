@@ -107,9 +107,13 @@ def test_the_robots_and_the_boxs_topics_are_on_the_graph(run):
 def test_every_sample_arrives_and_the_rods_tf_is_its_joint_angle(run):
     got = run['got']
     expected = list(range(0, DURATION_NS + 1, PERIOD_NS))
-    for kind in ('joint_states', 'joint_wrenches', 'pose', 'twist'):
+    for kind in ('joint_states', 'joint_wrenches'):  # transient local: t = 0 too
         assert sorted(got[kind]) == expected, kind  # none lost, sim-time stamps
-    assert sorted(got['tf']) == [t for t in expected if t >= min(got['tf'])]
+    # The box's topics and /tf are volatile: the paused node's t = 0 sample may precede the
+    # probe's match; every sample after the unpause must be there.
+    for kind in ('pose', 'twist', 'tf'):
+        assert min(got[kind]) <= PERIOD_NS, kind
+        assert sorted(got[kind]) == [t for t in expected if t >= min(got[kind])], kind
     worst = 0.0
     for t, msg in got['tf'].items():
         frames = {tr.child_frame_id: tr for tr in msg.transforms}
@@ -132,8 +136,10 @@ def test_every_sample_arrives_and_the_rods_tf_is_its_joint_angle(run):
 
 def test_the_rod_knocks_the_box_along_x_and_the_recording_replays_match(run):
     got = run['got']
-    first = got['pose'][0].pose.position
-    assert (first.x, first.y, first.z) == BOX0
+    first = got['pose'][min(got['pose'])].pose.position
+    # At rest on the ground until the rod arrives (speculative contact holds it exactly, but
+    # for round-off over at most 10 steps).
+    assert max(abs(a - b) for a, b in zip((first.x, first.y, first.z), BOX0)) < 1e-12
     last = got['pose'][DURATION_NS].pose.position
     # The rod (released at 0.5 rad) reaches the bottom after a quarter period (~0.51 s) and
     # pushes the box along +x; the box stays on the ground (its centre 0.1 m above z = 0.4).
