@@ -216,6 +216,7 @@ class RobotContactWorld(RobotWorld):
                     detail = detail[len(f'{value!r}; '):]
                 return type(exc)(f'parameter {parameter} = {value!r} {unit}: {detail}',
                                  field=parameter, value=value, unit=unit, detail=detail)
+            detail = detail.replace(f"'{name}/", "'")  # the core's joint names, the URDF's
             return type(exc)(f'{robot.robot.source}: joint {joint!r}.{field}: {detail}',
                              field=f'joint {joint!r}.{field}', detail=detail)
         field = getattr(exc, 'field', None) or ''

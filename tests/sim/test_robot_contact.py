@@ -249,6 +249,16 @@ def test_what_the_contact_step_cannot_take_is_refused_naming_the_parameter_or_th
     assert 'world with contact' in line
     line = _refused(ConfigError, _pendulum_urdf('<dynamics friction="0.5"/>'))
     assert line.startswith('parameter robots.pendulum.joints.pivot.friction = 0.5 N·m or N: ')
+    # A mimic joint: named in the URDF.
+    text = PENDULUM_URDF.read_text()
+    second = text[text.index('<joint name="pivot"'):text.index('</robot>')]
+    second = second.replace('pivot', 'pivot2').replace('"rod"', '"rod2"').replace(
+        'xyz="0 0 2"', 'xyz="1 0 2"').replace('<axis xyz="0 1 0"/>',
+                                              '<axis xyz="0 1 0"/><mimic joint="pivot"/>')
+    line = _refused(ConfigError, text.replace('</robot>', second + '</robot>'),
+                    **{'robots.pendulum.initial_joint_positions': [0.5, 0.5]})
+    assert line == ("robot_description: joint 'pivot2'.mimic: 'pivot'; a world with contact "
+                    'takes no joint mimic yet (leave it None)'), line
     # The same URDF with its damping overridden to 0 runs.
     make_simulator(NodeConfig.from_parameters(_pendulum(**{
         'ground.enabled': True, 'robots.pendulum.robot_description':
