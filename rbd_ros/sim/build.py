@@ -30,6 +30,7 @@ from rbd_ros.core import ConfigError, ModelError, NonFiniteError, Simulator
 from rbd_ros.core.contact.simulator import WorldBody, WorldSimulator
 from rbd_ros.sim.config import NodeConfig
 from rbd_ros.sim.params import fail, fmt, PARAMETERS_BY_NAME
+from rbd_ros.sim.robot_contact import RobotContactWorld
 from rbd_ros.sim.robot_world import RobotWorld
 from rbd_ros.sim.world_joints import JointedWorldSimulator
 
@@ -59,7 +60,8 @@ def make_simulator(config):
     """
     Return the simulator of ``config``: the one place that chooses it.
 
-    With robots, a :class:`rbd_ros.sim.robot_world.RobotWorld` of them (no free bodies yet).
+    With robots, a :class:`rbd_ros.sim.robot_world.RobotWorld` of them; with robots and free
+    bodies, a ground or obstacles, a :class:`rbd_ros.sim.robot_contact.RobotContactWorld`.
 
     With contact (named bodies, a ground or obstacles) a :class:`WorldSimulator` of every body
     of ``config.bodies`` and the static world; else the free-body simulator of the one body.
@@ -67,6 +69,9 @@ def make_simulator(config):
     ``step``, ``reset``, ``contact_wrench_w`` and ``contacts`` (None without contact). A world
     with ``joint_names`` is a :class:`rbd_ros.sim.world_joints.JointedWorldSimulator`.
     """
+    if config.robots and config.contact:
+        return RobotContactWorld(config.robots, config.bodies, config.static_world,
+                                 config.integrator, config.timestep_ns)
     if config.robots:
         return RobotWorld(config.robots, config.timestep_ns)
     if not config.contact:
@@ -162,13 +167,14 @@ def kernel_kind(config):
     """
     Return the kind of compiled step ``config``'s first step needs (:data:`jitcache.KIND_MODULES`).
 
-    ``joints`` for robots, ``world_joints`` for a world with ``joint_names`` (the contact step
-    compiled with the joints' visits, a specialisation of its own), ``contact`` for any other
-    world that can touch something, else ``free``.
+    ``joints`` for robots that touch nothing, ``world_joints`` for a world with ``joint_names``
+    or with robots that have joints (the contact step compiled with the joints' visits, a
+    specialisation of its own), ``contact`` for any other world that can touch something,
+    else ``free``.
     """
-    if config.robots:
+    if config.robots and not config.contact:
         return 'joints'
-    if config.world_joints:
+    if config.world_joints or any(robot.placement.joints for robot in config.robots):
         return 'world_joints'
     return 'contact' if config.contact else 'free'
 

@@ -140,8 +140,8 @@ class NodeConfig:
     :ivar parameters: the validated parameter values (a name → value dict, arrays as tuples).
     :ivar static_world: the :class:`rbd_ros.core.contact.StaticWorld`, or None.
     :ivar robots: the :class:`rbd_ros.sim.robots.RobotConfig` tuple (``robot_names`` order).
-        A file with robots has no free bodies (:attr:`bodies` is empty), ground or obstacles
-        yet: robots do not touch anything until contact and joints share one step.
+        With free bodies, a ground or obstacles, the robots' links are bodies of one contact
+        world (:mod:`rbd_ros.sim.robot_contact`); :attr:`bodies` holds the free bodies only.
     :ivar command_groups: the :class:`rbd_ros.sim.robots.CommandGroup` tuple.
     :ivar world_joints: the :class:`rbd_ros.sim.world_joints.WorldJoint` tuple
         (``joint_names`` order): joints between the bodies of a world.
@@ -249,10 +249,14 @@ class NodeConfig:
         integrator = time_settings['integrator']
         if robots:
             joint_params.check_world_joints(values, robots)
-            _refuse_with_robots(values, body_inputs, obstacle_names)
-            return cls(bodies=(), **time_settings, **_frame_settings(values),
-                       **_limits_and_recording(values), parameters=values, static_world=None,
-                       robots=robots, command_groups=groups)
+            bodies = ()
+            if body_inputs or static_world is not None:  # one contact world
+                _check_contact_integrator(integrator, 'robots in a world with contact')
+                if body_inputs:
+                    bodies = _world_bodies(values, body_inputs, static_world, integrator)
+            return cls(bodies=bodies, **time_settings, **_frame_settings(values, bodies),
+                       **_limits_and_recording(values), parameters=values,
+                       static_world=static_world, robots=robots, command_groups=groups)
         if groups:
             fail(robot_params.GROUP_NAMES_SPEC, list(values[robot_params.GROUP_NAMES]),
                  'command groups need robots (robot_names is empty)')
@@ -401,10 +405,7 @@ def _world_bodies(values, body_inputs, static_world, integrator):
         if values[base] != spec.default:
             fail(spec, values[base], f'with body_names, each body has its own: set '
                  f'bodies.<name>.{base} instead')
-    if integrator not in CONTACT_INTEGRATORS:
-        fail(PARAMETERS_BY_NAME['integrator'], integrator,
-             'cannot take contact (a world of bodies): use one of '
-             + ', '.join(CONTACT_INTEGRATORS))
+    _check_contact_integrator(integrator, 'a world of bodies')
     bodies = []
     # Each body's values are the table's with its own on top: a copy of the table only (the
     # whole of ``values`` holds every body's parameters, so copying it made start-up quadratic).
@@ -441,11 +442,21 @@ def _world_bodies(values, body_inputs, static_world, integrator):
         check_overlaps([(b.name, b.collision_shape, b.initial_state.position_w,
                          b.initial_state.orientation_wb) for b in bodies], static_world)
     except ModelError as exc:
-        # bodies.<name>.position_w (the core's name) is parameter bodies.<name>.initial_position
-        field = exc.field[:-len('position_w')] + 'initial_position'
-        raise ModelError(f'parameter {field} = {exc.detail}', field=field, value=exc.value,
-                         unit=exc.unit, detail=exc.detail, rule=exc.rule) from None
+        raise overlap_error(exc) from None
     return tuple(bodies)
+
+
+def overlap_error(exc):
+    """
+    Return the core's overlap error naming the parameter ``bodies.<name>.initial_position``.
+
+    The core names ``bodies.<name>.position_w``; any other error is returned as it is.
+    """
+    if not (exc.field or '').endswith('.position_w'):
+        return exc
+    field = exc.field[:-len('position_w')] + 'initial_position'
+    return ModelError(f'parameter {field} = {exc.detail}', field=field, value=exc.value,
+                      unit=exc.unit, detail=exc.detail, rule=exc.rule)
 
 
 def _robot_values(values, params):
@@ -467,19 +478,11 @@ def _robot_values(values, params):
     return robots, groups
 
 
-def _refuse_with_robots(values, body_inputs, obstacle_names):
-    """Refuse what a robot file cannot have yet: free bodies, a ground, obstacles."""
-    spec = robot_params.ROBOT_NAMES_SPEC
-    names = list(values[robot_params.ROBOT_NAMES])
-    why = ('robots do not touch anything yet (contact and joints in one step is the next '
-           'step of the joint work); leave it out')
-    if body_inputs:
-        fail(spec, names, f'body_names is not empty: a file with robots has no free bodies '
-             f'yet: {why}')
-    if values['ground.enabled']:
-        fail(spec, names, f'ground.enabled is true: {why}')
-    if obstacle_names:
-        fail(spec, names, f'obstacle_names is not empty: {why}')
+def _check_contact_integrator(integrator, what):
+    """Refuse an integrator that cannot take contact (``what`` says which world needs it)."""
+    if integrator not in CONTACT_INTEGRATORS:
+        fail(PARAMETERS_BY_NAME['integrator'], integrator,
+             f'cannot take contact ({what}): use one of ' + ', '.join(CONTACT_INTEGRATORS))
 
 
 def _single_body(values, static_world, integrator):

@@ -29,14 +29,17 @@ from rbd_ros.core.rotations import quat_rotate
 
 def energy_and_momentum(session):
     """Return the kinetic energy (J) and angular momentum (N·m·s, world) of all bodies."""
-    if session.config.robots:  # every link of every robot (the articulated simulator's bodies)
+    config = session.config
+    if config.robots and not config.contact:  # every link (the articulated simulator's bodies)
         sim = session.simulator.articulated
         energy = sum(float(s.kinetic_energy(m)) for m, s in zip(sim.models, sim.states))
         return energy, [float(v) for v in sim.momentum()[1]]
     # Every body at once from the packed states (13, N): a BodyState per body took ~0.4 ms a
-    # body, 0.4 s a second of a 1000-body node's time.
-    x = session.columns
-    bodies = session.config.bodies
+    # body, 0.4 s a second of a 1000-body node's time. With robots, their links too.
+    x, bodies = session.columns, config.bodies
+    if config.robots:  # the contact world's every body: the free bodies, then the links
+        world = session.simulator.world
+        x, bodies = world.arrays[0], world.bodies
     mass = np.array([b.model.mass_kg for b in bodies])
     inertia_b = np.array([b.model.inertia_b for b in bodies])
     v_w = x[layout.S_VEL:layout.S_VEL + 3].T

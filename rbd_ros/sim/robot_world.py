@@ -16,12 +16,13 @@
 :class:`RobotWorld`: the robots of a params file, stepped together, read out per robot (no rclpy).
 
 Every robot's bodies and joints go into one :class:`rbd_ros.core.joints.ArticulatedSimulator`
-(no contact yet: a robot file has no free bodies, ground or obstacles; see
-:mod:`rbd_ros.sim.config`). Core joint names are ``<robot>/<joint>``, so two robots may use the
-same joint names. It answers what :class:`rbd_ros.sim.session.SimSession` asks of a simulator
-(``time_ns``, ``arrays`` of the free bodies: none, ``step``, ``reset``, no contact) and, per
-robot, the joint readouts, every link frame's pose, a floating root's state and every joint's
-constraint wrench.
+(no contact: a robot file without free bodies, ground or obstacles; with them the robots are
+in a contact world, :class:`rbd_ros.sim.robot_contact.RobotContactWorld`, which reads them out
+through this class on the contact step). Core joint names are ``<robot>/<joint>``, so two
+robots may use the same joint names. It answers what :class:`rbd_ros.sim.session.SimSession`
+asks of a simulator (``time_ns``, ``arrays`` of the free bodies: none, ``step``, ``reset``, no
+contact) and, per robot, the joint readouts, every link frame's pose, a floating root's state
+and every joint's constraint wrench.
 
 **Link frames.** A moving link's frame is its body's pose composed with the link's fixed
 offset in that body (:class:`rbd_ros.sim.urdf.RobotLink`); a link that is part of the world
@@ -114,6 +115,19 @@ class RobotWorld:
     """
 
     def __init__(self, robots, timestep_ns):
+        self._assemble(robots, timestep_ns, 0)
+        # The initial projection waits for the first step: building the world compiles nothing, so
+        # a cold node publishes the placement at t = 0 while its kernels compile.
+        self._sim = ArticulatedSimulator(*self._args, timestep_ns=timestep_ns,
+                                         defer_projection=True)
+
+    def _assemble(self, robots, timestep_ns, first_body):
+        """
+        Gather every robot's bodies, states and joints and each link's carrier (no simulator).
+
+        ``first_body``: the index of the first robot body in the simulator's bodies (a world
+        with contact puts its free bodies first); the joints' body indices count from there.
+        """
         self.robots = tuple(robots)
         self._timestep_ns = timestep_ns
         models, states, joints = [], [], []
@@ -122,7 +136,7 @@ class RobotWorld:
         self._joint_offsets = []  # per robot: its first core joint index
         for robot in self.robots:
             placement = robot.placement
-            b0, j0 = len(models), len(joints)
+            b0, j0 = first_body + len(models), len(joints)
             self._joint_offsets.append(j0)
             models += placement.models
             states += placement.states
@@ -135,10 +149,6 @@ class RobotWorld:
                                       for name in robot.joint_names))
             self._bodies.append((b0, len(placement.models)))
         self._args = (models, states, joints)
-        # The initial projection waits for the first step: building the world compiles nothing, so
-        # a cold node publishes the placement at t = 0 while its kernels compile.
-        self._sim = ArticulatedSimulator(models, states, joints, timestep_ns=timestep_ns,
-                                         defer_projection=True)
         self._no_bodies = (np.zeros((layout.N_STATE, 0)), np.zeros(0, dtype=np.int64))
         # Each link's carrier: (body index or None, position_b, q_bl), or its fixed world pose.
         self._links = []

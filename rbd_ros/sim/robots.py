@@ -27,6 +27,10 @@ The parameters (these names exactly; a list parameter is never the prefix of its
 - ``robots.<name>.initial_joint_positions`` (rad or m) and ``.initial_joint_velocities`` (rad/s
   or m/s): one value per moving joint in ``joint_states`` order (the URDF's revolute,
   continuous and prismatic joints, in document order), or ``[]`` for zeros.
+- ``robots.<name>.friction`` and ``.restitution``: its links' contact material (as a body's
+  ``friction`` and ``restitution``), in a world with contact (:mod:`rbd_ros.sim.robot_contact`);
+  ``.self_collision`` (default true): its links that are not parent and child of one joint
+  collide with each other there (adjacent links never do).
 - ``robots.<name>.joints.<joint>.position_time_constant_s`` (s, > 0, default
   :data:`DEFAULT_POSITION_TIME_CONSTANT_S`): the time constant of that joint's position
   commands (the exact critically damped response, see :mod:`rbd_ros.core.joints`).
@@ -52,7 +56,7 @@ from typing import Dict, Tuple
 from rbd_ros.core import ConfigError, RbdError
 from rbd_ros.core.contact.world import is_valid_name, NAME_RULE
 from rbd_ros.sim.joint_commands import INTERFACES, JointSpec
-from rbd_ros.sim.params import (check_range, coerce, DOUBLE, DOUBLE_ARRAY, fail,
+from rbd_ros.sim.params import (BOOL, check_range, coerce, DOUBLE, DOUBLE_ARRAY, fail,
                                 PARAMETERS_BY_NAME, ParamSpec, STRING, STRING_ARRAY,
                                 unit_quaternion)
 
@@ -163,6 +167,16 @@ def robot_parameter_specs(name: str) -> Tuple[ParamSpec, ...]:
         ParamSpec(prefix + 'initial_joint_velocities', DOUBLE_ARRAY, (), 'rad/s or m/s',
                   f'Robot {name!r}: one velocity per moving joint (joint_states order); '
                   '[] = zeros.', rule='one value per moving joint'),
+        ParamSpec(prefix + 'friction', DOUBLE, 0.5, '',
+                  f'Robot {name!r}: Coulomb friction coefficient μ of its links (a pair: '
+                  'sqrt(μ_a μ_b)); in a world with contact.', (0.0, MAX_JOINT_DYNAMICS),
+                  rule='>= 0'),
+        ParamSpec(prefix + 'restitution', DOUBLE, 0.0, '',
+                  f'Robot {name!r}: coefficient of restitution ε of its links (a pair: the '
+                  'larger); in a world with contact.', (0.0, 1.0)),
+        ParamSpec(prefix + 'self_collision', BOOL, True, '',
+                  f'Robot {name!r}: in a world with contact, its links that are not parent '
+                  'and child of one joint collide with each other.'),
     )
 
 
@@ -202,6 +216,8 @@ class RobotConfig:
     :ivar time_constants_s: per moving joint (``joint_states`` order), its position time
         constant, s.
     :ivar specs: every parameter of this robot, its joints' included.
+    :ivar friction, restitution: its links' contact material (a world with contact).
+    :ivar self_collision: its non-adjacent links collide with each other (a world with contact).
     """
 
     name: str
@@ -209,6 +225,9 @@ class RobotConfig:
     placement: object  # rbd_ros.sim.urdf.Placement
     time_constants_s: Tuple[float, ...]
     specs: Tuple[ParamSpec, ...]
+    friction: float = 0.5
+    restitution: float = 0.0
+    self_collision: bool = True
 
     @property
     def joint_names(self) -> Tuple[str, ...]:
@@ -293,7 +312,8 @@ def _read_robot(params, name, gravity_w):
     constants = tuple(given[f'{prefix}joints.{joint}.position_time_constant_s']
                       for joint in robot.moving_joints)
     return RobotConfig(name, robot, replace(placement, joints=tuple(joints)), constants,
-                       specs + joint_specs)
+                       specs + joint_specs, values['friction'], values['restitution'],
+                       values['self_collision'])
 
 
 def read_robots(params: Dict[str, object], gravity_w=(0.0, 0.0, 0.0)) -> Tuple[RobotConfig, ...]:

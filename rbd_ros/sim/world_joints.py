@@ -347,16 +347,21 @@ class JointedWorldSimulator(WorldSimulator):
         super().reset(states)
         self._before, self._wrenches = None, (None, self._nan)
 
-    def joint_states(self, index=0):
-        """Return ``(positions, rates, efforts)`` of the one-coordinate joints, plain floats."""
+    def joint_coordinates(self, indices):
+        """Return ``(positions, rates)`` of the joints ``indices``, plain floats."""
         rows = self._x.T.tolist()
         read = self._readout.read
         running = self.running_angles()
         positions, rates = [], []
-        for j in self._moving:
+        for j in indices:
             q, qd = read(rows, j)
             positions.append(running[j] if j in self._continuous else q)
             rates.append(qd)
+        return positions, rates
+
+    def joint_states(self, index=0):
+        """Return ``(positions, rates, efforts)`` of the one-coordinate joints, plain floats."""
+        positions, rates = self.joint_coordinates(self._moving)
         efforts = self.joint_efforts()
         return positions, rates, [float(efforts[k]) for k in self._moving]
 
@@ -393,7 +398,19 @@ class JointedWorldSimulator(WorldSimulator):
         self._wrenches = (self.time_ns, rows)
         return rows
 
-    def _momentum_wrenches(self):
+    def child_wrenches_w(self):
+        """
+        Return per joint ``(f, τ)``: the parent's wrench on the child, world frame, about its COM.
+
+        Each a 3-list of plain floats (N, N m), averaged over the last step and computed from
+        the bodies' momentum as :meth:`joint_wrenches` says (before its turn into the child's
+        frame); None at time 0, after a reset, or when the joints do not form trees.
+        """
+        if self._before is None or self._tree is None:
+            return None
+        return self._world_wrenches()[0]
+
+    def _world_wrenches(self):
         n = self.size
         net0, net1 = np.zeros((6, n)), np.zeros((6, n))
         kernels.net_wrench_batch(self._before, self._params, self._loads, net0)
@@ -404,7 +421,6 @@ class JointedWorldSimulator(WorldSimulator):
         order, below = self._tree
         joints = self.joints
         world = [None] * len(joints)
-        rows = [None] * len(joints)
         for k in order:
             c = joints[k].child
             a, b, m = x0[c], x1[c], self._masses[c]
@@ -421,6 +437,14 @@ class JointedWorldSimulator(WorldSimulator):
                 f = [f[i] + fk[i] for i in range(3)]
                 t = [t[i] + tk[i] + arm[i] for i in range(3)]
             world[k] = (f, t)
+        return world, x0, x1
+
+    def _momentum_wrenches(self):
+        world, x0, x1 = self._world_wrenches()
+        joints = self.joints
+        rows = [None] * len(joints)
+        for k, (f, t) in enumerate(world):
+            a, b = x0[joints[k].child], x1[joints[k].child]
             # the child's frame at the middle of the step: (q₀ + q₁)/|q₀ + q₁|, inverted
             qw, qx, qy, qz = (a[i] + b[i] for i in range(3, 7))
             norm = math.sqrt(qw * qw + qx * qx + qy * qy + qz * qz)

@@ -47,7 +47,8 @@ from conftest import FIRST_START_S, NodeProcess, wait_until  # noqa: E402
 
 BAGS = REPO / 'bags'
 
-#: name -> (config file, overrides, wrench script [(offset s, topic, frame_id, force, torque)])
+#: name -> (config file, overrides, script [(offset s, topic, frame_id, force, torque)]); a
+#: ``<robot>/joint_command`` entry is ``(offset s, topic, joint names, positions, None)``.
 REFERENCE_BAGS = {
     'box_pushed': (
         'msg_config/free_body.yaml',
@@ -92,6 +93,13 @@ REFERENCE_BAGS = {
             (0.6, 'striker/wrench', 'world', (0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
         ],
     ),
+    'arm_table_sweep': (
+        # The 3-link arm beside the table: at 0.3 s a joint_command swings the shoulder to
+        # -0.6 rad (the other joints held at 0) and the hand sweeps the box off the table.
+        'msg_config/arm_table.yaml',
+        {'duration_s': 2.0, 'real_time_factor': 1.0, 'start_paused': True},
+        [(0.3, 'arm/joint_command', ['shoulder', 'elbow', 'wrist'], (-0.6, 0.0, 0.0), None)],
+    ),
     'robot_pendulum': (
         # The URDF pendulum let go at 0.5 rad: a little over two periods (2.0375 s each).
         'msg_config/robot_pendulum.yaml',
@@ -124,6 +132,7 @@ def record(name, workdir):
     from geometry_msgs.msg import PoseArray, PoseStamped
     import rclpy
     from rbd_ros.msgs import conversions
+    from sensor_msgs.msg import JointState
     from std_srvs.srv import SetBool
 
     config_file, overrides, script = REFERENCE_BAGS[name]
@@ -134,8 +143,9 @@ def record(name, workdir):
     try:
         talker = rclpy.create_node(f'bag_maker_{os.getpid()}')
         spin = lambda: rclpy.spin_once(talker, timeout_sec=0.01)  # noqa: E731
-        pubs = {topic: talker.create_publisher(conversions.WrenchStamped, topic, 10)
-                for topic in topics}
+        pubs = {topic: talker.create_publisher(
+            JointState if topic.endswith('joint_command') else conversions.WrenchStamped,
+            topic, 10) for topic in topics}
         wait_until(lambda: all(p.get_subscription_count() > 0 for p in pubs.values())
                    or node.process.poll() is not None, FIRST_START_S,
                    what='the node to subscribe')
@@ -157,6 +167,9 @@ def record(name, workdir):
         for offset, topic, frame_id, force, torque in sorted(script, key=lambda s: s[0]):
             wait_until(lambda: newest[0] >= round(offset * 1e9), 300.0,
                        what=f'sim time {offset} s', spin=spin)
+            if topic.endswith('joint_command'):  # frame_id: the joints, force: positions
+                pubs[topic].publish(JointState(name=list(frame_id), position=list(force)))
+                continue
             pubs[topic].publish(conversions.wrench_to_msg(frame_id, force, torque))
         status = node.wait(120.0)
         talker.destroy_node()

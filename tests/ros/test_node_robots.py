@@ -296,7 +296,6 @@ def test_a_joint_trajectory_is_followed_at_its_waypoint_times(start_node, probe_
 
 
 @pytest.mark.parametrize('extra, words', [
-    ({'ground.enabled': True}, "parameter robot_names = ['arm']: ground.enabled is true"),
     ({'robots.arm.urdf_path': '/nonexistent/arm.urdf'},
      "robots.arm.urdf_path: '/nonexistent/arm.urdf' does not exist"),
     ({'robots.arm.initial_joint_positions': [0.1]}, 'robots.arm.initial_joint_positions'),

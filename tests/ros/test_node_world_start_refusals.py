@@ -23,12 +23,15 @@ identical bodies at one pose (where every surface point reads φ = 0 on the othe
 both left at the default position, two boxes crossing with no vertex of either inside the
 other, a body on an obstacle, and both sides of the 1 mm rule. A first step that is not finite
 (1e300 m/s) is refused in seconds, and an empty ``qos_overrides`` value names the parameter.
+A URDF robot in a world with contact is refused for what the contact step cannot take yet
+(joint damping) and for a link placed inside the floor, naming the robot's parameter.
 
 Every node is started at once by one module fixture (each waits for its exit on its own
 thread), so the file costs about one start-up, not one per case.
 """
 
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 import time
 
 from conftest import NodeProcess
@@ -36,6 +39,7 @@ import pytest
 import yaml
 
 BOX = [0.2, 0.2, 0.2]  # m, the 1 kg cubes of msg_config/stack.yaml
+PENDULUM_URDF = Path(__file__).resolve().parents[2] / 'msg_config' / 'urdf' / 'pendulum.urdf'
 MAX_LINE = 400  # characters, as in test_node_bad_inputs: a refusal is one readable line
 #: Seconds a refused start may take: a guard against the hang, not a speed target. A start
 #: refused before the physics runs takes 1-4 s on this 2-core machine (measured, with the
@@ -76,6 +80,12 @@ def _column(gap_m):
     """Box ``a`` on the floor, box ``b`` on it ``-gap_m`` apart (a negative gap: inside it)."""
     return _bodies(('a', 'box', BOX, (0.0, 0.0, 0.1)), ('b', 'box', BOX, (0.0, 0.0, 0.3 + gap_m)),
                    ground=True)
+
+
+def _robot(**extra):
+    """Return a world of the URDF pendulum (robot ``p``, hanging) over a floor, with ``extra``."""
+    return {'robot_names': ['p'], 'robots.p.urdf_path': str(PENDULUM_URDF),
+            'ground.enabled': True, 'duration_s': 0.01, 'real_time_factor': 0.0, **extra}
 
 
 A_AT_1 = 'parameter bodies.a.initial_position = [0.0, 0.0, 1.0] m puts the body'
@@ -130,6 +140,12 @@ REFUSED = {
                 ground=True, **{'bodies.a.initial_linear_velocity': [1e300, 0.0, 0.0]}),
         ['parameter bodies.a.initial_linear_velocity = [1e+300, 0.0, 0.0] m/s',
          'not finite']),
+    # A URDF robot in a world with contact (issue 28): a link placed inside the floor, named by
+    # the robot's parameter.
+    'robot_link_in_the_floor': (
+        _robot(**{'ground.height_m': 1.0}),
+        ['parameter robots.p.initial_position (with .initial_orientation and '
+         ".initial_joint_positions) puts link 'rod' of robot 'p' 0.5 m deep inside ground"]),
 }
 #: Accepted: within the 1 mm rule, on both sides of which the refusals above sit. Box b 0.5 mm
 #: into box a (the issue's case), box d 0.9 mm into box c, ball f 0.9 mm into ball e. And the

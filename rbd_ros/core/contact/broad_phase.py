@@ -52,11 +52,13 @@ def _sweep(order, lo, hi, pairs):
 
 
 @_jit
-def broad_phase(x, pos_c, bound_r, n_bodies, st_kind, st_params, st_lo, st_hi, margin):
+def broad_phase(x, pos_c, bound_r, n_bodies, st_kind, st_params, st_lo, st_hi, margin, skip):
     """
     Return the candidate pairs ``(P, 2)`` int64, in a fixed order.
 
-    Body-body pairs ``(a, b)`` with ``a < b`` sorted, then body-static ``(a, N + s)``.
+    Body-body pairs ``(a, b)`` with ``a < b`` sorted, then body-static ``(a, N + s)``. A body
+    pair whose key ``a N + b`` is in ``skip`` (sorted int64: bodies that never collide, such as
+    a robot's adjacent links) is left out.
 
     Each body's box holds its bounding ball at the current and the candidate pose, grown by
     ``margin``; bodies are sorted by the low x of their box and swept, so the cost is
@@ -81,7 +83,19 @@ def broad_phase(x, pos_c, bound_r, n_bodies, st_kind, st_params, st_lo, st_hi, m
     body_pairs = pairs[:count]
     # Fixed processing order whatever the sort did with ties: by (a, b).
     key = body_pairs[:, 0] * n + body_pairs[:, 1]
-    body_pairs = body_pairs[np.argsort(key, kind='mergesort')]
+    ranked = np.argsort(key, kind='mergesort')
+    body_pairs = body_pairs[ranked]
+    if skip.shape[0] > 0:
+        kept = 0
+        for p in range(body_pairs.shape[0]):
+            k = key[ranked[p]]
+            at = np.searchsorted(skip, k)
+            if at < skip.shape[0] and skip[at] == k:
+                continue
+            body_pairs[kept, 0] = body_pairs[p, 0]
+            body_pairs[kept, 1] = body_pairs[p, 1]
+            kept += 1
+        body_pairs = body_pairs[:kept]
     statics = np.empty((n * st_kind.shape[0], 2), dtype=np.int64)
     ns = 0
     for a in range(n):

@@ -200,7 +200,7 @@ _raw = jitcache.raw_kernel()
 #: ``ball_off``, and each point's cell ``cell_of``.
 Shapes = namedtuple('Shapes', ('kinds', 'sparams', 'pts', 'pt_off', 'ppts', 'ppt_off',
                                'pt_radius', 'bound_r', 'grid_data', 'grid_off', 'grid_dim',
-                               'mu', 'eps', 'balls', 'ball_off', 'cell_of'))
+                               'mu', 'eps', 'balls', 'ball_off', 'cell_of', 'skip'))
 #: The static objects, one entry each: their shape kind and parameters, world pose (rotation
 #: ``rot`` (S, 3, 3), position ``pos`` (S, 3), m) and world bounds ``lo``/``hi`` (S, 3, m).
 Statics = namedtuple('Statics', ('kind', 'params', 'rot', 'pos', 'lo', 'hi'))

@@ -182,8 +182,12 @@ def _chunked(points):
     return np.array(balls, dtype=np.float64).reshape(-1, 4), cell_of
 
 
-def _shape_table(shapes, materials):
-    """Pack shapes and materials into the tuple of arrays the compiled stages read."""
+def _shape_table(shapes, materials, skip=np.zeros(0, dtype=np.int64)):
+    """
+    Pack shapes and materials into the tuple of arrays the compiled stages read.
+
+    ``skip``: the sorted keys ``a N + b`` (``a < b``) of the body pairs that never collide.
+    """
     kinds = np.array([s.kind for s in shapes], dtype=np.int64)
     sparams = np.ascontiguousarray(np.stack([s.params for s in shapes]))
     pts, ppts, radius, balls, cells = [], [], [], [], []
@@ -218,7 +222,7 @@ def _shape_table(shapes, materials):
         mu=np.array([m.friction for m in materials], dtype=np.float64),
         eps=np.array([m.restitution for m in materials], dtype=np.float64),
         balls=np.ascontiguousarray(np.concatenate(balls)), ball_off=ch_off,
-        cell_of=np.concatenate(cells))
+        cell_of=np.concatenate(cells), skip=skip)
 
 
 def _static_table(objects):
@@ -265,7 +269,10 @@ class WorldSimulator(BatchSimulator):
         holding it is within its friction, else slides against it). Without cone limits or
         mimics for now (refused in one line). A jointed body collides as any
         other; two bodies of one joint collide with each other too (give them shapes that
-        clear at the joint).
+        clear at the joint, or list them in ``no_collision``).
+    :param no_collision: body index pairs ``(a, b)`` that never collide with each other
+        (neither checked for overlap at the start nor paired by the broad phase): a robot's
+        adjacent links, its links without self-collision.
     :raises ModelError: a bad body, or bodies starting inside each other or the static world.
     :raises ConfigError: an integrator that cannot take contact; a bad or unsupported joint.
     :raises ConvergenceError: states that could not be projected onto the joints.
@@ -275,7 +282,7 @@ class WorldSimulator(BatchSimulator):
                  static: Optional[StaticWorld] = None, *,
                  integrator: str = DEFAULT_INTEGRATOR, timestep_ns: int = 1_000_000,
                  overlap_tolerance_m: float = DEFAULT_OVERLAP_TOLERANCE_M,
-                 joints: Sequence[Joint] = ()):
+                 joints: Sequence[Joint] = (), no_collision=()):
         jitcache.configured()  # the kernel cache, before a first compile
         bodies = tuple(bodies)
         states = tuple(states)
@@ -302,17 +309,24 @@ class WorldSimulator(BatchSimulator):
         self._joint_stage = None
         if self._joints:
             states = self._project_onto_joints(bodies, states, timestep_ns)
+        n = len(bodies)
+        skip = set()
+        for a, b in no_collision:
+            if not (0 <= a < n and 0 <= b < n and a != b):
+                raise ConfigError(f'no_collision: pair ({a}, {b}) must be two different body '
+                                  f'indices in [0, {n - 1}]')
+            skip.add((min(a, b), max(a, b)))
         check_overlaps([(b.name, b.shape, s.position_w, s.orientation_wb)
-                        for b, s in zip(bodies, states)], static, overlap_tolerance_m)
+                        for b, s in zip(bodies, states)], static, overlap_tolerance_m, skip)
         super().__init__([b.model for b in bodies], states, integrator=integrator,
                          timestep_ns=timestep_ns, threads=1)
         self._bodies = bodies
         self._static = static
         objects = [o for _, o in static.objects()]
         self._geo = _shape_table([b.shape for b in bodies] + [o.shape for o in objects],
-                                 [b.material for b in bodies] + [o.material for o in objects])
+                                 [b.material for b in bodies] + [o.material for o in objects],
+                                 np.array(sorted(a * n + b for a, b in skip), dtype=np.int64))
         self._statics = _static_table(objects)
-        n = len(bodies)
         self._wrench = np.zeros((n, 6))
         self._ws = cs.Work(
             vel=np.zeros((n, 6)), inv_mass=np.zeros(n), inv_inertia_w=np.zeros((n, 3, 3)),

@@ -144,7 +144,7 @@ def contact_stage(x, prm, shapes, statics, h, phase, stage, shock, wrench, work,
     n = x.shape[1]
     prepare_bodies(x, prm, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h, same_pose)
     pairs = broad_phase(x, pos_c, shapes.bound_r, n, statics.kind, statics.params, statics.lo,
-                        statics.hi, MARGIN_M)
+                        statics.hi, MARGIN_M, shapes.skip)
     contacts, patches = narrow_phase(pairs, n, x, prm, work, statics, shapes, h, phase, stage)
     if patches.shape[0] == 0:
         if slot >= 0:
@@ -235,7 +235,6 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
     same_pose = False  # the pose arrays in ws hold the current pose (see prepare_bodies)
     for _ in range(n_steps):
         saved[:] = x
-        same0 = same_pose
         attempts = 1
         if joints is not None:
             attempts = joints.work.motor.shape[0] + 1 + count_friction(joints)
@@ -243,7 +242,10 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
         for attempt in range(attempts):
             if attempt > 0:   # a motor beyond its effort limit: the step again, it saturated
                 x[:] = saved
-                same_pose = same0
+                # The pose arrays hold the failed attempt's poses, not the step's start: made
+                # again from x, as for the first step of a call (else the result would depend
+                # on where the call's chunks end: a replay would not match its node).
+                same_pose = False
             wrench[:] = 0.0
             if joints is not None:
                 motors_start(joints, x, work.vel, attempt, h)

@@ -80,7 +80,7 @@ def contacts(sim, x, geo, stage):
     prepare_bodies(x, sim._params, work.vel, work.inv_mass, work.inv_inertia_w, work.rot,
                    work.pos_c, work.rot_c, h, False)
     pairs = broad_phase(x, work.pos_c, geo.bound_r, n, statics.kind, statics.params, statics.lo,
-                        statics.hi, cs.MARGIN_M)
+                        statics.hi, cs.MARGIN_M, geo.skip)
     return narrow_phase(pairs, n, x, sim._params, work, statics, geo, h, cs.PHASE_CONTACT, stage)
 
 

@@ -221,3 +221,27 @@ def test_a_mesh_coinciding_with_its_primitive_is_refused():
     assert 0.2 - 0.5 * math.sqrt(3.0) * 0.2 / 16 * 1.5 <= depth <= 0.2 + SEARCH
     # Resting on it: never above round-off after the error bound is taken off.
     assert _depth(hull, [0.0, 0.0, 0.0], box, [0.0, 0.0, 0.2]) <= ROUND_OFF
+
+
+def test_pairs_that_never_collide_start_inside_each_other_and_pass_through():
+    # Two 0.2 m cubes, the second 0.1 m into the first, moving apart through each other: with
+    # the pair in no_collision they start (no overlap check) and never touch (no contact row
+    # for them in any step), each moving as a free body would: x = x0 + v t exactly.
+    from rbd_ros.core import BodyModel, BodyState, ConfigError
+    from rbd_ros.core.contact.simulator import WorldBody, WorldSimulator
+    box = primitive_shape('box', [0.2, 0.2, 0.2])
+    bodies = [WorldBody(name, BodyModel(1.0, np.diag([1.0, 1.0, 1.0]) / 150.0), box)
+              for name in ('a', 'b')]
+    states = [BodyState(position_w=(0.0, 0.0, 1.0), linear_velocity_w=(1.0, 0.0, 0.0)),
+              BodyState(position_w=(0.1, 0.0, 1.0), linear_velocity_w=(-1.0, 0.0, 0.0))]
+    with pytest.raises(ModelError, match='deep inside bodies.b'):
+        WorldSimulator(bodies, states)
+    sim = WorldSimulator(bodies, states, no_collision=[(1, 0)])
+    for _ in range(100):
+        sim.step(1)
+        assert len(sim.contacts) == 0
+    # 0.1 s at 1 m/s each way, no gravity: 0.1 m, to the round-off of 100 additions.
+    assert abs(sim.body_state(0).position_w[0] - 0.1) < 1e-14
+    assert abs(sim.body_state(1).position_w[0] - 0.0) < 1e-14
+    with pytest.raises(ConfigError, match=r'^no_collision: pair \(0, 2\) must be two different'):
+        WorldSimulator(bodies, states, no_collision=[(0, 2)])

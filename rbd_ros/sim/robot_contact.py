@@ -1,0 +1,272 @@
+# Copyright 2026 The rbd_ros authors
+#
+# Licensed under the Apache License, Version 2.0 (the "License");
+# you may not use this file except in compliance with the License.
+# You may obtain a copy of the License at
+#
+#     http://www.apache.org/licenses/LICENSE-2.0
+#
+# Unless required by applicable law or agreed to in writing, software
+# distributed under the License is distributed on an "AS IS" BASIS,
+# WITHOUT WARRANTIES OR CONDITIONS OF ANY KIND, either express or implied.
+# See the License for the specific language governing permissions and
+# limitations under the License.
+
+"""
+URDF robots in a world with contact: :class:`RobotContactWorld` (no rclpy).
+
+A params file with ``robot_names`` and free bodies (``body_names``), obstacles or a ground is
+one contact world (:class:`rbd_ros.core.contact.simulator.WorldSimulator`): the free bodies
+first, in ``body_names`` order, then every robot's moving links (the bodies
+:func:`rbd_ros.sim.urdf.place_robot` makes: mass, inertia, folded fixed links), each a world
+body; every URDF joint the core has (revolute, continuous, prismatic, planar, fixed between
+moving links) is a core joint of the contact step, named ``<robot>/<joint>``. A robot-only
+file keeps :class:`rbd_ros.sim.robot_world.RobotWorld` (the joints-only core, no contact).
+
+**Collision shapes** (:func:`link_shape`). A body's shape comes from the ``<collision>``
+elements of the links it carries (the moving link and the massless links folded into it).
+The contact step has no compound shape and no shape offset (every shape is centred on its
+body's COM, in its axes): so a body takes exactly one element, and
+
+- a box, cylinder or sphere whose frame is the body frame (its ``<origin>`` at the link's
+  ``<inertial>`` origin, same axes; within 1e-9 m and 1e-9 rad) is that primitive;
+- a mesh (with ``scale``) at any pose is that mesh with its vertices moved into the body
+  frame (the shape is then wherever the mesh is: its SDF is sampled there).
+
+A body without collision, with several, or with an offset primitive is refused at start in
+one line naming the URDF file, the link and why. The collisions of links fixed to the world
+(``world`` → fixed → ``mount``) are not part of the contact world: only moving links touch.
+
+**Which links touch** (:func:`no_collision_pairs`, the contact step's ``no_collision``): the
+parent and child links of a joint never collide with each other (they meet at the joint);
+a robot's other links do, unless ``robots.<name>.self_collision`` is false; links of
+different robots and free bodies always do. A world's own joints (``joint_names``) keep
+today's rule: their bodies collide (they are given shapes that clear at the joint).
+
+**Joints.** A URDF joint's ``<dynamics damping friction>`` (or ``robots.<r>.joints.<j>.*``)
+is the contact step's joint damping and Coulomb friction. What the contact step does not take
+yet (a mimic) is refused at start in one line naming the robot's parameter or the URDF joint,
+from the core's own refusal, so nothing here changes when the core takes it.
+
+**Readouts** are :class:`RobotWorld`'s, on the contact world: joint positions and rates from
+the bodies' states (:class:`rbd_ros.core.joints.readout.JointReadout`), motor efforts from the
+contact step's motors, every joint's wrench from its child's momentum over the last step (see
+:meth:`rbd_ros.sim.world_joints.JointedWorldSimulator.joint_wrenches`; a torque about the
+child's COM at the middle of the step, then moved to the link origin at the step's end). The
+free bodies answer as in any world (``arrays``, ``body_state``, ``set_body_loads``,
+``contact_wrench_w``, ``contacts``).
+"""
+
+import re
+
+import numpy as np
+
+from rbd_ros.core import ModelError, RbdError
+from rbd_ros.core.contact.shapes import mesh_shape
+from rbd_ros.core.contact.simulator import WorldBody
+from rbd_ros.core.contact.world import validate_material
+from rbd_ros.core.rotations import quat_to_matrix
+from rbd_ros.sim.config import overlap_error
+from rbd_ros.sim.robot_world import RobotWorld
+from rbd_ros.sim.world_joints import JointedWorldSimulator, WorldJoint
+
+# A primitive's frame is the body frame when its offset is within these (m, rad): far above
+# the round-off of composing the URDF's origins (~1e-16), far below any offset a URDF means.
+_POSE_TOL = 1e-9
+_CORE_JOINT = re.compile(r"joint '([A-Za-z0-9_]+)/([^']+)'\.([a-z_0-9]+): (.*)\Z", re.S)
+_DYNAMICS_UNITS = {'damping': 'N·m·s/rad or N·s/m', 'friction': 'N·m or N'}
+
+
+def _refuse(robot, where, detail):
+    """Raise the ModelError of one link's collision, naming the URDF file and the link."""
+    field = f'link {where!r}.collision'
+    raise ModelError(f'{robot.source}: {field}: {detail}', field=field, detail=detail)
+
+
+def link_shape(robot, body):
+    """
+    Return the :class:`CollisionShape` of body ``body`` of ``robot`` (a URDF ``Robot``).
+
+    See the module docstring for what is taken and what is refused.
+
+    :raises ModelError: one line naming the URDF file, the link and why.
+    """
+    carried = [link for link in robot.links if link.body == body]
+    name = robot.body_links[body]
+    elements = [(link.name, c) for link in carried for c in link.collisions]
+    if not elements:
+        _refuse(robot, name, 'none: in a world with contact every moving link needs one '
+                '<collision> (box, cylinder, sphere or mesh), as the contact step has no body '
+                'that touches nothing')
+    if len(elements) > 1:
+        _refuse(robot, name, f'{len(elements)} elements (on links '
+                f'{", ".join(sorted({n for n, _ in elements}))}): the contact step has no '
+                'compound shape yet; give each moving link one <collision> (a mesh may hold '
+                'the union)')
+    where, collision = elements[0]
+    shape = collision.shape
+    rot = quat_to_matrix(collision.orientation_b)
+    offset = float(np.abs(collision.position_b).max())
+    turn = float(np.abs(rot - np.eye(3)).max())
+    if shape.shape == 'mesh':
+        if offset == 0.0 and turn == 0.0:
+            return shape
+        vertices = shape.vertices_b @ rot.T + collision.position_b
+        return mesh_shape(vertices, shape.faces, centre=False,
+                          field=f'{robot.source}: link {where!r}.collision.')
+    if offset > _POSE_TOL or turn > _POSE_TOL:
+        _refuse(robot, where, f"a {shape.shape} {offset:.6g} m from the link's centre of "
+                f'mass or turned from its axes (by up to {turn:.3g} in rotation-matrix '
+                "entries): the contact step centres a primitive on its body's COM, in its "
+                'axes; put the <collision> origin at the <inertial> origin with the same rpy, '
+                'or give a mesh')
+    return shape
+
+
+def no_collision_pairs(robots, offsets):
+    """
+    Return the body index pairs of the robots' links that never collide with each other.
+
+    Parent and child of every URDF joint between two moving links (adjacent links), and every
+    pair of a robot's links when its ``self_collision`` is false. ``offsets``: each robot's
+    first body index in the world.
+    """
+    pairs = set()
+    for robot, first in zip(robots, offsets):
+        links = {link.name: link.body for link in robot.robot.links}
+        count = len(robot.robot.body_links)
+        if not robot.self_collision:
+            pairs.update((first + a, first + b) for a in range(count)
+                         for b in range(a + 1, count))
+            continue
+        for joint in robot.robot.joints:
+            a, b = links[joint.parent], links[joint.child]
+            if a is not None and b is not None and a != b:
+                pairs.add((first + min(a, b), first + max(a, b)))
+    return sorted(pairs)
+
+
+def _link_bodies(robots):
+    """Return the robots' link bodies as :class:`WorldBody` values and their labels."""
+    bodies, labels = [], {}
+    for r, robot in enumerate(robots):
+        material = validate_material(robot.friction, robot.restitution)
+        for k, name in enumerate(robot.robot.body_links):
+            body_name = f'_{robot.name}__{k}'
+            labels[body_name] = f'link {name!r} of robot {robot.name!r}'
+            bodies.append(WorldBody(body_name, robot.placement.models[k],
+                                    link_shape(robot.robot, k), material))
+    return bodies, labels
+
+
+class _RobotCore(JointedWorldSimulator):
+    """The contact world with the readouts :class:`RobotWorld` asks of its core."""
+
+    def state_rows(self):
+        """Return every body's packed state as a list of 13 plain floats."""
+        return self._x.T.tolist()
+
+    def constraint_wrenches_w(self):
+        """Return per joint the parent's wrench on the child (6 floats, world, about its COM)."""
+        world = self.child_wrenches_w()
+        if world is None:
+            return [(float('nan'),) * 6 for _ in self.joints]
+        return [(*f, *t) for f, t in world]
+
+
+class RobotContactWorld(RobotWorld):
+    """
+    The robots of a params file in one contact world with its free bodies and static world.
+
+    :param robots: the :class:`rbd_ros.sim.robots.RobotConfig` tuple.
+    :param bodies: the free bodies' :class:`rbd_ros.sim.config.BodyConfig` tuple.
+    :param static: the :class:`rbd_ros.core.contact.StaticWorld` (or None).
+    :param integrator: a contact integrator. :param timestep_ns: the fixed step, int ns.
+    :raises ModelError, ConfigError: one line naming the parameter or the URDF's link or joint.
+    """
+
+    def __init__(self, robots, bodies, static, integrator, timestep_ns):
+        free = [WorldBody(b.name, b.model, b.collision_shape, b.material) for b in bodies]
+        self._free = len(free)
+        self._assemble(robots, timestep_ns, len(free))
+        links, labels = _link_bodies(self.robots)
+        _, link_states, joints = self._args
+        world_joints = [WorldJoint(joint.name, joint, None, 0.0, ()) for joint in joints]
+        states = [b.initial_state for b in bodies] + list(link_states)
+        try:
+            self._sim = _RobotCore(free + links, states, static, world_joints,
+                                   integrator=integrator, timestep_ns=timestep_ns,
+                                   no_collision=no_collision_pairs(
+                                       self.robots, [b0 for b0, _ in self._bodies]))
+        except RbdError as exc:
+            raise self._named(exc, labels) from None
+
+    def _named(self, exc, labels):
+        """Return the core's error naming the robot's parameter, URDF joint or link."""
+        text = str(exc)
+        match = _CORE_JOINT.match(text)
+        if match:
+            name, joint, field, detail = match.groups()
+            robot = next(r for r in self.robots if r.name == name)
+            if field in _DYNAMICS_UNITS:
+                parameter = f'robots.{name}.joints.{joint}.{field}'
+                value = getattr(robot.placement.joints[robot.robot.joint(joint).core], field)
+                unit = _DYNAMICS_UNITS[field]
+                if detail.startswith(f'{value!r}; '):  # the value again: said already
+                    detail = detail[len(f'{value!r}; '):]
+                return type(exc)(f'parameter {parameter} = {value!r} {unit}: {detail}',
+                                 field=parameter, value=value, unit=unit, detail=detail)
+            detail = detail.replace(f"'{name}/", "'")  # the core's joint names, the URDF's
+            return type(exc)(f'{robot.robot.source}: joint {joint!r}.{field}: {detail}',
+                             field=f'joint {joint!r}.{field}', detail=detail)
+        field = getattr(exc, 'field', None) or ''
+        link = labels.get(field[len('bodies.'):-len('.position_w')])
+        if link is not None:  # a link inside something: the robot's placement puts it there
+            robot = field[len('bodies._'):].rsplit('__', 1)[0]
+            field = f'robots.{robot}.initial_position'
+            rule = exc.rule.replace('puts the body', f'puts {link}', 1)
+            text = (f'parameter {field} (with .initial_orientation and '
+                    f'.initial_joint_positions) {rule}')
+            exc = type(exc)(text, field=field, detail=rule)
+        else:
+            exc = overlap_error(exc)
+        text = str(exc)
+        for body, label in labels.items():
+            text = text.replace(f'bodies.{body}', label)
+        if text == str(exc):
+            return exc
+        return type(exc)(text, field=exc.field, detail=getattr(exc, 'detail', None))
+
+    def reset(self) -> None:
+        """Back to every body's and robot's placement at time 0, every motor off."""
+        self._sim.reset()
+        for moving in self._moving:
+            for j in moving:
+                self._sim.set_motor(j)
+
+    @property
+    def arrays(self):
+        """Return the free bodies' packed states and times (views: the links follow them)."""
+        x, t = self._sim.arrays
+        return x[:, :self._free], t[:self._free]
+
+    @property
+    def world(self):
+        """Return the contact world itself (every body: the free bodies, then the links)."""
+        return self._sim
+
+    @property
+    def contact_wrench_w(self):
+        """Return (N, 6): each body's net contact force and torque over the last step."""
+        return self._sim.contact_wrench_w
+
+    @property
+    def contacts(self):
+        """Return the contact points of the last step."""
+        return self._sim.contacts
+
+    def __getattr__(self, name):
+        # body_state, set_body_loads, bodies, joint_error, ... : the world's
+        if name.startswith('_'):
+            raise AttributeError(name)
+        return getattr(self._sim, name)
