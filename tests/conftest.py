@@ -244,12 +244,16 @@ FREE_KERNEL_FILES = ('ros/test_sim_session.py', 'ros/test_node_physics.py',
                      'recording/test_bag_limits.py')
 #: Below FREE_KERNEL_DIR, what needs more than the free-body step.
 NOT_FREE_DIRS = ('core/contact/', 'core/joints/')
-#: Test files that step worlds with joints (their own specialisation of the contact step), or
-#: start a node on every file of msg_config/ (``pendulum_world.yaml`` has joints).
+#: Test files that step worlds with joints (their own specialisation of the contact step:
+#: a world's joints, or URDF robots among bodies), replay bags of them, or start a node on every
+#: file of msg_config/ (``pendulum_world.yaml``, ``door_world.yaml`` and ``arm_table.yaml``
+#: have joints).
 WORLD_JOINTS_FILES = ('core/joints/test_joints_contact.py', 'core/joints/test_motors_contact.py',
-                      'sim/test_world_joints.py',
-                      'ros/test_node_world_joints.py', 'ros/test_node_lifecycle.py',
-                      'ros/test_param_dump.py')
+                      'core/joints/test_joint_friction_contact.py',
+                      'sim/test_world_joints.py', 'sim/test_robot_contact.py',
+                      'ros/test_node_world_joints.py', 'ros/test_node_robot_contact.py',
+                      'ros/test_node_world_start_refusals.py', 'ros/test_node_lifecycle.py',
+                      'ros/test_param_dump.py', 'recording/test_reference_bags.py')
 #: The test files of the threaded batch kernel: the last tier (the warm-up compiles it last).
 BATCH_KERNEL_FILES = ('core/test_batch.py',)
 #: The kernel kinds (jitcache.KIND_MODULES) each tier waits for; the last tier waits for the
