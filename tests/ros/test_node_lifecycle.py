@@ -134,8 +134,12 @@ def test_wall_clock_pacing(start_node, factor):
     # jitter of the two samples (ms on an idle machine, tens of ms on the shared 2-core CI
     # machine): 0.1 s on ~2 s allows that and still fails a wrong factor or an accumulating
     # pacing error of more than 5 %. (The 60 s figure is in tests/benchmarks/bench_node.py.)
+    # Never ahead of the wall clock. Behind it only as far as the node says: a CI run with two
+    # test workers and the kernel warm-up (three busy processes on two cores) once left a 3x
+    # node 0.6 s short in 2 s; the node then reports its lag (/diagnostics' pacing_lag_max_ms)
+    # or that it dropped wall time (its warning), and the shortfall must be within that.
     node = start_node({'real_time_factor': factor, 'publish_rate_hz': 100.0}, namespace=True)
-    probe = Probe(node.namespace, outputs=('pose',))
+    probe = Probe(node.namespace, outputs=('pose', 'diagnostics'))
     try:
         probe.wait_connected(services=False)
         probe.wait(lambda: len(probe.arrivals) >= 2, what='pose samples')
@@ -143,13 +147,24 @@ def test_wall_clock_pacing(start_node, factor):
         start = time.monotonic_ns()
         wait_until(lambda: time.monotonic_ns() - start > 500_000_000, 10, probe.spin)
         first = probe.arrivals[-1]
+        probe.diagnostics.clear()
         wait_until(lambda: time.monotonic_ns() - first[0] > 2_000_000_000, 10, probe.spin)
         last = probe.arrivals[-1]
+        seen = len(probe.diagnostics)  # one more: the lag up to the window's end
+        probe.wait(lambda: len(probe.diagnostics) > seen, 10.0, 'a /diagnostics after the window')
     finally:
         probe.close()
     wall_s = (last[0] - first[0]) * 1e-9
     sim_s = (last[1] - first[1]) * 1e-9
-    assert abs(sim_s - factor * wall_s) <= 0.1 * factor, (sim_s, wall_s)
+    lag_s = max([float(kv.value) * 1e-3 for m in probe.diagnostics for status in m.status
+                 for kv in status.values if kv.key == 'pacing_lag_max_ms'], default=0.0)
+    short_s = factor * wall_s - sim_s
+    print(f'pacing at {factor}x: sim {sim_s:.3f} s in wall {wall_s:.3f} s, short by '
+          f"{short_s:.3f} s, the node's largest lag {lag_s:.3f} s")
+    assert short_s >= -0.1 * factor, (sim_s, wall_s)   # never ahead
+    if short_s > 0.1 * factor:   # behind: only as far as the node said
+        assert short_s <= lag_s + 0.1 * factor or 'falling behind the wall clock' in \
+            node.stderr, (sim_s, wall_s, lag_s)
 
 
 def test_params_files_in_msg_config_are_valid(start_node):
