@@ -540,10 +540,6 @@ def load_joints(bag: Bag) -> Dict[str, Any]:
             'force_n': np.array([force_rows[t] for t in force_times]).reshape(-1, m)}
 
 
-#: A robot recording's joint series: :func:`load_joints`.
-load_robots = load_joints
-
-
 def _draw_joints(axes, data: Dict[str, Any], notes: List[Optional[str]]) -> None:
     """Four panels: joint positions, velocities, efforts, and joint force magnitudes."""
     t = data['t_s']
