@@ -137,7 +137,8 @@ def test_wall_clock_pacing(start_node, factor):
     # Never ahead of the wall clock. Behind it only as far as the node says: a CI run with two
     # test workers and the kernel warm-up (three busy processes on two cores) once left a 3x
     # node 0.6 s short in 2 s; the node then reports its lag (/diagnostics' pacing_lag_max_ms)
-    # or that it dropped wall time (its warning), and the shortfall must be within that.
+    # or that it dropped wall time (its warning), and the shortfall must be within that. A
+    # window short by more is measured again (WINDOWS).
     node = start_node({'real_time_factor': factor, 'publish_rate_hz': 100.0}, namespace=True)
     probe = Probe(node.namespace, outputs=('pose', 'diagnostics'))
     try:
@@ -146,14 +147,33 @@ def test_wall_clock_pacing(start_node, factor):
         # Let any backlog of samples queued before we were spinning drain for 0.5 s first.
         start = time.monotonic_ns()
         wait_until(lambda: time.monotonic_ns() - start > 500_000_000, 10, probe.spin)
-        first = probe.arrivals[-1]
-        probe.diagnostics.clear()
-        wait_until(lambda: time.monotonic_ns() - first[0] > 2_000_000_000, 10, probe.spin)
-        last = probe.arrivals[-1]
-        seen = len(probe.diagnostics)  # one more: the lag up to the window's end
-        probe.wait(lambda: len(probe.diagnostics) > seen, 10.0, 'a /diagnostics after the window')
+        for window in range(WINDOWS):
+            short_s, lag_s = _pacing_window(probe, factor)
+            assert short_s >= -0.1 * factor, (window, short_s)   # never ahead, in any window
+            if short_s <= 0.1 * factor:
+                break
     finally:
         probe.close()
+    # Behind in every window: only as far as the node said.
+    assert short_s <= lag_s + 0.1 * factor or 'falling behind the wall clock' in node.stderr, \
+        (short_s, lag_s)
+
+
+#: Windows of ~2 s the pacing test may take. A late sample makes the node look behind, never
+#: ahead, and the probe's own delivery can be late for ~0.35 s when three busy processes share
+#: the 2-core machine (a CI run: 1.06 s of sim short at 3x while the node's own lag stayed 0.1 s).
+#: A wrong factor or an accumulating error is short in every window; a starved probe is not.
+WINDOWS = 3
+
+
+def _pacing_window(probe, factor):
+    """Return (sim seconds short of factor x wall, the node's largest reported lag in s)."""
+    first = probe.arrivals[-1]
+    probe.diagnostics.clear()
+    wait_until(lambda: time.monotonic_ns() - first[0] > 2_000_000_000, 10, probe.spin)
+    last = probe.arrivals[-1]
+    seen = len(probe.diagnostics)  # one more: the lag up to the window's end
+    probe.wait(lambda: len(probe.diagnostics) > seen, 10.0, 'a /diagnostics after the window')
     wall_s = (last[0] - first[0]) * 1e-9
     sim_s = (last[1] - first[1]) * 1e-9
     lag_s = max([float(kv.value) * 1e-3 for m in probe.diagnostics for status in m.status
@@ -161,10 +181,7 @@ def test_wall_clock_pacing(start_node, factor):
     short_s = factor * wall_s - sim_s
     print(f'pacing at {factor}x: sim {sim_s:.3f} s in wall {wall_s:.3f} s, short by '
           f"{short_s:.3f} s, the node's largest lag {lag_s:.3f} s")
-    assert short_s >= -0.1 * factor, (sim_s, wall_s)   # never ahead
-    if short_s > 0.1 * factor:   # behind: only as far as the node said
-        assert short_s <= lag_s + 0.1 * factor or 'falling behind the wall clock' in \
-            node.stderr, (sim_s, wall_s, lag_s)
+    return short_s, lag_s
 
 
 def test_params_files_in_msg_config_are_valid(start_node):
