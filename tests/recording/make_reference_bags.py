@@ -48,7 +48,10 @@ from conftest import FIRST_START_S, NodeProcess, wait_until  # noqa: E402
 BAGS = REPO / 'bags'
 
 #: name -> (config file, overrides, script [(offset s, topic, frame_id, force, torque)]); a
-#: ``<robot>/joint_command`` entry is ``(offset s, topic, joint names, positions, None)``.
+#: ``<robot>/joint_command`` entry is ``(offset s, topic, joint names, positions, None)``, a
+#: ``<group>/joint_trajectory`` entry ``(offset s, topic, joint names, [(time_from_start s,
+#: positions), ...], None)`` (zero velocities at every point; header stamp zero: it starts on
+#: the step it is taken at).
 REFERENCE_BAGS = {
     'box_pushed': (
         'msg_config/free_body.yaml',
@@ -100,6 +103,15 @@ REFERENCE_BAGS = {
         {'duration_s': 2.0, 'real_time_factor': 1.0, 'start_paused': True},
         [(0.3, 'arm/joint_command', ['shoulder', 'elbow', 'wrist'], (-0.6, 0.0, 0.0), None)],
     ),
+    'arm_trajectory': (
+        # The same arm and table driven the way a MoveIt-style client drives it: at 0.2 s a
+        # JointTrajectory on arm_group/joint_trajectory draws the arm back and up under gravity
+        # (0.5 s), then swings it through the box (0.4 s) and holds the last point.
+        'msg_config/arm_table.yaml',
+        {'duration_s': 3.0, 'real_time_factor': 1.0, 'start_paused': True},
+        [(0.2, 'arm_group/joint_trajectory', ['shoulder', 'elbow', 'wrist'],
+          [(0.6, (0.5, 0.0, 0.0)), (1.6, (-0.8, 0.0, 0.0))], None)],
+    ),
     'robot_pendulum': (
         # The URDF pendulum let go at 0.5 rad: a little over two periods (2.0375 s each).
         'msg_config/robot_pendulum.yaml',
@@ -132,8 +144,10 @@ def record(name, workdir):
     from geometry_msgs.msg import PoseArray, PoseStamped
     import rclpy
     from rbd_ros.msgs import conversions
+    from builtin_interfaces.msg import Duration
     from sensor_msgs.msg import JointState
     from std_srvs.srv import SetBool
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
     config_file, overrides, script = REFERENCE_BAGS[name]
     params = dict(overrides, record_path=str(BAGS / name))
@@ -143,9 +157,10 @@ def record(name, workdir):
     try:
         talker = rclpy.create_node(f'bag_maker_{os.getpid()}')
         spin = lambda: rclpy.spin_once(talker, timeout_sec=0.01)  # noqa: E731
+        kinds = {'joint_command': JointState, 'joint_trajectory': JointTrajectory}
         pubs = {topic: talker.create_publisher(
-            JointState if topic.endswith('joint_command') else conversions.WrenchStamped,
-            topic, 10) for topic in topics}
+            kinds.get(topic.rsplit('/', 1)[-1], conversions.WrenchStamped), topic, 10)
+            for topic in topics}
         wait_until(lambda: all(p.get_subscription_count() > 0 for p in pubs.values())
                    or node.process.poll() is not None, FIRST_START_S,
                    what='the node to subscribe')
@@ -169,6 +184,13 @@ def record(name, workdir):
                        what=f'sim time {offset} s', spin=spin)
             if topic.endswith('joint_command'):  # frame_id: the joints, force: positions
                 pubs[topic].publish(JointState(name=list(frame_id), position=list(force)))
+                continue
+            if topic.endswith('joint_trajectory'):  # frame_id: the joints, force: the points
+                pubs[topic].publish(JointTrajectory(joint_names=list(frame_id), points=[
+                    JointTrajectoryPoint(positions=list(q), velocities=[0.0] * len(q),
+                                         time_from_start=Duration(sec=int(t), nanosec=round(
+                                             (t - int(t)) * 1e9)))
+                    for t, q in force]))
                 continue
             pubs[topic].publish(conversions.wrench_to_msg(frame_id, force, torque))
         status = node.wait(120.0)

@@ -314,3 +314,49 @@ def test_the_door_bag_is_pushed_shut_onto_its_post():
     print(f'door: rate off the closed form by {swing:.3g} rad/s, off the post by {rest:.3g} rad')
     assert swing <= 1e-12 and rest <= 1e-12 / b, (swing, rest)
     assert states[0].position[0] == 0.0 and rate(1_000_000_000) < -1.0
+
+
+def test_the_arm_trajectory_bag_follows_its_waypoints_and_knocks_the_box_off():
+    """
+    The arm of ``msg_config/arm_table.yaml`` driven by one ``JointTrajectory``, from the bag.
+
+    The trajectory, the step it took effect at and the table and box from the recording: the
+    arm reaches its first waypoint at its time (before it touches anything), sweeps the box off
+    the table onto the floor, and holds the last waypoint under gravity with no steady-state
+    error.
+    """
+    bag = open_bag(str(REPO / 'bags' / 'arm_trajectory'))
+    config = bag.config
+    ((raw, trajectory),) = bag.decoded_messages(['/arm_group/joint_trajectory'])
+    effect = raw.log_time_ns  # the step start it took effect at (stamp zero: at once)
+    assert trajectory.header.stamp.sec == 0 and trajectory.header.stamp.nanosec == 0
+    names = list(trajectory.joint_names)
+    points = [(p.time_from_start.sec * 1_000_000_000 + p.time_from_start.nanosec,
+               dict(zip(names, p.positions))) for p in trajectory.points]
+    states = {}
+    for _, msg in bag.decoded_messages(['/arm/joint_states']):
+        stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        states[stamp] = (list(msg.name), np.array(msg.position), np.array(msg.velocity))
+    (t1, first), (t2, last) = points
+    order, q, _ = states[effect + t1]
+    # The arm starts at rest on the trajectory; the position target follows the cubic with its
+    # rate, so the joints lag it by O(h²) (2.3e-7 rad here): 1e-6 rad fails a waypoint reached
+    # a step late (~2e-3 rad at these rates).
+    assert np.abs(q - [first[n] for n in order]).max() <= 1e-6, q
+    # After the sweep, held: the exact critically damped target has no steady-state error
+    # under gravity. The sweep's disturbance decays as (1 + t/τ) e^(-t/τ) (τ = 0.05 s: 7.4
+    # times less every 0.1 s in this bag, 1e-12 rad/s by 1 s after the last point); 1e-11 rad
+    # and rad/s. A target held short by gravity (a plain PD) would be off by ~1e-3 rad.
+    held = [(q, qd) for t, (_, q, qd) in states.items() if t >= effect + t2 + 1_000_000_000]
+    assert len(held) >= 20
+    target = [last[n] for n in order]
+    assert max(np.abs(q - target).max() for q, _ in held) <= 1e-11
+    assert max(np.abs(qd).max() for _, qd in held) <= 1e-11
+    # The box: on the table at the start, on the floor past the table's far edge at the end.
+    side = config['bodies.box.dimensions_m'][2]
+    table_x = config['obstacles.table.position'][0] + config['obstacles.table.dimensions_m'][0] / 2
+    poses = [msg.pose.position for _, msg in bag.decoded_messages(['/box/pose'])]
+    assert poses[0].z > config['obstacles.table.dimensions_m'][2]
+    # Resting on the floor: the contact depth settles to the sweeps' round-off (5e-15 m);
+    # 1e-9 m is that with room, and a box on the table (0.35 m higher) or tilted fails it.
+    assert abs(poses[-1].z - side / 2) <= 1e-9 and poses[-1].x > table_x + side / 2, poses[-1]
