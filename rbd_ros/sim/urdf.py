@@ -73,6 +73,7 @@ from rbd_ros.core.inertia import validate_inertia, validate_mass
 from rbd_ros.core.joints import Joint
 from rbd_ros.core.rotations import matrix_to_quat, quat_to_matrix
 from rbd_ros.sim.meshes import resolve_mesh_path
+from rbd_ros.sim.params import PARAMETERS_BY_NAME
 import yourdfpy
 
 #: Every URDF joint type.
@@ -273,6 +274,10 @@ def _translation(vector):
     return out
 
 
+#: A link's largest mass (kg): the bound of a body's ``mass_kg`` parameter.
+MAX_MASS_KG = PARAMETERS_BY_NAME['mass_kg'].bounds[1]
+
+
 def _inertial(source, link):
     """Return ``(mass, com in link, inertia about com in link axes)`` or None."""
     inertial = link.inertial
@@ -286,6 +291,10 @@ def _inertial(source, link):
     except RbdError as exc:
         _fail(ModelError, source, f'{who}.inertial.mass', exc.detail or str(exc),
               inertial.mass, 'kg')
+    if mass > MAX_MASS_KG:  # 1e308 kg under gravity: an infinite force in the first step
+        _fail(ModelError, source, f'{who}.inertial.mass',
+              f"{mass!r} kg must be <= {MAX_MASS_KG:g} (the mass_kg parameter's bound)",
+              mass, 'kg')
     frame = _matrix(inertial.origin)
     raw = np.asarray(inertial.inertia if inertial.inertia is not None else np.zeros((3, 3)))
     try:

@@ -303,8 +303,8 @@ def test_moving_link_without_inertial(tmp_path):
     refused(ModelError, path, "link 'alone'.inertial", 'floating root')
 
 
-@pytest.mark.parametrize('mass', ['0', '-1.5'])
-def test_zero_or_negative_mass(tmp_path, mass):
+@pytest.mark.parametrize('mass', ['0', '-1.5', '1e308'])
+def test_zero_negative_or_huge_mass(tmp_path, mass):
     path = write(tmp_path, link('a', inertial(mass=mass)))
     error = refused(ModelError, path, path, "link 'a'.inertial.mass", 'kg')
     assert error.value == float(mass)
