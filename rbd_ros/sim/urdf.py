@@ -50,7 +50,8 @@ The XML is parsed strictly by lxml (a malformed file is refused, not recovered) 
   :mod:`rbd_ros.sim.joint_commands`).
 * **Collisions.** Every ``<collision>`` (box, cylinder, sphere, mesh with scale) becomes a
   :class:`RobotCollision`: the shape centred in its own frame and that frame's pose in the body
-  frame. The core has no compound shape or shape offset yet; all elements are kept.
+  frame, all of them, in order (a world with contact makes them one shape a body,
+  :mod:`rbd_ros.sim.robot_contact`).
 
 Every error is one line that names the file (or ``robot_description``), the link or joint and
 the field with its value and unit.
