@@ -86,11 +86,17 @@ DESCRIPTION = 'robot_description'
 
 @dataclass(frozen=True)
 class RobotCollision:
-    """One ``<collision>``: a shape centred in its frame, and that frame in the body frame."""
+    """
+    One ``<collision>``: a shape centred in its frame, and that frame in the body frame.
+
+    ``position_l`` and ``orientation_l``: that frame in its link's frame (its ``<origin>``).
+    """
 
     shape: CollisionShape
     position_b: np.ndarray
     orientation_b: np.ndarray
+    position_l: np.ndarray
+    orientation_l: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -335,7 +341,7 @@ def _collision(source, link, index, element, base_dir, to_body):
         raise type(exc)(f'{source}: {exc}', field=exc.field, value=exc.value,
                         unit=exc.unit, detail=exc.detail) from None
     position, quat = _pose(to_body @ _matrix(element.origin))
-    return RobotCollision(shape, position, quat)
+    return RobotCollision(shape, position, quat, *_pose(_matrix(element.origin)))
 
 
 def _check_tree(source, robot):
