@@ -191,13 +191,13 @@ class CollisionShape:
         integrals :func:`rbd_ros.core.inertia.triangle_mesh` (COM at the origin up to
         round-off, as the mesh was centred).
         """
+        if self.shape == 'compound':
+            raise ModelError('shape: a compound has no uniform-density mass properties (its '
+                             'parts may overlap); give the body its mass and inertia')
         if self.kind == k.KIND_MESH:
             return triangle_mesh(self.vertices_b, self.faces, mass_kg=mass_kg)
         if self.kind == k.KIND_PLANE:
             raise ModelError('shape: a plane is static; it has no mass properties')
-        if self.shape == 'compound':
-            raise ModelError('shape: a compound has no uniform-density mass properties (its '
-                             'parts may overlap); give the body its mass and inertia')
         return from_shape(self.shape, self.dimensions_m, mass_kg)
 
 
