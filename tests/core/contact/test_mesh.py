@@ -355,3 +355,26 @@ def test_a_compound_of_two_crossing_boxes_is_their_union():
     assert {(x, y, -0.05) for x in (-0.2, 0.2) for y in (-0.05, 0.05)} <= corners
     with pytest.raises(ModelError, match='no uniform-density mass properties'):
         shape.mass_properties(1.0)
+
+
+def test_a_compound_with_a_mesh_part_takes_its_exact_distance():
+    # A URDF link's mesh element at an offset beside a sphere: the mesh part's φ at the nodes
+    # is its exact distance (build_sdf on the moved vertices), so at random points φ is within
+    # the grid's bound of min(box, sphere) computed in closed form (the mesh is a box).
+    from rbd_ros.core.contact.shapes import compound_shape
+    from rbd_ros.sim.tessellation import shape_triangles
+    cube = trimesh.creation.box(extents=(0.2, 0.2, 0.2))
+    mesh = mesh_shape(cube.vertices, cube.faces, centre=False, cache_dir=False)
+    ball = primitive_shape('sphere', [0.1])
+    offset = np.array([0.15, 0.0, 0.0])
+    shape = compound_shape([(mesh, offset, (1.0, 0.0, 0.0, 0.0)),
+                            (ball, -offset, (1.0, 0.0, 0.0, 0.0))],
+                           [shape_triangles(mesh), shape_triangles(ball)], sdf_cells=CELLS)
+    points = np.random.default_rng(SEED).uniform(shape.aabb_min_b, shape.aabb_max_b,
+                                                 (2000, 3))  # inside the grid box
+    exact = np.minimum(primitive_shape('box', [0.2, 0.2, 0.2]).signed_distance(
+        points - offset)[0], np.linalg.norm(points + offset, axis=1) - 0.1)
+    worst = float(np.abs(shape.signed_distance(points)[0] - exact).max())
+    print(f'\ncompound of a mesh box and a sphere: |φ - exact| <= {worst:.3g} m, bound '
+          f'{bound(shape):.3g}')
+    assert worst <= bound(shape) + ROUND_OFF
