@@ -551,7 +551,10 @@ class LinkMarkers:
     ``/tf`` names it (its URDF name; the ``world`` link of a robot fixed to the world is the
     world frame), ``frame_locked`` true (a viewer moves it with the frame), the pose the
     element's ``<origin>`` in the link frame and the shape's marker as :func:`shape_marker`
-    gives it (a mesh: a TRIANGLE_LIST of its faces). A moving link's markers have its body's
+    gives it; a mesh a MESH_RESOURCE of its file (:func:`mesh_uri` of the URDF's filename:
+    ``package://`` kept, else the ``file://`` URI of the file loaded), scale the URDF's
+    ``scale`` (the file's coordinates scaled are the element frame's: a link mesh is not
+    re-centred), so a sample carries its URI, not its triangles. A moving link's markers have its body's
     colour (:func:`body_color` of its index in the world, the free bodies first); a link fixed
     to the world the obstacles' colour.
 
@@ -571,9 +574,20 @@ class LinkMarkers:
                     else link.name
                 color = OBSTACLE_COLOR if link.body is None else body_color(body + link.body)
                 for collision in link.collisions:
-                    marker = shape_marker(collision.shape, LINKS_NS, len(self._array.markers),
-                                          frame, collision.position_l, collision.orientation_l,
-                                          color, 0)
+                    index = len(self._array.markers)
+                    if collision.mesh_file is None:
+                        marker = shape_marker(collision.shape, LINKS_NS, index, frame,
+                                              collision.position_l, collision.orientation_l,
+                                              color, 0)
+                    else:  # the file, as a body's: x_l = R(q) (s ∘ v) + p, not re-centred
+                        filename, path, scale = collision.mesh_file
+                        marker = _body_marker(LINKS_NS, index, frame, Marker.MESH_RESOURCE,
+                                              color, scale)
+                        marker.mesh_resource = mesh_uri(filename, path)
+                        marker.mesh_use_embedded_materials = False
+                        marker.pose.position.x, marker.pose.position.y, \
+                            marker.pose.position.z = (float(v) for v in collision.position_l)
+                        conv.quaternion_to_msg(collision.orientation_l, marker.pose.orientation)
                     marker.frame_locked = True
                     marker.text = f'{robot.name}/{link.name}'
                     self._array.markers.append(marker)

@@ -90,6 +90,8 @@ class RobotCollision:
     One ``<collision>``: a shape centred in its frame, and that frame in the body frame.
 
     ``position_l`` and ``orientation_l``: that frame in its link's frame (its ``<origin>``).
+    ``mesh_file``: a mesh's ``(filename as the URDF gives it, the file loaded, scale)``, else
+    None.
     """
 
     shape: CollisionShape
@@ -97,6 +99,7 @@ class RobotCollision:
     orientation_b: np.ndarray
     position_l: np.ndarray
     orientation_l: np.ndarray
+    mesh_file: Optional[Tuple[str, str, Tuple[float, float, float]]] = None
 
 
 @dataclass(frozen=True)
@@ -310,6 +313,7 @@ def _collision(source, link, index, element, base_dir, to_body):
     """Return the :class:`RobotCollision` of one ``<collision>`` (pose ``to_body`` · origin)."""
     who = f'link {link.name!r}.collision[{index}]'
     geometry = element.geometry
+    mesh_file = None
     try:
         if geometry is None:
             _fail(ModelError, source, who, 'has no <geometry>')
@@ -333,6 +337,7 @@ def _collision(source, link, index, element, base_dir, to_body):
             scale = geometry.mesh.scale
             scale = (1.0, 1.0, 1.0) if scale is None else np.broadcast_to(scale, 3)
             shape = load_mesh(path, scale, centre=False, field=f'{who}.mesh.')
+            mesh_file = (filename, path, tuple(float(f) for f in scale))
         else:
             _fail(ModelError, source, who, 'has no box, cylinder, sphere or mesh')
     except RbdError as exc:
@@ -341,7 +346,7 @@ def _collision(source, link, index, element, base_dir, to_body):
         raise type(exc)(f'{source}: {exc}', field=exc.field, value=exc.value,
                         unit=exc.unit, detail=exc.detail) from None
     position, quat = _pose(to_body @ _matrix(element.origin))
-    return RobotCollision(shape, position, quat, *_pose(_matrix(element.origin)))
+    return RobotCollision(shape, position, quat, *_pose(_matrix(element.origin)), mesh_file)
 
 
 def _check_tree(source, robot):
