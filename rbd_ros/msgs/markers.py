@@ -554,9 +554,9 @@ class LinkMarkers:
     gives it; a mesh a MESH_RESOURCE of its file (:func:`mesh_uri` of the URDF's filename:
     ``package://`` kept, else the ``file://`` URI of the file loaded), scale the URDF's
     ``scale`` (the file's coordinates scaled are the element frame's: a link mesh is not
-    re-centred), so a sample carries its URI, not its triangles. A moving link's markers have its body's
-    colour (:func:`body_color` of its index in the world, the free bodies first); a link fixed
-    to the world the obstacles' colour.
+    re-centred), so a sample carries its URI, not its triangles. A moving link's markers have
+    its body's colour (:func:`body_color` of its index in the world, the free bodies first); a
+    link fixed to the world the obstacles' colour.
 
     :param robots: the :class:`rbd_ros.sim.robots.RobotConfig` values.
     :param world_frame: the node's world frame id.
