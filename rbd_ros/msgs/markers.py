@@ -16,8 +16,9 @@
 World → ``visualization_msgs/MarkerArray``: shapes of bodies and obstacles, and contacts.
 
 No rclpy here: the node, replay and plot call these builders and publish, record or draw the
-messages.  Every marker is in ``frame_id`` (the world frame), in metres, ``frame_locked``
-false, ``lifetime`` 0 (kept until replaced or deleted), ``action`` ADD unless said.
+messages.  Every marker is in ``frame_id`` (the world frame; a robot link's: its link frame),
+in metres, ``frame_locked`` false (a link's: true), ``lifetime`` 0 (kept until replaced or
+deleted), ``action`` ADD unless said.
 
 Namespaces and ids (stable, so a marker is replaced in place sample after sample):
 
@@ -30,6 +31,10 @@ Namespaces and ids (stable, so a marker is replaced in place sample after sample
   SPHERE caps in ``body_caps`` (ids ``2 i`` and ``2 i + 1``), so a body's marker costs the
   same few hundred bytes a sample whatever its shape (see :class:`BodyMarkers`).
 * ``contacts`` id 0: the contact points (SPHERE_LIST); id 1: the normals (LINE_LIST).
+* ``links`` id ``i``: the ``i``-th ``<collision>`` of the robots' links (robots, links and
+  elements in order; ``text`` = ``<robot>/<link>``), in the link's own frame (the frame
+  ``/tf`` carries), ``frame_locked`` true, posed by the element's ``<origin>``
+  (:class:`LinkMarkers`).
 
 The ``text`` field is ignored by viewers for these types; it lets a bag reader tell the
 markers apart by name.  Static markers (:func:`static_markers`) are meant to be published
@@ -61,12 +66,13 @@ from visualization_msgs.msg import Marker, MarkerArray
 if TYPE_CHECKING:  # pragma: no cover - annotations only
     from rbd_ros.core.contact import CollisionShape, StaticWorld
     from rbd_ros.core.contact.simulator import Contacts
+    from rbd_ros.sim.robots import RobotConfig
 
 __all__ = [
     'BODIES_NS', 'BODY_CAPS_NS', 'BodyMarkers', 'CONTACT_NORMALS_ID', 'CONTACT_POINTS_ID',
     'CONTACTS_NS', 'DEFAULT_ARROW_SCALE_M_PER_N_S', 'GROUND_NS', 'GROUND_THICKNESS_M',
-    'OBSTACLES_NS', 'body_color', 'body_markers', 'contact_markers', 'mesh_uri', 'shape_marker',
-    'static_markers',
+    'LINKS_NS', 'LinkMarkers', 'OBSTACLES_NS', 'body_color', 'body_markers', 'contact_markers',
+    'mesh_uri', 'shape_marker', 'static_markers',
 ]
 
 GROUND_NS = 'ground'
@@ -75,6 +81,7 @@ BODIES_NS = 'bodies'
 #: The two end caps of capsule bodies (SPHERE markers beside the body's CYLINDER).
 BODY_CAPS_NS = 'body_caps'
 CONTACTS_NS = 'contacts'
+LINKS_NS = 'links'
 #: Ids in ``contacts``: the points and the normals.
 CONTACT_POINTS_ID = 0
 CONTACT_NORMALS_ID = 1
@@ -95,7 +102,8 @@ CONTACT_NORMAL_COLOR = (1.0, 0.85, 0.0, 1.0)
 _MARKER_TYPES = {'box': Marker.CUBE, 'sphere': Marker.SPHERE,
                  'spherical_shell': Marker.SPHERE, 'ellipsoid': Marker.SPHERE,
                  'cylinder': Marker.CYLINDER, 'plane': Marker.CUBE,
-                 'capsule': Marker.TRIANGLE_LIST, 'mesh': Marker.TRIANGLE_LIST}
+                 'capsule': Marker.TRIANGLE_LIST, 'mesh': Marker.TRIANGLE_LIST,
+                 'compound': Marker.TRIANGLE_LIST}
 _INT32 = 2 ** 31
 # Triangle points per shape, built once: (shape, tessellation options) -> (shape, points).
 # The Point objects are shared by every marker of that shape: never mutate a marker's points.
@@ -177,7 +185,8 @@ def shape_marker(shape: 'CollisionShape', ns: str, marker_id: int, frame_id: str
     * ``capsule``: TRIANGLE_LIST of its tessellation (:func:`rbd_ros.sim.tessellation.
       shape_triangles`: ``segments`` per ring, ``rings`` over both caps), scale 1.
     * ``mesh``: TRIANGLE_LIST of its faces, in the body frame (the vertices are already moved
-      by ``mesh_offset_m`` so the COM is the body origin), scale 1.
+      by ``mesh_offset_m`` so the COM is the body origin), scale 1; a ``compound``'s faces
+      (its parts' surfaces) likewise.
     * ``plane``: a CUBE slab ``plane_size_m`` × ``plane_size_m`` × :data:`GROUND_THICKNESS_M`
       whose top face lies on the plane, centred under the plane point nearest the origin.
 
@@ -531,3 +540,62 @@ def contact_markers(contacts: 'Contacts', frame_id: str, stamp_ns: int,
     lines.scale.x = CONTACT_LINE_WIDTH_M
     out.markers.extend([points, lines])
     return out
+
+
+class LinkMarkers:
+    """
+    Every robot link's collision shapes, each in its link's frame: built once, stamped a sample.
+
+    One marker per ``<collision>`` element (ns :data:`LINKS_NS`, ids in order of the robots,
+    their URDF links and each link's elements), ``header.frame_id`` the link's frame as
+    ``/tf`` names it (its URDF name; the ``world`` link of a robot fixed to the world is the
+    world frame), ``frame_locked`` true (a viewer moves it with the frame), the pose the
+    element's ``<origin>`` in the link frame and the shape's marker as :func:`shape_marker`
+    gives it; a mesh a MESH_RESOURCE of its file (:func:`mesh_uri` of the URDF's filename:
+    ``package://`` kept, else the ``file://`` URI of the file loaded), scale the URDF's
+    ``scale`` (the file's coordinates scaled are the element frame's: a link mesh is not
+    re-centred), so a sample carries its URI, not its triangles. A moving link's markers have
+    its body's colour (:func:`body_color` of its index in the world, the free bodies first); a
+    link fixed to the world the obstacles' colour.
+
+    :param robots: the :class:`rbd_ros.sim.robots.RobotConfig` values.
+    :param world_frame: the node's world frame id.
+    :param first_body: the world index of the first robot's first link body (the free bodies'
+        count).
+    """
+
+    def __init__(self, robots: Sequence['RobotConfig'], world_frame: str, first_body: int = 0):
+        self._array = MarkerArray()
+        body = first_body
+        for robot in robots:
+            urdf = robot.robot
+            for link in urdf.links:
+                frame = world_frame if link.name == 'world' and urdf.fixed_to_world \
+                    else link.name
+                color = OBSTACLE_COLOR if link.body is None else body_color(body + link.body)
+                for collision in link.collisions:
+                    index = len(self._array.markers)
+                    if collision.mesh_file is None:
+                        marker = shape_marker(collision.shape, LINKS_NS, index, frame,
+                                              collision.position_l, collision.orientation_l,
+                                              color, 0)
+                    else:  # the file, as a body's: x_l = R(q) (s ∘ v) + p, not re-centred
+                        filename, path, scale = collision.mesh_file
+                        marker = _body_marker(LINKS_NS, index, frame, Marker.MESH_RESOURCE,
+                                              color, scale)
+                        marker.mesh_resource = mesh_uri(filename, path)
+                        marker.mesh_use_embedded_materials = False
+                        marker.pose.position.x, marker.pose.position.y, \
+                            marker.pose.position.z = (float(v) for v in collision.position_l)
+                        conv.quaternion_to_msg(collision.orientation_l, marker.pose.orientation)
+                    marker.frame_locked = True
+                    marker.text = f'{robot.name}/{link.name}'
+                    self._array.markers.append(marker)
+            body += len(urdf.body_links)
+
+    def stamped(self, stamp_ns: int) -> List[Marker]:
+        """Return the markers with ``header.stamp`` at ``stamp_ns`` (the same objects)."""
+        stamp = conv.time_to_msg(stamp_ns)
+        for marker in self._array.markers:
+            marker.header.stamp = stamp
+        return list(self._array.markers)

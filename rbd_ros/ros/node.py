@@ -215,6 +215,8 @@ class RigidBodyNode(Node):
             # on markers; the static world once on static_markers (transient local, so a late
             # subscriber gets it).
             self._markers = _world_markers(config)
+            self._link_markers = markers.LinkMarkers(config.robots, config.world_frame,
+                                                     len(config.bodies))
             self._pubs['markers'] = self._publisher(MarkerArray, 'markers', 10)
             self._pubs['static_markers'] = self._publisher(MarkerArray, 'static_markers',
                                                            endpoints.STATE_QOS)
@@ -526,7 +528,7 @@ class RigidBodyNode(Node):
                 self._sample_pubs[kind][0](data)
 
     def _marker_array(self, t):
-        """Every body at its pose, then the contacts of the last stage of the last step."""
+        """Every body at its pose, the robots' links in their frames, the last contacts."""
         # The poses exactly as the pose topics carry them (the sample builders' values).
         x = self._columns
         values = [b.column_values(x[:, i]) for i, b in enumerate(self._builder.bodies)]
@@ -540,7 +542,8 @@ class RigidBodyNode(Node):
         # Lines of 1 cm per N: the last stage's impulse over the step.
         shown = markers.contact_markers(contacts, self.config.world_frame, t,
                                         0.01 / (self.config.timestep_ns * 1e-9))
-        return MarkerArray(markers=list(bodies.markers) + list(shown.markers))
+        return MarkerArray(markers=list(bodies.markers) + self._link_markers.stamped(t)
+                           + list(shown.markers))
 
     def _publish_diagnostics(self):
         s = self.session

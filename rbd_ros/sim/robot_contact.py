@@ -24,23 +24,29 @@ moving links) is a core joint of the contact step, named ``<robot>/<joint>``. A 
 file keeps :class:`rbd_ros.sim.robot_world.RobotWorld` (the joints-only core, no contact).
 
 **Collision shapes** (:func:`link_shape`). A body's shape comes from the ``<collision>``
-elements of the links it carries (the moving link and the massless links folded into it).
-The contact step has no compound shape and no shape offset (every shape is centred on its
-body's COM, in its axes): so a body takes exactly one element, and
+elements of the links it carries (the moving link and the massless links folded into it),
+each where the URDF puts it, in the body frame (the COM with the link's axes):
 
-- a box, cylinder or sphere whose frame is the body frame (its ``<origin>`` at the link's
-  ``<inertial>`` origin, same axes; within 1e-9 m and 1e-9 rad) is that primitive;
-- a mesh (with ``scale``) at any pose is that mesh with its vertices moved into the body
-  frame (the shape is then wherever the mesh is: its SDF is sampled there).
+- one box, cylinder or sphere whose frame is the body frame (its ``<origin>`` at the link's
+  ``<inertial>`` origin, same axes; within 1e-9 m and 1e-9 rad) is that primitive, exact;
+- one mesh (with ``scale``) at any pose is that mesh with its vertices moved into the body
+  frame (its SDF sampled there);
+- anything else (several elements, or a primitive away from the COM or turned) is their
+  :func:`rbd_ros.core.contact.shapes.compound_shape`: the least of the elements' exact
+  signed distances sampled on a grid, the elements' surface points, and as the points tried
+  against a plane their corners (a box element rests on a plane exactly) and surface points.
 
-A body without collision, with several, or with an offset primitive is refused at start in
-one line naming the URDF file, the link and why. The collisions of links fixed to the world
-(``world`` → fixed → ``mount``) are not part of the contact world: only moving links touch.
+A body without collision is refused at start in one line naming the URDF file and the link.
 
-**Which links touch** (:func:`no_collision_pairs`, the contact step's ``no_collision``): the
-parent and child links of a joint never collide with each other (they meet at the joint);
-a robot's other links do, unless ``robots.<name>.self_collision`` is false; links of
-different robots and free bodies always do. A world's own joints (``joint_names``) keep
+**Links fixed to the world** (``world`` → fixed → ``mount``, :func:`_world_links`): each of
+their ``<collision>`` elements is a static obstacle of the world at its placed pose, in the
+robot's material: a free body or another link lands on a robot's base.
+
+**Which links touch** (:func:`no_collision_pairs`, the contact step's ``no_collision``; with a
+link fixed to the world, ``no_static_collision``): the parent and child links of a joint never
+collide with each other (they meet at the joint), a link fixed to the world and its moving
+child included; a robot's other links do, unless ``robots.<name>.self_collision`` is false;
+links of different robots and free bodies always do. A world's own joints (``joint_names``) keep
 today's rule: their bodies collide (they are given shapes that clear at the joint).
 
 **Joints.** A URDF joint's ``<dynamics damping friction>`` (or ``robots.<r>.joints.<j>.*``)
@@ -62,15 +68,17 @@ import re
 import numpy as np
 
 from rbd_ros.core import ModelError, RbdError
-from rbd_ros.core.contact.shapes import mesh_shape
+from rbd_ros.core.contact.shapes import compound_shape, mesh_shape
 from rbd_ros.core.contact.simulator import WorldBody
-from rbd_ros.core.contact.world import validate_material
-from rbd_ros.core.rotations import quat_to_matrix
+from rbd_ros.core.contact.world import StaticObject, StaticWorld, validate_material
+from rbd_ros.core.rotations import quat_multiply, quat_to_matrix
 from rbd_ros.sim.config import overlap_error
 from rbd_ros.sim.robot_world import RobotWorld
+from rbd_ros.sim.tessellation import shape_triangles
 from rbd_ros.sim.world_joints import JointedWorldSimulator, WorldJoint
 
-# A primitive's frame is the body frame when its offset is within these (m, rad): far above
+# A primitive's frame is the body frame when its offset is within these (m, rad; else it is
+# a compound of one part): far above
 # the round-off of composing the URDF's origins (~1e-16), far below any offset a URDF means.
 _POSE_TOL = 1e-9
 _CORE_JOINT = re.compile(r"joint '([A-Za-z0-9_]+)/([^']+)'\.([a-z_0-9]+): (.*)\Z", re.S)
@@ -87,7 +95,7 @@ def link_shape(robot, body):
     """
     Return the :class:`CollisionShape` of body ``body`` of ``robot`` (a URDF ``Robot``).
 
-    See the module docstring for what is taken and what is refused.
+    See the module docstring for how the ``<collision>`` elements become one shape.
 
     :raises ModelError: one line naming the URDF file, the link and why.
     """
@@ -98,29 +106,23 @@ def link_shape(robot, body):
         _refuse(robot, name, 'none: in a world with contact every moving link needs one '
                 '<collision> (box, cylinder, sphere or mesh), as the contact step has no body '
                 'that touches nothing')
-    if len(elements) > 1:
-        _refuse(robot, name, f'{len(elements)} elements (on links '
-                f'{", ".join(sorted({n for n, _ in elements}))}): the contact step has no '
-                'compound shape yet; give each moving link one <collision> (a mesh may hold '
-                'the union)')
-    where, collision = elements[0]
-    shape = collision.shape
-    rot = quat_to_matrix(collision.orientation_b)
-    offset = float(np.abs(collision.position_b).max())
-    turn = float(np.abs(rot - np.eye(3)).max())
-    if shape.shape == 'mesh':
-        if offset == 0.0 and turn == 0.0:
+    if len(elements) == 1:
+        where, collision = elements[0]
+        shape = collision.shape
+        rot = quat_to_matrix(collision.orientation_b)
+        offset = float(np.abs(collision.position_b).max())
+        turn = float(np.abs(rot - np.eye(3)).max())
+        if shape.shape == 'mesh':
+            if offset == 0.0 and turn == 0.0:
+                return shape
+            vertices = shape.vertices_b @ rot.T + collision.position_b
+            return mesh_shape(vertices, shape.faces, centre=False,
+                              field=f'{robot.source}: link {where!r}.collision.')
+        if offset <= _POSE_TOL and turn <= _POSE_TOL:
             return shape
-        vertices = shape.vertices_b @ rot.T + collision.position_b
-        return mesh_shape(vertices, shape.faces, centre=False,
-                          field=f'{robot.source}: link {where!r}.collision.')
-    if offset > _POSE_TOL or turn > _POSE_TOL:
-        _refuse(robot, where, f"a {shape.shape} {offset:.6g} m from the link's centre of "
-                f'mass or turned from its axes (by up to {turn:.3g} in rotation-matrix '
-                "entries): the contact step centres a primitive on its body's COM, in its "
-                'axes; put the <collision> origin at the <inertial> origin with the same rpy, '
-                'or give a mesh')
-    return shape
+    return compound_shape([(c.shape, c.position_b, c.orientation_b) for _, c in elements],
+                          [shape_triangles(c.shape) for _, c in elements],
+                          field=f'{robot.source}: link {name!r}.collision.')
 
 
 def no_collision_pairs(robots, offsets):
@@ -144,6 +146,45 @@ def no_collision_pairs(robots, offsets):
             if a is not None and b is not None and a != b:
                 pairs.add((first + min(a, b), first + max(a, b)))
     return sorted(pairs)
+
+
+def _world_links(robots):
+    """
+    Return the robots' links fixed to the world as static objects, their labels and skips.
+
+    One :class:`StaticObject` per ``<collision>`` of every link that is part of the world
+    (``world`` → fixed → ...), at its pose in the world (the root's placement times the
+    element's pose in the root frame), in the robot's material. ``skip``: the ``(body index
+    within the robot, static name)`` pairs that never collide: a moving link and the world
+    link of its joint (adjacent), or every pair when the robot's ``self_collision`` is false.
+    """
+    objects, labels, skips = [], {}, []
+    for robot in robots:
+        urdf = robot.robot
+        material = validate_material(robot.friction, robot.restitution)
+        root_p, root_q = robot.placement.link_poses_w[urdf.root]
+        root_rot = quat_to_matrix(root_q)
+        names = {}
+        for index, link in enumerate(urdf.links):
+            if link.body is not None:
+                continue
+            for k, collision in enumerate(link.collisions):
+                name = f'_{robot.name}__w{index}_{k}'
+                position = root_rot @ collision.position_b + root_p
+                orientation = quat_multiply(root_q, collision.orientation_b)
+                objects.append(StaticObject(name, collision.shape, position, orientation,
+                                            material))
+                labels[f'obstacles.{name}'] = f'link {link.name!r} of robot {robot.name!r}'
+                names.setdefault(link.name, []).append(name)
+        links = {link.name: link.body for link in urdf.links}
+        if not robot.self_collision:
+            every = [n for group in names.values() for n in group]
+            skips.append([(b, n) for b in range(len(urdf.body_links)) for n in every])
+            continue
+        skips.append([(links[joint.child], n) for joint in urdf.joints
+                      if links[joint.parent] is None and links[joint.child] is not None
+                      for n in names.get(joint.parent, ())])
+    return objects, labels, skips
 
 
 def _link_bodies(robots):
@@ -190,14 +231,23 @@ class RobotContactWorld(RobotWorld):
         self._free = len(free)
         self._assemble(robots, timestep_ns, len(free))
         links, labels = _link_bodies(self.robots)
+        fixed, fixed_labels, skips = _world_links(self.robots)
+        labels.update(fixed_labels)
+        if fixed:
+            static = StaticWorld(None if static is None else static.ground,
+                                 (() if static is None else tuple(static.obstacles))
+                                 + tuple(fixed))
         _, link_states, joints = self._args
         world_joints = [WorldJoint(joint.name, joint, None, 0.0, ()) for joint in joints]
         states = [b.initial_state for b in bodies] + list(link_states)
+        offsets = [b0 for b0, _ in self._bodies]
         try:
             self._sim = _RobotCore(free + links, states, static, world_joints,
                                    integrator=integrator, timestep_ns=timestep_ns,
-                                   no_collision=no_collision_pairs(
-                                       self.robots, [b0 for b0, _ in self._bodies]))
+                                   no_collision=no_collision_pairs(self.robots, offsets),
+                                   no_static_collision=[(first + b, name) for first, pairs
+                                                        in zip(offsets, skips)
+                                                        for b, name in pairs])
         except RbdError as exc:
             raise self._named(exc, labels) from None
 
@@ -231,8 +281,9 @@ class RobotContactWorld(RobotWorld):
         else:
             exc = overlap_error(exc)
         text = str(exc)
-        for body, label in labels.items():
-            text = text.replace(f'bodies.{body}', label)
+        for key in sorted(labels, key=len, reverse=True):  # a name before its prefixes
+            where = key if key.startswith('obstacles.') else f'bodies.{key}'
+            text = text.replace(where, labels[key])
         if text == str(exc):
             return exc
         return type(exc)(text, field=exc.field, detail=getattr(exc, 'detail', None))

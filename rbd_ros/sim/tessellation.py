@@ -29,7 +29,8 @@ along body z):
 * sphere, ellipsoid, cylinder, capsule: surfaces of revolution about z, ``segments`` points
   per ring starting on +x (as the collision rings), rings every ``π / rings`` of polar angle
   on the round parts; the ellipsoid is the unit sphere's tessellation scaled by its semi-axes.
-* mesh: its own faces.
+* mesh: its own faces; compound (:func:`rbd_ros.core.contact.shapes.compound_shape`): its
+  parts' surfaces, as it was given them.
 * plane: a square of side ``plane_size_m`` on the plane, centred at the point of the plane
   nearest the body origin (a plane is infinite; this is the part drawn).
 """
@@ -155,7 +156,7 @@ def shape_triangles(shape: 'CollisionShape', segments: int = DEFAULT_SEGMENTS,
         raise ModelError(f'plane_size_m: {plane_size_m!r} m must be finite and > 0')
     segments = 4 * math.ceil(segments / 4)
     kind = shape.shape
-    if kind == 'mesh':
+    if kind in ('mesh', 'compound'):
         return np.ascontiguousarray(shape.vertices_b[shape.faces])
     if kind == 'plane':
         return _plane(shape, float(plane_size_m))

@@ -50,7 +50,8 @@ The XML is parsed strictly by lxml (a malformed file is refused, not recovered) 
   :mod:`rbd_ros.sim.joint_commands`).
 * **Collisions.** Every ``<collision>`` (box, cylinder, sphere, mesh with scale) becomes a
   :class:`RobotCollision`: the shape centred in its own frame and that frame's pose in the body
-  frame. The core has no compound shape or shape offset yet; all elements are kept.
+  frame, all of them, in order (a world with contact makes them one shape a body,
+  :mod:`rbd_ros.sim.robot_contact`).
 
 Every error is one line that names the file (or ``robot_description``), the link or joint and
 the field with its value and unit.
@@ -86,11 +87,20 @@ DESCRIPTION = 'robot_description'
 
 @dataclass(frozen=True)
 class RobotCollision:
-    """One ``<collision>``: a shape centred in its frame, and that frame in the body frame."""
+    """
+    One ``<collision>``: a shape centred in its frame, and that frame in the body frame.
+
+    ``position_l`` and ``orientation_l``: that frame in its link's frame (its ``<origin>``).
+    ``mesh_file``: a mesh's ``(filename as the URDF gives it, the file loaded, scale)``, else
+    None.
+    """
 
     shape: CollisionShape
     position_b: np.ndarray
     orientation_b: np.ndarray
+    position_l: np.ndarray
+    orientation_l: np.ndarray
+    mesh_file: Optional[Tuple[str, str, Tuple[float, float, float]]] = None
 
 
 @dataclass(frozen=True)
@@ -312,6 +322,7 @@ def _collision(source, link, index, element, base_dir, to_body):
     """Return the :class:`RobotCollision` of one ``<collision>`` (pose ``to_body`` · origin)."""
     who = f'link {link.name!r}.collision[{index}]'
     geometry = element.geometry
+    mesh_file = None
     try:
         if geometry is None:
             _fail(ModelError, source, who, 'has no <geometry>')
@@ -335,6 +346,7 @@ def _collision(source, link, index, element, base_dir, to_body):
             scale = geometry.mesh.scale
             scale = (1.0, 1.0, 1.0) if scale is None else np.broadcast_to(scale, 3)
             shape = load_mesh(path, scale, centre=False, field=f'{who}.mesh.')
+            mesh_file = (filename, path, tuple(float(f) for f in scale))
         else:
             _fail(ModelError, source, who, 'has no box, cylinder, sphere or mesh')
     except RbdError as exc:
@@ -343,7 +355,7 @@ def _collision(source, link, index, element, base_dir, to_body):
         raise type(exc)(f'{source}: {exc}', field=exc.field, value=exc.value,
                         unit=exc.unit, detail=exc.detail) from None
     position, quat = _pose(to_body @ _matrix(element.origin))
-    return RobotCollision(shape, position, quat)
+    return RobotCollision(shape, position, quat, *_pose(_matrix(element.origin)), mesh_file)
 
 
 def _check_tree(source, robot):

@@ -338,6 +338,52 @@ def test_mesh_body_with_a_file_is_a_mesh_resource_drawn_where_the_body_is(tmp_pa
                             [(uri, scale)])
 
 
+def test_robot_link_markers_are_in_their_link_frames_a_mesh_by_its_uri():
+    # A robot fixed to the world: a `base` link (fixed to `world`) with a box, and a moving
+    # `arm` link with a package:// mesh scaled 2x at an origin turned 1.2 rad about z. Each
+    # element is one marker in its link's frame at the URDF's <origin> (the quaternion of
+    # rpy (0, 0, 1.2) is (cos 0.6, 0, 0, sin 0.6)); the mesh is its file's URI and scale.
+    from rbd_ros.sim.config import NodeConfig
+    uri = 'package://rbd_ros/msg_config/meshes/l_block.stl'
+    urdf = f"""<?xml version="1.0"?>
+<robot name="r"><link name="world"/>
+<joint name="fix" type="fixed"><parent link="world"/><child link="base"/>
+<origin xyz="0 0 1"/></joint>
+<link name="base"><collision><origin xyz="0 0 0.05"/><geometry><box size="0.3 0.3 0.1"/>
+</geometry></collision></link>
+<joint name="j" type="revolute"><parent link="base"/><child link="arm"/><axis xyz="0 0 1"/>
+<limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+<link name="arm"><inertial><origin xyz="0 0 0.5"/><mass value="1"/><inertia ixx="0.1" ixy="0"
+ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial><collision><origin xyz="0.1 0.2 0.3"
+rpy="0 0 1.2"/><geometry><mesh filename="{uri}" scale="2 2 2"/></geometry></collision>
+</link></robot>"""
+    config = NodeConfig.from_parameters({'robot_names': ['r'],
+                                         'robots.r.robot_description': urdf})
+    built = markers.LinkMarkers(config.robots, 'odom', first_body=3)
+    base, arm = built.stamped(STAMP_NS)
+    assert (base.ns, base.id, base.type) == ('links', 0, Marker.CUBE)
+    assert base.header.frame_id == 'base'
+    assert np.array_equal(xyz(base.scale), (0.3, 0.3, 0.1))
+    assert np.array_equal(xyz(base.pose.position), (0.0, 0.0, 0.05))
+    assert (arm.ns, arm.id, arm.type, arm.header.frame_id) == ('links', 1,
+                                                               Marker.MESH_RESOURCE, 'arm')
+    assert arm.mesh_resource == uri and arm.mesh_use_embedded_materials is False
+    assert np.array_equal(xyz(arm.scale), (2.0, 2.0, 2.0)) and arm.points == []
+    # rpy -> rotation matrix -> quaternion (the URDF reader's path): round-off, ~1e-16.
+    assert np.allclose(xyz(arm.pose.position), (0.1, 0.2, 0.3), rtol=0.0, atol=1e-15)
+    want = (math.cos(0.6), 0.0, 0.0, math.sin(0.6))
+    assert np.allclose(wxyz(arm.pose.orientation), want, rtol=0.0, atol=1e-15)
+    for marker in (base, arm):
+        assert marker.frame_locked and marker.header.stamp.sec == STAMP_NS // 10 ** 9
+        assert marker.text == f'r/{marker.header.frame_id}'
+    # the moving link in its body's colour (body 3: the free bodies first), the base in the
+    # obstacles'
+    color = [(m.color.r, m.color.g, m.color.b, m.color.a) for m in (arm, base)]
+    # ColorRGBA holds float32: 1e-7 is its rounding of values in [0, 1].
+    assert np.allclose(color, [markers.body_color(3), markers.OBSTACLE_COLOR], atol=1e-7)
+    round_trip(MarkerArray(markers=[base, arm]))
+
+
 @pytest.fixture(scope='module')
 def resting_box_contacts():
     """Settle a 2 kg box on the ground for 50 steps of 1 ms; return its last step's contacts."""

@@ -15,13 +15,16 @@
 """
 A URDF robot and a free body in one contact world, in the node, through real DDS.
 
-One node on a params file written here (``msg_config/urdf/pendulum.urdf``, its 1.5 m rod
-released at 0.5 rad from a pivot 2 m up, over a ground at z = 0.4 m with a 0.2 m box resting
-beside the rod's lowest point), started paused, recorded, run 1 s of sim time; one probe. The
-robot's topics are a robot's (``pendulum/joint_states``, ``pendulum/joint_wrenches``, the
-rod on ``/tf`` as robot_state_publisher gives it: world → rod at the pivot, turned by the
-joint angle about y), the box's a world body's (``box/pose``, ``box/twist``, world → box on
-``/tf``); the rod knocks the box along +x, and the recording replays MATCH.
+One node on a params file written here (``msg_config/urdf/pendulum.urdf`` given as
+``robot_description`` with a ball at its pivot end and a ``ceiling`` link fixed to the world
+above it; its 1.5 m rod released at 0.5 rad from a pivot 2 m up, over a ground at z = 0.4 m
+with a 0.2 m box resting beside the rod's lowest point), started paused, recorded, run 1 s of
+sim time; one probe. The robot's topics are a robot's (``pendulum/joint_states``,
+``pendulum/joint_wrenches``, the rod on ``/tf`` as robot_state_publisher gives it: world →
+rod at the pivot, turned by the joint angle about y), the box's a world body's
+(``box/pose``, ``box/twist``, world → box on ``/tf``); the rod knocks the box along +x, every
+link's collision elements are on ``markers`` in their link frames, and the recording replays
+MATCH.
 """
 
 import math
@@ -40,8 +43,24 @@ PIVOT = (0.0, 0.0, 2.0)
 BOX0 = (0.13, 0.0, 0.5)
 
 
+#: The rod's second <collision> (a ball at its pivot end) and the ceiling link: its box 0.15 m
+#: above the pivot (the ball's top is 0.12 m below it).
+BALL = ('<collision><origin xyz="0 0 0"/><geometry><sphere radius="0.03"/></geometry>'
+        '</collision>')
+CEILING = ('<joint name="ceiling_joint" type="fixed"><parent link="world"/><child '
+           'link="ceiling"/><origin xyz="0 0 2"/></joint><link name="ceiling"><collision>'
+           '<origin xyz="0 0 0.2"/><geometry><box size="0.3 0.3 0.1"/></geometry></collision>'
+           '</link>')
+
+
+def _urdf():
+    text = PENDULUM_URDF.read_text()
+    text = text.replace('</collision>', '</collision>' + BALL, 1)
+    return text.replace('</robot>', CEILING + '</robot>')
+
+
 def _params(bag):
-    return {'robot_names': ['pendulum'], 'robots.pendulum.urdf_path': str(PENDULUM_URDF),
+    return {'robot_names': ['pendulum'], 'robots.pendulum.robot_description': _urdf(),
             'robots.pendulum.initial_joint_positions': [0.5],
             'gravity': [0.0, 0.0, -9.81], 'ground.enabled': True, 'ground.height_m': 0.4,
             'body_names': ['box'], 'bodies.box.shape': 'box',
@@ -59,10 +78,12 @@ def run(module_tmp):
     from ros_probe import Probe
     from sensor_msgs.msg import JointState, MultiDOFJointState
     from tf2_msgs.msg import TFMessage
+    from visualization_msgs.msg import MarkerArray
     bag = module_tmp / 'robot_box'
     node = NodeProcess(module_tmp, _params(bag), namespace=True)
     probe = Probe(node.namespace, inputs=(), outputs=('diagnostics',))
-    got = {'joint_states': {}, 'joint_wrenches': {}, 'pose': {}, 'twist': {}, 'tf': {}}
+    got = {'joint_states': {}, 'joint_wrenches': {}, 'pose': {}, 'twist': {}, 'tf': {},
+           'markers': {}}
     # Transient local (keep last 1): a subscription matched after the paused node's t = 0
     # sample still gets it; /tf is volatile (its t = 0 sample may precede the match).
     latched = QoSProfile(depth=1000, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -77,7 +98,9 @@ def run(module_tmp):
                  lambda m: m.header.stamp, latched),
                 ('pose', PoseStamped, 'box/pose', lambda m: m.header.stamp, 1000),
                 ('twist', TwistStamped, 'box/twist', lambda m: m.header.stamp, 1000),
-                ('tf', TFMessage, '/tf', lambda m: m.transforms[0].header.stamp, 1000))]
+                ('tf', TFMessage, '/tf', lambda m: m.transforms[0].header.stamp, 1000),
+                ('markers', MarkerArray, 'markers', lambda m: m.markers[0].header.stamp,
+                 1000))]
     try:
         probe.wait(lambda: all(s.get_publisher_count() >= 1 for s in subs)
                    and probe.clients['pause'].service_is_ready(), 120, 'the node on the graph')
@@ -117,7 +140,7 @@ def test_every_sample_arrives_and_the_rods_tf_is_its_joint_angle(run):
     worst = 0.0
     for t, msg in got['tf'].items():
         frames = {tr.child_frame_id: tr for tr in msg.transforms}
-        assert set(frames) == {'rod', 'box'}, sorted(frames)
+        assert set(frames) == {'rod', 'box', 'ceiling'}, sorted(frames)
         rod = frames['rod'].transform
         theta = got['joint_states'][t].position[0]
         # world -> rod: the pivot, turned by theta about y: q = (cos θ/2, 0, sin θ/2, 0)
@@ -149,3 +172,30 @@ def test_the_rod_knocks_the_box_along_x_and_the_recording_replays_match(run):
     assert max(speeds) > 0.1 and min(speeds) > -1e-9
     result = replay_bag(run['bag'])
     assert result.match, result.problems
+
+
+def test_every_links_collision_elements_are_on_markers_in_its_frame(run):
+    # The rod's cylinder and ball, then the ceiling's box (robots, links, elements in order),
+    # each in its link's frame (the frames /tf carries) at its <origin>, as the URDF gives
+    # them: the same floats, so compared exactly.
+    from visualization_msgs.msg import Marker
+    want = [('rod', Marker.CYLINDER, (0.04, 0.04, 1.5), (0.0, 0.0, -0.75)),
+            ('rod', Marker.SPHERE, (0.06, 0.06, 0.06), (0.0, 0.0, 0.0)),
+            ('ceiling', Marker.CUBE, (0.3, 0.3, 0.1), (0.0, 0.0, 0.2))]
+    assert run['got']['markers'], 'no markers'
+    for t, msg in run['got']['markers'].items():
+        links = [m for m in msg.markers if m.ns == 'links']
+        have = [(m.header.frame_id, m.type, (m.scale.x, m.scale.y, m.scale.z),
+                 (m.pose.position.x, m.pose.position.y, m.pose.position.z)) for m in links]
+        assert have == want, have
+        assert [m.id for m in links] == [0, 1, 2]
+        assert [m.text for m in links] == ['pendulum/rod', 'pendulum/rod', 'pendulum/ceiling']
+        for m in links:
+            q = m.pose.orientation
+            assert (q.x, q.y, q.z, q.w) == (0.0, 0.0, 0.0, 1.0)
+            assert m.frame_locked and time_from_msg(m.header.stamp) == t
+        # the free box is drawn as before, at its pose
+        box = next(m for m in msg.markers if m.ns == 'bodies')
+        if t in run['got']['pose']:
+            pose = run['got']['pose'][t].pose.position
+            assert (box.pose.position.x, box.pose.position.z) == (pose.x, pose.z)

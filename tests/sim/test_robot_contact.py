@@ -21,7 +21,8 @@ same contact step, the same bits) and rests at its half height; a URDF pendulum 
 with a ground far below swings as on the joints-only core and with the closed-form period; a
 rod pendulum knocks a free box off its spot without ever gaining energy (ε = 0). What the
 contact step cannot take yet is refused at start in one line naming the robot's parameter,
-the URDF joint or the link.
+the URDF joint or the link. A link's ``<collision>`` elements collide where the URDF puts them
+(one offset from the COM, several at once), and a link fixed to the world is an obstacle.
 """
 
 import math
@@ -219,6 +220,79 @@ def test_a_rod_pendulum_knocks_a_box_off_its_spot_and_never_gains_energy():
     assert box_x[-1] > 0.13 + 0.05   # knocked off its spot along +x
 
 
+def test_a_box_collision_offset_from_the_com_rests_at_the_height_its_offset_gives():
+    # The crate's box collision 0.03 m below its COM (and 0.04 m, 0.05 m aside, inside its
+    # footprint): tilted, it lands on a corner and settles on its big face, the COM then
+    # 0.05 m (half the box) + 0.03 m (the offset) above the ground.
+    config = NodeConfig.from_parameters(_ground(robot_names=['crate'], **{
+        'robots.crate.robot_description': _box_urdf(origin='0.04 0.05 -0.03'),
+        'robots.crate.initial_position': START, 'robots.crate.initial_orientation': TILT}))
+    world = make_simulator(config)
+    assert world.world.bodies[0].shape.shape == 'compound'
+    world.step(3000)
+    x = world.world.arrays[0][:, 0]
+    print(f'\noffset box collision at rest: COM z {x[2]!r} m (closed form 0.08 m)')
+    assert abs(x[2] - (BOX_M[2] / 2 + 0.03)) <= REST_TOL  # REST_TOL: a box's corners, exact
+    assert abs(abs(x[3]) - 1.0) < 1e-12 or abs(np.hypot(x[4], x[5])) < 1e-9  # level
+    assert np.abs(x[7:13]).max() < 1e-9
+
+
+def _bench_urdf(feet_x=0.2):
+    """Return a 2 kg link's URDF: two 0.1 m cube feet 0.05 m below its COM, at x = ±feet_x."""
+    foot = ('<collision><origin xyz="{x} 0 -0.05"/><geometry><box size="0.1 0.1 0.1"/>'
+            '</geometry></collision>')
+    return f"""<?xml version="1.0"?>
+<robot name="bench"><link name="bench"><inertial><mass value="2.0"/>
+<inertia ixx="0.01" ixy="0" ixz="0" iyy="0.05" iyz="0" izz="0.05"/></inertial>
+{foot.format(x=feet_x)}{foot.format(x=-feet_x)}</link></robot>"""
+
+
+def test_a_link_with_two_collisions_stands_on_both():
+    # Tilted 0.1 rad about y, the bench lands on one foot, then stands on both, level, its COM
+    # 0.1 m up (0.05 m to the feet's centres, half a foot below them); each foot carries half
+    # its weight (its COM midway between them).
+    world = make_simulator(NodeConfig.from_parameters(_ground(robot_names=['bench'], **{
+        'robots.bench.robot_description': _bench_urdf(),
+        'robots.bench.initial_position': [0.0, 0.0, 0.2],
+        'robots.bench.initial_orientation': [0.0, math.sin(0.05), 0.0, math.cos(0.05)]})))
+    world.step(2000)
+    x = world.world.arrays[0][:, 0]
+    assert abs(x[2] - 0.1) <= REST_TOL and np.abs(x[7:13]).max() < 1e-9
+    c = world.contacts
+    staged = c.stage > 0  # the step's contact stages: the weight's impulse m g h over them
+    feet = [float(c.impulse_w[staged & (side * (c.point_w[:, 0] - x[0]) > 0.1), 2].sum())
+            for side in (1.0, -1.0)]
+    print(f'\nbench on two feet: COM z {x[2]!r} m; feet impulses {feet} N s over a step')
+    weight = 2.0 * G * 1e-3
+    # Each foot half the weight's impulse: the stages' impulses balance gravity over the step
+    # and the moments about the COM cancel, to the solver's round-off (1e-12 of the impulse).
+    assert all(abs(f - weight / 2) < 1e-12 * weight for f in feet), feet
+
+
+def test_a_box_dropped_on_a_fixed_base_link_rests_on_it():
+    # arm3's mount (world -> fixed -> mount, its 0.2 x 0.2 x 0.1 m box 0.05 m above the mount
+    # frame, 2 m up) with the robot placed 0.5 m along x: an obstacle whose top is at
+    # z = 2.1 m. A 0.1 m cube dropped on it rests there, its centre at 2.15 m; the arm below
+    # (its upper link jointed to the mount, touching it at the shoulder) hangs still.
+    world = make_simulator(_arm(body_names=['cube'], **{
+        'robots.arm.initial_position': [0.5, 0.0, 0.0],
+        'bodies.cube.shape': 'box', 'bodies.cube.dimensions_m': [0.1, 0.1, 0.1],
+        'bodies.cube.mass_kg': 0.3, 'bodies.cube.initial_position': [0.55, 0.03, 2.4]}))
+    world.step(1500)
+    x = world.arrays[0][:, 0]
+    print(f'\ncube on the mount: centre {x[:3].tolist()} m (closed form z = 2.15 m)')
+    assert abs(x[2] - 2.15) <= REST_TOL and np.abs(x[7:13]).max() < 1e-9
+    assert abs(x[0] - 0.55) < 1e-12 and abs(x[1] - 0.03) < 1e-12  # it fell straight
+    q, qd, _ = world.joint_states(0)
+    assert max(map(abs, q)) < 1e-12 and max(map(abs, qd)) < 1e-12
+    # Placed inside the mount: refused, naming the link and the robot.
+    with pytest.raises(ModelError) as caught:
+        make_simulator(_arm(body_names=['cube'], **{
+            'bodies.cube.shape': 'box', 'bodies.cube.dimensions_m': [0.1, 0.1, 0.1],
+            'bodies.cube.initial_position': [0.0, 0.0, 2.1]}))
+    assert "0.05 m deep inside link 'mount' of robot 'arm'" in str(caught.value), caught.value
+
+
 def _refused(error, urdf=None, **params):
     """Return the one-line refusal of a pendulum file over a ground, with ``params``."""
     if urdf is not None:
@@ -252,19 +326,9 @@ def test_what_the_contact_step_cannot_take_is_refused_naming_the_parameter_or_th
                     **{'robots.pendulum.initial_joint_positions': [0.5, 0.5]})
     assert line == ("robot_description: joint 'pivot2'.mimic: 'pivot'; a world with contact "
                     'takes no joint mimic yet (leave it None)'), line
-    # A link the contact step cannot give a shape: none, two, an offset primitive.
+    # A moving link without a shape (several, or one away from the COM, are a compound now).
     line = _refused(ModelError, _pendulum_urdf(collision=''))
     assert line.startswith("robot_description: link 'rod'.collision: none: "), line
-    two = ('<collision><origin xyz="0 0 -0.75"/><geometry><cylinder radius="0.02" '
-           'length="1.5"/></geometry></collision>') * 2
-    line = _refused(ModelError, _pendulum_urdf(collision=two))
-    assert line.startswith("robot_description: link 'rod'.collision: 2 elements"), line
-    assert 'no compound shape' in line
-    offset = ('<collision><origin xyz="0 0 -0.5"/><geometry><sphere radius="0.1"/>'
-              '</geometry></collision>')
-    line = _refused(ModelError, _pendulum_urdf(collision=offset))
-    assert line.startswith("robot_description: link 'rod'.collision: a sphere 0.25 m from "
-                           "the link's centre of mass"), line
     # An integrator without a velocity update to put contact impulses after.
     line = _refused(ConfigError, integrator='rk4')
     assert line.startswith("parameter integrator = 'rk4': cannot take contact (robots in a "
@@ -353,29 +417,35 @@ FOLDED = {'robots.arm.initial_joint_positions': [0.0, 2.5, 1.0],
           'robots.arm.initial_joint_velocities': [0.0, 0.0, 3.0], 'gravity': [0.0, 0.0, 0.0]}
 
 
-def _hand_upper_contacts(world, steps):
-    """Return how many steps had a contact between the hand (body 2) and the upper (body 0)."""
+def _hand_self_contacts(world, steps):
+    """
+    Return how many steps had a contact of the hand (body 2) with another link of its robot.
+
+    The upper arm (body 0) or the mount, fixed to the world (static object 1, after the
+    ground: ``body_b`` -2).
+    """
     count = 0
     for _ in range(steps):
         world.step(1)
         c = world.contacts
-        count += any({int(a), int(b)} == {0, 2} for a, b in zip(c.body_a, c.body_b))
+        count += any({int(a), int(b)} in ({0, 2}, {2, -2}) for a, b in zip(c.body_a, c.body_b))
     return count
 
 
 def test_other_links_of_a_robot_collide_unless_self_collision_is_off():
-    # No gravity; the wrist turns at 3 rad/s toward the upper arm: the hand strikes it within
-    # ~0.5 s (the hand's end sweeps ~1 rad to the upper arm's line).
+    # No gravity; the wrist turns at 3 rad/s toward the upper arm: the hand's end, swinging up
+    # past z = 2 m, strikes the mount (a link fixed to the world, 0.1 m from the upper arm's
+    # line) within ~0.1 s, before it reaches the upper arm.
     colliding = make_simulator(_arm(**FOLDED))
-    hits = _hand_upper_contacts(colliding, 800)
+    hits = _hand_self_contacts(colliding, 800)
     passing = make_simulator(_arm(**FOLDED, **{'robots.arm.self_collision': False}))
-    through = _hand_upper_contacts(passing, 800)
+    through = _hand_self_contacts(passing, 800)
     wrist_a = colliding.joint_states(0)[0][2]
     wrist_b = passing.joint_states(0)[0][2]
-    print(f'\nfolded arm3: hand-upper contact steps {hits} (self_collision on), {through} (off); '
-          f'wrist {wrist_a:.4f} rad vs {wrist_b:.4f} rad')
+    print(f'\nfolded arm3: hand-robot contact steps {hits} (self_collision on), {through} '
+          f'(off); wrist {wrist_a:.4f} rad vs {wrist_b:.4f} rad')
     assert hits > 0 and through == 0
-    assert wrist_b > wrist_a + 0.1  # the hand was stopped by the upper arm only when on
+    assert wrist_b > wrist_a + 0.1  # the hand was stopped by its own robot only when on
     # Started inside each other: refused with self_collision on, in one line naming both links.
     inside = {'robots.arm.initial_joint_positions': [0.0, 2.5, 2.5]}
     with pytest.raises(ModelError) as caught:

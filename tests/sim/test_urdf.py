@@ -23,6 +23,7 @@ import pytest
 from rbd_ros.core import ConfigError, ModelError
 from rbd_ros.core.joints import ArticulatedSimulator
 from rbd_ros.core.rotations import quat_from_axis_angle, quat_to_matrix
+from rbd_ros.sim.meshes import resolve_mesh_path
 from rbd_ros.sim.urdf import load_urdf, place_robot
 from tests.core.joints.closed_forms import (chain_joint_forces, compound_pendulum_l_eq,
                                             pendulum_period)
@@ -255,6 +256,11 @@ def test_mesh_collisions_with_scale_package_uri_and_relative_path(tmp_path):
     assert np.allclose(scaled.shape.vertices_b.max(axis=0),
                        2.0 * plain.shape.vertices_b.max(axis=0), rtol=1e-15, atol=0)
     assert np.array_equal(plain.position_b, [0.0, 0.0, 1.0])
+    # the file as the URDF names it and as loaded, with its scale (markers draw it from there)
+    assert scaled.mesh_file == (L_BLOCK, resolve_mesh_path(L_BLOCK, 'f'), (2.0, 2.0, 2.0))
+    assert plain.mesh_file == ('meshes/block.stl', str(mesh_dir / 'block.stl'),
+                               (1.0, 1.0, 1.0))
+    assert sphere.mesh_file is None
 
 
 def test_xacro_file_is_expanded(tmp_path):

@@ -56,9 +56,10 @@ def broad_phase(x, pos_c, bound_r, n_bodies, st_kind, st_params, st_lo, st_hi, m
     """
     Return the candidate pairs ``(P, 2)`` int64, in a fixed order.
 
-    Body-body pairs ``(a, b)`` with ``a < b`` sorted, then body-static ``(a, N + s)``. A body
-    pair whose key ``a N + b`` is in ``skip`` (sorted int64: bodies that never collide, such as
-    a robot's adjacent links) is left out.
+    Body-body pairs ``(a, b)`` with ``a < b`` sorted, then body-static ``(a, N + s)``. A pair
+    whose key ``a (N + S) + b`` is in ``skip`` (sorted int64, ``S`` the static objects: a body
+    and a body or a static object that never collide, such as a robot's adjacent links) is
+    left out.
 
     Each body's box holds its bounding ball at the current and the candidate pose, grown by
     ``margin``; bodies are sorted by the low x of their box and swept, so the cost is
@@ -82,7 +83,8 @@ def broad_phase(x, pos_c, bound_r, n_bodies, st_kind, st_params, st_lo, st_hi, m
         _sweep(order, lo, hi, pairs)
     body_pairs = pairs[:count]
     # Fixed processing order whatever the sort did with ties: by (a, b).
-    key = body_pairs[:, 0] * n + body_pairs[:, 1]
+    m = n + st_kind.shape[0]
+    key = body_pairs[:, 0] * m + body_pairs[:, 1]
     ranked = np.argsort(key, kind='mergesort')
     body_pairs = body_pairs[ranked]
     if skip.shape[0] > 0:
@@ -110,6 +112,10 @@ def broad_phase(x, pos_c, bound_r, n_bodies, st_kind, st_params, st_lo, st_hi, m
                   or lo[a, 1] > st_hi[s, 1] or st_lo[s, 1] > hi[a, 1]
                   or lo[a, 2] > st_hi[s, 2] or st_lo[s, 2] > hi[a, 2]):
                 continue
+            if skip.shape[0] > 0:
+                at = np.searchsorted(skip, a * m + n + s)
+                if at < skip.shape[0] and skip[at] == a * m + n + s:
+                    continue
             statics[ns, 0] = a
             statics[ns, 1] = n + s
             ns += 1

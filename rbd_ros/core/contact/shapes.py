@@ -63,11 +63,12 @@ from rbd_ros.core import cachedir, jitcache
 from rbd_ros.core.contact import kernels as k
 from rbd_ros.core.errors import field_error, ModelError
 from rbd_ros.core.inertia import from_shape, shape_dimensions, triangle_mesh
+from rbd_ros.core.rotations import quat_to_matrix
 
 __all__ = [
     'CollisionShape', 'DEFAULT_SDF_CELLS', 'MAX_SDF_CELLS', 'PRIMITIVES', 'SDF_PAD_CELLS',
-    'collision_shape', 'load_mesh', 'mesh_shape', 'plane_shape', 'primitive_shape',
-    'sdf_cache_dir',
+    'collision_shape', 'compound_shape', 'load_mesh', 'mesh_shape', 'plane_shape',
+    'primitive_shape', 'sdf_cache_dir',
 ]
 
 #: Shape names accepted by :func:`primitive_shape` (``spherical_shell`` has a sphere's surface).
@@ -109,7 +110,8 @@ class CollisionShape:
     """
     One body's collision geometry in its body frame (m), as arrays a compiled kernel can read.
 
-    :param shape: ``'plane'``, a name of :data:`PRIMITIVES` or ``'mesh'``.
+    :param shape: ``'plane'``, a name of :data:`PRIMITIVES`, ``'mesh'`` or ``'compound'``
+        (:func:`compound_shape`).
     :param kind: the kernel's kind id (``kernels.KIND_*``).
     :param params: float64 (``N_SHAPE_PARAM``,) closed-form parameters (see
         :mod:`rbd_ros.core.contact.kernels`); for a mesh the grid origin and spacing.
@@ -189,6 +191,9 @@ class CollisionShape:
         integrals :func:`rbd_ros.core.inertia.triangle_mesh` (COM at the origin up to
         round-off, as the mesh was centred).
         """
+        if self.shape == 'compound':
+            raise ModelError('shape: a compound has no uniform-density mass properties (its '
+                             'parts may overlap); give the body its mass and inertia')
         if self.kind == k.KIND_MESH:
             return triangle_mesh(self.vertices_b, self.faces, mass_kg=mass_kg)
         if self.kind == k.KIND_PLANE:
@@ -656,6 +661,126 @@ def load_mesh(mesh_path, mesh_scale=(1.0, 1.0, 1.0), spacing_m=None,
                               faces=np.asarray(mesh.faces, dtype=np.int64), process=False)
     return _mesh_from_trimesh(mesh, where, f'{field}mesh_path', field, spacing_m, sdf_cells,
                               centre, cache_dir)
+
+
+# ---------------------------------------------------------------------------------------------
+# Compounds
+
+# A part's surface point is dropped when it lies deeper than this inside another part,
+# relative to the compound's largest extent: far above the round-off of moving the points
+# (~1e-16 x extent), far below any overlap a model means.
+_INSIDE_RTOL = 1e-9
+# A compound's grid has at least this many cells across its thinnest part (a rod's radius is
+# then resolved), down to MAX_SDF_CELLS along its largest extent and within
+# _MAX_COMPOUND_NODES nodes (16 MB of float64), but never coarser than sdf_cells.
+_THIN_CELLS = 8
+_MAX_COMPOUND_NODES = 2_000_000
+
+
+def _corners(low, high):
+    """Return the 8 corners (8, 3) of the box ``[low, high]``."""
+    return np.array([[(low, high)[i][0], (low, high)[j][1], (low, high)[m][2]]
+                     for i in (0, 1) for j in (0, 1) for m in (0, 1)], dtype=np.float64)
+
+
+def compound_shape(parts, surfaces, sdf_cells=DEFAULT_SDF_CELLS, field=''):
+    """
+    Return one body's :class:`CollisionShape` made of several shapes, each at its own pose.
+
+    What a URDF link with several ``<collision>`` elements, or one away from its centre of
+    mass, is. The compound is a ``KIND_MESH`` shape for the contact step (``shape`` is
+    ``'compound'``), in the body frame:
+
+    * φ: the SDF grid (at least ``sdf_cells`` along the largest extent of the parts'
+      bounding boxes, finer when a part is thin: 8 cells across the thinnest part's bounding
+      box, up to :data:`MAX_SDF_CELLS` along the extent and 2e6 nodes; :data:`SDF_PAD_CELLS`
+      of padding) holds at each node the least of the parts' exact
+      signed distances (a primitive's closed form, a mesh's exact distance as
+      :func:`mesh_shape` computes it), interpolated as a mesh's. That minimum is the union's
+      exact signed distance outside the union and on its surface; inside, where parts
+      overlap, its magnitude is at most the true depth (the contact normal there may point
+      to the other part). It is 1-Lipschitz, so the mesh's bound ``(√3 / 2) h`` on the
+      interpolation holds.
+    * surface points: every part's, moved into the body frame, but those deeper than
+      1e-9 × the largest extent inside another part (not on the union's surface).
+    * ``vertices_b`` and ``faces``: the parts' ``surfaces`` (what is drawn), then every
+      surface point not already a corner (in no face): a plane meets the compound at one of
+      these, so a box part rests on a plane exactly at its corners, a round part within its
+      point spacing's sag.
+
+    :param parts: ``(shape, position_b, orientation_b)`` per part: a primitive or mesh
+        :class:`CollisionShape` in its own frame, and that frame's origin (m) and rotation
+        (``w, x, y, z``) in the body frame: ``x_b = R(q) x_part + position_b``.
+    :param surfaces: per part, its surface triangles (n, 3, 3) in its own frame, m.
+    :param field: prefix of the field names in error messages.
+    :raises ModelError: no parts, a plane or compound among them, or a non-finite pose.
+    """
+    parts = list(parts)
+    if not parts or len(surfaces) != len(parts):
+        raise ModelError(f'{field}parts: {len(parts)} parts and {len(surfaces)} surfaces; a '
+                         'compound needs at least one part and a surface for each')
+    cells = _check_cells(sdf_cells, field)
+    posed = []
+    for index, (shape, position, orientation) in enumerate(parts):
+        if not isinstance(shape, CollisionShape) or shape.kind == k.KIND_PLANE \
+                or shape.shape == 'compound':
+            raise ModelError(f'{field}parts[{index}]: {shape!r} is not a primitive or a mesh')
+        position = np.asarray(position, dtype=np.float64).reshape(3)
+        quat = np.asarray(orientation, dtype=np.float64).reshape(4)
+        if not (np.all(np.isfinite(position)) and np.all(np.isfinite(quat))):
+            raise ModelError(f'{field}parts[{index}]: pose {position.tolist()} m, '
+                             f'{quat.tolist()} must be finite')
+        posed.append((shape, quat_to_matrix(quat / np.linalg.norm(quat)), position))
+    boxes = np.concatenate([_corners(s.aabb_min_b, s.aabb_max_b) @ rot.T + pos
+                            for s, rot, pos in posed])
+    low, high = boxes.min(axis=0), boxes.max(axis=0)
+    extent = float((high - low).max())
+    thinnest = min(float((s.aabb_max_b - s.aabb_min_b).min()) for s, _, _ in posed)
+    h = max(extent / MAX_SDF_CELLS, min(extent / cells, thinnest / _THIN_CELLS))
+
+    def node_counts(spacing):
+        return tuple(int(math.ceil(e / spacing)) + 1 + 2 * SDF_PAD_CELLS for e in high - low)
+
+    while h < extent / cells and math.prod(node_counts(h)) > _MAX_COMPOUND_NODES:
+        h = min(1.25 * h, extent / cells)
+    counts = node_counts(h)
+    origin = low - SDF_PAD_CELLS * h
+    axes = [origin[m] + h * np.arange(counts[m]) for m in range(3)]
+    nodes = np.stack(np.meshgrid(*axes, indexing='ij'), axis=-1).reshape(-1, 3)
+    jitcache.configured()  # the kernel cache, before a first compile
+    values = np.full(counts, np.inf)
+    for shape, rot, pos in posed:  # each part's exact φ at every node
+        part = np.zeros(counts)
+        if shape.kind == k.KIND_MESH:
+            k.build_sdf(np.ascontiguousarray(shape.vertices_b @ rot.T + pos), shape.faces,
+                        origin, h, part)
+        else:
+            k.phi_grad_many(shape.kind, shape.params, shape.grid,
+                            np.ascontiguousarray((nodes - pos) @ rot), part.reshape(-1),
+                            np.empty((nodes.shape[0], 3)))
+        values = np.minimum(values, part)
+    points = []
+    for index, (shape, rot, pos) in enumerate(posed):
+        mine = shape.points_b @ rot.T + pos
+        keep = np.ones(mine.shape[0], dtype=bool)
+        for other, (o_shape, o_rot, o_pos) in enumerate(posed):
+            if other != index:
+                phi, _ = o_shape.signed_distance((mine - o_pos) @ o_rot)
+                keep &= phi >= -_INSIDE_RTOL * extent
+        points.append(mine[keep])
+    points = np.concatenate(points)
+    tris = np.concatenate([np.asarray(tri, dtype=np.float64).reshape(-1, 3) @ rot.T + pos
+                           for tri, (_, rot, pos) in zip(surfaces, posed)])
+    vertices, index = np.unique(np.concatenate([tris, points]), axis=0, return_inverse=True)
+    faces = np.asarray(index).reshape(-1)[:tris.shape[0]]
+    radius = max(float(np.linalg.norm(pos)) + s.bounding_radius_m for s, _, pos in posed)
+    return CollisionShape(
+        shape='compound', kind=k.KIND_MESH, params=_frozen(_params(*origin, h)),
+        dimensions_m=_frozen(np.zeros(0)), spacing_m=min(s.spacing_m for s, _, _ in posed),
+        points_b=_frozen(points), bounding_radius_m=radius, aabb_min_b=_frozen(low),
+        aabb_max_b=_frozen(high), vertices_b=_frozen(vertices),
+        faces=_frozen(faces.reshape(-1, 3), np.int64), grid=_frozen(values),
+        mesh_offset_m=_frozen(np.zeros(3)))
 
 
 def collision_shape(shape, dimensions_m=None, mesh_path=None, mesh_scale=(1.0, 1.0, 1.0),

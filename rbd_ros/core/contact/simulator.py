@@ -273,6 +273,8 @@ class WorldSimulator(BatchSimulator):
     :param no_collision: body index pairs ``(a, b)`` that never collide with each other
         (neither checked for overlap at the start nor paired by the broad phase): a robot's
         adjacent links, its links without self-collision.
+    :param no_static_collision: ``(body index, static object name)`` pairs that never collide
+        likewise: a robot's moving link and the link fixed to the world it is jointed to.
     :raises ModelError: a bad body, or bodies starting inside each other or the static world.
     :raises ConfigError: an integrator that cannot take contact; a bad or unsupported joint.
     :raises ConvergenceError: states that could not be projected onto the joints.
@@ -282,7 +284,7 @@ class WorldSimulator(BatchSimulator):
                  static: Optional[StaticWorld] = None, *,
                  integrator: str = DEFAULT_INTEGRATOR, timestep_ns: int = 1_000_000,
                  overlap_tolerance_m: float = DEFAULT_OVERLAP_TOLERANCE_M,
-                 joints: Sequence[Joint] = (), no_collision=()):
+                 joints: Sequence[Joint] = (), no_collision=(), no_static_collision=()):
         jitcache.configured()  # the kernel cache, before a first compile
         bodies = tuple(bodies)
         states = tuple(states)
@@ -316,16 +318,27 @@ class WorldSimulator(BatchSimulator):
                 raise ConfigError(f'no_collision: pair ({a}, {b}) must be two different body '
                                   f'indices in [0, {n - 1}]')
             skip.add((min(a, b), max(a, b)))
+        labelled = static.objects()
+        static_index = {o.name: s for s, (_, o) in enumerate(labelled)}
+        static_skip = set()
+        for a, name in no_static_collision:
+            if not (0 <= a < n and name in static_index):
+                raise ConfigError(f'no_static_collision: pair ({a}, {name!r}) must be a body '
+                                  f'index in [0, {n - 1}] and the name of a static object')
+            static_skip.add((a, static_index[name]))
         check_overlaps([(b.name, b.shape, s.position_w, s.orientation_wb)
-                        for b, s in zip(bodies, states)], static, overlap_tolerance_m, skip)
+                        for b, s in zip(bodies, states)], static, overlap_tolerance_m,
+                       skip | {(a, labelled[s][0]) for a, s in static_skip})
         super().__init__([b.model for b in bodies], states, integrator=integrator,
                          timestep_ns=timestep_ns, threads=1)
         self._bodies = bodies
         self._static = static
-        objects = [o for _, o in static.objects()]
+        objects = [o for _, o in labelled]
+        m = n + len(objects)  # the broad phase's pair key: a m + b, static s as b = n + s
+        keys = [a * m + b for a, b in skip] + [a * m + n + s for a, s in static_skip]
         self._geo = _shape_table([b.shape for b in bodies] + [o.shape for o in objects],
                                  [b.material for b in bodies] + [o.material for o in objects],
-                                 np.array(sorted(a * n + b for a, b in skip), dtype=np.int64))
+                                 np.array(sorted(keys), dtype=np.int64))
         self._statics = _static_table(objects)
         self._wrench = np.zeros((n, 6))
         self._ws = cs.Work(

@@ -578,7 +578,8 @@ def check_overlaps(bodies, world=None, tolerance_m=DEFAULT_OVERLAP_TOLERANCE_M, 
     :param bodies: ``(name, shape, position_w, orientation_wb)`` per body.
     :param world: a :class:`StaticWorld`, or None.
     :param tolerance_m: overlap depth (m) accepted, e.g. bodies placed exactly in contact.
-    :param skip: body index pairs ``(i, j)`` that never collide (not checked).
+    :param skip: body index pairs ``(i, j)`` that never collide (not checked), and pairs
+        ``(i, label)`` of a body and a static object (its :meth:`StaticWorld.objects` label).
     :raises ModelError: for the first overlap deeper than ``tolerance_m``, naming
         ``bodies.<name>.position_w``, its value, the depth in m and the other object.
     """
@@ -601,8 +602,8 @@ def check_overlaps(bodies, world=None, tolerance_m=DEFAULT_OVERLAP_TOLERANCE_M, 
     radii = np.array([p.shape.bounding_radius_m for p in posed])
     near = _near_pairs(centres, radii)
     for i, body in enumerate(posed):
-        others = statics + [(f'bodies.{names[j]}', posed[j]) for j in near[i]
-                            if (i, j) not in skip]
+        others = [(label, o) for label, o in statics if (i, label) not in skip]
+        others += [(f'bodies.{names[j]}', posed[j]) for j in near[i] if (i, j) not in skip]
         for label, other in others:
             depth, point = _pair_depth(body, other)
             if depth > tolerance:

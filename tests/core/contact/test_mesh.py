@@ -319,3 +319,62 @@ def test_building_a_mesh_twice_without_cache_gives_identical_bytes(cache):
     assert not cache.exists()
     for name in ('grid', 'points_b', 'vertices_b', 'faces', 'params'):
         assert getattr(a, name).tobytes() == getattr(b, name).tobytes()
+
+
+def test_a_compound_of_two_crossing_boxes_is_their_union():
+    # A 0.4 x 0.1 x 0.1 m bar along x and one along y turned a quarter turn about z and
+    # lifted 0.05 m, crossing it: φ is the least of the two boxes' exact distances (the
+    # union's exact distance outside, a lower bound of its depth inside) to the grid's
+    # interpolation bound, at 2000 random points of the grid box.
+    from rbd_ros.core.contact.shapes import compound_shape
+    from rbd_ros.sim.tessellation import shape_triangles
+    bar = primitive_shape('box', [0.4, 0.1, 0.1])
+    turn = (math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4))
+    lift = np.array([0.0, 0.0, 0.05])
+    parts = [(bar, np.zeros(3), (1.0, 0.0, 0.0, 0.0)), (bar, lift, turn)]
+    shape = compound_shape(parts, [shape_triangles(bar)] * 2, sdf_cells=CELLS)
+    assert shape.shape == 'compound' and shape.kind == kernels.KIND_MESH
+    rng = np.random.default_rng(SEED)
+    points = rng.uniform(-0.3, 0.3, (2000, 3))
+    first = bar.signed_distance(points)[0]
+    rot = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # the turn, x_b = R x
+    second = bar.signed_distance((points - lift) @ rot)[0]
+    exact = np.minimum(first, second)
+    phi = shape.signed_distance(points)[0]
+    inside = shape.aabb_min_b <= points
+    inside = np.all(inside & (points <= shape.aabb_max_b), axis=1)
+    worst = float(np.abs(phi - exact)[inside].max())
+    print(f'\ncompound of two bars: |φ - min(φ1, φ2)| <= {worst:.3g} m, bound {bound(shape):.3g}')
+    assert worst <= bound(shape) + ROUND_OFF
+    # Surface points: none inside the other bar (so none where the bars cross), every corner
+    # of the lower bar's bottom kept; the plane points (vertices) hold the 16 corners.
+    phi_points = np.minimum(bar.signed_distance(shape.points_b)[0],
+                            bar.signed_distance((shape.points_b - lift) @ rot)[0])
+    assert np.abs(phi_points).max() <= ROUND_OFF
+    corners = {tuple(np.round(v, 12)) for v in shape.vertices_b}
+    assert {(x, y, -0.05) for x in (-0.2, 0.2) for y in (-0.05, 0.05)} <= corners
+    with pytest.raises(ModelError, match='no uniform-density mass properties'):
+        shape.mass_properties(1.0)
+
+
+def test_a_compound_with_a_mesh_part_takes_its_exact_distance():
+    # A URDF link's mesh element at an offset beside a sphere: the mesh part's φ at the nodes
+    # is its exact distance (build_sdf on the moved vertices), so at random points φ is within
+    # the grid's bound of min(box, sphere) computed in closed form (the mesh is a box).
+    from rbd_ros.core.contact.shapes import compound_shape
+    from rbd_ros.sim.tessellation import shape_triangles
+    cube = trimesh.creation.box(extents=(0.2, 0.2, 0.2))
+    mesh = mesh_shape(cube.vertices, cube.faces, centre=False, cache_dir=False)
+    ball = primitive_shape('sphere', [0.1])
+    offset = np.array([0.15, 0.0, 0.0])
+    shape = compound_shape([(mesh, offset, (1.0, 0.0, 0.0, 0.0)),
+                            (ball, -offset, (1.0, 0.0, 0.0, 0.0))],
+                           [shape_triangles(mesh), shape_triangles(ball)], sdf_cells=CELLS)
+    points = np.random.default_rng(SEED).uniform(shape.aabb_min_b, shape.aabb_max_b,
+                                                 (2000, 3))  # inside the grid box
+    exact = np.minimum(primitive_shape('box', [0.2, 0.2, 0.2]).signed_distance(
+        points - offset)[0], np.linalg.norm(points + offset, axis=1) - 0.1)
+    worst = float(np.abs(shape.signed_distance(points)[0] - exact).max())
+    print(f'\ncompound of a mesh box and a sphere: |φ - exact| <= {worst:.3g} m, bound '
+          f'{bound(shape):.3g}')
+    assert worst <= bound(shape) + ROUND_OFF

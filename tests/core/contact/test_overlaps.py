@@ -245,3 +245,33 @@ def test_pairs_that_never_collide_start_inside_each_other_and_pass_through():
     assert abs(sim.body_state(1).position_w[0] - 0.0) < 1e-14
     with pytest.raises(ConfigError, match=r'^no_collision: pair \(0, 2\) must be two different'):
         WorldSimulator(bodies, states, no_collision=[(0, 2)])
+
+
+def test_a_body_and_a_static_object_that_never_collide_pass_through_each_other():
+    # A 0.2 m cube 0.1 m into a 0.4 m static block, moving through it: with the pair in
+    # no_static_collision it starts (no overlap check) and never touches the block (no contact
+    # row in any step), moving as a free body: x = x0 + v t; the ground, not skipped, still
+    # holds another cube (body 1) resting on it.
+    from rbd_ros.core import BodyModel, BodyState, ConfigError
+    from rbd_ros.core.contact.simulator import WorldBody, WorldSimulator
+    box = primitive_shape('box', [0.2, 0.2, 0.2])
+    bodies = [WorldBody(name, BodyModel(1.0, np.diag([1.0, 1.0, 1.0]) / 150.0,
+                                        gravity_w=(0.0, 0.0, -9.81 * (name == 'b'))), box)
+              for name in ('a', 'b')]
+    world = StaticWorld(ground_plane(), (obstacle('block', 'box', [0.4, 0.4, 0.4],
+                                                  position_w=(0.0, 0.0, 1.0)),))
+    states = [BodyState(position_w=(0.25, 0.0, 1.0), linear_velocity_w=(-1.0, 0.0, 0.0)),
+              BodyState(position_w=(2.0, 0.0, 0.1))]
+    with pytest.raises(ModelError, match='deep inside obstacles.block'):
+        WorldSimulator(bodies, states, world)
+    sim = WorldSimulator(bodies, states, world, no_static_collision=[(0, 'block')])
+    for _ in range(100):
+        sim.step(1)
+        assert not np.any(sim.contacts.body_a == 0) and not np.any(sim.contacts.body_b == 0)
+    # 0.1 s at 1 m/s, no gravity on a: 0.1 m, to the round-off of 100 additions.
+    assert abs(sim.body_state(0).position_w[0] - 0.15) < 1e-14
+    # b rests on the ground (its contact rows are there, its height exact): the skip is a's.
+    assert np.any(sim.contacts.body_a == 1)
+    assert abs(sim.body_state(1).position_w[2] - 0.1) < 1e-12
+    with pytest.raises(ConfigError, match=r"^no_static_collision: pair \(0, 'table'\) must"):
+        WorldSimulator(bodies, states, world, no_static_collision=[(0, 'table')])
