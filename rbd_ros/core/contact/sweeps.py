@@ -504,6 +504,38 @@ def _scatter(patches, rows, group):
             patches[q, k] = group[j, k]
 
 
+@_raw
+def _group_rows(patches, contacts, vel, wrench, n_bodies, saved_c, saved_b, restore):
+    """
+    Copy a group's rows into ``saved_c``, ``saved_b``, or (``restore``) back from them.
+
+    The rows: its patches' points in ``contacts`` (``saved_c``, in patch order), the
+    velocities and wrenches of each patch's bodies (``saved_b`` rows ``2 q`` and ``2 q + 1``:
+    ``vel`` then ``wrench``).  A body of several patches is saved as often, the same values.
+    """
+    r = 0
+    for q in range(patches.shape[0]):
+        s0 = int(patches[q, Q_START])
+        for c in range(s0, s0 + int(patches[q, Q_COUNT])):
+            for k in range(contacts.shape[1]):
+                if restore:
+                    contacts[c, k] = saved_c[r, k]
+                else:
+                    saved_c[r, k] = contacts[c, k]
+            r += 1
+        for side in range(2):
+            i = int(patches[q, Q_A]) if side == 0 else int(patches[q, Q_B])
+            if i >= n_bodies:
+                continue
+            for k in range(6):
+                if restore:
+                    vel[i, k] = saved_b[2 * q + side, k]
+                    wrench[i, k] = saved_b[2 * q + side, 6 + k]
+                else:
+                    saved_b[2 * q + side, k] = vel[i, k]
+                    saved_b[2 * q + side, 6 + k] = wrench[i, k]
+
+
 @_jit
 def _solve_group(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, shock,
                  rot, warm, warm_n, slot, prm, stats, coupled, scr, before, level, sideways,
@@ -531,19 +563,7 @@ def _solve_group(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, w
         saved_c = np.empty((n_rows, contacts.shape[1]))
         saved_b = np.empty((2 * patches.shape[0], 12))
         saved_p = patches.copy()
-        r = 0
-        for q in range(patches.shape[0]):
-            a = int(patches[q, Q_A])
-            b = int(patches[q, Q_B])
-            s0 = int(patches[q, Q_START])
-            for c in range(s0, s0 + int(patches[q, Q_COUNT])):
-                saved_c[r, :] = contacts[c, :]
-                r += 1
-            saved_b[2 * q, :6] = vel[a, :]
-            saved_b[2 * q, 6:] = wrench[a, :]
-            if b < n_bodies:
-                saved_b[2 * q + 1, :6] = vel[b, :]
-                saved_b[2 * q + 1, 6:] = wrench[b, :]
+        _group_rows(saved_p, contacts, vel, wrench, n_bodies, saved_c, saved_b, False)
         started = _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrench,
                               rot, warm, warm_n, slot, prm, sideways)
         swept = _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench,
@@ -555,19 +575,7 @@ def _solve_group(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, w
         # (A group no point of which took a kept impulse was solved from zero already: its
         # sweeps were those of the retry, bit for bit.)
         if left > WARM_LEFT_MAX_M_S and started > 0:
-            r = 0
-            for q in range(patches.shape[0]):
-                a = int(saved_p[q, Q_A])
-                b = int(saved_p[q, Q_B])
-                s0 = int(saved_p[q, Q_START])
-                for c in range(s0, s0 + int(saved_p[q, Q_COUNT])):
-                    contacts[c, :] = saved_c[r, :]
-                    r += 1
-                vel[a, :] = saved_b[2 * q, :6]
-                wrench[a, :] = saved_b[2 * q, 6:]
-                if b < n_bodies:
-                    vel[b, :] = saved_b[2 * q + 1, :6]
-                    wrench[b, :] = saved_b[2 * q + 1, 6:]
+            _group_rows(saved_p, contacts, vel, wrench, n_bodies, saved_c, saved_b, True)
             patches[:] = saved_p
             swept += _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x,
                              wrench, scr, coupled, False, before)
