@@ -135,6 +135,10 @@ REFUSED = {
                     'parameter joints.hinge.axis = [0.0, 1.0]: must have 3 values'),
     'position_of_two': ({'joints.hinge.position': [0.0, 1.2]},
                         'parameter joints.hinge.position = [0.0, 1.2] m: must have 3 values'),
+    # finite but 1e300 m away: the start's projection failed without naming the joint
+    'position_far_away': ({'joints.hinge.position': [1e300, 0.0, 1.2]},
+                          'parameter joints.hinge.position = [1e+300, 0.0, 1.2] m: every '
+                          'component must be within ±1e+07 m'),
     'lower_above_upper': ({'joints.hinge.lower': 1.0, 'joints.hinge.upper': 0.5},
                           'parameter joints.hinge.lower = 1.0 rad or m: must be <= upper'),
     'unknown_type': ({'joints.hinge.type': 'hinge'},
