@@ -491,7 +491,14 @@ def _joint_values(source, joint):
                                             f'{who}.mimic.multiplier', 'per leader unit', 1.0),
                  _number(joint.mimic.offset, source, f'{who}.mimic.offset', unit, 0.0))
     axis = np.asarray(joint.axis if joint.axis is not None else (1.0, 0.0, 0.0), float)
-    norm = float(np.linalg.norm(axis)) if axis.shape == (3,) else 0.0
+    norm = 0.0
+    if axis.shape == (3,):
+        with np.errstate(over='ignore'):
+            norm = float(np.linalg.norm(axis))
+        if norm == math.inf and np.isfinite(axis).all():
+            # (0, 1e300, 1e300) is a direction whose norm overflows: scale it to 1 first
+            axis = axis / np.abs(axis).max()
+            norm = float(np.linalg.norm(axis))
     if joint.type != 'fixed' and joint.type != 'floating' and not (
             math.isfinite(norm) and norm > 1e-12):
         _fail(ModelError, source, f'{who}.axis', f'{axis.tolist()} is not a direction',

@@ -172,6 +172,8 @@ def _read_joint(params, name, bodies):
         fail(by['parent'], v['parent'], 'is the child too: a body cannot be jointed to itself')
     position = _vector(by['position'], position3(by['position'], v['position']))
     axis = _vector(by['axis'], v['axis'])
+    if sum(a * a for a in axis) == math.inf:  # (0, 1e300, 1e300): a direction, scaled to 1
+        axis = tuple(a / max(abs(b) for b in axis) for a in axis)
     if not math.sqrt(sum(a * a for a in axis)) > 1e-12:
         fail(by['axis'], list(axis), 'has zero length: a joint axis needs a direction')
     child = bodies[v['child']]

@@ -345,6 +345,14 @@ def test_a_bad_origin_is_refused_naming_its_element(tmp_path, where, xyz, rpy, f
     assert error.field == fragments[0]
 
 
+def test_an_axis_whose_norm_overflows_is_still_its_direction(tmp_path):
+    # (0, 1e300, 1e300): numpy's overflow warning on stderr, then 'is not a direction'
+    path = write(tmp_path, link('a') + link('b') + joint(
+        'j', 'continuous', 'a', 'b', '<axis xyz="0 1e300 1e300"/>'))
+    np.testing.assert_allclose(load_urdf(path).joint('j').axis,
+                               [0.0, math.sqrt(0.5), math.sqrt(0.5)], rtol=0, atol=3e-16)
+
+
 def test_non_positive_definite_inertia(tmp_path):
     path = write(tmp_path, link('a', inertial(inertia='ixx="0.1" iyy="-0.1" izz="0.1"')))
     refused(ModelError, path, path, "link 'a'.inertial.inertia", 'positive definite')
