@@ -211,6 +211,13 @@ class ParameterStore:
             value = self._resolve(name, _scalar(node))
             slots[type(value)] = value
         elif isinstance(node, yaml.SequenceNode) and node.value:
+            for item in node.value:
+                if not isinstance(item, yaml.ScalarNode):
+                    # rcl flattens [[a]] to [a] and makes [{x: 1}] a parameter name.x: refused
+                    kind = 'list' if isinstance(item, yaml.SequenceNode) else 'map'
+                    raise RosArgsError(
+                        f'parameter {name}: an item of its list is a {kind} (line '
+                        f'{item.start_mark.line + 1}); a value is a scalar or a list of scalars')
             values = [_scalar(item) for item in node.value]
             slots[(type(values[0]),)] = values
 
@@ -223,8 +230,11 @@ class ParameterStore:
         except yaml.YAMLError as exc:
             raise RosArgsError(f'-p {rule}: not a YAML value ({_one_line(exc)})') from None
         self._slots(node_name or '/**', name)
-        for document in documents:
-            self.set_node(node_name or '/**', name, document)
+        try:
+            for document in documents:
+                self.set_node(node_name or '/**', name, document)
+        except RosArgsError as exc:
+            raise RosArgsError(f'-p {rule}: {exc}') from None
 
     def add_file(self, path):
         """Apply a ROS 2 parameters file."""
@@ -240,6 +250,8 @@ class ParameterStore:
             for document in documents:
                 if isinstance(document, yaml.MappingNode):
                     self._add_sections((), document)
+        except RosArgsError as exc:
+            raise RosArgsError(f'--params-file {path}: {exc}') from None
         finally:
             self._base_dir = None
 

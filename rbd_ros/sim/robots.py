@@ -57,8 +57,8 @@ from rbd_ros.core import ConfigError, RbdError
 from rbd_ros.core.contact.world import is_valid_name, NAME_RULE
 from rbd_ros.sim.joint_commands import INTERFACES, JointSpec
 from rbd_ros.sim.params import (BOOL, check_range, coerce, DOUBLE, DOUBLE_ARRAY, fail,
-                                PARAMETERS_BY_NAME, ParamSpec, STRING, STRING_ARRAY,
-                                unit_quaternion)
+                                PARAMETERS_BY_NAME, ParamSpec, position3, STRING,
+                                STRING_ARRAY, unit_quaternion)
 
 #: The robots' and the command groups' list parameters (in the table of rbd_ros.sim.params).
 ROBOT_NAMES = 'robot_names'
@@ -286,9 +286,7 @@ def _read_robot(params, name, gravity_w):
         raise ConfigError(f'parameter {prefix}urdf_path / {prefix}robot_description: {given} '
                           'given; give exactly one (a URDF file, or its XML)',
                           field=prefix + 'urdf_path', value=path)
-    position = values['initial_position']
-    if len(position) != 3:
-        fail(by_base['initial_position'], list(position), 'must have 3 values')
+    position = position3(by_base['initial_position'], values['initial_position'])
     orientation = unit_quaternion(by_base['initial_orientation'], values['initial_orientation'])
     # Imported here: yourdfpy, lxml and trimesh cost ~0.5 s, paid only by files with robots.
     from rbd_ros.sim.urdf import load_urdf, place_robot

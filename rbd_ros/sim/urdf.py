@@ -74,7 +74,7 @@ from rbd_ros.core.inertia import validate_inertia, validate_mass
 from rbd_ros.core.joints import Joint
 from rbd_ros.core.rotations import matrix_to_quat, quat_to_matrix
 from rbd_ros.sim.meshes import resolve_mesh_path
-from rbd_ros.sim.params import PARAMETERS_BY_NAME
+from rbd_ros.sim.params import MAX_POSITION_M, PARAMETERS_BY_NAME
 import yourdfpy
 
 #: Every URDF joint type.
@@ -245,12 +245,59 @@ def _parse(source, data):
             if found is None or not found.get('link'):
                 _fail(ModelError, source, f'joint {element.get("name")!r}.{tag}',
                       f'missing (line {element.sourceline}): a joint needs <{tag} link=...>')
+    for element in root.iter('origin'):
+        if element.getparent().tag in ('joint', 'inertial', 'collision', 'visual'):
+            _check_origin(source, element)
     try:
         return yourdfpy.URDF.load(io.BytesIO(data), build_scene_graph=False,
                                   build_collision_scene_graph=False, load_meshes=False,
                                   load_collision_meshes=False).robot
     except (KeyError, ValueError, TypeError, AttributeError, IndexError) as exc:
         _fail(ConfigError, source, 'xml', f'not a valid URDF ({type(exc).__name__}: {exc})')
+
+
+def _origin_field(element):
+    """Return an ``<origin>``'s field: ``joint 'j'.origin``, ``link 'a'.collision[0].origin``."""
+    owner = element.getparent()
+    if owner.tag == 'joint':
+        return f'joint {owner.get("name")!r}.origin'
+    link = owner.getparent()
+    if owner.tag in ('inertial', 'collision', 'visual') and link is not None \
+            and link.tag == 'link':
+        where = owner.tag
+        if owner.tag != 'inertial':
+            where += f'[{link.findall(owner.tag).index(owner)}]'
+        return f'link {link.get("name")!r}.{where}.origin'
+    return f'{owner.tag}.origin'
+
+
+def _check_origin(source, element):
+    """
+    Refuse an ``<origin>`` that is not 3 finite numbers or lies too far away, naming it.
+
+    ``xyz`` and ``rpy`` must be 3 finite numbers, ``xyz`` within :data:`MAX_POSITION_M` (as a
+    body's ``initial_position``). yourdfpy would build a NaN pose from ``nan`` (refused much
+    later, naming a rotation but no file or joint), and a frame 1e300 m away made the first
+    step fail without a name.
+    """
+    for attribute, unit in (('xyz', 'm'), ('rpy', 'rad')):
+        text = element.get(attribute)
+        if text is None:
+            continue
+        field = f'{_origin_field(element)}.{attribute}'
+        try:
+            values = [float(v) for v in text.split()]
+        except ValueError:
+            values = None
+        if values is None or len(values) != 3:
+            _fail(ModelError, source, field, f'{text!r} must be 3 numbers in {unit} '
+                  f'(line {element.sourceline})', text, unit)
+        if not all(math.isfinite(v) for v in values):
+            _fail(ModelError, source, field, f'{values} {unit} must be finite '
+                  f'(line {element.sourceline})', values, unit)
+        if attribute == 'xyz' and any(abs(v) > MAX_POSITION_M for v in values):
+            _fail(ModelError, source, field, f'{values} m: every component must be within '
+                  f'±{MAX_POSITION_M:g} m (line {element.sourceline})', values, unit)
 
 
 def _number(value, source, field, unit, default=None):
@@ -444,7 +491,14 @@ def _joint_values(source, joint):
                                             f'{who}.mimic.multiplier', 'per leader unit', 1.0),
                  _number(joint.mimic.offset, source, f'{who}.mimic.offset', unit, 0.0))
     axis = np.asarray(joint.axis if joint.axis is not None else (1.0, 0.0, 0.0), float)
-    norm = float(np.linalg.norm(axis)) if axis.shape == (3,) else 0.0
+    norm = 0.0
+    if axis.shape == (3,):
+        with np.errstate(over='ignore'):
+            norm = float(np.linalg.norm(axis))
+        if norm == math.inf and np.isfinite(axis).all():
+            # (0, 1e300, 1e300) is a direction whose norm overflows: scale it to 1 first
+            axis = axis / np.abs(axis).max()
+            norm = float(np.linalg.norm(axis))
     if joint.type != 'fixed' and joint.type != 'floating' and not (
             math.isfinite(norm) and norm > 1e-12):
         _fail(ModelError, source, f'{who}.axis', f'{axis.tolist()} is not a direction',

@@ -61,7 +61,7 @@ from rbd_ros.core.joints.readout import cross, JointReadout, KINDS as MOVING_KIN
 from rbd_ros.core.rotations import quat_conjugate, quat_multiply, quat_to_matrix
 from rbd_ros.sim.joint_commands import CommandInput, JointSpec, motor_settings, RobotInputs
 from rbd_ros.sim.params import (coerce, DOUBLE, DOUBLE_ARRAY, fail, fmt, MAX_BODIES,
-                                PARAMETERS_BY_NAME, ParamSpec, STRING)
+                                PARAMETERS_BY_NAME, ParamSpec, position3, STRING)
 from rbd_ros.sim.robots import (DEFAULT_POSITION_TIME_CONSTANT_S, list_names,
                                 MAX_JOINT_DYNAMICS, param_value)
 
@@ -170,8 +170,10 @@ def _read_joint(params, name, bodies):
         fail(by['parent'], v['parent'], f"must be one of body_names ({names}) or 'world'")
     if v['parent'] == v['child']:
         fail(by['parent'], v['parent'], 'is the child too: a body cannot be jointed to itself')
-    position = _vector(by['position'], v['position'])
+    position = _vector(by['position'], position3(by['position'], v['position']))
     axis = _vector(by['axis'], v['axis'])
+    if sum(a * a for a in axis) == math.inf:  # (0, 1e300, 1e300): a direction, scaled to 1
+        axis = tuple(a / max(abs(b) for b in axis) for a in axis)
     if not math.sqrt(sum(a * a for a in axis)) > 1e-12:
         fail(by['axis'], list(axis), 'has zero length: a joint axis needs a direction')
     child = bodies[v['child']]

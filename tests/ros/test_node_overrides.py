@@ -357,6 +357,33 @@ def test_arguments_that_rcl_did_not_read_give_one_line_naming_them(tmp_path):
         rclpy.try_shutdown(context=context)
 
 
+@pytest.mark.parametrize('value, kind', [('[[a]]', 'list'), ('[{x: 1}]', 'map'),
+                                         ('[1.0, [2.0], 3.0]', 'list')])
+def test_a_list_holding_a_list_or_a_map_is_refused_naming_the_parameter(tmp_path, value, kind):
+    # rcl takes them (it flattens [[a]] to [a], makes [{x: 1}] a parameter 'joint_names.x');
+    # the overrides' own reading raised AttributeError: a traceback and exit 1
+    path = write(tmp_path / 'nested.yaml', f'/**:\n  ros__parameters:\n    joint_names: {value}\n')
+    with pytest.raises(ros_args.RosArgsError) as raised:
+        ros_args.node_overrides('/rigid_body_node', ['--ros-args', '--params-file', path])
+    assert str(raised.value) == (f'--params-file {path}: parameter joint_names: an item of its '
+                                 f'list is a {kind} (line 3); a value is a scalar or a list of '
+                                 'scalars')
+    with pytest.raises(ros_args.RosArgsError) as raised:
+        ros_args.node_overrides('/rigid_body_node', ['--ros-args', '-p', f'joint_names:={value}'])
+    assert str(raised.value).startswith(f'-p joint_names:={value}: parameter joint_names: an '
+                                        f'item of its list is a {kind} (line 1)'), raised.value
+
+
+def test_a_nested_list_in_a_params_file_stops_the_node_with_one_line(start_node, tmp_path):
+    path = write(tmp_path / 'nested.yaml', '/**:\n  ros__parameters:\n    joint_names: [[a]]\n')
+    node = start_node(extra_args=['--params-file', path])
+    assert node.wait(60) == 2, node.stderr
+    lines = [line for line in node.stderr.splitlines() if line.strip()]
+    assert lines == [f'rigid_body_node: --params-file {path}: parameter joint_names: an item '
+                     'of its list is a list (line 3); a value is a scalar or a list of '
+                     'scalars'], lines
+
+
 def test_no_private_rclpy_attribute_is_read_for_the_overrides():
     # Issue 8 item 8: no private API of a dependency.
     found = [f'{path.relative_to(REPO)}:{number}'

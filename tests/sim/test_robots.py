@@ -128,6 +128,10 @@ def test_robot_description_takes_the_xml_itself():
      "robots.arm.urdf_path: '/nonexistent/arm.urdf' does not exist"),
     (_arm(initial_position=[0.0, 0.0]), ConfigError,
      'parameter robots.arm.initial_position = [0.0, 0.0] m: must have 3 values'),
+    # finite but beyond a body's bound: was taken (a root 1e300 m away)
+    (_arm(initial_position=[1e300, 0.0, 0.0]), ConfigError,
+     'parameter robots.arm.initial_position = [1e+300, 0.0, 0.0] m: every component must be '
+     'within ±1e+07 m'),
     (_arm(initial_orientation=[0.0, 0.0, 0.0, 2.0]), ConfigError, 'must be within 1e-3 of 1'),
     (_arm(initial_joint_positions=[0.1]), ConfigError, 'robots.arm.initial_joint_positions'),
     (_arm(initial_joint_positions=[5.0, 0.0, 0.0]), ConfigError,

@@ -316,6 +316,43 @@ def test_zero_negative_or_huge_mass(tmp_path, mass):
     assert error.value == float(mass)
 
 
+ORIGIN = '<origin xyz="{xyz}" rpy="{rpy}"/>'
+
+
+@pytest.mark.parametrize('where, xyz, rpy, fragments', [
+    # yourdfpy built a NaN pose; the line named a rotation matrix, no file, joint or field
+    ('joint', 'nan 0 1', '0 0 0', ["joint 'j'.origin.xyz", '[nan, 0.0, 1.0] m must be finite']),
+    ('joint', '0 0 1', '0 inf 0', ["joint 'j'.origin.rpy", '[0.0, inf, 0.0] rad must be finite']),
+    # finite but 1e300 m away: the start's projection failed without naming it
+    ('joint', '1e300 0 1', '0 0 0', ["joint 'j'.origin.xyz", '[1e+300, 0.0, 1.0] m',
+                                     'within ±1e+07 m']),
+    # two values: numpy's broadcast error
+    ('joint', '0 1', '0 0 0', ["joint 'j'.origin.xyz", "'0 1' must be 3 numbers in m"]),
+    ('joint', '0 0 1', 'a b c', ["joint 'j'.origin.rpy", "'a b c' must be 3 numbers in rad"]),
+    ('inertial', '0 0 -1e8', '0 0 0', ["link 'b'.inertial.origin.xyz", 'within ±1e+07 m']),
+    ('collision', '0 nan 0', '0 0 0', ["link 'b'.collision[1].origin.xyz", 'must be finite']),
+])
+def test_a_bad_origin_is_refused_naming_its_element(tmp_path, where, xyz, rpy, fragments):
+    bad = ORIGIN.format(xyz=xyz, rpy=rpy)
+    good = ORIGIN.format(xyz='0 0 0', rpy='0 0 0')
+    box = '<geometry><box size="0.1 0.1 0.1"/></geometry>'
+    second = bad if where == 'collision' else good
+    collisions = f'<collision>{good}{box}</collision><collision>{second}{box}</collision>'
+    body = inertial(xyz=xyz, rpy=rpy) if where == 'inertial' else inertial()
+    path = write(tmp_path, link('a') + link('b', body + collisions) + joint(
+        'j', 'continuous', 'a', 'b', bad if where == 'joint' else good))
+    error = refused(ModelError, path, path, *fragments, '(line 2)')
+    assert error.field == fragments[0]
+
+
+def test_an_axis_whose_norm_overflows_is_still_its_direction(tmp_path):
+    # (0, 1e300, 1e300): numpy's overflow warning on stderr, then 'is not a direction'
+    path = write(tmp_path, link('a') + link('b') + joint(
+        'j', 'continuous', 'a', 'b', '<axis xyz="0 1e300 1e300"/>'))
+    np.testing.assert_allclose(load_urdf(path).joint('j').axis,
+                               [0.0, math.sqrt(0.5), math.sqrt(0.5)], rtol=0, atol=3e-16)
+
+
 def test_non_positive_definite_inertia(tmp_path):
     path = write(tmp_path, link('a', inertial(inertia='ixx="0.1" iyy="-0.1" izz="0.1"')))
     refused(ModelError, path, path, "link 'a'.inertial.inertia", 'positive definite')

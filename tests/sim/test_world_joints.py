@@ -87,6 +87,15 @@ def test_the_pendulum_file_reads_its_hinge_in_the_bodies_frames():
     assert repr(again.world_joints) == repr(config.world_joints)
 
 
+def test_an_axis_whose_norm_overflows_is_still_its_direction():
+    # (0, 1e300, 1e300) is finite; its squared norm overflowed: numpy warnings on stderr and
+    # an unnamed 'could not be projected' at start
+    (hinge,) = NodeConfig.from_parameters(
+        _pendulum(**{'joints.hinge.axis': [0.0, 1e300, 1e300]})).world_joints
+    np.testing.assert_allclose(hinge.joint.axis_b, [0.0, math.sqrt(0.5), math.sqrt(0.5)],
+                               rtol=0, atol=3e-16)
+
+
 def test_a_joint_between_two_bodies_is_in_the_parent_frame_and_zero_at_the_initial_poses():
     turned = [0.0, 0.0, math.sin(0.25), math.cos(0.25)]  # 0.5 rad about z, [x, y, z, w]
     params = {k: v for k, v in _pendulum().items() if not k.startswith('joints.hinge.')}
@@ -135,6 +144,10 @@ REFUSED = {
                     'parameter joints.hinge.axis = [0.0, 1.0]: must have 3 values'),
     'position_of_two': ({'joints.hinge.position': [0.0, 1.2]},
                         'parameter joints.hinge.position = [0.0, 1.2] m: must have 3 values'),
+    # finite but 1e300 m away: the start's projection failed without naming the joint
+    'position_far_away': ({'joints.hinge.position': [1e300, 0.0, 1.2]},
+                          'parameter joints.hinge.position = [1e+300, 0.0, 1.2] m: every '
+                          'component must be within ±1e+07 m'),
     'lower_above_upper': ({'joints.hinge.lower': 1.0, 'joints.hinge.upper': 0.5},
                           'parameter joints.hinge.lower = 1.0 rad or m: must be <= upper'),
     'unknown_type': ({'joints.hinge.type': 'hinge'},
