@@ -255,7 +255,8 @@ WORLD_JOINTS_FILES = ('core/joints/test_joints_contact.py', 'core/joints/test_mo
                       'sim/test_world_joints.py', 'sim/test_robot_contact.py',
                       'ros/test_node_world_joints.py', 'ros/test_node_robot_contact.py',
                       'ros/test_node_world_start_refusals.py', 'ros/test_node_lifecycle.py',
-                      'ros/test_param_dump.py', 'recording/test_reference_bags.py')
+                      'ros/test_param_dump.py', 'ros/test_node_analytic_unseen.py',
+                      'recording/test_reference_bags.py')
 #: The test files of the threaded batch kernel: the last tier (the warm-up compiles it last).
 BATCH_KERNEL_FILES = ('core/test_batch.py',)
 #: The kernel kinds (jitcache.KIND_MODULES) each tier waits for; the last tier waits for the
