@@ -459,6 +459,13 @@ def joint_rows(model, x, work, full):
             a0, a1, a2 = _cross(wc0, wc1, wc2, t0, t1, t2)
             b0, b1, b2 = _cross(wp0, wp1, wp2, u0, u1, u2)
             acc0, acc1, acc2 = a0 - b0, a1 - b1, a2 - b2
+        # the joint's coordinate (a twist or cone angle: atan2 and two quaternion products),
+        # computed at most once for its limit and motor rows and only where it is read: an
+        # active limit or motor row's C, and work.axial (mimic rows, the dense solver's; the
+        # contact step's friction and motor drives)
+        coord_j = 0.0
+        have_coord = False
+        keep_axial = model.dense or jint[j, J_FRICROW] >= 0
         for r in range(jint[j, J_NROWS]):
             row = row0 + r
             if rows[row, 1] == ROW_MIMIC:
@@ -473,6 +480,8 @@ def joint_rows(model, x, work, full):
             coord = 0.0
             rate = 0.0
             axial = kind == ROW_LIMIT or kind == ROW_MOTOR or kind == ROW_FRICTION
+            need = work.active[row] != 0 and kind != ROW_FRICTION or (
+                kind == ROW_MOTOR and keep_axial)
             if axial and jint[j, J_KIND] == 4:
                 # a spherical joint's cone limit, C = θ - cone, θ the angle between e = R_P u3
                 # and f = R_c w3: θ̇ = ω_rel · n, n = p / |p|, p = e × f (the swing axis), so
@@ -511,7 +520,10 @@ def joint_rows(model, x, work, full):
                         bias[row] = 0.0
                     jac[row, 3], jac[row, 4], jac[row, 5] = -n0, -n1, -n2
                     jac[row, 9], jac[row, 10], jac[row, 11] = n0, n1, n2
-                coord = _cone_angle(model, x, j)
+                if need and not have_coord:
+                    coord_j = _cone_angle(model, x, j)
+                    have_coord = True
+                coord = coord_j
             elif axial and jint[j, J_KIND] != 3:
                 # revolute / continuous: the relative rotation rate about e = R_P axis_b
                 if full:
@@ -522,11 +534,14 @@ def joint_rows(model, x, work, full):
                     h0, h1, h2 = _cross(wp0, wp1, wp2, e0, e1, e2)
                     bias[row] = (wc0 - wp0) * h0 + (wc1 - wp1) * h1 + (wc2 - wp2) * h2
                     rate = (wc0 - wp0) * e0 + (wc1 - wp1) * e1 + (wc2 - wp2) * e2
-                coord = _twist(model, x, j)
-                if jint[j, J_KIND] == 2:
-                    delta = coord - work.angle[j]
-                    coord = work.angle[j] + delta - 2.0 * math.pi * math.floor(
-                        delta / (2.0 * math.pi) + 0.5)
+                if need and not have_coord:
+                    coord_j = _twist(model, x, j)
+                    if jint[j, J_KIND] == 2:
+                        delta = coord_j - work.angle[j]
+                        coord_j = work.angle[j] + delta - 2.0 * math.pi * math.floor(
+                            delta / (2.0 * math.pi) + 0.5)
+                    have_coord = True
+                coord = coord_j
             elif kind == ROW_LIN or axial:
                 coord = e0 * d0 + e1 * d1 + e2 * d2
                 con[row] = coord
@@ -570,7 +585,8 @@ def joint_rows(model, x, work, full):
             elif kind == ROW_MOTOR:
                 # not a position row: the projection leaves the motor's coordinate alone
                 con[row] = 0.0
-                work.axial[j, 0] = coord
+                if need:
+                    work.axial[j, 0] = coord
                 if full:
                     work.axial[j, 1] = bias[row]
                 if full and work.motor[j, M_MODE] == MOTOR_POSITION:
@@ -815,6 +831,88 @@ def _dense_factor(model, work):
             A[r, j] = s / d
 
 
+@_inl
+def _down(D, Hp, y, rhs, i, di, p, dp):
+    """Forward step of node ``i``: ``y_i = D_i⁻¹ rhs_i``, then ``rhs_p -= H_iᵀ y_i``."""
+    for k in range(di):
+        y[i, k] = rhs[i, k]
+    _ldl_solve_vec(D, i, di, y, i)
+    if p < 0:
+        return
+    for a in range(dp):
+        s = 0.0
+        for k in range(di):
+            s += Hp[i, k, a] * y[i, k]
+        rhs[p, a] -= s
+
+
+@_inl
+def _up(D, Hp, y, rhs, i, di, p, dp):
+    """Backward step of node ``i`` (``p >= 0``): ``y_i -= D_i⁻¹ H_i y_p`` (``rhs_i`` spent)."""
+    for k in range(di):
+        s = 0.0
+        for a in range(dp):
+            s += Hp[i, k, a] * y[p, a]
+        rhs[i, k] = s
+    _ldl_solve_vec(D, i, di, rhs, i)
+    for k in range(di):
+        y[i, k] -= rhs[i, k]
+
+
+@_inl
+def _down_sized(D, Hp, y, rhs, i, di, p, dp):
+    """:func:`_down` with the common block sizes as constants (as :func:`_eliminate_sized`)."""
+    if di == 6:
+        if dp == 5:
+            _down(D, Hp, y, rhs, i, 6, p, 5)
+        elif dp == 6:
+            _down(D, Hp, y, rhs, i, 6, p, 6)
+        elif dp == 4:
+            _down(D, Hp, y, rhs, i, 6, p, 4)
+        elif dp == 3:
+            _down(D, Hp, y, rhs, i, 6, p, 3)
+        else:
+            _down(D, Hp, y, rhs, i, 6, p, dp)
+    elif dp == 6:
+        if di == 5:
+            _down(D, Hp, y, rhs, i, 5, p, 6)
+        elif di == 4:
+            _down(D, Hp, y, rhs, i, 4, p, 6)
+        elif di == 3:
+            _down(D, Hp, y, rhs, i, 3, p, 6)
+        else:
+            _down(D, Hp, y, rhs, i, di, p, 6)
+    else:
+        _down(D, Hp, y, rhs, i, di, p, dp)
+
+
+@_inl
+def _up_sized(D, Hp, y, rhs, i, di, p, dp):
+    """:func:`_up` with the common block sizes as constants (as :func:`_eliminate_sized`)."""
+    if di == 6:
+        if dp == 5:
+            _up(D, Hp, y, rhs, i, 6, p, 5)
+        elif dp == 6:
+            _up(D, Hp, y, rhs, i, 6, p, 6)
+        elif dp == 4:
+            _up(D, Hp, y, rhs, i, 6, p, 4)
+        elif dp == 3:
+            _up(D, Hp, y, rhs, i, 6, p, 3)
+        else:
+            _up(D, Hp, y, rhs, i, 6, p, dp)
+    elif dp == 6:
+        if di == 5:
+            _up(D, Hp, y, rhs, i, 5, p, 6)
+        elif di == 4:
+            _up(D, Hp, y, rhs, i, 4, p, 6)
+        elif di == 3:
+            _up(D, Hp, y, rhs, i, 3, p, 6)
+        else:
+            _up(D, Hp, y, rhs, i, di, p, 6)
+    else:
+        _up(D, Hp, y, rhs, i, di, p, dp)
+
+
 @_jit
 def solve(model, work, rb, rj, yb, yj):
     """
@@ -838,38 +936,14 @@ def solve(model, work, rb, rj, yb, yj):
         # forward: rhs_p -= Hᵀ D_i⁻¹ rhs_i (z_i = D_i⁻¹ rhs_i kept in y)
         for t in range(order.shape[0]):
             i = order[t]
-            di = dim[i]
-            for k in range(di):
-                y[i, k] = rhs[i, k]
-            if i < n_b:
-                _ldl_solve_vec(D, i, 6, y, i)   # a body: size 6, unrolled
-            else:
-                _ldl_solve_vec(D, i, di, y, i)
             p = par[i]
-            if p >= 0:
-                for a in range(dim[p]):
-                    s = 0.0
-                    for k in range(di):
-                        s += Hp[i, k, a] * y[i, k]
-                    rhs[p, a] -= s
+            _down_sized(D, Hp, y, rhs, i, dim[i], p, dim[p] if p >= 0 else 0)
         # backward, root first: y_i = D_i⁻¹ (rhs_i - H y_p) = z_i - D_i⁻¹ H y_p
         for t in range(order.shape[0] - 1, -1, -1):
             i = order[t]
             p = par[i]
-            if p < 0:
-                continue
-            di = dim[i]
-            for k in range(di):
-                s = 0.0
-                for a in range(dim[p]):
-                    s += Hp[i, k, a] * y[p, a]
-                rhs[i, k] = s   # rhs_i is spent: reuse it
-            if i < n_b:
-                _ldl_solve_vec(D, i, 6, rhs, i)
-            else:
-                _ldl_solve_vec(D, i, di, rhs, i)
-            for k in range(di):
-                y[i, k] -= rhs[i, k]
+            if p >= 0:
+                _up_sized(D, Hp, y, rhs, i, dim[i], p, dim[p])
         for b in range(n_b):
             for k in range(6):
                 yb[b, k] = y[b, k]
