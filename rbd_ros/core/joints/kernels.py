@@ -712,39 +712,58 @@ def _tree_factor(model, work):
     for t in range(model.order.shape[0]):
         i = model.order[t]
         p = par[i]
-        _eliminate_sized(D, Hp, W, i, dim[i], p, dim[p] if p >= 0 else 0)
+        _sized(D, Hp, W, work.y, work.rhs, i, dim[i], p, dim[p] if p >= 0 else 0,
+               OP_ELIMINATE)
+
+
+#: What :func:`_sized` does at a node: factor it, or its forward or backward solve step.
+OP_ELIMINATE = 0
+OP_DOWN = 1
+OP_UP = 2
 
 
 @_inl
-def _eliminate_sized(D, Hp, W, i, di, p, dp):
+def _block(D, Hp, W, y, rhs, i, di, p, dp, op):
+    """Node ``i``'s :func:`_eliminate` (``W``), :func:`_down` or :func:`_up` (``y``, ``rhs``)."""
+    if op == OP_ELIMINATE:
+        _eliminate(D, Hp, W, i, di, p, dp)
+    elif op == OP_DOWN:
+        _down(D, Hp, y, rhs, i, di, p, dp)
+    else:
+        _up(D, Hp, y, rhs, i, di, p, dp)
+
+
+@_inl
+def _sized(D, Hp, W, y, rhs, i, di, p, dp, op):
     """
-    :func:`_eliminate` with the common block sizes as constants, so that its loops unroll.
+    :func:`_block` with the common block sizes as constants, so that its loops unroll.
 
     A body (6) next to a joint of 3 to 6 rows, either way round; other sizes take the loops.
-    The arithmetic is the same in every branch: only the loop bounds become constants.
+    The arithmetic is the same in every branch: only the loop bounds become constants. ``op``
+    is a constant at every call, so each call keeps one operation.
     """
     if di == 6:
         if dp == 5:
-            _eliminate(D, Hp, W, i, 6, p, 5)
+            _block(D, Hp, W, y, rhs, i, 6, p, 5, op)
         elif dp == 6:
-            _eliminate(D, Hp, W, i, 6, p, 6)
+            _block(D, Hp, W, y, rhs, i, 6, p, 6, op)
         elif dp == 4:
-            _eliminate(D, Hp, W, i, 6, p, 4)
+            _block(D, Hp, W, y, rhs, i, 6, p, 4, op)
         elif dp == 3:
-            _eliminate(D, Hp, W, i, 6, p, 3)
+            _block(D, Hp, W, y, rhs, i, 6, p, 3, op)
         else:
-            _eliminate(D, Hp, W, i, 6, p, dp)
+            _block(D, Hp, W, y, rhs, i, 6, p, dp, op)
     elif dp == 6:
         if di == 5:
-            _eliminate(D, Hp, W, i, 5, p, 6)
+            _block(D, Hp, W, y, rhs, i, 5, p, 6, op)
         elif di == 4:
-            _eliminate(D, Hp, W, i, 4, p, 6)
+            _block(D, Hp, W, y, rhs, i, 4, p, 6, op)
         elif di == 3:
-            _eliminate(D, Hp, W, i, 3, p, 6)
+            _block(D, Hp, W, y, rhs, i, 3, p, 6, op)
         else:
-            _eliminate(D, Hp, W, i, di, p, 6)
+            _block(D, Hp, W, y, rhs, i, di, p, 6, op)
     else:
-        _eliminate(D, Hp, W, i, di, p, dp)
+        _block(D, Hp, W, y, rhs, i, di, p, dp, op)
 
 
 @_inl
@@ -859,60 +878,6 @@ def _up(D, Hp, y, rhs, i, di, p, dp):
         y[i, k] -= rhs[i, k]
 
 
-@_inl
-def _down_sized(D, Hp, y, rhs, i, di, p, dp):
-    """:func:`_down` with the common block sizes as constants (as :func:`_eliminate_sized`)."""
-    if di == 6:
-        if dp == 5:
-            _down(D, Hp, y, rhs, i, 6, p, 5)
-        elif dp == 6:
-            _down(D, Hp, y, rhs, i, 6, p, 6)
-        elif dp == 4:
-            _down(D, Hp, y, rhs, i, 6, p, 4)
-        elif dp == 3:
-            _down(D, Hp, y, rhs, i, 6, p, 3)
-        else:
-            _down(D, Hp, y, rhs, i, 6, p, dp)
-    elif dp == 6:
-        if di == 5:
-            _down(D, Hp, y, rhs, i, 5, p, 6)
-        elif di == 4:
-            _down(D, Hp, y, rhs, i, 4, p, 6)
-        elif di == 3:
-            _down(D, Hp, y, rhs, i, 3, p, 6)
-        else:
-            _down(D, Hp, y, rhs, i, di, p, 6)
-    else:
-        _down(D, Hp, y, rhs, i, di, p, dp)
-
-
-@_inl
-def _up_sized(D, Hp, y, rhs, i, di, p, dp):
-    """:func:`_up` with the common block sizes as constants (as :func:`_eliminate_sized`)."""
-    if di == 6:
-        if dp == 5:
-            _up(D, Hp, y, rhs, i, 6, p, 5)
-        elif dp == 6:
-            _up(D, Hp, y, rhs, i, 6, p, 6)
-        elif dp == 4:
-            _up(D, Hp, y, rhs, i, 6, p, 4)
-        elif dp == 3:
-            _up(D, Hp, y, rhs, i, 6, p, 3)
-        else:
-            _up(D, Hp, y, rhs, i, 6, p, dp)
-    elif dp == 6:
-        if di == 5:
-            _up(D, Hp, y, rhs, i, 5, p, 6)
-        elif di == 4:
-            _up(D, Hp, y, rhs, i, 4, p, 6)
-        elif di == 3:
-            _up(D, Hp, y, rhs, i, 3, p, 6)
-        else:
-            _up(D, Hp, y, rhs, i, di, p, 6)
-    else:
-        _up(D, Hp, y, rhs, i, di, p, dp)
-
-
 @_jit
 def solve(model, work, rb, rj, yb, yj):
     """
@@ -937,13 +902,13 @@ def solve(model, work, rb, rj, yb, yj):
         for t in range(order.shape[0]):
             i = order[t]
             p = par[i]
-            _down_sized(D, Hp, y, rhs, i, dim[i], p, dim[p] if p >= 0 else 0)
+            _sized(D, Hp, work.W, y, rhs, i, dim[i], p, dim[p] if p >= 0 else 0, OP_DOWN)
         # backward, root first: y_i = D_i⁻¹ (rhs_i - H y_p) = z_i - D_i⁻¹ H y_p
         for t in range(order.shape[0] - 1, -1, -1):
             i = order[t]
             p = par[i]
             if p >= 0:
-                _up_sized(D, Hp, y, rhs, i, dim[i], p, dim[p])
+                _sized(D, Hp, work.W, y, rhs, i, dim[i], p, dim[p], OP_UP)
         for b in range(n_b):
             for k in range(6):
                 yb[b, k] = y[b, k]
