@@ -459,6 +459,13 @@ def joint_rows(model, x, work, full):
             a0, a1, a2 = _cross(wc0, wc1, wc2, t0, t1, t2)
             b0, b1, b2 = _cross(wp0, wp1, wp2, u0, u1, u2)
             acc0, acc1, acc2 = a0 - b0, a1 - b1, a2 - b2
+        # the joint's coordinate (a twist or cone angle: atan2 and two quaternion products),
+        # computed at most once for its limit and motor rows and only where it is read: an
+        # active limit or motor row's C, and work.axial (mimic rows, the dense solver's; the
+        # contact step's friction and motor drives)
+        coord_j = 0.0
+        have_coord = False
+        keep_axial = model.dense or jint[j, J_FRICROW] >= 0
         for r in range(jint[j, J_NROWS]):
             row = row0 + r
             if rows[row, 1] == ROW_MIMIC:
@@ -473,6 +480,8 @@ def joint_rows(model, x, work, full):
             coord = 0.0
             rate = 0.0
             axial = kind == ROW_LIMIT or kind == ROW_MOTOR or kind == ROW_FRICTION
+            need = work.active[row] != 0 and kind != ROW_FRICTION or (
+                kind == ROW_MOTOR and keep_axial)
             if axial and jint[j, J_KIND] == 4:
                 # a spherical joint's cone limit, C = θ - cone, θ the angle between e = R_P u3
                 # and f = R_c w3: θ̇ = ω_rel · n, n = p / |p|, p = e × f (the swing axis), so
@@ -511,7 +520,10 @@ def joint_rows(model, x, work, full):
                         bias[row] = 0.0
                     jac[row, 3], jac[row, 4], jac[row, 5] = -n0, -n1, -n2
                     jac[row, 9], jac[row, 10], jac[row, 11] = n0, n1, n2
-                coord = _cone_angle(model, x, j)
+                if need and not have_coord:
+                    coord_j = _cone_angle(model, x, j)
+                    have_coord = True
+                coord = coord_j
             elif axial and jint[j, J_KIND] != 3:
                 # revolute / continuous: the relative rotation rate about e = R_P axis_b
                 if full:
@@ -522,11 +534,14 @@ def joint_rows(model, x, work, full):
                     h0, h1, h2 = _cross(wp0, wp1, wp2, e0, e1, e2)
                     bias[row] = (wc0 - wp0) * h0 + (wc1 - wp1) * h1 + (wc2 - wp2) * h2
                     rate = (wc0 - wp0) * e0 + (wc1 - wp1) * e1 + (wc2 - wp2) * e2
-                coord = _twist(model, x, j)
-                if jint[j, J_KIND] == 2:
-                    delta = coord - work.angle[j]
-                    coord = work.angle[j] + delta - 2.0 * math.pi * math.floor(
-                        delta / (2.0 * math.pi) + 0.5)
+                if need and not have_coord:
+                    coord_j = _twist(model, x, j)
+                    if jint[j, J_KIND] == 2:
+                        delta = coord_j - work.angle[j]
+                        coord_j = work.angle[j] + delta - 2.0 * math.pi * math.floor(
+                            delta / (2.0 * math.pi) + 0.5)
+                    have_coord = True
+                coord = coord_j
             elif kind == ROW_LIN or axial:
                 coord = e0 * d0 + e1 * d1 + e2 * d2
                 con[row] = coord
@@ -570,7 +585,8 @@ def joint_rows(model, x, work, full):
             elif kind == ROW_MOTOR:
                 # not a position row: the projection leaves the motor's coordinate alone
                 con[row] = 0.0
-                work.axial[j, 0] = coord
+                if need:
+                    work.axial[j, 0] = coord
                 if full:
                     work.axial[j, 1] = bias[row]
                 if full and work.motor[j, M_MODE] == MOTOR_POSITION:
@@ -696,39 +712,58 @@ def _tree_factor(model, work):
     for t in range(model.order.shape[0]):
         i = model.order[t]
         p = par[i]
-        _eliminate_sized(D, Hp, W, i, dim[i], p, dim[p] if p >= 0 else 0)
+        _sized(D, Hp, W, work.y, work.rhs, i, dim[i], p, dim[p] if p >= 0 else 0,
+               OP_ELIMINATE)
+
+
+#: What :func:`_sized` does at a node: factor it, or its forward or backward solve step.
+OP_ELIMINATE = 0
+OP_DOWN = 1
+OP_UP = 2
 
 
 @_inl
-def _eliminate_sized(D, Hp, W, i, di, p, dp):
+def _block(D, Hp, W, y, rhs, i, di, p, dp, op):
+    """Node ``i``'s :func:`_eliminate` (``W``), :func:`_down` or :func:`_up` (``y``, ``rhs``)."""
+    if op == OP_ELIMINATE:
+        _eliminate(D, Hp, W, i, di, p, dp)
+    elif op == OP_DOWN:
+        _down(D, Hp, y, rhs, i, di, p, dp)
+    else:
+        _up(D, Hp, y, rhs, i, di, p, dp)
+
+
+@_inl
+def _sized(D, Hp, W, y, rhs, i, di, p, dp, op):
     """
-    :func:`_eliminate` with the common block sizes as constants, so that its loops unroll.
+    :func:`_block` with the common block sizes as constants, so that its loops unroll.
 
     A body (6) next to a joint of 3 to 6 rows, either way round; other sizes take the loops.
-    The arithmetic is the same in every branch: only the loop bounds become constants.
+    The arithmetic is the same in every branch: only the loop bounds become constants. ``op``
+    is a constant at every call, so each call keeps one operation.
     """
     if di == 6:
         if dp == 5:
-            _eliminate(D, Hp, W, i, 6, p, 5)
+            _block(D, Hp, W, y, rhs, i, 6, p, 5, op)
         elif dp == 6:
-            _eliminate(D, Hp, W, i, 6, p, 6)
+            _block(D, Hp, W, y, rhs, i, 6, p, 6, op)
         elif dp == 4:
-            _eliminate(D, Hp, W, i, 6, p, 4)
+            _block(D, Hp, W, y, rhs, i, 6, p, 4, op)
         elif dp == 3:
-            _eliminate(D, Hp, W, i, 6, p, 3)
+            _block(D, Hp, W, y, rhs, i, 6, p, 3, op)
         else:
-            _eliminate(D, Hp, W, i, 6, p, dp)
+            _block(D, Hp, W, y, rhs, i, 6, p, dp, op)
     elif dp == 6:
         if di == 5:
-            _eliminate(D, Hp, W, i, 5, p, 6)
+            _block(D, Hp, W, y, rhs, i, 5, p, 6, op)
         elif di == 4:
-            _eliminate(D, Hp, W, i, 4, p, 6)
+            _block(D, Hp, W, y, rhs, i, 4, p, 6, op)
         elif di == 3:
-            _eliminate(D, Hp, W, i, 3, p, 6)
+            _block(D, Hp, W, y, rhs, i, 3, p, 6, op)
         else:
-            _eliminate(D, Hp, W, i, di, p, 6)
+            _block(D, Hp, W, y, rhs, i, di, p, 6, op)
     else:
-        _eliminate(D, Hp, W, i, di, p, dp)
+        _block(D, Hp, W, y, rhs, i, di, p, dp, op)
 
 
 @_inl
@@ -815,6 +850,34 @@ def _dense_factor(model, work):
             A[r, j] = s / d
 
 
+@_inl
+def _down(D, Hp, y, rhs, i, di, p, dp):
+    """Forward step of node ``i``: ``y_i = D_i⁻¹ rhs_i``, then ``rhs_p -= H_iᵀ y_i``."""
+    for k in range(di):
+        y[i, k] = rhs[i, k]
+    _ldl_solve_vec(D, i, di, y, i)
+    if p < 0:
+        return
+    for a in range(dp):
+        s = 0.0
+        for k in range(di):
+            s += Hp[i, k, a] * y[i, k]
+        rhs[p, a] -= s
+
+
+@_inl
+def _up(D, Hp, y, rhs, i, di, p, dp):
+    """Backward step of node ``i`` (``p >= 0``): ``y_i -= D_i⁻¹ H_i y_p`` (``rhs_i`` spent)."""
+    for k in range(di):
+        s = 0.0
+        for a in range(dp):
+            s += Hp[i, k, a] * y[p, a]
+        rhs[i, k] = s
+    _ldl_solve_vec(D, i, di, rhs, i)
+    for k in range(di):
+        y[i, k] -= rhs[i, k]
+
+
 @_jit
 def solve(model, work, rb, rj, yb, yj):
     """
@@ -838,38 +901,14 @@ def solve(model, work, rb, rj, yb, yj):
         # forward: rhs_p -= Hᵀ D_i⁻¹ rhs_i (z_i = D_i⁻¹ rhs_i kept in y)
         for t in range(order.shape[0]):
             i = order[t]
-            di = dim[i]
-            for k in range(di):
-                y[i, k] = rhs[i, k]
-            if i < n_b:
-                _ldl_solve_vec(D, i, 6, y, i)   # a body: size 6, unrolled
-            else:
-                _ldl_solve_vec(D, i, di, y, i)
             p = par[i]
-            if p >= 0:
-                for a in range(dim[p]):
-                    s = 0.0
-                    for k in range(di):
-                        s += Hp[i, k, a] * y[i, k]
-                    rhs[p, a] -= s
+            _sized(D, Hp, work.W, y, rhs, i, dim[i], p, dim[p] if p >= 0 else 0, OP_DOWN)
         # backward, root first: y_i = D_i⁻¹ (rhs_i - H y_p) = z_i - D_i⁻¹ H y_p
         for t in range(order.shape[0] - 1, -1, -1):
             i = order[t]
             p = par[i]
-            if p < 0:
-                continue
-            di = dim[i]
-            for k in range(di):
-                s = 0.0
-                for a in range(dim[p]):
-                    s += Hp[i, k, a] * y[p, a]
-                rhs[i, k] = s   # rhs_i is spent: reuse it
-            if i < n_b:
-                _ldl_solve_vec(D, i, 6, rhs, i)
-            else:
-                _ldl_solve_vec(D, i, di, rhs, i)
-            for k in range(di):
-                y[i, k] -= rhs[i, k]
+            if p >= 0:
+                _sized(D, Hp, work.W, y, rhs, i, dim[i], p, dim[p], OP_UP)
         for b in range(n_b):
             for k in range(6):
                 yb[b, k] = y[b, k]
