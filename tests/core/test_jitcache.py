@@ -13,8 +13,10 @@
 # limitations under the License.
 
 """
-How rbd_ros.core.jitcache compiles: a kernel called with constants compiles once per argument
-type; an inlined helper's IR is copied with one copy of its variables, not one per block.
+How rbd_ros.core.jitcache compiles.
+
+A kernel called with constants compiles once per argument type; an inlined helper's IR is
+copied with one copy of its variables, not one per block.
 """
 
 import inspect
