@@ -318,9 +318,9 @@ KIND_NAMES = {'free': 'the free-body step', 'contact': 'the contact step',
 #: free 20-37 s, contact 113-131 s, joints 100-112 s; on 2026-12-07 the contact step with joints
 #: 252 s of CPU from nothing, 88 s once the contact step is compiled: :data:`COMPILE_AFTER_S`;
 #: later on 2026-12-07, with an inlined helper's IR copied once (:func:`_share_inline_copies`),
-#: CPU seconds free 35 -> 24, contact 157 -> 134, joints 118 -> 90, scaled here from the figures
-#: above; see doc/benchmarks.md).
-COMPILE_S = {'free': 15, 'contact': 105, 'joints': 80, 'world_joints': 250}
+#: one core, quiet: free 17 s, contact 106 s, joints 85 s; the contact step with joints not
+#: measured quiet since; see doc/benchmarks.md).
+COMPILE_S = {'free': 17, 'contact': 105, 'joints': 85, 'world_joints': 250}
 #: A kind whose compile reuses another's compiled stages: ``{kind: (the other, seconds)}``.
 COMPILE_AFTER_S = {'world_joints': ('contact', 90)}
 
