@@ -47,6 +47,15 @@ that literal value: each distinct constant compiled the callee and its whole sub
 contact step's sweeps four times; 195 s of one core for its first compile, 74 s since).
 :func:`kernel` makes every dispatcher ask for the plain types instead (:func:`_once_per_type`).
 
+**One copy of an inlined helper's variables, not one per block.** A helper compiled with
+``inline='always'`` is inlined at numba-IR level: at every call site numba's
+``InlineWorker.inline_ir`` copies the helper's IR, one ``copy.deepcopy`` per block, and every
+variable refers to the function's scope, so each block's copy copied every variable of the
+helper again (blocks × variables): 15 of the 33 s of CPU of a cold free-body compile.
+:func:`_share_inline_copies` lets the blocks of one copy share one memo, as a deep copy of the
+whole IR would; the machine code is byte for byte the same (compared with ``inspect_asm`` of
+every kernel of the free-body step).
+
 **One set of compile options.** Every kernel is compiled through :func:`kernel`: IEEE float
 semantics (``error_model='numpy'``: a division by zero gives ±inf or nan, which the step's
 finiteness check turns into :class:`~rbd_ros.core.errors.NonFiniteError`, where numba's default
@@ -54,6 +63,8 @@ raised ``ZeroDivisionError`` out of the middle of a step), no ``fastmath`` (no r
 bit-for-bit results), and the GIL released.
 """
 
+import copy
+import functools
 import hashlib
 import logging
 import os
@@ -160,6 +171,7 @@ def kernel(**options):
     already and found a usable directory), so decorating touches no file.
     """
     import numba
+    _share_inline_copies()
     jit = numba.njit(**{**OPTIONS, **options})
 
     def decorate(function):
@@ -196,6 +208,61 @@ def _once_per_type(dispatcher):
                    {k: types.unliteral(v) for k, v in kws.items()})
     dispatcher.get_call_template = get_call_template
     return dispatcher
+
+
+class _InlineCopy:
+    """
+    What numba's ``inline_closurecall`` module sees as :mod:`copy` (see the module docstring).
+
+    Its one use there is ``copy.deepcopy(block)`` in ``InlineWorker.inline_ir``, for each block
+    of the IR it inlines, twice a call site (a working copy and a copy of that). While
+    :attr:`memos` is a dict (during one ``inline_ir``), the blocks of one scope share one memo,
+    so the scope and its variables are copied once for the whole IR; a copy of that copy has
+    another scope, hence its own memo. Outside ``inline_ir`` it is :func:`copy.deepcopy`.
+    """
+
+    copy = staticmethod(copy.copy)
+
+    def __init__(self):
+        """Start outside ``inline_ir``."""
+        self.memos = None
+
+    def deepcopy(self, value, memo=None):
+        """Return :func:`copy.deepcopy` of ``value``, sharing a memo per scope in inline_ir."""
+        from numba.core import ir
+        if memo is None and self.memos is not None and isinstance(value, ir.Block):
+            memo = self.memos.setdefault(id(value.scope), {})
+        return copy.deepcopy(value, memo)
+
+
+_INLINE_COPY = _InlineCopy()
+
+
+def _share_inline_copies():
+    """
+    Install :class:`_InlineCopy` in numba's ``inline_closurecall``, once; return the module.
+
+    ``InlineWorker.inline_ir`` is wrapped to open a fresh set of memos when it starts and to
+    drop them when it returns (an object's ``id`` may be reused once it is freed). numba is
+    pinned; ``tests/core/test_jitcache.py`` checks that the blocks of an inlined helper's copy
+    share one scope and that the kernels give the same results.
+    """
+    from numba.core import inline_closurecall as module
+    if module.copy is _INLINE_COPY:
+        return module
+    worker = module.InlineWorker
+    inline_ir = worker.inline_ir
+
+    @functools.wraps(inline_ir)
+    def inline_ir_sharing(self, *args, **kwargs):
+        outer, _INLINE_COPY.memos = _INLINE_COPY.memos, {}
+        try:
+            return inline_ir(self, *args, **kwargs)
+        finally:
+            _INLINE_COPY.memos = outer
+    worker.inline_ir = inline_ir_sharing
+    module.copy = _INLINE_COPY
+    return module
 
 
 def raw_kernel(**options):
@@ -250,8 +317,10 @@ KIND_NAMES = {'free': 'the free-body step', 'contact': 'the contact step',
 #: with an empty cache on 2026-12-06 with ``python -m rbd_ros.core.warmup``, one kind at a time:
 #: free 20-37 s, contact 113-131 s, joints 100-112 s; on 2026-12-07 the contact step with joints
 #: 252 s of CPU from nothing, 88 s once the contact step is compiled: :data:`COMPILE_AFTER_S`;
-#: see doc/benchmarks.md).
-COMPILE_S = {'free': 20, 'contact': 120, 'joints': 100, 'world_joints': 250}
+#: later on 2026-12-07, with an inlined helper's IR copied once (:func:`_share_inline_copies`),
+#: one core, quiet: free 17 s, contact 106 s, joints 85 s; the contact step with joints not
+#: measured quiet since; see doc/benchmarks.md).
+COMPILE_S = {'free': 17, 'contact': 105, 'joints': 85, 'world_joints': 250}
 #: A kind whose compile reuses another's compiled stages: ``{kind: (the other, seconds)}``.
 COMPILE_AFTER_S = {'world_joints': ('contact', 90)}
 
