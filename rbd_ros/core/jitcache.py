@@ -248,10 +248,12 @@ def _share_inline_copies():
     share one scope and that the kernels give the same results.
     """
     from numba.core import inline_closurecall as module
-    if module.copy is _INLINE_COPY:
+    if getattr(module, 'copy', None) is _INLINE_COPY:
         return module
-    worker = module.InlineWorker
-    inline_ir = worker.inline_ir
+    worker = getattr(module, 'InlineWorker', None)
+    inline_ir = getattr(worker, 'inline_ir', None)
+    if getattr(module, 'copy', None) is not copy or inline_ir is None:
+        return module  # another numba than the pinned one: its own copies (slower, not wrong)
 
     @functools.wraps(inline_ir)
     def inline_ir_sharing(self, *args, **kwargs):
