@@ -1554,6 +1554,32 @@ def _joint_speed(model, x, work, j):
 
 
 @_jit
+def _hold_at_bounds(model, x, work):
+    """
+    Hold every free limit at its bound (to :data:`CROSS_TOL`) moving into it; return how many.
+
+    Called at a stop, so that joints reaching their bounds together stop in one impact: one
+    stopped alone would let the other's impulse drive it back into its bound, the two
+    released and re-stopped in turn until a sub-step began past a bound.
+    """
+    jint, jlim = model.jint, model.jlim
+    held = 0
+    for j in range(jint.shape[0]):
+        if jint[j, J_LIMROW] < 0 or work.lim_state[j] != 0:
+            continue
+        q = limit_coordinate(model, x, j)
+        side = 0
+        if jlim[j, L_HAS_UPPER] != 0.0 and q - jlim[j, L_UPPER] >= -CROSS_TOL:
+            side = 1
+        elif jlim[j, L_HAS_LOWER] != 0.0 and jlim[j, L_LOWER] - q >= -CROSS_TOL:
+            side = -1
+        if side != 0 and side * _joint_speed(model, x, work, j) > 0.0:
+            set_limit(model, work, j, side)
+            held += 1
+    return held
+
+
+@_jit
 def _locate(model, x, work, event, j, side, bound, g_lo, hi, g_hi, h, tol, max_iter):
     """
     Find when an event inside the sub-step from ``work.x0`` happened; return ``(τ, g(τ))``.
@@ -1601,6 +1627,9 @@ def step(model, x, work, h, n_steps, tol, max_iter):
     sub-step and projection from the step's start) until ``|q - bound| <= LOCATE_TOL``; there
     the limit row is made active, the velocity projection stops the joint dead (an equal and
     opposite impulse: the inelastic stop) and the rest of the step is taken with the row held.
+    A sub-step that begins at or (within :data:`CROSS_TOL`) past a bound and goes on into it
+    stops at its start; every other free limit at its bound and moving into it is held in the
+    same impact (:func:`_hold_at_bounds`).
     A sliding joint whose rate crosses zero inside a step (Coulomb friction) splits it the same
     way: the time its rate reaches zero is found by the Illinois method to
     :data:`STOP_RATE_TOL`, the joint sticks there (its friction row held, the velocity
@@ -1667,17 +1696,26 @@ def step(model, x, work, h, n_steps, tol, max_iter):
                     break
                 continue
             bound = model.jlim[j, L_UPPER] if side > 0 else model.jlim[j, L_LOWER]
-            # g(τ) = side (q(τ) - bound): g(0) <= 0 < g(left) = excess
-            tau, _ = _locate(model, x, work, EVENT_LIMIT, j, side, bound,
-                             side * (limit_coordinate(model, work.x0, j) - bound), left,
-                             excess, h, tol, max_iter)
-            if tau < 0.0:   # the projection failed; x is back at the sub-step start
-                work.stats[S_FAIL] = 1.0
-                return s + 1
+            g_start = side * (limit_coordinate(model, work.x0, j) - bound)
+            if g_start >= 0.0:
+                # the sub-step began at or (by less than CROSS_TOL) past the bound and went on
+                # into it: the crossing is its start, no search (one would extrapolate to
+                # τ < 0); stop there
+                _restore(model, x, work)
+                tau = 0.0
+            else:
+                # g(τ) = side (q(τ) - bound): g(0) < 0 < g(left) = excess
+                tau, _ = _locate(model, x, work, EVENT_LIMIT, j, side, bound, g_start, left,
+                                 excess, h, tol, max_iter)
+                if tau < 0.0:   # the projection failed; x is back at the sub-step start
+                    work.stats[S_FAIL] = 1.0
+                    return s + 1
             # stop dead: hold the bound as an equality row, project positions onto it,
-            # then the velocity projection takes out the speed into the stop
+            # then the velocity projection takes out the speed into the stop; every other
+            # free limit at its bound and moving into it is held in the same impact
             speed = _joint_speed(model, x, work, j)
             set_limit(model, work, j, side)
+            _hold_at_bounds(model, x, work)
             body_derived(model, x, work)
             joint_rows(model, x, work, True)
             factor(model, work)
