@@ -401,8 +401,9 @@ def _collision(source, link, index, element, base_dir, to_body):
             raise
         raise type(exc)(f'{source}: {exc}', field=exc.field, value=exc.value,
                         unit=exc.unit, detail=exc.detail) from None
-    position, quat = _pose(to_body @ _matrix(element.origin))
-    return RobotCollision(shape, position, quat, *_pose(_matrix(element.origin)), mesh_file)
+    origin = _matrix(element.origin)
+    position, quat = _pose(to_body @ origin)
+    return RobotCollision(shape, position, quat, *_pose(origin), mesh_file)
 
 
 def _check_tree(source, robot):
