@@ -68,6 +68,10 @@ def make_simulator(config):
     Both answer ``time_ns``, ``arrays``, ``body_state(i)``, ``set_body_loads(i, ...)``,
     ``step``, ``reset``, ``contact_wrench_w`` and ``contacts`` (None without contact). A world
     with ``joint_names`` is a :class:`rbd_ros.sim.world_joints.JointedWorldSimulator`.
+
+    A world with joints projects its placement onto them at its first step
+    (``defer_projection``), as a robot world does: building it compiles nothing, so a cold
+    node publishes t = 0 while the first-step check compiles its kernels in the background.
     """
     if config.robots and config.contact:
         return RobotContactWorld(config.robots, config.bodies, config.static_world,
@@ -83,7 +87,7 @@ def make_simulator(config):
     if config.world_joints:
         return JointedWorldSimulator(bodies, states, config.static_world, config.world_joints,
                                      integrator=config.integrator,
-                                     timestep_ns=config.timestep_ns)
+                                     timestep_ns=config.timestep_ns, defer_projection=True)
     return WorldSimulator(bodies, states, config.static_world, integrator=config.integrator,
                           timestep_ns=config.timestep_ns)
 

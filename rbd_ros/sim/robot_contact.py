@@ -247,7 +247,8 @@ class RobotContactWorld(RobotWorld):
                                    no_collision=no_collision_pairs(self.robots, offsets),
                                    no_static_collision=[(first + b, name) for first, pairs
                                                         in zip(offsets, skips)
-                                                        for b, name in pairs])
+                                                        for b, name in pairs],
+                                   defer_projection=True)
         except RbdError as exc:
             raise self._named(exc, labels) from None
 

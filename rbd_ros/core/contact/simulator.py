@@ -261,7 +261,8 @@ class WorldSimulator(BatchSimulator):
     :param overlap_tolerance_m: how deep bodies may start inside each other or the static world.
     :param joints: :class:`~rbd_ros.core.joints.model.Joint` values between the bodies (by
         index, ``parent=None`` the world), as :class:`~rbd_ros.core.joints.ArticulatedSimulator`
-        takes them and checks them; the states are projected onto them first, as there.
+        takes them and checks them; the states are projected onto them first, as there
+        (with ``defer_projection``, at the first step).
         Motors as there (:meth:`set_motor`); limits (``lower``, ``upper``) as speculative
         inelastic stops (:mod:`rbd_ros.core.contact.limits`); ``damping`` as its exact flow
         over each velocity update and ``friction`` as a velocity target 0 bounded by the
@@ -275,6 +276,13 @@ class WorldSimulator(BatchSimulator):
         adjacent links, its links without self-collision.
     :param no_static_collision: ``(body index, static object name)`` pairs that never collide
         likewise: a robot's moving link and the link fixed to the world it is jointed to.
+    :param defer_projection: True: the projection onto the joints waits for the first
+        :meth:`step`, motor command or :meth:`reset`, so building the world compiles and runs no
+        joint kernel (a cold node publishes the states as given at t = 0 while its kernels
+        compile). Until then :meth:`joint_error` is None and the bodies are where ``states``
+        put them; the start's overlap check is taken on those states and again on the projected
+        ones, and its errors, and the projection's, come from that first call. Either way the
+        steps give the same bits.
     :raises ModelError: a bad body, or bodies starting inside each other or the static world.
     :raises ConfigError: an integrator that cannot take contact; a bad or unsupported joint.
     :raises ConvergenceError: states that could not be projected onto the joints.
@@ -284,7 +292,8 @@ class WorldSimulator(BatchSimulator):
                  static: Optional[StaticWorld] = None, *,
                  integrator: str = DEFAULT_INTEGRATOR, timestep_ns: int = 1_000_000,
                  overlap_tolerance_m: float = DEFAULT_OVERLAP_TOLERANCE_M,
-                 joints: Sequence[Joint] = (), no_collision=(), no_static_collision=()):
+                 joints: Sequence[Joint] = (), no_collision=(), no_static_collision=(),
+                 defer_projection: bool = False):
         jitcache.configured()  # the kernel cache, before a first compile
         bodies = tuple(bodies)
         states = tuple(states)
@@ -309,8 +318,9 @@ class WorldSimulator(BatchSimulator):
             raise ConfigError(f'states: {len(states)} states for {len(bodies)} bodies')
         self._joints = tuple(joints)
         self._joint_stage = None
+        self._deferred = None  # with a deferred projection: the start's overlap check, again
         if self._joints:
-            states = self._project_onto_joints(bodies, states, timestep_ns)
+            states = self._project_onto_joints(bodies, states, timestep_ns, defer_projection)
         n = len(bodies)
         skip = set()
         for a, b in no_collision:
@@ -326,9 +336,11 @@ class WorldSimulator(BatchSimulator):
                 raise ConfigError(f'no_static_collision: pair ({a}, {name!r}) must be a body '
                                   f'index in [0, {n - 1}] and the name of a static object')
             static_skip.add((a, static_index[name]))
+        pairs = skip | {(a, labelled[s][0]) for a, s in static_skip}
         check_overlaps([(b.name, b.shape, s.position_w, s.orientation_wb)
-                        for b, s in zip(bodies, states)], static, overlap_tolerance_m,
-                       skip | {(a, labelled[s][0]) for a, s in static_skip})
+                        for b, s in zip(bodies, states)], static, overlap_tolerance_m, pairs)
+        if defer_projection and self._joints:
+            self._deferred = (static, overlap_tolerance_m, pairs)
         super().__init__([b.model for b in bodies], states, integrator=integrator,
                          timestep_ns=timestep_ns, threads=1)
         self._bodies = bodies
@@ -349,8 +361,12 @@ class WorldSimulator(BatchSimulator):
             warm_n=np.zeros((3, n), dtype=np.int64), stats=np.zeros((3, cs.N_SOLVE_STATS)))
         self._contacts = np.zeros((0, cs.N_CONTACT))
 
-    def _project_onto_joints(self, bodies, states, timestep_ns):
-        """Check the joints, build their stage and return the states projected onto them."""
+    def _project_onto_joints(self, bodies, states, timestep_ns, defer):
+        """
+        Check the joints, build their stage; return the states projected onto them.
+
+        ``defer``: return the states as given; :meth:`_project_deferred` projects them later.
+        """
         for i, joint in enumerate(self._joints):
             if not isinstance(joint, Joint):
                 raise ConfigError(f'joints[{i}]: {type(joint).__name__} is not a Joint')
@@ -361,7 +377,8 @@ class WorldSimulator(BatchSimulator):
                     raise ConfigError(f'{who}.{name}: {value!r}; a world with contact takes '
                                       f'no joint {name} yet (leave it {unset!r})')
         articulated = joints_simulator.ArticulatedSimulator(
-            [b.model for b in bodies], states, self._joints, timestep_ns=timestep_ns)
+            [b.model for b in bodies], states, self._joints, timestep_ns=timestep_ns,
+            defer_projection=defer)
         model, work = articulated.kernel_arrays()
         n = len(bodies)
         jointed = np.zeros(n, dtype=np.bool_)
@@ -376,6 +393,27 @@ class WorldSimulator(BatchSimulator):
                                           np.zeros(model.rows.shape[0], dtype=np.int64))
         return articulated.states
 
+    def _project_deferred(self):
+        """
+        Take a deferred projection onto the joints (``defer_projection``) now; else nothing.
+
+        The bodies then stand where the projection puts them and the world is as the
+        constructor without deferral leaves it (overlaps checked on the projected states,
+        :meth:`reset` going back to them), so every step after gives the same bits.
+        """
+        if self._deferred is None:
+            return
+        static, tolerance_m, pairs = self._deferred
+        articulated = self._articulated
+        articulated.project_initial()
+        states = articulated.states
+        check_overlaps([(b.name, b.shape, s.position_w, s.orientation_wb)
+                        for b, s in zip(self._bodies, states)], static, tolerance_m, pairs)
+        self._deferred = None
+        for i, state in enumerate(states):
+            self._x[:, i] = layout.pack_state(state)
+        self._initial_states = tuple(states)
+
     @property
     def joints(self):
         """Return the joints, a tuple (empty without)."""
@@ -388,7 +426,7 @@ class WorldSimulator(BatchSimulator):
         None for a world without joints.  The step keeps both at most
         :data:`~rbd_ros.core.joints.simulator.PROJECTION_TOL` (see :meth:`step`).
         """
-        if self._joint_stage is None:
+        if self._joint_stage is None or self._deferred is not None:
             return None
         stage = self._joint_stage
         x = np.ascontiguousarray(self._x.T)
@@ -422,6 +460,7 @@ class WorldSimulator(BatchSimulator):
         """Set several motors at once, as :meth:`set_motor` each; a bad one sets none."""
         articulated = self._articulated_or_refuse()
         targets = list(targets)
+        self._project_deferred()
         articulated.set_motors(targets, refresh=False)
         drive, motor = self._joint_stage.drive, self._joint_stage.work.motor
         for joint_index, _ in targets:
@@ -451,6 +490,9 @@ class WorldSimulator(BatchSimulator):
         """
         if self._joint_stage is None:
             return []
+        if self._deferred is not None:  # the states as given: a continuous joint's position
+            return [float(q[0]) if joint.kind == 'continuous' else 0.0 for joint, q
+                    in zip(self._joints, self._articulated.joint_positions())]
         return self._joint_stage.work.angle[:len(self._joints)].tolist()
 
     def joint_friction_efforts(self) -> np.ndarray:
@@ -520,6 +562,7 @@ class WorldSimulator(BatchSimulator):
         """
         stage = getattr(self, '_joint_stage', None)
         if stage is not None and hasattr(self, '_bodies'):   # not from the constructor
+            self._project_deferred()  # the initial states it goes back to are the projected
             states = self._initial_states if states is None else tuple(states)
             if len(states) != self.size:
                 raise ConfigError(f'states: {len(states)} states for {self.size} bodies')
@@ -547,6 +590,7 @@ class WorldSimulator(BatchSimulator):
         """
         joints = self._joint_stage
         if joints is not None:
+            self._project_deferred()
             joints.stats[:] = 0.0
         done, contacts = world_step(self._x, self._params, self._loads, self._t,
                                     self._info.kernel_id, self._h, self._timestep_ns, n,

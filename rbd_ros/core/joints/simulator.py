@@ -290,6 +290,22 @@ class ArticulatedSimulator:
         jk._unwrap(self._model, self._x, self._work)
         self._projected = True
 
+    def project_initial(self) -> None:
+        """
+        Take the initial projection now if it was deferred (``defer_projection``); else nothing.
+
+        For a step that drives these joints' kernels itself (the contact step's joint visits)
+        and must start from the projected states: :attr:`states` are those states after it.
+
+        :raises ConvergenceError, ConfigError: as the constructor without deferral.
+        """
+        self._project_initial()
+
+    @property
+    def projected(self) -> bool:
+        """Return whether the initial projection has been taken (see ``defer_projection``)."""
+        return self._projected
+
     def _check_branch(self):
         """Refuse a start on a joint's mirror branch (rows satisfied with an axis reversed)."""
         for j, joint in enumerate(self._joints):

@@ -28,7 +28,7 @@ from closed_forms import G, pendulum_period
 import numpy as np
 import pytest
 
-from rbd_ros.core import BodyModel, BodyState, ConfigError
+from rbd_ros.core import BodyModel, BodyState, ConfigError, ModelError
 from rbd_ros.core.contact import ground_plane, Material, obstacle, primitive_shape, StaticWorld
 from rbd_ros.core.contact.simulator import WorldBody, WorldSimulator
 from rbd_ros.core.joints import Joint
@@ -292,3 +292,54 @@ def test_unsupported_joint_fields_are_refused_in_one_line():
                  axis_b=(0.0, 1.0, 0.0), mimic='other')
     with pytest.raises(ConfigError, match=r"joint 'pivot'\.mimic: 'other'; .* \(leave it None\)"):
         WorldSimulator([bob], [BodyState(position_w=(0.0, 0.0, -L))], None, joints=[tied])
+
+
+def test_a_deferred_projection_gives_the_same_bits_and_the_same_refusals():
+    # defer_projection (a node's jointed world: building it compiles nothing, issue 25 item 2)
+    # moves the projection onto the joints to the first step, motor target or reset; every
+    # step then gives the same bits as an eager world's. The bob starts 1 cm off its rod's
+    # length, so the projection visibly moves it: until then the world holds it as given.
+    pivot = (0.0, 0.0, 2.0)
+    given = _bob_state(pivot, 0.6)
+    given = BodyState(given.position_w + (0.0, 0.0, 0.01), given.orientation_wb)
+    box = _body('box', 'box', [0.2, 0.2, 0.2])
+    others = ((box, BodyState(position_w=(0.8, 0.0, 0.1))),)
+
+    def world(defer, bob_state=given, at=pivot, box_state=others[0][1]):
+        bob = _body('bob', 'sphere', [R])
+        hinge = Joint('pivot', 'revolute', None, 0, origin_parent_b=at,
+                      origin_child_b=(0.0, 0.0, L), axis_b=(0.0, 1.0, 0.0))
+        return WorldSimulator([bob, box], [bob_state, box_state],
+                              StaticWorld(ground_plane(material=Material(0.5, 0.0))),
+                              joints=[hinge], timestep_ns=1_000_000, defer_projection=defer)
+
+    eager, lazy = world(False), world(True)
+    assert lazy.joint_error() is None and eager.joint_error() is not None
+    assert np.array_equal(lazy.body_state(0).position_w, given.position_w)
+    assert not np.array_equal(eager.body_state(0).position_w, given.position_w)
+    assert lazy.running_angles() == [0.0]   # a revolute joint has no running angle
+    eager.step(400)   # the bob swings down into the box
+    lazy.step(400)
+    for i in range(2):
+        assert lazy.body_state(i) == eager.body_state(i), i
+    assert lazy.joint_error() == eager.joint_error()
+    assert len(lazy.contacts.point_w) > 0   # the box was struck: contact went through it too
+    # a reset before the first step goes back to the projected placement, as an eager one
+    eager, lazy = world(False), world(True)
+    lazy.reset()
+    assert lazy.body_state(0) == eager.body_state(0)
+    # a motor target projects first, as an eager world had before it was set
+    eager, lazy = world(False), world(True)
+    for sim in (eager, lazy):
+        sim.set_motor(0, position=0.1, time_constant_s=0.05)
+        sim.step(200)
+    assert lazy.body_state(0) == eager.body_state(0)
+    # a placement that the projection puts inside the box (the bob given 0.6 m below a pivot
+    # 1.1 m up, the box under the pivot) is refused at the first step, as an eager world
+    # refuses it at its construction
+    args = (BodyState((0.0, 0.0, 0.5)), (0.0, 0.0, 1.1), BodyState((0.0, 0.0, 0.1)))
+    with pytest.raises(ModelError, match='bodies.bob'):
+        world(False, *args)
+    lazy = world(True, *args)
+    with pytest.raises(ModelError, match='bodies.bob'):
+        lazy.step()
