@@ -50,9 +50,10 @@ links of different robots and free bodies always do. A world's own joints (``joi
 today's rule: their bodies collide (they are given shapes that clear at the joint).
 
 **Joints.** A URDF joint's ``<dynamics damping friction>`` (or ``robots.<r>.joints.<j>.*``)
-is the contact step's joint damping and Coulomb friction. What the contact step does not take
-yet (a mimic) is refused at start in one line naming the robot's parameter or the URDF joint,
-from the core's own refusal, so nothing here changes when the core takes it.
+is the contact step's joint damping and Coulomb friction, and a ``<mimic>`` one more row of its
+joint visits (its ``joint_states`` effort is 0: it has no motor). What the contact step does
+not take is refused at start in one line naming the robot's parameter or the URDF joint, from
+the core's own refusal.
 
 **Readouts** are :class:`RobotWorld`'s, on the contact world: joint positions and rates from
 the bodies' states (:class:`rbd_ros.core.joints.readout.JointReadout`), motor efforts from the

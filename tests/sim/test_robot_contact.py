@@ -316,16 +316,7 @@ def _pendulum_urdf(joint_extra='', collision=None):
 
 
 def test_what_the_contact_step_cannot_take_is_refused_naming_the_parameter_or_the_urdf():
-    # A mimic joint: named in the URDF.
-    text = PENDULUM_URDF.read_text()
-    second = text[text.index('<joint name="pivot"'):text.index('</robot>')]
-    second = second.replace('pivot', 'pivot2').replace('"rod"', '"rod2"').replace(
-        'xyz="0 0 2"', 'xyz="1 0 2"').replace('<axis xyz="0 1 0"/>',
-                                              '<axis xyz="0 1 0"/><mimic joint="pivot"/>')
-    line = _refused(ConfigError, text.replace('</robot>', second + '</robot>'),
-                    **{'robots.pendulum.initial_joint_positions': [0.5, 0.5]})
-    assert line == ("robot_description: joint 'pivot2'.mimic: 'pivot'; a world with contact "
-                    'takes no joint mimic yet (leave it None)'), line
+    # (A mimic joint is taken: test_a_mimic_gripper_squeezes_a_box_with_half_the_effort_a_side.)
     # A moving link without a shape (several, or one away from the COM, are a compound now).
     line = _refused(ModelError, _pendulum_urdf(collision=''))
     assert line.startswith("robot_description: link 'rod'.collision: none: "), line
@@ -514,3 +505,38 @@ def test_the_arm_table_file_sweeps_the_box_off_the_table():
     assert box[2] < 0.35 and (box[0] > 0.7 or box[2] < 0.2)
     # The shoulder reached its target (the position motor's critically damped response).
     assert abs(session.simulator.joint_states(0)[0][0] + 0.6) < 1e-3
+
+
+def test_a_mimic_gripper_squeezes_a_box_with_half_the_effort_a_side():
+    # gripper.urdf (finger_right mimics finger_left, multiplier 1) around a 2 cm box held in
+    # no gravity between its fingers, 5 mm from each; an effort τ = 2 N closes finger_left and,
+    # through the tie, finger_right. Both reach the box together and squeeze it: by virtual
+    # work (one coordinate q moves both fingers by δq) τ = F_left + F_right, and the box at
+    # rest makes the two equal, F = τ/2 a side: each finger's joint wrench (the parent's force
+    # on it, child frame = world axes here) is τ/2 along ∓y, to round-off of O(1) N sums. The
+    # fingers rest on the box faces within the contacts' touching gap (TOUCH_M, 1e-5 m;
+    # measured 3e-14 m), the box where it started to 1e-9 m (measured 4e-14 m: the tie keeps
+    # the squeeze symmetric), the tie holds to MIMIC_TOL. The mimic has no motor: effort 0.
+    from rbd_ros.core.contact.rows import TOUCH_M
+    from tests.core.joints.test_mimic import MIMIC_TOL
+    tau = 2.0
+    world = make_simulator(NodeConfig.from_parameters({
+        'robot_names': ['gripper'],
+        'robots.gripper.urdf_path': str(REPO / 'msg_config' / 'urdf' / 'gripper.urdf'),
+        'gravity': [0.0, 0.0, 0.0], 'body_names': ['box'], 'bodies.box.shape': 'box',
+        'bodies.box.dimensions_m': [0.02, 0.02, 0.02], 'bodies.box.mass_kg': 0.05,
+        'bodies.box.initial_position': [0.0, 0.0, 1.05]}))
+    assert type(world) is RobotContactWorld
+    world.set_target(0, 0, 'effort', -tau)
+    worst = 0.0
+    for _ in range(1000):
+        world.step()
+        q, _, _ = world.joint_states(0)
+        worst = max(worst, abs(q[1] - q[0]))
+    assert worst <= MIMIC_TOL, worst
+    (q_left, q_right), _, efforts = world.joint_states(0)
+    assert abs(q_left + 0.005) <= TOUCH_M and abs(q_right + 0.005) <= TOUCH_M, (q_left, q_right)
+    assert np.abs(world.body_state(0).position_w - (0.0, 0.0, 1.05)).max() <= 1e-9
+    assert efforts == [-tau, 0.0]
+    _, left, right = world.joint_wrenches(0)   # mount (fixed), finger_left, finger_right
+    assert abs(left[1] + 0.5 * tau) <= 1e-12 and abs(right[1] - 0.5 * tau) <= 1e-12, (left, right)

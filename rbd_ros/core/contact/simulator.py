@@ -267,8 +267,9 @@ class WorldSimulator(BatchSimulator):
         inelastic stops (:mod:`rbd_ros.core.contact.limits`); ``damping`` as its exact flow
         over each velocity update and ``friction`` as a velocity target 0 bounded by the
         friction (:mod:`rbd_ros.core.contact.motors`: a joint sticks exactly while the effort
-        holding it is within its friction, else slides against it). Without cone limits or
-        mimics for now (refused in one line). A jointed body collides as any
+        holding it is within its friction, else slides against it); a mimic as one more row
+        of the visits. Without cone limits for now (refused in one line). A jointed body
+        collides as any
         other; two bodies of one joint collide with each other too (give them shapes that
         clear at the joint, or list them in ``no_collision``).
     :param no_collision: body index pairs ``(a, b)`` that never collide with each other
@@ -370,12 +371,9 @@ class WorldSimulator(BatchSimulator):
         for i, joint in enumerate(self._joints):
             if not isinstance(joint, Joint):
                 raise ConfigError(f'joints[{i}]: {type(joint).__name__} is not a Joint')
-            who = f'joint {joint.name!r}'
-            for name, value, unset in (('cone_rad', joint.cone_rad, None),
-                                       ('mimic', joint.mimic, None)):
-                if value != unset:
-                    raise ConfigError(f'{who}.{name}: {value!r}; a world with contact takes '
-                                      f'no joint {name} yet (leave it {unset!r})')
+            if joint.cone_rad is not None:
+                raise ConfigError(f'joint {joint.name!r}.cone_rad: {joint.cone_rad!r}; a world '
+                                  'with contact takes no joint cone_rad yet (leave it None)')
         articulated = joints_simulator.ArticulatedSimulator(
             [b.model for b in bodies], states, self._joints, timestep_ns=timestep_ns,
             defer_projection=defer)
