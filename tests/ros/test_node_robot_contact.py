@@ -199,3 +199,50 @@ def test_every_links_collision_elements_are_on_markers_in_its_frame(run):
         if t in run['got']['pose']:
             pose = run['got']['pose'][t].pose.position
             assert (box.pose.position.x, box.pose.position.z) == (pose.x, pose.z)
+
+
+def test_a_mimic_gripper_squeezes_a_box_with_half_its_effort_a_side(start_node, probe_for,
+                                                                     tmp_path):
+    # gripper.urdf (finger_right mimics finger_left) around a 2 cm box, no gravity: an effort of
+    # 2 N on finger_left's joint_command closes both fingers onto the box, each pushing it with
+    # τ/2 = 1 N (virtual work over the one coordinate; tests/sim/test_robot_contact.py). Read
+    # from the recording: the last joint_wrenches give each finger ∓1 N along y (round-off of
+    # O(1) N sums, 1e-12), the fingers rest on the box within the touching gap (1e-5 m), the box
+    # stays put to 1e-9 m, and the bag replays MATCH.
+    import numpy as np
+    from rbd_ros.bag.recording import open_bag
+    from sensor_msgs.msg import JointState
+    bag = tmp_path / 'squeeze'
+    node = start_node({
+        'robot_names': ['gripper'],
+        'robots.gripper.urdf_path': str(REPO / 'msg_config' / 'urdf' / 'gripper.urdf'),
+        'gravity': [0.0, 0.0, 0.0], 'body_names': ['box'], 'bodies.box.shape': 'box',
+        'bodies.box.dimensions_m': [0.02, 0.02, 0.02], 'bodies.box.mass_kg': 0.05,
+        'bodies.box.initial_position': [0.0, 0.0, 1.05], 'wrench_timeout_s': 0.0,
+        'start_paused': True, 'real_time_factor': 0.0, 'duration_s': 1.0,
+        'record_path': str(bag)}, namespace=True)
+    probe = probe_for(node, inputs=(), outputs=('diagnostics',))
+    command = probe.node.create_publisher(JointState, 'gripper/joint_command', 10)
+    probe.wait(lambda: command.get_subscription_count(), 60, 'the joint_command subscription')
+    command.publish(JointState(name=['finger_left'], effort=[-2.0]))
+    probe.diagnostic_values(lambda v: v.get('commands_received') == '1', 30)
+    probe.pause(False)
+    assert node.wait(120) == 0, node.stderr
+    recorded = open_bag(bag)
+    last = {}
+    for topic in ('gripper/joint_states', 'gripper/joint_wrenches', 'box/pose'):
+        name = f'{node.namespace}/{topic}'
+        decode = recorded.decoder(name)
+        last[topic] = decode(list(recorded.messages([name]))[-1].data)
+    assert time_from_msg(last['gripper/joint_states'].header.stamp) == DURATION_NS
+    q = np.array(last['gripper/joint_states'].position)
+    assert np.abs(q + 0.005).max() <= 1e-5 and abs(q[1] - q[0]) <= 1e-12, q
+    assert list(last['gripper/joint_states'].effort) == [-2.0, 0.0]
+    wrenches = {name: w.force for name, w in zip(last['gripper/joint_wrenches'].joint_names,
+                                                  last['gripper/joint_wrenches'].wrench)}
+    assert abs(wrenches['finger_left'].y + 1.0) <= 1e-12, wrenches
+    assert abs(wrenches['finger_right'].y - 1.0) <= 1e-12, wrenches
+    box = last['box/pose'].pose.position
+    assert max(abs(box.x), abs(box.y), abs(box.z - 1.05)) <= 1e-9, box
+    result = replay_bag(str(bag))
+    assert result.match, result.problems
