@@ -201,8 +201,8 @@ def test_every_links_collision_elements_are_on_markers_in_its_frame(run):
             assert (box.pose.position.x, box.pose.position.z) == (pose.x, pose.z)
 
 
-def test_a_mimic_gripper_squeezes_a_box_with_half_its_effort_a_side(start_node, probe_for,
-                                                                     tmp_path):
+def test_a_mimic_gripper_squeezes_a_box_with_half_its_effort_a_side(
+        start_node, probe_for, tmp_path):
     # gripper.urdf (finger_right mimics finger_left) around a 2 cm box, no gravity: an effort of
     # 2 N on finger_left's joint_command closes both fingers onto the box, each pushing it with
     # τ/2 = 1 N (virtual work over the one coordinate; tests/sim/test_robot_contact.py). Read
@@ -238,8 +238,8 @@ def test_a_mimic_gripper_squeezes_a_box_with_half_its_effort_a_side(start_node, 
     q = np.array(last['gripper/joint_states'].position)
     assert np.abs(q + 0.005).max() <= 1e-5 and abs(q[1] - q[0]) <= 1e-12, q
     assert list(last['gripper/joint_states'].effort) == [-2.0, 0.0]
-    wrenches = {name: w.force for name, w in zip(last['gripper/joint_wrenches'].joint_names,
-                                                  last['gripper/joint_wrenches'].wrench)}
+    sent = last['gripper/joint_wrenches']
+    wrenches = {name: w.force for name, w in zip(sent.joint_names, sent.wrench)}
     assert abs(wrenches['finger_left'].y + 1.0) <= 1e-12, wrenches
     assert abs(wrenches['finger_right'].y - 1.0) <= 1e-12, wrenches
     box = last['box/pose'].pose.position
