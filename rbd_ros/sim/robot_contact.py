@@ -223,13 +223,23 @@ class RobotContactWorld(RobotWorld):
     :param bodies: the free bodies' :class:`rbd_ros.sim.config.BodyConfig` tuple.
     :param static: the :class:`rbd_ros.core.contact.StaticWorld` (or None).
     :param integrator: a contact integrator. :param timestep_ns: the fixed step, int ns.
+    :param world_joints: the world's own joints between free bodies (``joint_names``, the
+        :class:`rbd_ros.sim.world_joints.WorldJoint` tuple): the contact step's first joints,
+        read out as one more group after the robots (index ``len(robots)``), as
+        :class:`rbd_ros.sim.world_joints.JointedWorldSimulator` reads them.
     :raises ModelError, ConfigError: one line naming the parameter or the URDF's link or joint.
     """
 
-    def __init__(self, robots, bodies, static, integrator, timestep_ns):
+    def __init__(self, robots, bodies, static, integrator, timestep_ns, world_joints=()):
         free = [WorldBody(b.name, b.model, b.collision_shape, b.material) for b in bodies]
         self._free = len(free)
-        self._assemble(robots, timestep_ns, len(free))
+        world_joints = tuple(world_joints)
+        self._world_joints = len(world_joints)
+        self._assemble(robots, timestep_ns, len(free), len(world_joints))
+        if world_joints:  # their group, after the robots': joint_states order, time constants
+            self._moving.append(tuple(k for k, j in enumerate(world_joints) if j.moving))
+            self._time_constants_s.append(tuple(j.time_constant_s for j in world_joints
+                                                if j.moving))
         links, labels = _link_bodies(self.robots)
         fixed, fixed_labels, skips = _world_links(self.robots)
         labels.update(fixed_labels)
@@ -238,7 +248,7 @@ class RobotContactWorld(RobotWorld):
                                  (() if static is None else tuple(static.obstacles))
                                  + tuple(fixed))
         _, link_states, joints = self._args
-        world_joints = [WorldJoint(joint.name, joint, None, 0.0, ()) for joint in joints]
+        world_joints += tuple(WorldJoint(joint.name, joint, None, 0.0, ()) for joint in joints)
         states = [b.initial_state for b in bodies] + list(link_states)
         offsets = [b0 for b0, _ in self._bodies]
         try:
@@ -287,6 +297,23 @@ class RobotContactWorld(RobotWorld):
         if text == str(exc):
             return exc
         return type(exc)(text, field=exc.field, detail=getattr(exc, 'detail', None))
+
+    def joint_wrenches(self, r: int):
+        """
+        Return robot ``r``'s joint wrenches (:meth:`RobotWorld.joint_wrenches`).
+
+        ``r = len(robots)``: the world's own joints', ``joint_names`` order, as
+        :meth:`rbd_ros.sim.world_joints.JointedWorldSimulator.joint_wrenches` gives them.
+        """
+        if r == len(self.robots):
+            return self._sim.joint_wrenches()[:self._world_joints]
+        return super().joint_wrenches(r)
+
+    def link_poses(self, r: int):
+        """Return robot ``r``'s link poses; none for the world's joints (bodies on /tf)."""
+        if r == len(self.robots):
+            return []
+        return super().link_poses(r)
 
     def reset(self) -> None:
         """Back to every body's and robot's placement at time 0, every motor off."""

@@ -154,7 +154,26 @@ def _vector(spec, value):
     return tuple(float(v) for v in value)
 
 
-def _read_joint(params, name, bodies):
+def _robot_link(value, robots):
+    """Return ``(robot, link)`` when ``value`` names a robot's link (``link`` or ``r/link``)."""
+    for robot in robots:
+        for link in robot.robot.links:
+            if value in (link.name, f'{robot.name}/{link.name}'):
+                return robot.name, link.name
+    return None
+
+
+def _not_a_body(spec, value, names, robots, world=''):
+    """Refuse ``value`` as a joint's body: not one of ``body_names`` (say so for a link)."""
+    link = _robot_link(value, robots)
+    if link is not None:
+        fail(spec, value, f'is link {link[1]!r} of robot {link[0]!r}, not a body: a world '
+             f"joint joins the bodies of body_names ({names}){world}; a robot's links are "
+             'joined by its URDF')
+    fail(spec, value, f'must be one of body_names ({names}){world}')
+
+
+def _read_joint(params, name, bodies, robots):
     specs = joint_parameter_specs(name)
     by = {spec.name.rsplit('.', 1)[1]: spec for spec in specs}
     v = {base: param_value(params, spec) for base, spec in by.items()}
@@ -165,9 +184,9 @@ def _read_joint(params, name, bodies):
         fail(by['child'], WORLD, 'the world does not move: a child is a body of body_names '
              f'({names}); make the world the parent')
     if v['child'] not in bodies:
-        fail(by['child'], v['child'], f'must be one of body_names ({names})')
+        _not_a_body(by['child'], v['child'], names, robots)
     if v['parent'] != WORLD and v['parent'] not in bodies:
-        fail(by['parent'], v['parent'], f"must be one of body_names ({names}) or 'world'")
+        _not_a_body(by['parent'], v['parent'], names, robots, " or 'world'")
     if v['parent'] == v['child']:
         fail(by['parent'], v['parent'], 'is the child too: a body cannot be jointed to itself')
     position = _vector(by['position'], position3(by['position'], v['position']))
@@ -204,19 +223,21 @@ def _read_joint(params, name, bodies):
                       v['position_time_constant_s'], specs)
 
 
-def read_world_joints(params, bodies) -> Tuple[WorldJoint, ...]:
+def read_world_joints(params, bodies, robots=()) -> Tuple[WorldJoint, ...]:
     """
     Return the :class:`WorldJoint` of every joint of ``params`` (a dict name → value).
 
     :param bodies: the world's bodies, name → :class:`rbd_ros.sim.config.BodyConfig` in
         ``body_names`` order (empty for a file without ``body_names``).
+    :param robots: the file's :class:`rbd_ros.sim.robots.RobotConfig` tuple: a world joint
+        joins free bodies (and the world) only; one naming a robot's link is refused saying so.
     :raises ConfigError, ModelError: one line naming the parameter, its value and unit.
     """
     names = list_names(params, JOINT_NAMES_SPEC, MAX_BODIES)
     if names and not bodies:
         fail(JOINT_NAMES_SPEC, list(names), 'joints join the bodies of a world: give '
              'body_names (and bodies.<name>.*)')
-    return tuple(_read_joint(params, name, bodies) for name in names)
+    return tuple(_read_joint(params, name, bodies, robots) for name in names)
 
 
 def parameter_error(exc, given):
@@ -486,15 +507,20 @@ class WorldJointInputs(RobotInputs):
     start on the core's motors (:meth:`JointedWorldSimulator.set_targets`) and held in sim time
     like a wrench (``wrench_timeout_s``). No group commands or trajectories: those are a
     robot's.
+
+    Beside robots (``robots``, ``groups``: a world with both) it is their
+    :class:`~rbd_ros.sim.joint_commands.RobotInputs` too, the world's joints one more group
+    after them (index ``len(robots)``, as :class:`rbd_ros.sim.robot_contact.RobotContactWorld`
+    reads them out).
     """
 
-    def __init__(self, world_joints, timeout_ns=0):
-        super().__init__((), (), timeout_ns)
-        spec = CommandInput('joint_command', 'joint_command', 0)
-        self.inputs = {spec.name: spec}
-        self.received = {spec.name: 0}
-        self._specs = [tuple(JointSpec(j.name, j.joint, j.velocity_limit)
-                             for j in world_joints if j.moving)]
+    def __init__(self, world_joints, timeout_ns=0, robots=(), groups=()):
+        super().__init__(robots, groups, timeout_ns)
+        spec = CommandInput('joint_command', 'joint_command', len(self.robots))
+        self.inputs[spec.name] = spec
+        self.received[spec.name] = 0
+        self._specs.append(tuple(JointSpec(j.name, j.joint, j.velocity_limit)
+                                 for j in world_joints if j.moving))
 
 
 def take_parameters(values, params):
@@ -502,10 +528,3 @@ def take_parameters(values, params):
     for name in list_names(values, JOINT_NAMES_SPEC, MAX_BODIES):
         for spec in joint_parameter_specs(name):
             values[spec.name] = coerce(spec, params.pop(spec.name, spec.default))
-
-
-def check_world_joints(values, robots):
-    """Refuse ``joint_names`` beside robots (a robot file has no free bodies yet)."""
-    if values[JOINT_NAMES] and robots:
-        fail(JOINT_NAMES_SPEC, list(values[JOINT_NAMES]), 'a file with robots has no free '
-             'bodies to join yet: leave joint_names out')

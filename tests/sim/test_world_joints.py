@@ -189,14 +189,43 @@ def test_a_bad_joint_parameter_is_refused_in_one_line_naming_it(case):
     assert line.startswith(start), line
 
 
-def test_joints_beside_robots_are_refused():
-    params = {'robot_names': ['arm'],
-              'robots.arm.urdf_path': str(REPO / 'msg_config' / 'urdf' / 'arm3.urdf'),
-              'joint_names': ['hinge'], 'joints.hinge.type': 'revolute',
-              'joints.hinge.child': 'bob'}
-    with pytest.raises(ConfigError, match=r"^parameter joint_names = \['hinge'\]: a file "
-                                          'with robots'):
-        NodeConfig.from_parameters(params)
+def _beside_arm(**changes):
+    """Return the pendulum world with msg_config/urdf/arm3.urdf beside it (1 m along y)."""
+    return _pendulum(**{'robot_names': ['arm'], 'robots.arm.initial_position': [0.0, 1.0, 0.0],
+                        'robots.arm.urdf_path': str(REPO / 'msg_config' / 'urdf' / 'arm3.urdf'),
+                        **changes})
+
+
+def test_joints_beside_robots_are_the_contact_worlds_first_joints_read_out_apart():
+    config = NodeConfig.from_parameters(_beside_arm())
+    assert [j.name for j in config.world_joints] == ['hinge'] and len(config.robots) == 1
+    session = SimSession(config)
+    world = session.simulator
+    # the world's hinge first, then the arm's joints by their core names
+    assert [j.name for j in world.joints[:2]] == ['hinge', 'arm/shoulder']
+    session.submit_command('joint_command', (['hinge'], [0.0], [], []))
+    session.submit_command('arm/joint_command', (['elbow'], [], [], [0.5]))
+    session.advance(10)
+    # each group's readout and command are its own: the arm's index 0, the world's 1
+    hinge_q, _, hinge_effort = world.joint_states(1)
+    assert abs(hinge_q[0]) <= 1e-12 and hinge_effort[0] > 5.0
+    assert world.joint_states(0)[2] == [0.0, 0.5, 0.0]
+    assert len(world.joint_wrenches(1)) == 1 and len(world.joint_wrenches(0)) == 5  # URDF's
+    assert world.link_poses(1) == []
+    with pytest.raises(CommandRejected, match='shoulder'):
+        session.submit_command('joint_command', (['shoulder'], [0.1], [], []))
+
+
+@pytest.mark.parametrize('field, value', [('child', 'hand'), ('parent', 'arm/upper')])
+def test_a_world_joint_naming_a_robots_link_is_refused_in_one_line(field, value):
+    with pytest.raises(ConfigError) as info:
+        NodeConfig.from_parameters(_beside_arm(**{f'joints.hinge.{field}': value}))
+    link = value.rsplit('/', 1)[-1]
+    world = " or 'world'" if field == 'parent' else ''
+    assert str(info.value) == (
+        f"parameter joints.hinge.{field} = {value!r}: is link '{link}' of robot 'arm', not a "
+        f"body: a world joint joins the bodies of body_names (bob, target){world}; a robot's "
+        'links are joined by its URDF')
 
 
 @pytest.mark.parametrize('field, value, unit', [('lower', -1.0, 'rad or m'),
