@@ -44,8 +44,10 @@ robot's material: a free body or another link lands on a robot's base.
 
 **Which links touch** (:func:`no_collision_pairs`, the contact step's ``no_collision``; with a
 link fixed to the world, ``no_static_collision``): the parent and child links of a joint never
-collide with each other (they meet at the joint), a link fixed to the world and its moving
-child included; a robot's other links do, unless ``robots.<name>.self_collision`` is false;
+collide with each other (they meet at the joint), and links joined by fixed joints are one
+group (a body, or for links fixed to the world the world): a moving link jointed to a link
+fixed to the world never collides with any of the robot's links fixed to the world; a
+robot's other links do, unless ``robots.<name>.self_collision`` is false;
 links of different robots and free bodies always do. A world's own joints (``joint_names``) keep
 today's rule: their bodies collide (they are given shapes that clear at the joint).
 
@@ -155,8 +157,10 @@ def _world_links(robots):
     One :class:`StaticObject` per ``<collision>`` of every link that is part of the world
     (``world`` → fixed → ...), at its pose in the world (the root's placement times the
     element's pose in the root frame), in the robot's material. ``skip``: the ``(body index
-    within the robot, static name)`` pairs that never collide: a moving link and the world
-    link of its joint (adjacent), or every pair when the robot's ``self_collision`` is false.
+    within the robot, static name)`` pairs that never collide: a moving link jointed to a
+    world link and every link of the robot fixed to the world (adjacent links never collide,
+    and fixed joints make the robot's world links one rigid group: the world), or every pair
+    when the robot's ``self_collision`` is false.
     """
     objects, labels, skips = [], {}, []
     for robot in robots:
@@ -177,13 +181,13 @@ def _world_links(robots):
                 labels[f'obstacles.{name}'] = f'link {link.name!r} of robot {robot.name!r}'
                 names.setdefault(link.name, []).append(name)
         links = {link.name: link.body for link in urdf.links}
+        every = [n for group in names.values() for n in group]
         if not robot.self_collision:
-            every = [n for group in names.values() for n in group]
             skips.append([(b, n) for b in range(len(urdf.body_links)) for n in every])
             continue
-        skips.append([(links[joint.child], n) for joint in urdf.joints
-                      if links[joint.parent] is None and links[joint.child] is not None
-                      for n in names.get(joint.parent, ())])
+        adjacent = sorted({links[joint.child] for joint in urdf.joints
+                           if links[joint.parent] is None and links[joint.child] is not None})
+        skips.append([(b, n) for b in adjacent for n in every])
     return objects, labels, skips
 
 

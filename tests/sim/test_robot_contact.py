@@ -412,6 +412,37 @@ def test_adjacent_links_never_touch_each_other():
     make_simulator(_arm(**{'robots.arm.initial_joint_positions': [0.0, 2.5, 0.0]}))
 
 
+def _bracketed_arm3(z_m):
+    """Return arm3's URDF with a ``bracket`` fixed to its mount: a 0.2 m cube ``z_m`` below it."""
+    bracket = ('<joint name="bracket_joint" type="fixed"><parent link="mount"/><child '
+               f'link="bracket"/><origin xyz="0 0 {z_m}"/></joint><link name="bracket">'
+               '<collision><geometry><box size="0.2 0.2 0.2"/></geometry></collision></link>')
+    return ARM3_URDF.read_text().replace('</robot>', bracket + '</robot>')
+
+
+def test_a_link_jointed_to_the_world_links_never_touches_their_fixed_neighbours():
+    # A bracket fixed to arm3's mount (both fixed to the world: one rigid group) around the
+    # shoulder, 0.15 m below it: the upper arm (jointed to the mount) runs through it. It is
+    # adjacent to the group, so it never touches the bracket either, and the arm hangs still
+    # (before, only the mount itself was skipped: refused at start, the upper arm inside the
+    # bracket).
+    world = make_simulator(_arm(**{'robots.arm.robot_description': _bracketed_arm3(-0.15),
+                                   'robots.arm.urdf_path': ''}))
+    world.step(300)
+    assert len(world.contacts) == 0
+    q, qd, _ = world.joint_states(0)
+    # as test_adjacent_links_never_touch_each_other: round-off of the joint impulses
+    assert max(map(abs, q)) < 1e-12 and max(map(abs, qd)) < 1e-12
+    # The forearm is not adjacent to the world's links: a bracket around it (0.75 m below the
+    # mount) is an obstacle it starts inside, refused naming both links.
+    with pytest.raises(ModelError) as caught:
+        make_simulator(_arm(**{'robots.arm.robot_description': _bracketed_arm3(-0.75),
+                               'robots.arm.urdf_path': ''}))
+    line = str(caught.value)
+    assert "puts link 'fore' of robot 'arm' " in line and \
+        "inside link 'bracket' of robot 'arm'" in line, line
+
+
 #: arm3 folded so that the hand (elbow 2.5 rad, wrist 1.0 rad) points back at the upper arm.
 FOLDED = {'robots.arm.initial_joint_positions': [0.0, 2.5, 1.0],
           'robots.arm.initial_joint_velocities': [0.0, 0.0, 3.0], 'gravity': [0.0, 0.0, 0.0]}
