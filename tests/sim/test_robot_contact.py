@@ -22,7 +22,8 @@ with a ground far below swings as on the joints-only core and with the closed-fo
 rod pendulum knocks a free box off its spot without ever gaining energy (ε = 0). What the
 contact step cannot take yet is refused at start in one line naming the robot's parameter,
 the URDF joint or the link. A link's ``<collision>`` elements collide where the URDF puts them
-(one offset from the COM, several at once), and a link fixed to the world is an obstacle.
+(one offset from the COM, several at once, a mesh beside a box), and a link fixed to the world
+is an obstacle (a link jointed to it never touches it nor the links fixed with it).
 """
 
 import math
@@ -38,6 +39,7 @@ from rbd_ros.sim.robot_contact import RobotContactWorld
 from rbd_ros.sim.robot_world import RobotWorld
 from rbd_ros.sim.session import SimSession
 from tests.core.joints.closed_forms import pendulum_period
+import trimesh
 import yaml
 
 REPO = Path(__file__).resolve().parents[2]
@@ -266,6 +268,43 @@ def test_a_link_with_two_collisions_stands_on_both():
     weight = 2.0 * G * 1e-3
     # Each foot half the weight's impulse: the stages' impulses balance gravity over the step
     # and the moments about the COM cancel, to the solver's round-off (1e-12 of the impulse).
+    assert all(abs(f - weight / 2) < 1e-12 * weight for f in feet), feet
+
+
+@pytest.mark.parametrize('first', ['mesh', 'box'])
+def test_a_link_with_a_mesh_and_a_box_collision_stands_on_both(tmp_path, first):
+    # The bench of test_a_link_with_two_collisions_stands_on_both with its +x foot a mesh: a
+    # unit cube's STL (written here by trimesh) at scale 0.1, the other foot the box
+    # primitive; tilted to land on one or the other first. The compound's mesh part against
+    # the ground is its surface points (the cube's corners among them), the box part its
+    # corners: it stands level on both, its COM 0.1 m up, each foot carrying half its weight.
+    stl = tmp_path / 'cube.stl'
+    trimesh.creation.box(extents=(1.0, 1.0, 1.0)).export(stl)
+    mesh_foot = (f'<collision><origin xyz="0.2 0 -0.05"/><geometry><mesh filename="{stl}" '
+                 'scale="0.1 0.1 0.1"/></geometry></collision>')
+    urdf = _bench_urdf().replace('<collision><origin xyz="0.2 0 -0.05"/>'
+                                 '<geometry><box size="0.1 0.1 0.1"/></geometry></collision>',
+                                 mesh_foot)
+    assert urdf.count('<mesh ') == 1 and urdf.count('<box ') == 1
+    tilt = 0.05 if first == 'mesh' else -0.05  # about y: +x (the mesh foot) down first
+    world = make_simulator(NodeConfig.from_parameters(_ground(robot_names=['bench'], **{
+        'robots.bench.robot_description': urdf,
+        'robots.bench.initial_position': [0.0, 0.0, 0.2],
+        'robots.bench.initial_orientation': [0.0, math.sin(tilt), 0.0, math.cos(tilt)]})))
+    assert world.world.bodies[0].shape.shape == 'compound'
+    world.step(2000)
+    x = world.world.arrays[0][:, 0]
+    c = world.contacts
+    staged = c.stage > 0
+    feet = [float(c.impulse_w[staged & (side * (c.point_w[:, 0] - x[0]) > 0.1), 2].sum())
+            for side in (1.0, -1.0)]
+    print(f'\nbench on a mesh and a box foot ({first} first): COM z {x[2]!r} m; feet '
+          f'impulses {feet} N s over a step')
+    # The two-box bench's bounds (measured here: 2.8e-17 m, 7e-15 m/s, the impulses to
+    # 3e-18 N s): the mesh's corners rest on the plane as exactly as the box's.
+    assert abs(x[2] - 0.1) <= REST_TOL and np.abs(x[7:13]).max() < 1e-9
+    assert abs(x[4]) < 1e-12  # level: no turn left about y
+    weight = 2.0 * G * 1e-3
     assert all(abs(f - weight / 2) < 1e-12 * weight for f in feet), feet
 
 
