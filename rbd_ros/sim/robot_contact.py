@@ -214,9 +214,10 @@ class _RobotCore(JointedWorldSimulator):
     def constraint_wrenches_w(self):
         """Return per joint the parent's wrench on the child (6 floats, world, about its COM)."""
         world = self.child_wrenches_w()
+        nan = (float('nan'),) * 6
         if world is None:
-            return [(float('nan'),) * 6 for _ in self.joints]
-        return [(*f, *t) for f, t in world]
+            return [nan for _ in self.joints]
+        return [nan if w is None else (*w[0], *w[1]) for w in world]
 
 
 class RobotContactWorld(RobotWorld):

@@ -266,31 +266,51 @@ def parameter_error(exc, given):
                      value=value, unit=spec.unit, detail=detail)
 
 
+def _groups(joints):
+    """Return each joint's group: the least body index of the bodies its joints connect."""
+    root = {}
+
+    def find(b):
+        while root.get(b, b) != b:
+            b = root[b]
+        return b
+    for joint in joints:
+        if joint.parent is not None:
+            a, b = find(joint.parent), find(joint.child)
+            root[max(a, b)] = min(a, b)
+    return [find(joint.child) for joint in joints]
+
+
 def _tree_order(joints):
     """
     Return ``(joint indices children first, body → the joints it is the parent of)``.
 
-    None unless the joints form trees: each body the child of one joint at most and no loop (a
-    loop's split of an internal force among its joints is not given by the bodies' motion).
+    Only the joints of groups (bodies connected by joints) that form trees: each body the child
+    of one joint at most and no loop (a loop's split of an internal force among its joints is
+    not given by the bodies' motion); a group that does not is left out (its joints' wrenches
+    are NaN), and the others, a robot's beside it, keep theirs.
     """
-    seen = set()
-    for joint in joints:
+    group = _groups(joints)
+    seen, bad = set(), set()
+    for k, joint in enumerate(joints):
         if joint.child in seen:
-            return None
+            bad.add(group[k])
         seen.add(joint.child)
     below = {}  # body -> the joints it is the parent of
     for k, joint in enumerate(joints):
         if joint.parent is not None:
             below.setdefault(joint.parent, []).append(k)
-    order, done, pending = [], set(), list(range(len(joints)))
+    order, done = [], set()
+    pending = [k for k in range(len(joints)) if group[k] not in bad]
     while pending:
         ready = [k for k in pending if all(c in done for c in below.get(joints[k].child, ()))]
-        if not ready:
-            return None
+        if not ready:  # the rest wait on a loop: their groups are not trees
+            bad.update(group[k] for k in pending)
+            break
         order += ready
         done.update(ready)
         pending = [k for k in pending if k not in done]
-    return order, below
+    return [k for k in order if group[k] not in bad], below
 
 
 def _spin_w(row, inertia):
@@ -319,8 +339,9 @@ class JointedWorldSimulator(WorldSimulator):
       (N m or N; 0 without a motor).
     - :meth:`joint_wrenches`: per joint (``joint_names`` order) the force (N) and torque (N m)
       the parent exerts on the child over the last step, in the child body's frame, the torque
-      about the joint point; see there. NaN at time 0, after a reset, and for every joint when
-      the joints do not form trees.
+      about the joint point; see there. NaN at time 0, after a reset, and for the joints of a
+      group (bodies connected by joints) that does not form a tree (a loop); the other groups
+      keep theirs.
     """
 
     def __init__(self, bodies, states, static, world_joints, **kwargs):
@@ -416,7 +437,7 @@ class JointedWorldSimulator(WorldSimulator):
         if time_ns == self.time_ns:
             return rows
         rows = self._nan
-        if self._before is not None and self._tree is not None:
+        if self._before is not None:
             rows = self._momentum_wrenches()
         self._wrenches = (self.time_ns, rows)
         return rows
@@ -427,9 +448,10 @@ class JointedWorldSimulator(WorldSimulator):
 
         Each a 3-list of plain floats (N, N m), averaged over the last step and computed from
         the bodies' momentum as :meth:`joint_wrenches` says (before its turn into the child's
-        frame); None at time 0, after a reset, or when the joints do not form trees.
+        frame); None at time 0 and after a reset; a joint's entry None where its joints do not
+        form a tree.
         """
-        if self._before is None or self._tree is None:
+        if self._before is None:
             return None
         return self._world_wrenches()[0]
 
@@ -466,7 +488,11 @@ class JointedWorldSimulator(WorldSimulator):
         world, x0, x1 = self._world_wrenches()
         joints = self.joints
         rows = [None] * len(joints)
-        for k, (f, t) in enumerate(world):
+        for k, wrench in enumerate(world):
+            if wrench is None:  # not in a tree
+                rows[k] = self._nan[k]
+                continue
+            f, t = wrench
             a, b = x0[joints[k].child], x1[joints[k].child]
             # the child's frame at the middle of the step: (q₀ + q₁)/|q₀ + q₁|, inverted
             qw, qx, qy, qz = (a[i] + b[i] for i in range(3, 7))

@@ -459,6 +459,27 @@ def test_a_closed_loop_swings_with_its_closed_form_period_and_reports_no_wrenche
     assert all(math.isnan(v) for row in world.joint_wrenches() for v in row)  # a loop's split
 
 
+def test_a_loop_beside_a_robot_leaves_the_robots_wrenches_alone():
+    # The four-bar beside arm3 hanging at rest 1 m along y (fixed to the world): the loop's
+    # wrenches have no unique split (NaN), the arm's joints are a tree of their own and keep
+    # theirs: at rest each joint carries the weight below it, the shoulder 3 m g = 29.43 N up
+    # (arm3's three 1 kg links), in its child link's frame (not turned at rest).
+    params = {**_four_bar(), 'robot_names': ['arm'],
+              'robots.arm.initial_position': [0.0, 1.0, 0.0],
+              'robots.arm.urdf_path': str(REPO / 'msg_config' / 'urdf' / 'arm3.urdf')}
+    world = make_simulator(NodeConfig.from_parameters(params))
+    world.step(5)
+    loop = world.joint_wrenches(1)
+    assert len(loop) == 4 and all(math.isnan(v) for row in loop for v in row)
+    arm = world.joint_wrenches(0)  # mount_joint, shoulder, elbow, wrist, tool joint
+    assert all(math.isfinite(v) for row in arm for v in row), arm
+    # The momentum over a step of a body at rest: round-off of m Δv/h (~1e-16 m/s / 1e-3 s
+    # per kg) and of the joint impulses; 1e-9 N leaves margin.
+    for joint, carried in ((1, 3), (2, 2), (3, 1)):
+        np.testing.assert_allclose(arm[joint][:3], (0.0, 0.0, carried * 9.81), rtol=0,
+                                   atol=1e-9)
+
+
 def _wheel(integrator, omega):
     """Return a wheel on a continuous axle to the world, spun at ``omega`` rad/s, no gravity."""
     return {'gravity': [0.0, 0.0, 0.0], 'integrator': integrator, 'body_names': ['wheel'],
