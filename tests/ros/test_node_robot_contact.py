@@ -75,7 +75,7 @@ def run(module_tmp):
     """Run the node once; return what the probe received and the bag."""
     from geometry_msgs.msg import PoseStamped, TwistStamped
     from rclpy.qos import DurabilityPolicy, QoSProfile
-    from ros_probe import Probe
+    from ros_probe import Probe, run_paused_node
     from sensor_msgs.msg import JointState, MultiDOFJointState
     from tf2_msgs.msg import TFMessage
     from visualization_msgs.msg import MarkerArray
@@ -103,17 +103,9 @@ def run(module_tmp):
                  1000),
                 ('static_markers', MarkerArray, 'static_markers',
                  lambda m: m.markers[0].header.stamp, latched))]
-    try:
-        probe.wait(lambda: all(s.get_publisher_count() >= 1 for s in subs)
-                   and probe.clients['pause'].service_is_ready(), 120, 'the node on the graph')
-        topics = dict(probe.node.get_topic_names_and_types())
-        probe.pause(False)
-        probe.wait(lambda: all(DURATION_NS in got[k] for k in got if k != 'static_markers')
-                   and got['static_markers'], 120, 'the last sample')
-        status = node.wait(60)
-    finally:
-        probe.close()
-        node.stop()
+    topics, status = run_paused_node(
+        probe, node, subs, lambda: all(DURATION_NS in got[k] for k in got
+                                       if k != 'static_markers') and got['static_markers'])
     return {'got': got, 'topics': topics, 'ns': node.namespace.rstrip('/'), 'status': status,
             'bag': bag, 'stderr': node.stderr}
 

@@ -67,7 +67,7 @@ def _arm(bag, duration_s):
 def run(module_tmp):
     """Run the node on both files once; return what the probe received and the bag."""
     from rclpy.qos import DurabilityPolicy, QoSProfile
-    from ros_probe import Probe
+    from ros_probe import Probe, run_paused_node
     from sensor_msgs.msg import JointState
     from tf2_msgs.msg import TFMessage
     bag = module_tmp / 'pendulum_arm'
@@ -86,16 +86,8 @@ def run(module_tmp):
             for kind in ('joint_states', 'arm/joint_states')]
     subs.append(probe.node.create_subscription(
         TFMessage, '/tf', keep('tf', lambda m: m.transforms[0].header.stamp), 1000))
-    try:
-        probe.wait(lambda: all(s.get_publisher_count() >= 1 for s in subs)
-                   and probe.clients['pause'].service_is_ready(), 120, 'the node on the graph')
-        topics = dict(probe.node.get_topic_names_and_types())
-        probe.pause(False)
-        probe.wait(lambda: all(DURATION_NS in got[k] for k in got), 120, 'the last sample')
-        status = node.wait(60)
-    finally:
-        probe.close()
-        node.stop()
+    topics, status = run_paused_node(probe, node, subs,
+                                     lambda: all(DURATION_NS in got[k] for k in got))
     return {'got': got, 'topics': topics, 'ns': node.namespace.rstrip('/'), 'status': status,
             'bag': bag, 'stderr': node.stderr}
 
