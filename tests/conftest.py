@@ -253,7 +253,8 @@ NOT_FREE_DIRS = ('core/contact/', 'core/joints/')
 WORLD_JOINTS_FILES = ('core/joints/test_joints_contact.py', 'core/joints/test_motors_contact.py',
                       'core/joints/test_joint_friction_contact.py',
                       'sim/test_world_joints.py', 'sim/test_robot_contact.py',
-                      'ros/test_node_world_joints.py', 'ros/test_node_robot_contact.py',
+                      'ros/test_node_world_joints.py', 'ros/test_node_world_joints_robots.py',
+                      'ros/test_node_robot_contact.py',
                       'ros/test_node_world_start_refusals.py', 'ros/test_node_lifecycle.py',
                       'ros/test_param_dump.py', 'ros/test_node_analytic_unseen.py',
                       'recording/test_reference_bags.py')

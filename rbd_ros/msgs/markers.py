@@ -33,7 +33,8 @@ Namespaces and ids (stable, so a marker is replaced in place sample after sample
 * ``contacts`` id 0: the contact points (SPHERE_LIST); id 1: the normals (LINE_LIST).
 * ``links`` id ``i``: the ``i``-th ``<collision>`` of the robots' links (robots, links and
   elements in order; ``text`` = ``<robot>/<link>``), in the link's own frame (the frame
-  ``/tf`` carries), ``frame_locked`` true, posed by the element's ``<origin>``
+  ``/tf`` carries), ``frame_locked`` true, posed by the element's ``<origin>``; a link fixed
+  to the world's in the world frame at its placed pose, published with the static ones
   (:class:`LinkMarkers`).
 
 The ``text`` field is ignored by viewers for these types; it lets a bag reader tell the
@@ -542,21 +543,41 @@ def contact_markers(contacts: 'Contacts', frame_id: str, stamp_ns: int,
     return out
 
 
+def _link_marker(collision, index, frame, position, orientation, color):
+    """Return the marker of one link ``<collision>`` element at ``position``, ``orientation``."""
+    if collision.mesh_file is None:
+        return shape_marker(collision.shape, LINKS_NS, index, frame, position, orientation,
+                            color, 0)
+    # the file, as a body's: x_l = R(q) (s ∘ v) + p, not re-centred
+    filename, path, scale = collision.mesh_file
+    marker = _body_marker(LINKS_NS, index, frame, Marker.MESH_RESOURCE, color, scale)
+    marker.mesh_resource = mesh_uri(filename, path)
+    marker.mesh_use_embedded_materials = False
+    marker.pose.position.x, marker.pose.position.y, marker.pose.position.z = (
+        float(v) for v in position)
+    conv.quaternion_to_msg(orientation, marker.pose.orientation)
+    return marker
+
+
 class LinkMarkers:
     """
-    Every robot link's collision shapes, each in its link's frame: built once, stamped a sample.
+    Every robot link's collision shapes: built once, stamped a sample or published once.
 
     One marker per ``<collision>`` element (ns :data:`LINKS_NS`, ids in order of the robots,
-    their URDF links and each link's elements), ``header.frame_id`` the link's frame as
-    ``/tf`` names it (its URDF name; the ``world`` link of a robot fixed to the world is the
-    world frame), ``frame_locked`` true (a viewer moves it with the frame), the pose the
-    element's ``<origin>`` in the link frame and the shape's marker as :func:`shape_marker`
-    gives it; a mesh a MESH_RESOURCE of its file (:func:`mesh_uri` of the URDF's filename:
-    ``package://`` kept, else the ``file://`` URI of the file loaded), scale the URDF's
-    ``scale`` (the file's coordinates scaled are the element frame's: a link mesh is not
-    re-centred), so a sample carries its URI, not its triangles. A moving link's markers have
-    its body's colour (:func:`body_color` of its index in the world, the free bodies first); a
-    link fixed to the world the obstacles' colour.
+    their URDF links and each link's elements; ``text`` = ``<robot>/<link>``), the element's
+    shape as :func:`shape_marker` gives it; a mesh a MESH_RESOURCE of its file (:func:`mesh_uri`
+    of the URDF's filename: ``package://`` kept, else the ``file://`` URI of the file loaded),
+    scale the URDF's ``scale`` (the file's coordinates scaled are the element frame's: a link
+    mesh is not re-centred), so a sample carries its URI, not its triangles.
+
+    - A moving link's (:meth:`stamped`, on ``markers`` every sample): ``header.frame_id`` the
+      link's frame as ``/tf`` names it (its URDF name), ``frame_locked`` true (a viewer moves
+      it with the frame), the pose the element's ``<origin>`` in the link frame, its body's
+      colour (:func:`body_color` of its index in the world, the free bodies first).
+    - A link fixed to the world (:attr:`static`, on ``static_markers`` once, as the obstacles
+      it collides as): in the world frame at its placed pose (the link's pose at time 0 times
+      the element's ``<origin>``), ``frame_locked`` false, the obstacles' colour. It is not on
+      ``markers`` (drawn once, where it is static).
 
     :param robots: the :class:`rbd_ros.sim.robots.RobotConfig` values.
     :param world_frame: the node's world frame id.
@@ -566,35 +587,33 @@ class LinkMarkers:
 
     def __init__(self, robots: Sequence['RobotConfig'], world_frame: str, first_body: int = 0):
         self._array = MarkerArray()
+        #: The markers of the links fixed to the world (stamp 0), for ``static_markers``.
+        self.static: List[Marker] = []
         body = first_body
+        index = 0
         for robot in robots:
             urdf = robot.robot
             for link in urdf.links:
-                frame = world_frame if link.name == 'world' and urdf.fixed_to_world \
-                    else link.name
-                color = OBSTACLE_COLOR if link.body is None else body_color(body + link.body)
+                fixed = link.body is None
+                if fixed:
+                    link_p, link_q = (np.asarray(v, dtype=np.float64) for v in
+                                      robot.placement.link_poses_w[link.name])
+                color = OBSTACLE_COLOR if fixed else body_color(body + link.body)
                 for collision in link.collisions:
-                    index = len(self._array.markers)
-                    if collision.mesh_file is None:
-                        marker = shape_marker(collision.shape, LINKS_NS, index, frame,
-                                              collision.position_l, collision.orientation_l,
-                                              color, 0)
-                    else:  # the file, as a body's: x_l = R(q) (s ∘ v) + p, not re-centred
-                        filename, path, scale = collision.mesh_file
-                        marker = _body_marker(LINKS_NS, index, frame, Marker.MESH_RESOURCE,
-                                              color, scale)
-                        marker.mesh_resource = mesh_uri(filename, path)
-                        marker.mesh_use_embedded_materials = False
-                        marker.pose.position.x, marker.pose.position.y, \
-                            marker.pose.position.z = (float(v) for v in collision.position_l)
-                        conv.quaternion_to_msg(collision.orientation_l, marker.pose.orientation)
-                    marker.frame_locked = True
+                    position, orientation = collision.position_l, collision.orientation_l
+                    if fixed:  # its pose in the world: x_w = R(q_link) x_l + p_link
+                        position = quat_to_matrix(link_q) @ position + link_p
+                        orientation = quat_multiply(link_q, orientation)
+                    marker = _link_marker(collision, index, world_frame if fixed else link.name,
+                                          position, orientation, color)
+                    marker.frame_locked = not fixed
                     marker.text = f'{robot.name}/{link.name}'
-                    self._array.markers.append(marker)
+                    (self.static if fixed else self._array.markers).append(marker)
+                    index += 1
             body += len(urdf.body_links)
 
     def stamped(self, stamp_ns: int) -> List[Marker]:
-        """Return the markers with ``header.stamp`` at ``stamp_ns`` (the same objects)."""
+        """Return the moving links' markers stamped ``stamp_ns`` (the same objects)."""
         stamp = conv.time_to_msg(stamp_ns)
         for marker in self._array.markers:
             marker.header.stamp = stamp

@@ -294,8 +294,10 @@ class SampleBuilder:
         self.robots = tuple(RobotOutputs(robot, r, config.world_frame)
                             for r, robot in enumerate(getattr(config, 'robots', ())))
         joints = getattr(config, 'world_joints', ())
-        if joints:  # the world's joints: joint_states and joint_wrenches, no prefix
-            self.robots += (JointOutputs('', 0, [j.name for j in joints if j.moving],
+        if joints:  # the world's joints: joint_states and joint_wrenches, no prefix; their
+            # readouts' index after the robots' (RobotContactWorld's, 0 without robots)
+            self.robots += (JointOutputs('', len(self.robots),
+                                         [j.name for j in joints if j.moving],
                                          [j.name for j in joints]),)
         self.per_body = getattr(config, 'per_body_topics', True) or not config.named
         self.kinds = tuple(prefix + kind for prefix, body in zip(self.prefixes, self.bodies)

@@ -38,7 +38,9 @@ every machine.
   frame id is its URDF name; the URDF's ``world`` link is the node's world frame. The
   transform is the parent's frame pose inverted times the child's, from the simulated link
   poses (:meth:`rbd_ros.sim.robot_world.RobotWorld.link_poses`), so it agrees with
-  ``joint_states`` through the URDF's kinematics to the joints' projection tolerance.
+  ``joint_states`` through the URDF's kinematics to the joints' projection tolerance; a link
+  whose parent is the ``world`` link gets its pose in the world (the ``world`` link of a robot
+  placed at ``initial_position`` is not at the origin of the world frame it names).
 
 The joints of a world (``joint_names``, :mod:`rbd_ros.sim.world_joints`) are a group of
 :class:`JointOutputs` without a prefix: ``joint_states`` (the one-coordinate joints in
@@ -160,6 +162,10 @@ class RobotOutputs(JointOutputs):
             self.transforms.append((None, link_index[urdf.root], cdr_string(world_frame),
                                     cdr_string(frame[urdf.root])))
         for joint in urdf.joints:
-            self.transforms.append((link_index[joint.parent], link_index[joint.child],
+            # The ``world`` link is the world frame: a link hanging from it is given by its
+            # pose in the world (the world link sits at initial_position, not at the origin).
+            parent = None if joint.parent == 'world' and urdf.fixed_to_world \
+                else link_index[joint.parent]
+            self.transforms.append((parent, link_index[joint.child],
                                     cdr_string(frame[joint.parent]),
                                     cdr_string(frame[joint.child])))

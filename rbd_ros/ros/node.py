@@ -211,9 +211,9 @@ class RigidBodyNode(Node):
         self._pubs['diagnostics'] = self._publisher(conv.DiagnosticArray, '/diagnostics', 10)
         self._markers = None
         if config.contact and config.publish_markers:
-            # Shapes for RViz and Foxglove: bodies and the last step's contacts at every sample
-            # on markers; the static world once on static_markers (transient local, so a late
-            # subscriber gets it).
+            # Shapes for RViz and Foxglove: bodies, moving links and the last step's contacts at
+            # every sample on markers; the static world (a robot's links fixed to the world too)
+            # once on static_markers (transient local, so a late subscriber gets it).
             self._markers = _world_markers(config)
             self._link_markers = markers.LinkMarkers(config.robots, config.world_frame,
                                                      len(config.bodies))
@@ -306,9 +306,10 @@ class RigidBodyNode(Node):
         # the diagnostics timer runs on a steady clock, whatever use_sim_time says.
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self.create_timer(1.0, self._publish_diagnostics, clock=steady)
-        if self._markers is not None:
-            self._publish('static_markers', markers.static_markers(
-                config.static_world, config.world_frame, 0), 0)
+        if self._markers is not None:  # with the robots' links fixed to the world
+            static = markers.static_markers(config.static_world, config.world_frame, 0)
+            static.markers.extend(self._link_markers.static)
+            self._publish('static_markers', static, 0)
         for robot in config.robots:
             self._publish(f'{robot.name}/robot_description', String(data=robot.robot.urdf), 0)
         self._publish_sample()

@@ -61,7 +61,8 @@ def make_simulator(config):
     Return the simulator of ``config``: the one place that chooses it.
 
     With robots, a :class:`rbd_ros.sim.robot_world.RobotWorld` of them; with robots and free
-    bodies, a ground or obstacles, a :class:`rbd_ros.sim.robot_contact.RobotContactWorld`.
+    bodies, a ground or obstacles, a :class:`rbd_ros.sim.robot_contact.RobotContactWorld`
+    (with the world's ``joint_names`` too).
 
     With contact (named bodies, a ground or obstacles) a :class:`WorldSimulator` of every body
     of ``config.bodies`` and the static world; else the free-body simulator of the one body.
@@ -75,7 +76,7 @@ def make_simulator(config):
     """
     if config.robots and config.contact:
         return RobotContactWorld(config.robots, config.bodies, config.static_world,
-                                 config.integrator, config.timestep_ns)
+                                 config.integrator, config.timestep_ns, config.world_joints)
     if config.robots:
         return RobotWorld(config.robots, config.timestep_ns)
     if not config.contact:

@@ -248,15 +248,17 @@ class NodeConfig:
         static_world = _static_world(values, obstacle_names)
         integrator = time_settings['integrator']
         if robots:
-            joint_params.check_world_joints(values, robots)
             bodies = ()
             if body_inputs or static_world is not None:  # one contact world
                 _check_contact_integrator(integrator, 'robots in a world with contact')
                 if body_inputs:
                     bodies = _world_bodies(values, body_inputs, static_world, integrator)
+            world_joints = joint_params.read_world_joints(
+                values, {b.name: b for b in bodies}, robots)
             return cls(bodies=bodies, **time_settings, **_frame_settings(values, bodies),
                        **_limits_and_recording(values), parameters=values,
-                       static_world=static_world, robots=robots, command_groups=groups)
+                       static_world=static_world, robots=robots, command_groups=groups,
+                       world_joints=world_joints)
         if groups:
             fail(robot_params.GROUP_NAMES_SPEC, list(values[robot_params.GROUP_NAMES]),
                  'command groups need robots (robot_names is empty)')

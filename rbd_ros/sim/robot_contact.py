@@ -44,8 +44,10 @@ robot's material: a free body or another link lands on a robot's base.
 
 **Which links touch** (:func:`no_collision_pairs`, the contact step's ``no_collision``; with a
 link fixed to the world, ``no_static_collision``): the parent and child links of a joint never
-collide with each other (they meet at the joint), a link fixed to the world and its moving
-child included; a robot's other links do, unless ``robots.<name>.self_collision`` is false;
+collide with each other (they meet at the joint), and links joined by fixed joints are one
+group (a body, or for links fixed to the world the world): a moving link jointed to a link
+fixed to the world never collides with any of the robot's links fixed to the world; a
+robot's other links do, unless ``robots.<name>.self_collision`` is false;
 links of different robots and free bodies always do. A world's own joints (``joint_names``) keep
 today's rule: their bodies collide (they are given shapes that clear at the joint).
 
@@ -156,8 +158,10 @@ def _world_links(robots):
     One :class:`StaticObject` per ``<collision>`` of every link that is part of the world
     (``world`` → fixed → ...), at its pose in the world (the root's placement times the
     element's pose in the root frame), in the robot's material. ``skip``: the ``(body index
-    within the robot, static name)`` pairs that never collide: a moving link and the world
-    link of its joint (adjacent), or every pair when the robot's ``self_collision`` is false.
+    within the robot, static name)`` pairs that never collide: a moving link jointed to a
+    world link and every link of the robot fixed to the world (adjacent links never collide,
+    and fixed joints make the robot's world links one rigid group: the world), or every pair
+    when the robot's ``self_collision`` is false.
     """
     objects, labels, skips = [], {}, []
     for robot in robots:
@@ -178,13 +182,13 @@ def _world_links(robots):
                 labels[f'obstacles.{name}'] = f'link {link.name!r} of robot {robot.name!r}'
                 names.setdefault(link.name, []).append(name)
         links = {link.name: link.body for link in urdf.links}
+        every = [n for group in names.values() for n in group]
         if not robot.self_collision:
-            every = [n for group in names.values() for n in group]
             skips.append([(b, n) for b in range(len(urdf.body_links)) for n in every])
             continue
-        skips.append([(links[joint.child], n) for joint in urdf.joints
-                      if links[joint.parent] is None and links[joint.child] is not None
-                      for n in names.get(joint.parent, ())])
+        adjacent = sorted({links[joint.child] for joint in urdf.joints
+                           if links[joint.parent] is None and links[joint.child] is not None})
+        skips.append([(b, n) for b in adjacent for n in every])
     return objects, labels, skips
 
 
@@ -211,9 +215,10 @@ class _RobotCore(JointedWorldSimulator):
     def constraint_wrenches_w(self):
         """Return per joint the parent's wrench on the child (6 floats, world, about its COM)."""
         world = self.child_wrenches_w()
+        nan = (float('nan'),) * 6
         if world is None:
-            return [(float('nan'),) * 6 for _ in self.joints]
-        return [(*f, *t) for f, t in world]
+            return [nan for _ in self.joints]
+        return [nan if w is None else (*w[0], *w[1]) for w in world]
 
 
 class RobotContactWorld(RobotWorld):
@@ -224,13 +229,23 @@ class RobotContactWorld(RobotWorld):
     :param bodies: the free bodies' :class:`rbd_ros.sim.config.BodyConfig` tuple.
     :param static: the :class:`rbd_ros.core.contact.StaticWorld` (or None).
     :param integrator: a contact integrator. :param timestep_ns: the fixed step, int ns.
+    :param world_joints: the world's own joints between free bodies (``joint_names``, the
+        :class:`rbd_ros.sim.world_joints.WorldJoint` tuple): the contact step's first joints,
+        read out as one more group after the robots (index ``len(robots)``), as
+        :class:`rbd_ros.sim.world_joints.JointedWorldSimulator` reads them.
     :raises ModelError, ConfigError: one line naming the parameter or the URDF's link or joint.
     """
 
-    def __init__(self, robots, bodies, static, integrator, timestep_ns):
+    def __init__(self, robots, bodies, static, integrator, timestep_ns, world_joints=()):
         free = [WorldBody(b.name, b.model, b.collision_shape, b.material) for b in bodies]
         self._free = len(free)
-        self._assemble(robots, timestep_ns, len(free))
+        world_joints = tuple(world_joints)
+        self._world_joints = len(world_joints)
+        self._assemble(robots, timestep_ns, len(free), len(world_joints))
+        if world_joints:  # their group, after the robots': joint_states order, time constants
+            self._moving.append(tuple(k for k, j in enumerate(world_joints) if j.moving))
+            self._time_constants_s.append(tuple(j.time_constant_s for j in world_joints
+                                                if j.moving))
         links, labels = _link_bodies(self.robots)
         fixed, fixed_labels, skips = _world_links(self.robots)
         labels.update(fixed_labels)
@@ -239,7 +254,7 @@ class RobotContactWorld(RobotWorld):
                                  (() if static is None else tuple(static.obstacles))
                                  + tuple(fixed))
         _, link_states, joints = self._args
-        world_joints = [WorldJoint(joint.name, joint, None, 0.0, ()) for joint in joints]
+        world_joints += tuple(WorldJoint(joint.name, joint, None, 0.0, ()) for joint in joints)
         states = [b.initial_state for b in bodies] + list(link_states)
         offsets = [b0 for b0, _ in self._bodies]
         try:
@@ -289,6 +304,23 @@ class RobotContactWorld(RobotWorld):
         if text == str(exc):
             return exc
         return type(exc)(text, field=exc.field, detail=getattr(exc, 'detail', None))
+
+    def joint_wrenches(self, r: int):
+        """
+        Return robot ``r``'s joint wrenches (:meth:`RobotWorld.joint_wrenches`).
+
+        ``r = len(robots)``: the world's own joints', ``joint_names`` order, as
+        :meth:`rbd_ros.sim.world_joints.JointedWorldSimulator.joint_wrenches` gives them.
+        """
+        if r == len(self.robots):
+            return self._sim.joint_wrenches()[:self._world_joints]
+        return super().joint_wrenches(r)
+
+    def link_poses(self, r: int):
+        """Return robot ``r``'s link poses; none for the world's joints (bodies on /tf)."""
+        if r == len(self.robots):
+            return []
+        return super().link_poses(r)
 
     def reset(self) -> None:
         """Back to every body's and robot's placement at time 0, every motor off."""

@@ -121,22 +121,27 @@ class RobotWorld:
         self._sim = ArticulatedSimulator(*self._args, timestep_ns=timestep_ns,
                                          defer_projection=True)
 
-    def _assemble(self, robots, timestep_ns, first_body):
+    def _assemble(self, robots, timestep_ns, first_body, first_joint=0):
         """
         Gather every robot's bodies, states and joints and each link's carrier (no simulator).
 
         ``first_body``: the index of the first robot body in the simulator's bodies (a world
         with contact puts its free bodies first); the joints' body indices count from there.
+        ``first_joint``: the index of the first robot joint in the simulator's joints (a world
+        with contact puts its own joints, ``joint_names``, first).
         """
         self.robots = tuple(robots)
         self._timestep_ns = timestep_ns
+        # Per joint group (each robot, then a contact world's own joints): the position time
+        # constant of each moving joint, joint_states order.
+        self._time_constants_s = [robot.time_constants_s for robot in self.robots]
         models, states, joints = [], [], []
         self._moving = []   # per robot: the core joint index of each moving joint
         self._bodies = []   # per robot: (first body index, number of bodies)
         self._joint_offsets = []  # per robot: its first core joint index
         for robot in self.robots:
             placement = robot.placement
-            b0, j0 = first_body + len(models), len(joints)
+            b0, j0 = first_body + len(models), first_joint + len(joints)
             self._joint_offsets.append(j0)
             models += placement.models
             states += placement.states
@@ -249,7 +254,7 @@ class RobotWorld:
         position target's reference rate and acceleration (a followed trajectory).
         """
         self._sim.set_motors(motor_settings(targets, self._moving[r],
-                                            self.robots[r].time_constants_s))
+                                            self._time_constants_s[r]))
 
     def release(self, r: int, joint: int) -> None:
         """Turn the motor of moving joint ``joint`` of robot ``r`` off (the joint is free)."""

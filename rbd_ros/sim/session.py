@@ -172,12 +172,13 @@ class SimSession:
             config.bodies, world_frame=config.world_frame, timeout_ns=config.wrench_timeout_ns,
             max_force_n=config.max_force_n, max_torque_nm=config.max_torque_nm)
         self.drags = _drag_inputs(config)
-        #: The command inputs of the robots (:mod:`rbd_ros.sim.joint_commands`) or of the
+        #: The command inputs of the robots (:mod:`rbd_ros.sim.joint_commands`) and of the
         #: world's joints (:class:`rbd_ros.sim.world_joints.WorldJointInputs`); None without.
-        self.commands = (RobotInputs(config.robots, config.command_groups,
-                                     config.wrench_timeout_ns) if config.robots
-                         else WorldJointInputs(config.world_joints, config.wrench_timeout_ns)
+        self.commands = (WorldJointInputs(config.world_joints, config.wrench_timeout_ns,
+                                          config.robots, config.command_groups)
                          if config.world_joints
+                         else RobotInputs(config.robots, config.command_groups,
+                                          config.wrench_timeout_ns) if config.robots
                          else None)
         self.paused = config.start_paused
         # Steps per compiled call: a signal is seen between calls (rbd_ros.sim.limits.step_chunk).

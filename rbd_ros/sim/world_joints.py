@@ -154,7 +154,26 @@ def _vector(spec, value):
     return tuple(float(v) for v in value)
 
 
-def _read_joint(params, name, bodies):
+def _robot_link(value, robots):
+    """Return ``(robot, link)`` when ``value`` names a robot's link (``link`` or ``r/link``)."""
+    for robot in robots:
+        for link in robot.robot.links:
+            if value in (link.name, f'{robot.name}/{link.name}'):
+                return robot.name, link.name
+    return None
+
+
+def _not_a_body(spec, value, names, robots, world=''):
+    """Refuse ``value`` as a joint's body: not one of ``body_names`` (say so for a link)."""
+    link = _robot_link(value, robots)
+    if link is not None:
+        fail(spec, value, f'is link {link[1]!r} of robot {link[0]!r}, not a body: a world '
+             f"joint joins the bodies of body_names ({names}){world}; a robot's links are "
+             'joined by its URDF')
+    fail(spec, value, f'must be one of body_names ({names}){world}')
+
+
+def _read_joint(params, name, bodies, robots):
     specs = joint_parameter_specs(name)
     by = {spec.name.rsplit('.', 1)[1]: spec for spec in specs}
     v = {base: param_value(params, spec) for base, spec in by.items()}
@@ -165,9 +184,9 @@ def _read_joint(params, name, bodies):
         fail(by['child'], WORLD, 'the world does not move: a child is a body of body_names '
              f'({names}); make the world the parent')
     if v['child'] not in bodies:
-        fail(by['child'], v['child'], f'must be one of body_names ({names})')
+        _not_a_body(by['child'], v['child'], names, robots)
     if v['parent'] != WORLD and v['parent'] not in bodies:
-        fail(by['parent'], v['parent'], f"must be one of body_names ({names}) or 'world'")
+        _not_a_body(by['parent'], v['parent'], names, robots, " or 'world'")
     if v['parent'] == v['child']:
         fail(by['parent'], v['parent'], 'is the child too: a body cannot be jointed to itself')
     position = _vector(by['position'], position3(by['position'], v['position']))
@@ -204,19 +223,21 @@ def _read_joint(params, name, bodies):
                       v['position_time_constant_s'], specs)
 
 
-def read_world_joints(params, bodies) -> Tuple[WorldJoint, ...]:
+def read_world_joints(params, bodies, robots=()) -> Tuple[WorldJoint, ...]:
     """
     Return the :class:`WorldJoint` of every joint of ``params`` (a dict name → value).
 
     :param bodies: the world's bodies, name → :class:`rbd_ros.sim.config.BodyConfig` in
         ``body_names`` order (empty for a file without ``body_names``).
+    :param robots: the file's :class:`rbd_ros.sim.robots.RobotConfig` tuple: a world joint
+        joins free bodies (and the world) only; one naming a robot's link is refused saying so.
     :raises ConfigError, ModelError: one line naming the parameter, its value and unit.
     """
     names = list_names(params, JOINT_NAMES_SPEC, MAX_BODIES)
     if names and not bodies:
         fail(JOINT_NAMES_SPEC, list(names), 'joints join the bodies of a world: give '
              'body_names (and bodies.<name>.*)')
-    return tuple(_read_joint(params, name, bodies) for name in names)
+    return tuple(_read_joint(params, name, bodies, robots) for name in names)
 
 
 def parameter_error(exc, given):
@@ -245,31 +266,51 @@ def parameter_error(exc, given):
                      value=value, unit=spec.unit, detail=detail)
 
 
+def _groups(joints):
+    """Return each joint's group: the least body index of the bodies its joints connect."""
+    root = {}
+
+    def find(b):
+        while root.get(b, b) != b:
+            b = root[b]
+        return b
+    for joint in joints:
+        if joint.parent is not None:
+            a, b = find(joint.parent), find(joint.child)
+            root[max(a, b)] = min(a, b)
+    return [find(joint.child) for joint in joints]
+
+
 def _tree_order(joints):
     """
     Return ``(joint indices children first, body → the joints it is the parent of)``.
 
-    None unless the joints form trees: each body the child of one joint at most and no loop (a
-    loop's split of an internal force among its joints is not given by the bodies' motion).
+    Only the joints of groups (bodies connected by joints) that form trees: each body the child
+    of one joint at most and no loop (a loop's split of an internal force among its joints is
+    not given by the bodies' motion); a group that does not is left out (its joints' wrenches
+    are NaN), and the others, a robot's beside it, keep theirs.
     """
-    seen = set()
-    for joint in joints:
+    group = _groups(joints)
+    seen, bad = set(), set()
+    for k, joint in enumerate(joints):
         if joint.child in seen:
-            return None
+            bad.add(group[k])
         seen.add(joint.child)
     below = {}  # body -> the joints it is the parent of
     for k, joint in enumerate(joints):
         if joint.parent is not None:
             below.setdefault(joint.parent, []).append(k)
-    order, done, pending = [], set(), list(range(len(joints)))
+    order, done = [], set()
+    pending = [k for k in range(len(joints)) if group[k] not in bad]
     while pending:
         ready = [k for k in pending if all(c in done for c in below.get(joints[k].child, ()))]
-        if not ready:
-            return None
+        if not ready:  # the rest wait on a loop: their groups are not trees
+            bad.update(group[k] for k in pending)
+            break
         order += ready
         done.update(ready)
         pending = [k for k in pending if k not in done]
-    return order, below
+    return [k for k in order if group[k] not in bad], below
 
 
 def _spin_w(row, inertia):
@@ -298,8 +339,9 @@ class JointedWorldSimulator(WorldSimulator):
       (N m or N; 0 without a motor).
     - :meth:`joint_wrenches`: per joint (``joint_names`` order) the force (N) and torque (N m)
       the parent exerts on the child over the last step, in the child body's frame, the torque
-      about the joint point; see there. NaN at time 0, after a reset, and for every joint when
-      the joints do not form trees.
+      about the joint point; see there. NaN at time 0, after a reset, and for the joints of a
+      group (bodies connected by joints) that does not form a tree (a loop); the other groups
+      keep theirs.
     """
 
     def __init__(self, bodies, states, static, world_joints, **kwargs):
@@ -395,7 +437,7 @@ class JointedWorldSimulator(WorldSimulator):
         if time_ns == self.time_ns:
             return rows
         rows = self._nan
-        if self._before is not None and self._tree is not None:
+        if self._before is not None:
             rows = self._momentum_wrenches()
         self._wrenches = (self.time_ns, rows)
         return rows
@@ -406,9 +448,10 @@ class JointedWorldSimulator(WorldSimulator):
 
         Each a 3-list of plain floats (N, N m), averaged over the last step and computed from
         the bodies' momentum as :meth:`joint_wrenches` says (before its turn into the child's
-        frame); None at time 0, after a reset, or when the joints do not form trees.
+        frame); None at time 0 and after a reset; a joint's entry None where its joints do not
+        form a tree.
         """
-        if self._before is None or self._tree is None:
+        if self._before is None:
             return None
         return self._world_wrenches()[0]
 
@@ -445,7 +488,11 @@ class JointedWorldSimulator(WorldSimulator):
         world, x0, x1 = self._world_wrenches()
         joints = self.joints
         rows = [None] * len(joints)
-        for k, (f, t) in enumerate(world):
+        for k, wrench in enumerate(world):
+            if wrench is None:  # not in a tree
+                rows[k] = self._nan[k]
+                continue
+            f, t = wrench
             a, b = x0[joints[k].child], x1[joints[k].child]
             # the child's frame at the middle of the step: (q₀ + q₁)/|q₀ + q₁|, inverted
             qw, qx, qy, qz = (a[i] + b[i] for i in range(3, 7))
@@ -486,15 +533,20 @@ class WorldJointInputs(RobotInputs):
     start on the core's motors (:meth:`JointedWorldSimulator.set_targets`) and held in sim time
     like a wrench (``wrench_timeout_s``). No group commands or trajectories: those are a
     robot's.
+
+    Beside robots (``robots``, ``groups``: a world with both) it is their
+    :class:`~rbd_ros.sim.joint_commands.RobotInputs` too, the world's joints one more group
+    after them (index ``len(robots)``, as :class:`rbd_ros.sim.robot_contact.RobotContactWorld`
+    reads them out).
     """
 
-    def __init__(self, world_joints, timeout_ns=0):
-        super().__init__((), (), timeout_ns)
-        spec = CommandInput('joint_command', 'joint_command', 0)
-        self.inputs = {spec.name: spec}
-        self.received = {spec.name: 0}
-        self._specs = [tuple(JointSpec(j.name, j.joint, j.velocity_limit)
-                             for j in world_joints if j.moving)]
+    def __init__(self, world_joints, timeout_ns=0, robots=(), groups=()):
+        super().__init__(robots, groups, timeout_ns)
+        spec = CommandInput('joint_command', 'joint_command', len(self.robots))
+        self.inputs[spec.name] = spec
+        self.received[spec.name] = 0
+        self._specs.append(tuple(JointSpec(j.name, j.joint, j.velocity_limit)
+                                 for j in world_joints if j.moving))
 
 
 def take_parameters(values, params):
@@ -502,10 +554,3 @@ def take_parameters(values, params):
     for name in list_names(values, JOINT_NAMES_SPEC, MAX_BODIES):
         for spec in joint_parameter_specs(name):
             values[spec.name] = coerce(spec, params.pop(spec.name, spec.default))
-
-
-def check_world_joints(values, robots):
-    """Refuse ``joint_names`` beside robots (a robot file has no free bodies yet)."""
-    if values[JOINT_NAMES] and robots:
-        fail(JOINT_NAMES_SPEC, list(values[JOINT_NAMES]), 'a file with robots has no free '
-             'bodies to join yet: leave joint_names out')

@@ -192,6 +192,28 @@ class Probe:
         rclpy.try_shutdown(context=self.context)
 
 
+def run_paused_node(probe, node, subs, done, timeout_s=120):
+    """
+    Run a node started paused to its end: return ``(topics on the graph, exit status)``.
+
+    Waits for the subscriptions ``subs`` to match and the pause service, reads the graph,
+    unpauses, waits until ``done()`` (the last sample received) and for the node to exit
+    (its ``duration_s``); closes the probe and stops the node whatever happens.
+    """
+    try:
+        probe.wait(lambda: all(s.get_publisher_count() >= 1 for s in subs)
+                   and probe.clients['pause'].service_is_ready(), timeout_s,
+                   'the node on the graph')
+        topics = dict(probe.node.get_topic_names_and_types())
+        probe.pause(False)
+        probe.wait(done, timeout_s, 'the last sample')
+        status = node.wait(60)
+    finally:
+        probe.close()
+        node.stop()
+    return topics, status
+
+
 def step_until_moving(probe, max_steps=100):
     """
     Step a paused node until the twist shows a velocity; return ``(t_effect_ns, t_now_ns)``.

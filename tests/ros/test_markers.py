@@ -358,13 +358,21 @@ ixz="0" iyy="0.1" iyz="0" izz="0.1"/></inertial><collision><origin xyz="0.1 0.2 
 rpy="0 0 1.2"/><geometry><mesh filename="{uri}" scale="2 2 2"/></geometry></collision>
 </link></robot>"""
     config = NodeConfig.from_parameters({'robot_names': ['r'],
-                                         'robots.r.robot_description': urdf})
+                                         'robots.r.robot_description': urdf,
+                                         'robots.r.initial_position': [0.5, -0.25, 0.0]})
     built = markers.LinkMarkers(config.robots, 'odom', first_body=3)
-    base, arm = built.stamped(STAMP_NS)
+    # The base is fixed to the world: a static marker (published once with the obstacles), in
+    # the world frame at its placed pose (world link at (0.5, -0.25, 0), base 1 m up, box
+    # 0.05 m above it: 1 + 0.05 rounds to 1.05), not among the moving links' markers.
+    (arm,) = built.stamped(STAMP_NS)
+    (base,) = built.static
     assert (base.ns, base.id, base.type) == ('links', 0, Marker.CUBE)
-    assert base.header.frame_id == 'base'
+    assert base.header.frame_id == 'odom' and not base.frame_locked
+    assert base.header.stamp.sec == 0 and base.header.stamp.nanosec == 0
     assert np.array_equal(xyz(base.scale), (0.3, 0.3, 0.1))
-    assert np.array_equal(xyz(base.pose.position), (0.0, 0.0, 0.05))
+    assert np.array_equal(xyz(base.pose.position), (0.5, -0.25, 1.05))
+    assert np.array_equal(wxyz(base.pose.orientation), (1.0, 0.0, 0.0, 0.0))
+    assert base.text == 'r/base'
     assert (arm.ns, arm.id, arm.type, arm.header.frame_id) == ('links', 1,
                                                                Marker.MESH_RESOURCE, 'arm')
     assert arm.mesh_resource == uri and arm.mesh_use_embedded_materials is False
@@ -373,9 +381,8 @@ rpy="0 0 1.2"/><geometry><mesh filename="{uri}" scale="2 2 2"/></geometry></coll
     assert np.allclose(xyz(arm.pose.position), (0.1, 0.2, 0.3), rtol=0.0, atol=1e-15)
     want = (math.cos(0.6), 0.0, 0.0, math.sin(0.6))
     assert np.allclose(wxyz(arm.pose.orientation), want, rtol=0.0, atol=1e-15)
-    for marker in (base, arm):
-        assert marker.frame_locked and marker.header.stamp.sec == STAMP_NS // 10 ** 9
-        assert marker.text == f'r/{marker.header.frame_id}'
+    assert arm.frame_locked and arm.header.stamp.sec == STAMP_NS // 10 ** 9
+    assert arm.text == 'r/arm'
     # the moving link in its body's colour (body 3: the free bodies first), the base in the
     # obstacles'
     color = [(m.color.r, m.color.g, m.color.b, m.color.a) for m in (arm, base)]

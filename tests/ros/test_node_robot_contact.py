@@ -23,8 +23,8 @@ sim time; one probe. The robot's topics are a robot's (``pendulum/joint_states``
 ``pendulum/joint_wrenches``, the rod on ``/tf`` as robot_state_publisher gives it: world →
 rod at the pivot, turned by the joint angle about y), the box's a world body's
 (``box/pose``, ``box/twist``, world → box on ``/tf``); the rod knocks the box along +x, every
-link's collision elements are on ``markers`` in their link frames, and the recording replays
-MATCH.
+moving link's collision elements are on ``markers`` in their link frames, the ceiling's (fixed
+to the world) once on ``static_markers`` in the world frame, and the recording replays MATCH.
 """
 
 import math
@@ -75,7 +75,7 @@ def run(module_tmp):
     """Run the node once; return what the probe received and the bag."""
     from geometry_msgs.msg import PoseStamped, TwistStamped
     from rclpy.qos import DurabilityPolicy, QoSProfile
-    from ros_probe import Probe
+    from ros_probe import Probe, run_paused_node
     from sensor_msgs.msg import JointState, MultiDOFJointState
     from tf2_msgs.msg import TFMessage
     from visualization_msgs.msg import MarkerArray
@@ -83,7 +83,7 @@ def run(module_tmp):
     node = NodeProcess(module_tmp, _params(bag), namespace=True)
     probe = Probe(node.namespace, inputs=(), outputs=('diagnostics',))
     got = {'joint_states': {}, 'joint_wrenches': {}, 'pose': {}, 'twist': {}, 'tf': {},
-           'markers': {}}
+           'markers': {}, 'static_markers': {}}
     # Transient local (keep last 1): a subscription matched after the paused node's t = 0
     # sample still gets it; /tf is volatile (its t = 0 sample may precede the match).
     latched = QoSProfile(depth=1000, durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -100,17 +100,12 @@ def run(module_tmp):
                 ('twist', TwistStamped, 'box/twist', lambda m: m.header.stamp, 1000),
                 ('tf', TFMessage, '/tf', lambda m: m.transforms[0].header.stamp, 1000),
                 ('markers', MarkerArray, 'markers', lambda m: m.markers[0].header.stamp,
-                 1000))]
-    try:
-        probe.wait(lambda: all(s.get_publisher_count() >= 1 for s in subs)
-                   and probe.clients['pause'].service_is_ready(), 120, 'the node on the graph')
-        topics = dict(probe.node.get_topic_names_and_types())
-        probe.pause(False)
-        probe.wait(lambda: all(DURATION_NS in got[k] for k in got), 120, 'the last sample')
-        status = node.wait(60)
-    finally:
-        probe.close()
-        node.stop()
+                 1000),
+                ('static_markers', MarkerArray, 'static_markers',
+                 lambda m: m.markers[0].header.stamp, latched))]
+    topics, status = run_paused_node(
+        probe, node, subs, lambda: all(DURATION_NS in got[k] for k in got
+                                       if k != 'static_markers') and got['static_markers'])
     return {'got': got, 'topics': topics, 'ns': node.namespace.rstrip('/'), 'status': status,
             'bag': bag, 'stderr': node.stderr}
 
@@ -174,22 +169,21 @@ def test_the_rod_knocks_the_box_along_x_and_the_recording_replays_match(run):
     assert result.match, result.problems
 
 
-def test_every_links_collision_elements_are_on_markers_in_its_frame(run):
-    # The rod's cylinder and ball, then the ceiling's box (robots, links, elements in order),
-    # each in its link's frame (the frames /tf carries) at its <origin>, as the URDF gives
-    # them: the same floats, so compared exactly.
+def test_every_moving_links_collision_elements_are_on_markers_in_its_frame(run):
+    # The rod's cylinder and ball (robots, links, elements in order), each in its link's frame
+    # (the frames /tf carries) at its <origin>, as the URDF gives them: the same floats, so
+    # compared exactly. The ceiling, fixed to the world, is not here (static_markers).
     from visualization_msgs.msg import Marker
     want = [('rod', Marker.CYLINDER, (0.04, 0.04, 1.5), (0.0, 0.0, -0.75)),
-            ('rod', Marker.SPHERE, (0.06, 0.06, 0.06), (0.0, 0.0, 0.0)),
-            ('ceiling', Marker.CUBE, (0.3, 0.3, 0.1), (0.0, 0.0, 0.2))]
+            ('rod', Marker.SPHERE, (0.06, 0.06, 0.06), (0.0, 0.0, 0.0))]
     assert run['got']['markers'], 'no markers'
     for t, msg in run['got']['markers'].items():
         links = [m for m in msg.markers if m.ns == 'links']
         have = [(m.header.frame_id, m.type, (m.scale.x, m.scale.y, m.scale.z),
                  (m.pose.position.x, m.pose.position.y, m.pose.position.z)) for m in links]
         assert have == want, have
-        assert [m.id for m in links] == [0, 1, 2]
-        assert [m.text for m in links] == ['pendulum/rod', 'pendulum/rod', 'pendulum/ceiling']
+        assert [m.id for m in links] == [0, 1]
+        assert [m.text for m in links] == ['pendulum/rod', 'pendulum/rod']
         for m in links:
             q = m.pose.orientation
             assert (q.x, q.y, q.z, q.w) == (0.0, 0.0, 0.0, 1.0)
@@ -246,3 +240,20 @@ def test_a_mimic_gripper_squeezes_a_box_with_half_its_effort_a_side(
     assert max(abs(box.x), abs(box.y), abs(box.z - 1.05)) <= 1e-9, box
     result = replay_bag(str(bag))
     assert result.match, result.problems
+
+
+def test_a_link_fixed_to_the_world_is_on_static_markers_once_in_the_world_frame(run):
+    # The ceiling (world -> fixed 2 m up -> ceiling, its box 0.2 m above its frame) is static:
+    # published once at start on the transient-local static_markers beside the ground, in
+    # the world frame at its placed pose (0, 0, 2.2) m, with the id it had among the links.
+    from visualization_msgs.msg import Marker
+    (stamp, msg), = run['got']['static_markers'].items()
+    assert stamp == 0
+    assert [m.ns for m in msg.markers] == ['ground', 'links']
+    ceiling = msg.markers[1]
+    assert (ceiling.id, ceiling.type, ceiling.text) == (2, Marker.CUBE, 'pendulum/ceiling')
+    assert ceiling.header.frame_id == 'world' and not ceiling.frame_locked
+    p, q = ceiling.pose.position, ceiling.pose.orientation
+    # 2 + 0.2 in floats, as the placement composes them
+    assert (p.x, p.y, p.z) == (0.0, 0.0, 2.0 + 0.2) and (q.x, q.y, q.z, q.w) == (0, 0, 0, 1)
+    assert (ceiling.scale.x, ceiling.scale.y, ceiling.scale.z) == (0.3, 0.3, 0.1)

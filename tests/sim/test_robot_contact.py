@@ -22,7 +22,8 @@ with a ground far below swings as on the joints-only core and with the closed-fo
 rod pendulum knocks a free box off its spot without ever gaining energy (ε = 0). What the
 contact step cannot take yet is refused at start in one line naming the robot's parameter,
 the URDF joint or the link. A link's ``<collision>`` elements collide where the URDF puts them
-(one offset from the COM, several at once), and a link fixed to the world is an obstacle.
+(one offset from the COM, several at once, a mesh beside a box), and a link fixed to the world
+is an obstacle (a link jointed to it never touches it nor the links fixed with it).
 """
 
 import math
@@ -38,6 +39,7 @@ from rbd_ros.sim.robot_contact import RobotContactWorld
 from rbd_ros.sim.robot_world import RobotWorld
 from rbd_ros.sim.session import SimSession
 from tests.core.joints.closed_forms import pendulum_period
+import trimesh
 import yaml
 
 REPO = Path(__file__).resolve().parents[2]
@@ -269,6 +271,43 @@ def test_a_link_with_two_collisions_stands_on_both():
     assert all(abs(f - weight / 2) < 1e-12 * weight for f in feet), feet
 
 
+@pytest.mark.parametrize('first', ['mesh', 'box'])
+def test_a_link_with_a_mesh_and_a_box_collision_stands_on_both(tmp_path, first):
+    # The bench of test_a_link_with_two_collisions_stands_on_both with its +x foot a mesh: a
+    # unit cube's STL (written here by trimesh) at scale 0.1, the other foot the box
+    # primitive; tilted to land on one or the other first. The compound's mesh part against
+    # the ground is its surface points (the cube's corners among them), the box part its
+    # corners: it stands level on both, its COM 0.1 m up, each foot carrying half its weight.
+    stl = tmp_path / 'cube.stl'
+    trimesh.creation.box(extents=(1.0, 1.0, 1.0)).export(stl)
+    mesh_foot = (f'<collision><origin xyz="0.2 0 -0.05"/><geometry><mesh filename="{stl}" '
+                 'scale="0.1 0.1 0.1"/></geometry></collision>')
+    urdf = _bench_urdf().replace('<collision><origin xyz="0.2 0 -0.05"/>'
+                                 '<geometry><box size="0.1 0.1 0.1"/></geometry></collision>',
+                                 mesh_foot)
+    assert urdf.count('<mesh ') == 1 and urdf.count('<box ') == 1
+    tilt = 0.05 if first == 'mesh' else -0.05  # about y: +x (the mesh foot) down first
+    world = make_simulator(NodeConfig.from_parameters(_ground(robot_names=['bench'], **{
+        'robots.bench.robot_description': urdf,
+        'robots.bench.initial_position': [0.0, 0.0, 0.2],
+        'robots.bench.initial_orientation': [0.0, math.sin(tilt), 0.0, math.cos(tilt)]})))
+    assert world.world.bodies[0].shape.shape == 'compound'
+    world.step(2000)
+    x = world.world.arrays[0][:, 0]
+    c = world.contacts
+    staged = c.stage > 0
+    feet = [float(c.impulse_w[staged & (side * (c.point_w[:, 0] - x[0]) > 0.1), 2].sum())
+            for side in (1.0, -1.0)]
+    print(f'\nbench on a mesh and a box foot ({first} first): COM z {x[2]!r} m; feet '
+          f'impulses {feet} N s over a step')
+    # The two-box bench's bounds (measured here: 2.8e-17 m, 7e-15 m/s, the impulses to
+    # 3e-18 N s): the mesh's corners rest on the plane as exactly as the box's.
+    assert abs(x[2] - 0.1) <= REST_TOL and np.abs(x[7:13]).max() < 1e-9
+    assert abs(x[4]) < 1e-12  # level: no turn left about y
+    weight = 2.0 * G * 1e-3
+    assert all(abs(f - weight / 2) < 1e-12 * weight for f in feet), feet
+
+
 def test_a_box_dropped_on_a_fixed_base_link_rests_on_it():
     # arm3's mount (world -> fixed -> mount, its 0.2 x 0.2 x 0.1 m box 0.05 m above the mount
     # frame, 2 m up) with the robot placed 0.5 m along x: an obstacle whose top is at
@@ -401,6 +440,37 @@ def test_adjacent_links_never_touch_each_other():
     # Folded at the elbow by 2.5 rad the upper arm and the forearm cross near the elbow (their
     # 0.03 m cylinders overlap over ~0.03 m): allowed, as they never collide.
     make_simulator(_arm(**{'robots.arm.initial_joint_positions': [0.0, 2.5, 0.0]}))
+
+
+def _bracketed_arm3(z_m):
+    """Return arm3's URDF with a ``bracket`` fixed to its mount: a 0.2 m cube ``z_m`` below it."""
+    bracket = ('<joint name="bracket_joint" type="fixed"><parent link="mount"/><child '
+               f'link="bracket"/><origin xyz="0 0 {z_m}"/></joint><link name="bracket">'
+               '<collision><geometry><box size="0.2 0.2 0.2"/></geometry></collision></link>')
+    return ARM3_URDF.read_text().replace('</robot>', bracket + '</robot>')
+
+
+def test_a_link_jointed_to_the_world_links_never_touches_their_fixed_neighbours():
+    # A bracket fixed to arm3's mount (both fixed to the world: one rigid group) around the
+    # shoulder, 0.15 m below it: the upper arm (jointed to the mount) runs through it. It is
+    # adjacent to the group, so it never touches the bracket either, and the arm hangs still
+    # (before, only the mount itself was skipped: refused at start, the upper arm inside the
+    # bracket).
+    world = make_simulator(_arm(**{'robots.arm.robot_description': _bracketed_arm3(-0.15),
+                                   'robots.arm.urdf_path': ''}))
+    world.step(300)
+    assert len(world.contacts) == 0
+    q, qd, _ = world.joint_states(0)
+    # as test_adjacent_links_never_touch_each_other: round-off of the joint impulses
+    assert max(map(abs, q)) < 1e-12 and max(map(abs, qd)) < 1e-12
+    # The forearm is not adjacent to the world's links: a bracket around it (0.75 m below the
+    # mount) is an obstacle it starts inside, refused naming both links.
+    with pytest.raises(ModelError) as caught:
+        make_simulator(_arm(**{'robots.arm.robot_description': _bracketed_arm3(-0.75),
+                               'robots.arm.urdf_path': ''}))
+    line = str(caught.value)
+    assert "puts link 'fore' of robot 'arm' " in line and \
+        "inside link 'bracket' of robot 'arm'" in line, line
 
 
 #: arm3 folded so that the hand (elbow 2.5 rad, wrist 1.0 rad) points back at the upper arm.

@@ -189,14 +189,43 @@ def test_a_bad_joint_parameter_is_refused_in_one_line_naming_it(case):
     assert line.startswith(start), line
 
 
-def test_joints_beside_robots_are_refused():
-    params = {'robot_names': ['arm'],
-              'robots.arm.urdf_path': str(REPO / 'msg_config' / 'urdf' / 'arm3.urdf'),
-              'joint_names': ['hinge'], 'joints.hinge.type': 'revolute',
-              'joints.hinge.child': 'bob'}
-    with pytest.raises(ConfigError, match=r"^parameter joint_names = \['hinge'\]: a file "
-                                          'with robots'):
-        NodeConfig.from_parameters(params)
+def _beside_arm(**changes):
+    """Return the pendulum world with msg_config/urdf/arm3.urdf beside it (1 m along y)."""
+    return _pendulum(**{'robot_names': ['arm'], 'robots.arm.initial_position': [0.0, 1.0, 0.0],
+                        'robots.arm.urdf_path': str(REPO / 'msg_config' / 'urdf' / 'arm3.urdf'),
+                        **changes})
+
+
+def test_joints_beside_robots_are_the_contact_worlds_first_joints_read_out_apart():
+    config = NodeConfig.from_parameters(_beside_arm())
+    assert [j.name for j in config.world_joints] == ['hinge'] and len(config.robots) == 1
+    session = SimSession(config)
+    world = session.simulator
+    # the world's hinge first, then the arm's joints by their core names
+    assert [j.name for j in world.joints[:2]] == ['hinge', 'arm/shoulder']
+    session.submit_command('joint_command', (['hinge'], [0.0], [], []))
+    session.submit_command('arm/joint_command', (['elbow'], [], [], [0.5]))
+    session.advance(10)
+    # each group's readout and command are its own: the arm's index 0, the world's 1
+    hinge_q, _, hinge_effort = world.joint_states(1)
+    assert abs(hinge_q[0]) <= 1e-12 and hinge_effort[0] > 5.0
+    assert world.joint_states(0)[2] == [0.0, 0.5, 0.0]
+    assert len(world.joint_wrenches(1)) == 1 and len(world.joint_wrenches(0)) == 5  # URDF's
+    assert world.link_poses(1) == []
+    with pytest.raises(CommandRejected, match='shoulder'):
+        session.submit_command('joint_command', (['shoulder'], [0.1], [], []))
+
+
+@pytest.mark.parametrize('field, value', [('child', 'hand'), ('parent', 'arm/upper')])
+def test_a_world_joint_naming_a_robots_link_is_refused_in_one_line(field, value):
+    with pytest.raises(ConfigError) as info:
+        NodeConfig.from_parameters(_beside_arm(**{f'joints.hinge.{field}': value}))
+    link = value.rsplit('/', 1)[-1]
+    world = " or 'world'" if field == 'parent' else ''
+    assert str(info.value) == (
+        f"parameter joints.hinge.{field} = {value!r}: is link '{link}' of robot 'arm', not a "
+        f"body: a world joint joins the bodies of body_names (bob, target){world}; a robot's "
+        'links are joined by its URDF')
 
 
 @pytest.mark.parametrize('field, value, unit', [('lower', -1.0, 'rad or m'),
@@ -429,6 +458,27 @@ def test_a_closed_loop_swings_with_its_closed_form_period_and_reports_no_wrenche
     assert abs((up[1] - up[0]) - period) < 1e-5, (up, period)
     assert worst <= 1e-12, worst  # the cranks turn together: the loop holds
     assert all(math.isnan(v) for row in world.joint_wrenches() for v in row)  # a loop's split
+
+
+def test_a_loop_beside_a_robot_leaves_the_robots_wrenches_alone():
+    # The four-bar beside arm3 hanging at rest 1 m along y (fixed to the world): the loop's
+    # wrenches have no unique split (NaN), the arm's joints are a tree of their own and keep
+    # theirs: at rest each joint carries the weight below it, the shoulder 3 m g = 29.43 N up
+    # (arm3's three 1 kg links), in its child link's frame (not turned at rest).
+    params = {**_four_bar(), 'robot_names': ['arm'],
+              'robots.arm.initial_position': [0.0, 1.0, 0.0],
+              'robots.arm.urdf_path': str(REPO / 'msg_config' / 'urdf' / 'arm3.urdf')}
+    world = make_simulator(NodeConfig.from_parameters(params))
+    world.step(5)
+    loop = world.joint_wrenches(1)
+    assert len(loop) == 4 and all(math.isnan(v) for row in loop for v in row)
+    arm = world.joint_wrenches(0)  # mount_joint, shoulder, elbow, wrist, tool joint
+    assert all(math.isfinite(v) for row in arm for v in row), arm
+    # The momentum over a step of a body at rest: round-off of m Δv/h (~1e-16 m/s / 1e-3 s
+    # per kg) and of the joint impulses; 1e-9 N leaves margin.
+    for joint, carried in ((1, 3), (2, 2), (3, 1)):
+        np.testing.assert_allclose(arm[joint][:3], (0.0, 0.0, carried * 9.81), rtol=0,
+                                   atol=1e-9)
 
 
 def _wheel(integrator, omega):
