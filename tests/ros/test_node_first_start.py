@@ -218,11 +218,7 @@ def test_a_cold_robot_start_publishes_its_placement_while_the_joints_compile(
     finally:  # never leave a node running (it has no duration)
         status = node.stop()
     assert status == 0, node.stderr
-    recorded = open_bag(bag)
-    topic = f'{node.namespace}/arm/joint_states'
-    decode = recorded.decoder(topic)
-    stamps = [decode(raw.data).header.stamp for raw in recorded.messages([topic])]
-    assert [(s.sec, s.nanosec) for s in stamps] == [(0, 0)]
+    assert _recorded_stamps(bag, f'{node.namespace}/arm/joint_states') == [(0, 0)]
 
 
 def test_a_cold_jointed_world_start_publishes_its_placement_while_the_kernels_compile(
@@ -265,8 +261,12 @@ def test_a_cold_jointed_world_start_publishes_its_placement_while_the_kernels_co
     finally:  # never leave a node running while it compiles for minutes
         status = node.stop()
     assert status == 0, node.stderr
+    assert _recorded_stamps(bag, f'{node.namespace}/poses') == [(0, 0)]
+
+
+def _recorded_stamps(bag, topic):
+    """Return ``[(sec, nanosec)]``: the header stamps recorded on ``topic`` in ``bag``."""
     recorded = open_bag(bag)
-    topic = f'{node.namespace}/poses'
     decode = recorded.decoder(topic)
-    stamps = [decode(raw.data).header.stamp for raw in recorded.messages([topic])]
-    assert [(s.sec, s.nanosec) for s in stamps] == [(0, 0)]
+    return [(m.header.stamp.sec, m.header.stamp.nanosec)
+            for m in (decode(raw.data) for raw in recorded.messages([topic]))]
