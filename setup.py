@@ -58,8 +58,8 @@ setup(
     zip_safe=True,
     maintainer='The rbd_ros authors',
     maintainer_email='maintainers@rbd-ros.invalid',
-    description=('Worlds of rigid bodies with frictional contact for ROS 2 Jazzy, recorded to '
-                 'MCAP and replayed bit-exactly.'),
+    description=('Rigid bodies, worlds with frictional contact and URDF robots for ROS 2 '
+                 'Jazzy, recorded to MCAP and replayed bit-exactly.'),
     license='Apache-2.0',
     tests_require=['pytest', 'pytest-xdist'],
     entry_points={

@@ -213,7 +213,7 @@ def test_colcon_files_are_right():
     assert PACKAGE_XML.find('export/build_type').text == 'ament_python'
     description = ' '.join(PACKAGE_XML.findtext('description').split())
     for words in ('world of rigid bodies', 'floor', 'obstacles', 'frictional contact', 'MCAP',
-                  'bit-exactly'):
+                  'bit-exactly', 'robots from URDF', 'joint states'):
         assert words in description, description
 
 
