@@ -173,13 +173,14 @@ WARM_MATCH_M = 1e-4
 WARM_COS_MIN = 0.5
 WARM_LEFT_MAX_M_S = 1e-6
 
-# Counters of the contact stages whose patches share bodies, per stage of the step (rows of the
-# (3, N_SOLVE_STATS) float64 table ``Work.stats``, summed from step to step until the simulator
-# resets them; see WorldSimulator.solve_stats): what bench_contact.py prints per stage.
-ST_STAGES = 0    # coupled stages solved
+# Counters of the contact islands whose patches share bodies, per stage of the step (rows of
+# the (3, N_SOLVE_STATS) float64 table ``Work.stats``, summed from step to step until the
+# simulator resets them; see WorldSimulator.solve_stats): what bench_contact.py prints per
+# stage.
+ST_STAGES = 0    # coupled islands solved (a jointed world's coupled stages: one group each)
 ST_SWEEPS = 1    # Gauss–Seidel sweeps run (a cold retry's included)
-ST_COLD = 2      # warm-started stages solved again from zero (see solve_stage)
-ST_PATCHES = 3   # patches of those stages
+ST_COLD = 2      # warm-started islands solved again from zero (see solve_islands)
+ST_PATCHES = 3   # patches of those islands
 N_SOLVE_STATS = 4
 
 _jit = jitcache.kernel()
