@@ -74,6 +74,13 @@ FLUSH_DEPTH_MIN_M = 1e-12
 DEPTH_READ_ERROR_M = 1e-11
 #: At most this many points per patch.
 PATCH_POINTS = 4
+#: A patch's friction acts at the λ-weighted mean of its points.  While every coordinate of
+#: it is within this (m) it is taken in world coordinates, ``c = Σ λ_k p_k / Σ λ_k``, its lever
+#: arms ``c − x``: their round-off, a few ulp of ``|c|`` (~4e-9 m at 1e7 m), is nothing beside
+#: a body (and the recorded worlds keep their bits).  Further out that round-off is the lever
+#: arms' error, an ulp of 1e284 m at 1e300 m, and r²/I overflows; there they are the λ-weighted
+#: means of the points' own (``C_RA``, ``C_RB``: as exact as a body's size wherever it is).
+CENTRE_WORLD_MAX_M = 1e7
 #: Surface points are grouped in cells of this many, a cell skipped when its ball is out of
 #: reach (see _one_way).
 CHUNK_POINTS = 16

@@ -23,11 +23,18 @@ the slowest island converged and one stack anywhere made every lone box's patch 
 from the column alone by 1e-12 m after 9 steps, a lone box beside a column after 7.  So each
 scene here steps a group ``A`` alone and ``A`` with a group ``B`` far away, and requires every
 state and contact-wrench bit of ``A`` (and of ``B``) to be the same at every step.
+
+A body alone in its island has a lone patch (friction per patch) where a stack beside it made
+it coupled (friction per point): the striker of ``msg_config/stack.yaml`` flung to 1e303 m/s
+by a drag went non-finite once its patch centre, in world coordinates, was an ulp (1e285 m)
+off the box.  The last two tests step it, in the stack and alone, and require it finite.
 """
 
 from contact_scenes import body, ground, STEP_IDS, steps, STEPS_NS, world
 import numpy as np
 import pytest
+from rbd_ros.core.errors import NonFiniteError
+from rbd_ros.core.loads import Spring
 from rbd_ros.core.state import BodyState
 
 SIDE_M = 0.2
@@ -112,3 +119,55 @@ def test_a_sliding_box_stops_the_same_beside_a_column():
     for k, ((xa, _), (x, _)) in enumerate(zip(alone, both)):
         assert np.array_equal(_bits(x[:, :1]), _bits(xa)), f'the box differs at step {k + 1}'
     assert alone[-1][0][0, 0] > 0.05   # it slid
+
+
+def _striker_world():
+    """Return stack.yaml's world: a column of three 1 kg boxes and a 2 kg striker 0.8 m away."""
+    bodies, states = boxes(column(3))
+    bodies.append(body('striker', 'box', [SIDE_M] * 3, mass_kg=2.0))
+    states.append(BodyState(position_w=(-0.8, 0.0, 0.1)))
+    return world(bodies, states, ground(), 1_000_000)
+
+
+def _step_finite(sim, count):
+    """Step ``sim`` ``count`` times one at a time, requiring every step finite."""
+    for k in range(count):
+        try:
+            sim.step(1)
+        except NonFiniteError as exc:
+            raise AssertionError(f'step {k + 1} of {count} was not finite: {exc}') from exc
+        assert np.all(np.isfinite(sim.arrays[0]))
+
+
+def test_a_striker_flung_by_a_drag_goes_on_finite_once_the_drag_is_released():
+    # The node's hard-push case, on the simulator: a 1e12 N/m drag on the 2 kg striker grows
+    # its oscillation ~(h ω)² = 5e5 a step until a step would overflow (at ~53 ms); the drag
+    # is then dropped (as the session releases it) and the striker, alone on the floor (a
+    # lone patch: friction per patch), slides off at ~1e303 m/s.  Its patch centre in world
+    # coordinates is off by an ulp, ~1e285 m: as its lever arm the friction went NaN 6 ms
+    # later, where the serial step, solving it per point with the column, stayed finite.
+    sim = _striker_world()
+    sim.set_body_loads(3, springs=[Spring((0.0, 0.0, 0.0), (-0.8 + 1e-7, 0.0, 0.1), 1e12, 5.0)])
+    with pytest.raises(NonFiniteError):
+        sim.step(200)
+    assert 40 * 1_000_000 < sim.time_ns < 200 * 1_000_000
+    sim.set_body_loads(3)
+    _step_finite(sim, 1000)
+    assert abs(sim.body_state(3).linear_velocity_w[0]) > 1e290   # it did fly
+    assert np.all(np.isfinite(sim.contact_wrench_w))
+
+
+def test_a_box_sliding_at_1e303_m_s_1e300_m_out_stays_finite():
+    # The striker of the test above at the step that went non-finite, alone: one point on the
+    # floor, whose world coordinates round the patch centre an ulp (1e285 m) off the box.
+    state = BodyState(
+        position_w=(-8.0577885043813601e+300, 1.0969064312894512e+277, 0.12972260691939191),
+        orientation_wb=(-0.35157329149617050, 0.41365012971498877, -0.82033127284921348,
+                        -0.17985103190949703),
+        linear_velocity_w=(-1.3429656460442343e+303, 1.8281786042730237e+279, 0.1),
+        angular_velocity_b=(1.3179354636976957e+07, -1.4155414913353818e+07,
+                            -1.3984459361417823e+07))
+    sim = world([body('striker', 'box', [SIDE_M] * 3, mass_kg=2.0)],
+                [BodyState(position_w=(0.0, 0.0, 0.1))], ground(), 1_000_000)
+    sim.reset([state])   # 13 mm deep in the floor: past the constructor's overlap check
+    _step_finite(sim, 100)
