@@ -118,6 +118,18 @@ def _coulomb(k11, k12, k22, u1, u2, limit):
 
 
 @_inl
+def _lambda_sum(contacts, s0, m, col):
+    """Return ``Σ_k λ_k v_k`` over the patch's points ``s0 .. s0 + m``, ``v_k`` at ``col`` (3)."""
+    sx = sy = sz = 0.0
+    for k in range(s0, s0 + m):
+        lam = contacts[k, C_LAMBDA]
+        sx += lam * contacts[k, col]
+        sy += lam * contacts[k, col + 1]
+        sz += lam * contacts[k, col + 2]
+    return sx, sy, sz
+
+
+@_inl
 def _friction(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, x, wa, wb,
               wrench, total, cx, cy, cz, nx, ny, nz, s0, m, mu):
     """
@@ -136,15 +148,8 @@ def _friction(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, x
             rbx, rby, rbz = cx - x[S_POS, b], cy - x[S_POS + 1, b], cz - x[S_POS + 2, b]
     else:
         col = C_RA
-        rax = ray = raz = rbx = rby = rbz = 0.0
-        for k in range(s0, s0 + m):
-            lam = contacts[k, C_LAMBDA]
-            rax += lam * contacts[k, C_RA]
-            ray += lam * contacts[k, C_RA + 1]
-            raz += lam * contacts[k, C_RA + 2]
-            rbx += lam * contacts[k, C_RB]
-            rby += lam * contacts[k, C_RB + 1]
-            rbz += lam * contacts[k, C_RB + 2]
+        rax, ray, raz = _lambda_sum(contacts, s0, m, C_RA)
+        rbx, rby, rbz = _lambda_sum(contacts, s0, m, C_RB)
         rax, ray, raz = rax / total, ray / total, raz / total
         rbx, rby, rbz = rbx / total, rby / total, rbz / total
         cx, cy, cz = rax, ray, raz
