@@ -97,7 +97,7 @@ class OursWorld:
         return deepest
 
     def breakdown(self):
-        """Sweeps per coupled stage (collision / first contact / second) and cold restarts."""
+        """Sweeps per coupled island (collision / first contact / second) and cold restarts."""
         stats = self.sim.solve_stats()
         per = [s and w / s for s, w in zip(stats['stages'], stats['sweeps'])]
         return {'sweeps_per_stage': ' / '.join(f'{v:.3g}' for v in per),

@@ -24,7 +24,7 @@ import math
 from rbd_ros.core.contact.linalg import _mat_vec, _tangent_basis
 from rbd_ros.core.contact.response import _apply, _point_velocity, _record, _response
 from rbd_ros.core.contact.rows import (_inl, _raw, C_FRICTION, C_LAMBDA, C_NORMAL, C_POINT, C_RA,
-                                       C_RB, C_TK, C_TK_SET, Q_FT, Q_MT)
+                                       C_RB, C_TK, C_TK_SET, CENTRE_WORLD_MAX_M, Q_FT, Q_MT)
 from rbd_ros.core.layout import S_POS
 
 
@@ -118,14 +118,43 @@ def _coulomb(k11, k12, k22, u1, u2, limit):
 
 
 @_inl
+def _lambda_sum(contacts, s0, m, col):
+    """Return ``Σ_k λ_k v_k`` over the patch's points ``s0 .. s0 + m``, ``v_k`` at ``col`` (3)."""
+    sx = sy = sz = 0.0
+    for k in range(s0, s0 + m):
+        lam = contacts[k, C_LAMBDA]
+        sx += lam * contacts[k, col]
+        sy += lam * contacts[k, col + 1]
+        sz += lam * contacts[k, col + 2]
+    return sx, sy, sz
+
+
+@_inl
 def _friction(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, x, wa, wb,
               wrench, total, cx, cy, cz, nx, ny, nz, s0, m, mu):
-    """One friction update of patch ``q``: stick if the cone allows, else slide; return Δu."""
-    rax, ray, raz = cx - x[S_POS, a], cy - x[S_POS + 1, a], cz - x[S_POS + 2, a]
+    """
+    One friction update of patch ``q``: stick if the cone allows, else slide; return Δu.
+
+    ``(cx, cy, cz)`` is the patch's centre ``Σ λ_k p_k / total`` in world coordinates; its
+    lever arms are ``c − x``, or, beyond :data:`CENTRE_WORLD_MAX_M`, the λ-weighted means of
+    the points' own (``C_RA``, ``C_RB``: exact to their size however far out), the torsion's
+    arms ``p_k − c`` then ``r_k − r`` likewise.
+    """
+    col = C_POINT
+    if max(abs(cx), abs(cy), abs(cz)) <= CENTRE_WORLD_MAX_M:
+        rax, ray, raz = cx - x[S_POS, a], cy - x[S_POS + 1, a], cz - x[S_POS + 2, a]
+        rbx = rby = rbz = 0.0
+        if dyn_b:
+            rbx, rby, rbz = cx - x[S_POS, b], cy - x[S_POS + 1, b], cz - x[S_POS + 2, b]
+    else:
+        col = C_RA
+        rax, ray, raz = _lambda_sum(contacts, s0, m, C_RA)
+        rbx, rby, rbz = _lambda_sum(contacts, s0, m, C_RB)
+        rax, ray, raz = rax / total, ray / total, raz / total
+        rbx, rby, rbz = rbx / total, rby / total, rbz / total
+        cx, cy, cz = rax, ray, raz
     ux, uy, uz = _point_velocity(vel, a, rax, ray, raz)
-    rbx = rby = rbz = 0.0
     if dyn_b:
-        rbx, rby, rbz = cx - x[S_POS, b], cy - x[S_POS + 1, b], cz - x[S_POS + 2, b]
         bx, by, bz = _point_velocity(vel, b, rbx, rby, rbz)
         ux, uy, uz = ux - bx, uy - by, uz - bz
     t1x, t1y, t1z, t2x, t2y, t2z = _tangent_basis(nx, ny, nz)
@@ -164,9 +193,9 @@ def _friction(q, patches, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b, x
     # Torsion: a couple about the patch normal, up to μ Σ λ_k |r_k − c|.
     arm = 0.0
     for k in range(s0, s0 + m):
-        dx = contacts[k, C_POINT] - cx
-        dy = contacts[k, C_POINT + 1] - cy
-        dz = contacts[k, C_POINT + 2] - cz
+        dx = contacts[k, col] - cx
+        dy = contacts[k, col + 1] - cy
+        dz = contacts[k, col + 2] - cz
         dn = dx * nx + dy * ny + dz * nz
         arm += contacts[k, C_LAMBDA] * math.sqrt(max(dx * dx + dy * dy + dz * dz - dn * dn,
                                                      0.0))

@@ -21,7 +21,7 @@ stage's restitution targets, then the patch's friction (:mod:`~rbd_ros.core.cont
 
 import math
 
-from rbd_ros.core.contact.friction import _friction, _friction_points
+from rbd_ros.core.contact.friction import _friction, _friction_points, _lambda_sum
 from rbd_ros.core.contact.linalg import (_pinv_small, SCR_ACTIVE, SCR_BASE, SCR_BEST, SCR_FREE,
                                          SCR_K, SCR_LAM, SCR_PINV, SCR_RHS)
 from rbd_ros.core.contact.response import (_apply, _cross_response, _flat_response,
@@ -350,17 +350,10 @@ def solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x,
         else:
             # Friction of the patch at its normal-impulse centre.
             total = 0.0
-            cx = cy = cz = 0.0
-            nbx = nby = nbz = 0.0
             for k in range(s0, s0 + m):
-                lam = contacts[k, C_LAMBDA]
-                total += lam
-                cx += lam * contacts[k, C_POINT]
-                cy += lam * contacts[k, C_POINT + 1]
-                cz += lam * contacts[k, C_POINT + 2]
-                nbx += lam * contacts[k, C_NORMAL]
-                nby += lam * contacts[k, C_NORMAL + 1]
-                nbz += lam * contacts[k, C_NORMAL + 2]
+                total += contacts[k, C_LAMBDA]
+            cx, cy, cz = _lambda_sum(contacts, s0, m, C_POINT)
+            nbx, nby, nbz = _lambda_sum(contacts, s0, m, C_NORMAL)
             nn = math.sqrt(nbx * nbx + nby * nby + nbz * nbz)
             if friction and total > 0.0 and mu > 0.0 and nn > 0.0:
                 cx, cy, cz = cx / total, cy / total, cz / total

@@ -74,6 +74,13 @@ FLUSH_DEPTH_MIN_M = 1e-12
 DEPTH_READ_ERROR_M = 1e-11
 #: At most this many points per patch.
 PATCH_POINTS = 4
+#: A patch's friction acts at the λ-weighted mean of its points.  While every coordinate of
+#: it is within this (m) it is taken in world coordinates, ``c = Σ λ_k p_k / Σ λ_k``, its lever
+#: arms ``c − x``: their round-off, a few ulp of ``|c|`` (~4e-9 m at 1e7 m), is nothing beside
+#: a body (and the recorded worlds keep their bits).  Further out that round-off is the lever
+#: arms' error, an ulp of 1e284 m at 1e300 m, and r²/I overflows; there they are the λ-weighted
+#: means of the points' own (``C_RA``, ``C_RB``: as exact as a body's size wherever it is).
+CENTRE_WORLD_MAX_M = 1e7
 #: Surface points are grouped in cells of this many, a cell skipped when its ball is out of
 #: reach (see _one_way).
 CHUNK_POINTS = 16
@@ -173,13 +180,14 @@ WARM_MATCH_M = 1e-4
 WARM_COS_MIN = 0.5
 WARM_LEFT_MAX_M_S = 1e-6
 
-# Counters of the contact stages whose patches share bodies, per stage of the step (rows of the
-# (3, N_SOLVE_STATS) float64 table ``Work.stats``, summed from step to step until the simulator
-# resets them; see WorldSimulator.solve_stats): what bench_contact.py prints per stage.
-ST_STAGES = 0    # coupled stages solved
+# Counters of the contact islands whose patches share bodies, per stage of the step (rows of
+# the (3, N_SOLVE_STATS) float64 table ``Work.stats``, summed from step to step until the
+# simulator resets them; see WorldSimulator.solve_stats): what bench_contact.py prints per
+# stage.
+ST_STAGES = 0    # coupled islands solved (a jointed world's coupled stages: one group each)
 ST_SWEEPS = 1    # Gauss–Seidel sweeps run (a cold retry's included)
-ST_COLD = 2      # warm-started stages solved again from zero (see solve_stage)
-ST_PATCHES = 3   # patches of those stages
+ST_COLD = 2      # warm-started islands solved again from zero (see solve_islands)
+ST_PATCHES = 3   # patches of those islands
 N_SOLVE_STATS = 4
 
 _jit = jitcache.kernel()

@@ -27,11 +27,14 @@ One step, in the paper's order (:func:`world_step`):
 3. **Contacts** (:data:`PHASE_CONTACT`): candidates from the new velocities, impulses with
    ε = 0, Gauss–Seidel sweeps over the patches, then one **shock propagation** pass: bodies are
    put in levels of the contact graph from the static world up, and a patch between two
-   levels is solved with the lower body held as if of infinite mass.  Where patches share
-   bodies (a stack) the sweeps start from the normal impulses (and each point's friction)
-   the same stage of the last step ended with (a **warm start**, :data:`W_SLOTS`); they stop
-   when a sweep changes no point's relative velocity by more than :data:`SWEEP_TOL_M_S`
-   (``WorldSimulator.solve_stats`` counts them).  So a resting stack's
+   levels is solved with the lower body held as if of infinite mass.  Each **island** of the
+   contact graph (the patches whose bodies touch, directly or through others) is solved alone
+   (:func:`~rbd_ros.core.contact.sweeps.solve_islands`), so a body's motion never depends on
+   bodies it does not touch.  Where patches share bodies (a stack) the sweeps start from the
+   normal impulses (and each point's friction) the same stage of the last step ended with (a
+   **warm start**, :data:`W_SLOTS`); they stop when a sweep changes no point of the island's
+   relative velocity by more than :data:`SWEEP_TOL_M_S` (``WorldSimulator.solve_stats``
+   counts them).  So a resting stack's
    sweeps converge, in two or three, and each box's recorded contact force is its weight;
    from zero they ran to their cap and shock propagation made up the rest.
 4. **Positions** with the final velocities.  ``midpoint_cayley`` (kick–drift–kick) then does
@@ -70,7 +73,10 @@ slip (Coulomb's law exactly, no linearised pyramid).  A torsional couple about t
 normal sticks likewise up to ``μ Σ λ_k |r_k − c|``.
 
 Everything is serial and in a fixed order (pairs sorted by body index), so results are
-bit-identical run after run.
+bit-identical run after run.  A world without joints is separable: stepping two groups of
+bodies that never come within reach of each other gives each group the bits it gets alone
+(``tests/core/contact/test_islands.py``).  A jointed world's stages are solved as one group
+(its joint visits alternate with sweeps of every patch).
 
 **Cost.** Three things keep a resting body cheap: a patch whose points approach no faster
 than their targets (to :data:`IDLE_TOL_M_S`, the sweeps' tolerance, the one of the three that
@@ -112,7 +118,7 @@ from rbd_ros.core.contact.motors import count_friction, saturate
 from rbd_ros.core.contact.narrow_phase import keep_responses, narrow_phase
 from rbd_ros.core.contact.rows import (_inl, _jit, _raw, MARGIN_M, N_CONTACT, PHASE_COLLISION,
                                        PHASE_CONTACT, Q_A, Q_B, Shapes, Statics, Work)
-from rbd_ros.core.contact.sweeps import finish_contacts, solve_stage
+from rbd_ros.core.contact.sweeps import finish_contacts, solve_islands, solve_stage
 from rbd_ros.core.layout import (N_STATE, P_ANG_DAMPING, P_INERTIA, P_INV_INERTIA, P_LIN_DAMPING,
                                  S_OMEGA, S_VEL)
 
@@ -158,16 +164,19 @@ def contact_stage(x, prm, shapes, statics, h, phase, stage, shock, wrench, work,
         touched[int(patches[q, Q_A])] = True
         if patches[q, Q_B] < n:
             touched[int(patches[q, Q_B])] = True
-    coupled = solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n, x, wrench, shock,
-                          rot, warm, warm_n, slot, prm, work.stats)
-    if joints is not None:
+    if joints is None:
+        solve_islands(patches, contacts, vel, inv_mass, inv_inertia_w, n, x, wrench, shock, rot,
+                      warm, warm_n, slot, prm, work.stats)
+    else:
+        coupled = solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n, x, wrench,
+                              shock, rot, warm, warm_n, slot, prm, work.stats)
         if kind != VISIT_NONE:
             for i in range(n):
                 touched[i] = touched[i] or joints.jointed[i]
             joint_sweeps(joints, kind, patches, contacts, vel, inv_mass, inv_inertia_w, x,
                          wrench, coupled, prm, method, h)
-    if not coupled:
-        finish_contacts(contacts, patches)
+        if not coupled:
+            finish_contacts(contacts, patches)
     keep_responses(responses, patches, contacts, n, inv_mass, inv_inertia_w)
     store_velocities(x, prm, vel, touched)
     return contacts

@@ -15,8 +15,10 @@
 """
 A contact stage's solve: warm start, Gauss–Seidel sweeps, shock propagation.
 
-:func:`solve_stage` sweeps over the patches (from the last step's impulses where patches share
-bodies), then propagates shocks by levels of the contact graph, and writes the impulses back.
+:func:`solve_islands` cuts a stage's patches into the islands of the contact graph and solves
+each alone: sweeps over its patches (from the last step's impulses where patches share bodies),
+then shock propagation by levels of the contact graph (:func:`_solve_group`), the impulses
+written back.  A jointed world's stage is one group (:func:`solve_stage`).
 
 **Joints** (Weinstein, Teran, Fedkiw 2006; see ``/work/shared/reference/joints-weinstein.md``)
 are solved by equal and opposite impulses like a patch, in :mod:`rbd_ros.core.contact.joints`:
@@ -46,11 +48,18 @@ from rbd_ros.core.contact.rows import (_inl, _jit, _raw, C_BIAS, C_FRICTION, C_L
 from rbd_ros.core.layout import P_GRAVITY
 
 
-@_jit
-def _levels(patches, n_bodies):
-    """Contact-graph level of every body: 1 on a static object, k + 1 on level k; else big."""
+@_raw
+def _levels(patches, n_bodies, level):
+    """
+    Store in ``level`` (N,) the contact-graph level of the patches' bodies.
+
+    1 on a static object, k + 1 on level k; else big.  Only the patches' bodies are written.
+    """
     big = n_bodies + 1
-    level = np.full(n_bodies, big, dtype=np.int64)
+    for q in range(patches.shape[0]):
+        level[int(patches[q, Q_A])] = big
+        if patches[q, Q_B] < n_bodies:
+            level[int(patches[q, Q_B])] = big
     for q in range(patches.shape[0]):
         if patches[q, Q_B] >= n_bodies:
             level[int(patches[q, Q_A])] = 1
@@ -69,7 +78,6 @@ def _levels(patches, n_bodies):
                 moved = True
         if not moved:
             break
-    return level
 
 
 @_raw
@@ -145,7 +153,10 @@ def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrenc
     """
     shared = prm.shape[1] == 1
     started = 0
-    sideways[:] = False
+    for q in range(patches.shape[0]):
+        sideways[int(patches[q, Q_A])] = False
+        if patches[q, Q_B] < n_bodies:
+            sideways[int(patches[q, Q_B])] = False
     for q in range(patches.shape[0]):
         a = int(patches[q, Q_A])
         b = int(patches[q, Q_B])
@@ -259,11 +270,18 @@ def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrenc
 
 
 @_raw
-def _keep_warm(patches, contacts, rot, warm, warm_n, slot):
-    """Keep the stage's impulses in ``slot`` for the next step (see :data:`W_SLOTS`)."""
-    warm_n[slot, :] = 0
+def _keep_warm(patches, contacts, rot, warm, warm_n, slot, kept):
+    """
+    Keep the patches' impulses in ``slot`` for the next step (see :data:`W_SLOTS`).
+
+    Each patch's body A has its rows of ``slot`` rewritten and is marked in ``kept`` (N,);
+    the caller empties the rows of the bodies no patch kept.
+    """
+    for q in range(patches.shape[0]):
+        warm_n[slot, int(patches[q, Q_A])] = 0
     for q in range(patches.shape[0]):
         a = int(patches[q, Q_A])
+        kept[a] = True
         row = warm_n[slot, a]
         if row == W_SLOTS:
             continue
@@ -335,17 +353,15 @@ def _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench
 def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, shock,
                 rot, warm, warm_n, slot, prm, stats):
     """
-    Gauss–Seidel sweeps over the patches, then (``shock``) one shock-propagation pass.
+    Gauss–Seidel sweeps over all the patches as one group, then (``shock``) shock propagation.
 
-    ``slot`` >= 0: the stage's row of the warm-start table (see :data:`W_SLOTS`), read before
-    the sweeps and rewritten after them, and of the counters ``stats`` (see
-    :data:`ST_STAGES`); -1 for none.  Return whether patches share a body (then friction is
-    per point, else per patch).
+    A jointed world's stage (its joint visits alternate with sweeps of every patch: see
+    :func:`rbd_ros.core.contact.joints.joint_sweeps`); a world without joints solves each
+    island alone (:func:`solve_islands`).  ``slot`` >= 0: the stage's row of the warm-start
+    table (see :data:`W_SLOTS`), read before the sweeps and rewritten after them, and of the
+    counters ``stats`` (see :data:`ST_STAGES`); -1 for none.  Return whether patches share a
+    body (then friction is per point, else per patch).
     """
-    scr = patch_scratch()
-    before = np.empty((contacts.shape[0], 3))  # scratch of _sweeps
-    # Patches that share no body are independent: each is solved to convergence by its own
-    # iterations, so one sweep is exact and shock propagation has nothing to order.
     uses = np.zeros(n_bodies, dtype=np.int64)
     coupled = False
     for q in range(patches.shape[0]):
@@ -356,6 +372,182 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
         if b < n_bodies:
             uses[b] += 1
             coupled = coupled or uses[b] > 1
+    kept = np.zeros(n_bodies, dtype=np.bool_)
+    _solve_group(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, shock,
+                 rot, warm, warm_n, slot, prm, stats, coupled, patch_scratch(),
+                 np.empty((contacts.shape[0], 3)), np.empty(n_bodies, dtype=np.int64),
+                 np.empty(n_bodies, dtype=np.bool_), kept)
+    if slot >= 0:
+        for i in range(n_bodies):
+            if not kept[i]:
+                warm_n[slot, i] = 0
+    return coupled
+
+
+@_jit
+def solve_islands(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, shock,
+                  rot, warm, warm_n, slot, prm, stats):
+    """
+    Solve each island of the stage's contact graph alone; give lone patches their friction.
+
+    An island is the patches whose bodies touch, directly or through others (a static object
+    joins nothing).  Each island is swept (warm start, sweeps until *its* points converge, its
+    own cold retry) and shock-propagated as :func:`solve_stage` would solve it were it the
+    whole world, so a body's motion never depends on bodies it does not touch: the step of a
+    world is the step of each of its islands, bit for bit, whatever else the world holds.  A
+    patch that shares no body (an island of one) is solved exactly by one visit, and gets its
+    friction per patch (:func:`finish_contacts`); they are solved together, in one pass.
+    ``slot``, ``stats`` as :func:`solve_stage`; ``stats`` counts islands, not stages.
+    """
+    n_p = patches.shape[0]
+    # Union-find over the bodies (path halving; the smaller index is the root: deterministic).
+    root = np.arange(n_bodies)
+    for q in range(n_p):
+        b = int(patches[q, Q_B])
+        if b >= n_bodies:
+            continue
+        ra = int(patches[q, Q_A])
+        while root[ra] != ra:
+            root[ra] = root[root[ra]]
+            ra = root[ra]
+        rb = b
+        while root[rb] != rb:
+            root[rb] = root[root[rb]]
+            rb = root[rb]
+        if ra < rb:
+            root[rb] = ra
+        elif rb < ra:
+            root[ra] = rb
+    # Islands numbered by their first patch; the patches of each in their order.
+    label = np.full(n_bodies, -1, dtype=np.int64)
+    island = np.empty(n_p, dtype=np.int64)
+    count = np.zeros(n_p + 1, dtype=np.int64)
+    n_isl = 0
+    for q in range(n_p):
+        r = int(patches[q, Q_A])
+        while root[r] != r:
+            r = root[r]
+        if label[r] < 0:
+            label[r] = n_isl
+            n_isl += 1
+        island[q] = label[r]
+        count[label[r] + 1] += 1
+    kept = np.zeros(n_bodies, dtype=np.bool_)
+    scr = patch_scratch()
+    before = np.empty((contacts.shape[0], 3))
+    level = np.empty(n_bodies, dtype=np.int64)
+    sideways = np.empty(n_bodies, dtype=np.bool_)
+    lone = 0
+    for k in range(n_isl):
+        if count[k + 1] == 1:
+            lone += 1
+    if lone == n_p or n_isl == 1:   # one group: the patches as they are, no copies
+        coupled = lone < n_p
+        _solve_group(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench,
+                     shock, rot, warm, warm_n, slot, prm, stats, coupled, scr, before, level,
+                     sideways, kept)
+        if not coupled:
+            finish_contacts(contacts, patches)
+    else:
+        first = np.empty(n_isl + 1, dtype=np.int64)
+        first[0] = 0
+        for k in range(n_isl):
+            first[k + 1] = first[k] + count[k + 1]
+        order = np.empty(n_p, dtype=np.int64)
+        fill = first[:n_isl].copy()
+        for q in range(n_p):
+            order[fill[island[q]]] = q
+            fill[island[q]] += 1
+        if lone > 0:
+            rows = np.empty(lone, dtype=np.int64)
+            j = 0
+            for q in range(n_p):
+                if count[island[q] + 1] == 1:
+                    rows[j] = q
+                    j += 1
+            group = _gather(patches, rows)
+            _solve_group(group, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench,
+                         shock, rot, warm, warm_n, slot, prm, stats, False, scr, before, level,
+                         sideways, kept)
+            finish_contacts(contacts, group)
+            _scatter(patches, rows, group)
+        for k in range(n_isl):
+            if count[k + 1] == 1:
+                continue
+            rows = order[first[k]:first[k + 1]]
+            group = _gather(patches, rows)
+            _solve_group(group, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench,
+                         shock, rot, warm, warm_n, slot, prm, stats, True, scr, before, level,
+                         sideways, kept)
+            _scatter(patches, rows, group)
+    if slot >= 0:
+        for i in range(n_bodies):
+            if not kept[i]:
+                warm_n[slot, i] = 0
+
+
+@_jit
+def _gather(patches, rows):
+    """Return the rows ``rows`` of ``patches``, in that order (a copy)."""
+    group = np.empty((rows.shape[0], patches.shape[1]))
+    for j in range(rows.shape[0]):
+        group[j, :] = patches[rows[j], :]
+    return group
+
+
+@_raw
+def _scatter(patches, rows, group):
+    """Write ``group`` back into the rows ``rows`` of ``patches``."""
+    for j in range(rows.shape[0]):
+        q = rows[j]
+        for k in range(patches.shape[1]):
+            patches[q, k] = group[j, k]
+
+
+@_raw
+def _group_rows(patches, contacts, vel, wrench, n_bodies, saved_c, saved_b, restore):
+    """
+    Copy a group's rows into ``saved_c``, ``saved_b``, or (``restore``) back from them.
+
+    The rows: its patches' points in ``contacts`` (``saved_c``, in patch order), the
+    velocities and wrenches of each patch's bodies (``saved_b`` rows ``2 q`` and ``2 q + 1``:
+    ``vel`` then ``wrench``).  A body of several patches is saved as often, the same values.
+    """
+    r = 0
+    for q in range(patches.shape[0]):
+        s0 = int(patches[q, Q_START])
+        for c in range(s0, s0 + int(patches[q, Q_COUNT])):
+            for k in range(contacts.shape[1]):
+                if restore:
+                    contacts[c, k] = saved_c[r, k]
+                else:
+                    saved_c[r, k] = contacts[c, k]
+            r += 1
+        for side in range(2):
+            i = int(patches[q, Q_A]) if side == 0 else int(patches[q, Q_B])
+            if i >= n_bodies:
+                continue
+            for k in range(6):
+                if restore:
+                    vel[i, k] = saved_b[2 * q + side, k]
+                    wrench[i, k] = saved_b[2 * q + side, 6 + k]
+                else:
+                    saved_b[2 * q + side, k] = vel[i, k]
+                    saved_b[2 * q + side, 6 + k] = wrench[i, k]
+
+
+@_jit
+def _solve_group(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench, shock,
+                 rot, warm, warm_n, slot, prm, stats, coupled, scr, before, level, sideways,
+                 kept):
+    """
+    Sweep one group of patches (warm start, sweeps, cold retry), then propagate its shocks.
+
+    ``coupled``: its patches share bodies (else each is solved exactly by one visit, with no
+    warm start and no shock propagation).  ``scr``, ``before`` (C, 3), ``level`` (N,) and
+    ``sideways`` (N,) are scratch, only the group's rows used; ``kept`` (N,) marks the bodies
+    whose warm-start rows of ``slot`` the group rewrote (see :func:`_keep_warm`).
+    """
     warmed = slot >= 0 and coupled
     if warmed:
         # Kept to start again from zero should the warm-started sweeps end with the normal
@@ -364,28 +556,31 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
         # zero the sweeps err on the side of too little, which shock propagation makes up.
         # Within it the warm answer is the better one (from zero the sweeps end at their cap
         # and a resting column's bottom box read 3.5 N of contact force for its 9.81 N).
-        saved = (contacts.copy(), patches.copy(), vel.copy(), wrench.copy())
+        # Only the group's rows: its points, and the velocities and wrenches of its bodies.
+        n_rows = 0
+        for q in range(patches.shape[0]):
+            n_rows += int(patches[q, Q_COUNT])
+        saved_c = np.empty((n_rows, contacts.shape[1]))
+        saved_b = np.empty((2 * patches.shape[0], 12))
+        saved_p = patches.copy()
+        _group_rows(saved_p, contacts, vel, wrench, n_bodies, saved_c, saved_b, False)
         started = _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrench,
-                              rot, warm, warm_n, slot, prm, np.empty(n_bodies, dtype=np.bool_))
+                              rot, warm, warm_n, slot, prm, sideways)
         swept = _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench,
                         scr, coupled, True, before)
         left = _residual(patches, contacts, vel, n_bodies, scr)
         # Kept either way: the sweeps go on from there next step, so a stack that needs more
         # sweeps than the cap (a tall column converges by ~0.97 a sweep) gets them over steps.
-        _keep_warm(patches, contacts, rot, warm, warm_n, slot)
-        # (A stage no point of which took a kept impulse was solved from zero already: its
+        _keep_warm(patches, contacts, rot, warm, warm_n, slot, kept)
+        # (A group no point of which took a kept impulse was solved from zero already: its
         # sweeps were those of the retry, bit for bit.)
         if left > WARM_LEFT_MAX_M_S and started > 0:
-            contacts[:] = saved[0]
-            patches[:] = saved[1]
-            vel[:] = saved[2]
-            wrench[:] = saved[3]
+            _group_rows(saved_p, contacts, vel, wrench, n_bodies, saved_c, saved_b, True)
+            patches[:] = saved_p
             swept += _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x,
                              wrench, scr, coupled, False, before)
             stats[slot, ST_COLD] += 1.0
     else:
-        if slot >= 0:
-            warm_n[slot, :] = 0
         swept = _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench,
                         scr, coupled, False, before)
     if coupled and slot >= 0:
@@ -393,8 +588,8 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
         stats[slot, ST_SWEEPS] += swept
         stats[slot, ST_PATCHES] += patches.shape[0]
     if not shock or not coupled:
-        return coupled
-    level = _levels(patches, n_bodies)
+        return
+    _levels(patches, n_bodies, level)
     low = np.empty(patches.shape[0], dtype=np.int64)
     for q in range(patches.shape[0]):
         a = int(patches[q, Q_A])
@@ -402,7 +597,6 @@ def solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wr
         low[q] = level[a] if b >= n_bodies else min(level[a], level[b])
     _shock(np.argsort(low, kind='mergesort'), level, patches, contacts, vel, inv_mass,
            inv_inertia_w, n_bodies, x, wrench, scr)
-    return coupled
 
 
 @_raw
