@@ -497,7 +497,20 @@ def check_range(spec, value):
         if spec.rule and (value < low or value == low and spec.rule.startswith('> ')):
             fail(spec, value, f'must be {spec.rule}')
         if not low <= value <= high:
-            fail(spec, value, f'must be in [{low:g}, {high:g}]')
+            fail(spec, value, f'must be {range_rule(spec)}')
+
+
+def range_rule(spec):
+    """
+    Return the words of ``spec``'s whole numeric rule: ``> 0 and <= 1e+12``, ``in [0, 1]``.
+
+    A rule that starts with ``> `` or ``>= `` gives the lower side (``mass_kg`` excludes 0,
+    which ``bounds`` cannot say), the bounds the upper.
+    """
+    low, high = spec.bounds
+    if spec.rule.startswith(('> ', '>= ')):
+        return f'{spec.rule.split(",")[0]} and <= {high:g}'
+    return f'in [{low:g}, {high:g}]'
 
 
 def to_ns(spec, seconds):
