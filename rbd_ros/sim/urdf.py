@@ -32,6 +32,8 @@ The XML is parsed strictly by lxml (a malformed file is refused, not recovered) 
   :class:`rbd_ros.core.joints.Joint` values (the child's joint frame at zero is the child link
   frame, so ``q_rest`` is the joint origin's rotation in the parent body); ``floating`` joins
   nothing: its child is a free body starting at the joint origin. Planar normal = ``<axis>``.
+  A revolute or prismatic joint without ``<limit>`` is refused (the URDF spec requires it, and
+  urdfdom refuses it; a joint without limits is continuous).
 * **Joint order.** :attr:`Robot.moving_joints` are the revolute, continuous and prismatic
   joints in the order of the URDF's joint elements: the ``joint_states`` order and the order of
   ``joint_positions``. Planar and floating joints start at zero and are not listed (as
@@ -81,6 +83,8 @@ import yourdfpy
 URDF_JOINT_TYPES = ('revolute', 'continuous', 'prismatic', 'fixed', 'floating', 'planar')
 #: The joint types with one coordinate: the entries of ``joint_states``.
 MOVING_TYPES = ('revolute', 'continuous', 'prismatic')
+#: The joint types whose ``<limit>`` the URDF spec requires.
+LIMITED_TYPES = ('revolute', 'prismatic')
 #: The source name of a URDF given as XML text (the ROS parameter's name).
 DESCRIPTION = 'robot_description'
 
@@ -245,6 +249,13 @@ def _parse(source, data):
             if found is None or not found.get('link'):
                 _fail(ModelError, source, f'joint {element.get("name")!r}.{tag}',
                       f'missing (line {element.sourceline}): a joint needs <{tag} link=...>')
+        kind = element.get('type')
+        if kind in LIMITED_TYPES and element.find('limit') is None:
+            # the URDF spec requires it (urdfdom, so robot_state_publisher, refuses the file)
+            _fail(ModelError, source, f'joint {element.get("name")!r}.limit',
+                  f'missing (line {element.sourceline}): a {kind} joint needs <limit '
+                  'lower=... upper=... effort=... velocity=.../> (a joint without limits is '
+                  'continuous)')
     for element in root.iter('origin'):
         if element.getparent().tag in ('joint', 'inertial', 'collision', 'visual'):
             _check_origin(source, element)

@@ -373,6 +373,19 @@ def test_negative_joint_dynamics(tmp_path, kind, field, unit):
     refused(ModelError, path, path, f"joint 'j'.dynamics.{field}", f'-0.5 {unit} must be >= 0')
 
 
+@pytest.mark.parametrize('kind', ['revolute', 'prismatic'])
+def test_a_limited_joint_type_without_limit_is_refused(tmp_path, kind):
+    # the URDF spec requires <limit> of a revolute and a prismatic joint (urdfdom, so
+    # robot_state_publisher, refuses such a file); it was taken as a joint without limits
+    path = write(tmp_path, link('a') + link('b') + joint('j', kind, 'a', 'b',
+                                                         '<axis xyz="0 0 1"/>'))
+    refused(ModelError, path, path, "joint 'j'.limit", 'missing (line 2)',
+            f'a {kind} joint needs <limit')
+    # a continuous joint needs none
+    assert load_urdf(write(tmp_path, link('a') + link('b') + joint(
+        'j', 'continuous', 'a', 'b', '<axis xyz="0 0 1"/>'))).moving_joints == ('j',)
+
+
 def test_unknown_joint_type(tmp_path):
     path = write(tmp_path, link('a') + link('b') + joint('j', 'ball', 'a', 'b'))
     refused(ModelError, path, path, "joint 'j'.type", "'ball'", 'revolute')
