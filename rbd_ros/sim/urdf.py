@@ -76,7 +76,8 @@ from rbd_ros.core.inertia import validate_inertia, validate_mass
 from rbd_ros.core.joints import Joint
 from rbd_ros.core.rotations import matrix_to_quat, quat_to_matrix
 from rbd_ros.sim.meshes import resolve_mesh_path
-from rbd_ros.sim.params import MAX_POSITION_M, PARAMETERS_BY_NAME
+from rbd_ros.sim.params import (MAX_JOINT_POSITION, MAX_JOINT_RATE, MAX_POSITION_M,
+                                PARAMETERS_BY_NAME)
 import yourdfpy
 
 #: Every URDF joint type.
@@ -689,8 +690,10 @@ def place_robot(robot: Robot, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0
     + q̇ a_w`` (prismatic) at the link origin. ``link_poses_w`` maps each link name to its
     frame's ``(position_w, q_wl)``.
 
-    :raises ConfigError: a wrong number of values, a non-finite one, or one beyond a limit;
-        a root pose that is not finite or a zero quaternion.
+    :raises ConfigError: a wrong number of values, a non-finite one, one beyond a limit, a
+        position beyond ±:data:`~rbd_ros.sim.params.MAX_JOINT_POSITION` or a velocity beyond
+        ±:data:`~rbd_ros.sim.params.MAX_JOINT_RATE`; a root pose that is not finite or a zero
+        quaternion.
     """
     source = robot.source
     q_values = _values(source, robot, joint_positions, 'initial_joint_positions', 'rad or m')
@@ -711,6 +714,17 @@ def place_robot(robot: Robot, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0
     coordinate = dict(zip(robot.moving_joints, zip(q_values, qd_values)))
     for k, name in enumerate(robot.moving_joints):
         joint = robot.joint(name)
+        units = ('m', 'm/s') if joint.kind == 'prismatic' else ('rad', 'rad/s')
+        for field, values, unit, bound, bound_name in (
+                ('initial_joint_positions', q_values, units[0], MAX_JOINT_POSITION,
+                 'MAX_JOINT_POSITION'),
+                ('initial_joint_velocities', qd_values, units[1], MAX_JOINT_RATE,
+                 'MAX_JOINT_RATE')):
+            value = float(values[k])
+            if not abs(value) <= bound:
+                _fail(ConfigError, source, f'{field}[{k}]', f'{value!r} {unit} for joint '
+                      f'{name!r} is beyond ±{bound:g} {unit} (rbd_ros.sim.params.'
+                      f'{bound_name})', value, unit)
         value = float(q_values[k])
         if (joint.lower is not None and value < joint.lower) or \
                 (joint.upper is not None and value > joint.upper):

@@ -192,6 +192,12 @@ def test_real_time_factor_check_for_live_changes():
      'initial_angular_velocity'),
     ({'initial_linear_velocity': [1e308, 0.0, 0.0], 'timestep_s': 1.0,
       'gravity': [1e308, 0.0, 0.0]}, 'initial_linear_velocity'),
+    # within MAX_JOINT_RATE but far too fast for a 1 ms step of the arm: its RK4 step blows
+    # up (the projection does not converge); the message named no parameter
+    ({'robot_names': ['arm'], 'robots.arm.urdf_path': str(REPO / 'msg_config' / 'urdf' /
+                                                          'arm3.urdf'),
+      'robots.arm.initial_joint_velocities': [1e6, 0.0, 0.0]},
+     'robots.arm.initial_joint_velocities'),
 ])
 def test_a_non_finite_first_step_is_refused_naming_the_parameter(params, name):
     # Each value is finite and valid on its own; the first physics step overflows.
