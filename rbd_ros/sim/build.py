@@ -168,6 +168,22 @@ def _blame_world_body(params, reason):
                           f'physics step is not finite ({reason})')
 
 
+def _blame_robot_rates(params, reason):
+    """
+    Raise naming the ``robots.<name>.initial_joint_velocities`` without which the step is finite.
+
+    A rate within :data:`~rbd_ros.sim.params.MAX_JOINT_RATE` can still be too fast for the
+    step (a chain's RK4 step blows up, the projection does not converge). Returns if no
+    robot's rates are to blame.
+    """
+    for robot in params.get('robot_names', ()):
+        name = f'robots.{robot}.initial_joint_velocities'
+        if params.get(name) and _finite_with(params, {name: []}):
+            raise ConfigError(f'parameter {name} = {fmt(params[name])} rad/s or m/s: the first '
+                              f'physics step is not finite ({reason})', field=name,
+                              value=params[name], unit='rad/s or m/s')
+
+
 def kernel_kind(config):
     """
     Return the kind of compiled step ``config``'s first step needs (:data:`jitcache.KIND_MODULES`).
@@ -197,7 +213,8 @@ def check_first_step(config):
 
     :raises ConfigError: naming the parameter that makes the step non-finite: the body's
         velocity whose energy overflows, else the first of :data:`_FIRST_STEP_SUSPECTS` whose
-        default value makes the step finite (in a world, the body found by halving).
+        default value makes the step finite (in a world, the body found by halving), a
+        robot's joint rates after a world's bodies.
     """
     _check_initial_quantities(config)
     try:
@@ -207,6 +224,7 @@ def check_first_step(config):
         reason = str(exc)
     params = config.to_parameters()
     _blame_world_body(params, reason)  # returns at once without body_names
+    _blame_robot_rates(params, reason)  # and without robot_names
     for name in _FIRST_STEP_SUSPECTS:
         spec = PARAMETERS_BY_NAME[name]
         default = list(spec.default) if isinstance(spec.default, tuple) else spec.default

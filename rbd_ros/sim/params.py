@@ -76,6 +76,16 @@ MIN_SIZE = 1e-6
 #: at 1e300 m a body's surface points all round to its centre.
 MAX_POSITION_M = 1e7
 
+#: Largest ``|initial joint position|`` of a robot's joint, rad or m: a continuous joint has
+#: no limits to hold it, and at 1e7 rad float64 still resolves 1.9e-9 rad (at 1e300 rad a
+#: whole turn is below its spacing); the same number as :data:`MAX_POSITION_M`.
+MAX_JOINT_POSITION = 1e7
+
+#: Largest ``|initial joint velocity|`` of a robot's joint, rad/s or m/s: a joint at it covers
+#: :data:`MAX_JOINT_POSITION` in 1 s, the longest ``timestep_s``; a rate of 1e200 made the
+#: first step non-finite.
+MAX_JOINT_RATE = 1e7
+
 _FMT_ITEMS = 8  # a listed value longer than this is cut in messages (one bounded line)
 _FMT_CHARS = 200
 
@@ -497,7 +507,20 @@ def check_range(spec, value):
         if spec.rule and (value < low or value == low and spec.rule.startswith('> ')):
             fail(spec, value, f'must be {spec.rule}')
         if not low <= value <= high:
-            fail(spec, value, f'must be in [{low:g}, {high:g}]')
+            fail(spec, value, f'must be {range_rule(spec)}')
+
+
+def range_rule(spec):
+    """
+    Return the words of ``spec``'s whole numeric rule: ``> 0 and <= 1e+12``, ``in [0, 1]``.
+
+    A rule that starts with ``> `` or ``>= `` gives the lower side (``mass_kg`` excludes 0,
+    which ``bounds`` cannot say), the bounds the upper.
+    """
+    low, high = spec.bounds
+    if spec.rule.startswith(('> ', '>= ')):
+        return f'{spec.rule.split(",")[0]} and <= {high:g}'
+    return f'in [{low:g}, {high:g}]'
 
 
 def to_ns(spec, seconds):

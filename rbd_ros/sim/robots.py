@@ -163,10 +163,10 @@ def robot_parameter_specs(name: str) -> Tuple[ParamSpec, ...]:
                   rule='4 finite values, norm within 1e-3 of 1 (then normalised)'),
         ParamSpec(prefix + 'initial_joint_positions', DOUBLE_ARRAY, (), 'rad or m',
                   f'Robot {name!r}: one position per moving joint (joint_states order); '
-                  '[] = zeros.', rule='one value per moving joint, within its limits'),
+                  '[] = zeros.', rule='one value per moving joint, within its limits and ±1e7'),
         ParamSpec(prefix + 'initial_joint_velocities', DOUBLE_ARRAY, (), 'rad/s or m/s',
                   f'Robot {name!r}: one velocity per moving joint (joint_states order); '
-                  '[] = zeros.', rule='one value per moving joint'),
+                  '[] = zeros.', rule='one value per moving joint, within ±1e7'),
         ParamSpec(prefix + 'friction', DOUBLE, 0.5, '',
                   f'Robot {name!r}: Coulomb friction coefficient μ of its links (a pair: '
                   'sqrt(μ_a μ_b)); in a world with contact.', (0.0, MAX_JOINT_DYNAMICS),

@@ -32,6 +32,8 @@ The XML is parsed strictly by lxml (a malformed file is refused, not recovered) 
   :class:`rbd_ros.core.joints.Joint` values (the child's joint frame at zero is the child link
   frame, so ``q_rest`` is the joint origin's rotation in the parent body); ``floating`` joins
   nothing: its child is a free body starting at the joint origin. Planar normal = ``<axis>``.
+  A revolute or prismatic joint without ``<limit>`` is refused (the URDF spec requires it, and
+  urdfdom refuses it; a joint without limits is continuous).
 * **Joint order.** :attr:`Robot.moving_joints` are the revolute, continuous and prismatic
   joints in the order of the URDF's joint elements: the ``joint_states`` order and the order of
   ``joint_positions``. Planar and floating joints start at zero and are not listed (as
@@ -74,13 +76,16 @@ from rbd_ros.core.inertia import validate_inertia, validate_mass
 from rbd_ros.core.joints import Joint
 from rbd_ros.core.rotations import matrix_to_quat, quat_to_matrix
 from rbd_ros.sim.meshes import resolve_mesh_path
-from rbd_ros.sim.params import MAX_POSITION_M, PARAMETERS_BY_NAME
+from rbd_ros.sim.params import (MAX_JOINT_POSITION, MAX_JOINT_RATE, MAX_POSITION_M,
+                                PARAMETERS_BY_NAME)
 import yourdfpy
 
 #: Every URDF joint type.
 URDF_JOINT_TYPES = ('revolute', 'continuous', 'prismatic', 'fixed', 'floating', 'planar')
 #: The joint types with one coordinate: the entries of ``joint_states``.
 MOVING_TYPES = ('revolute', 'continuous', 'prismatic')
+#: The joint types whose ``<limit>`` the URDF spec requires.
+LIMITED_TYPES = ('revolute', 'prismatic')
 #: The source name of a URDF given as XML text (the ROS parameter's name).
 DESCRIPTION = 'robot_description'
 
@@ -245,6 +250,13 @@ def _parse(source, data):
             if found is None or not found.get('link'):
                 _fail(ModelError, source, f'joint {element.get("name")!r}.{tag}',
                       f'missing (line {element.sourceline}): a joint needs <{tag} link=...>')
+        kind = element.get('type')
+        if kind in LIMITED_TYPES and element.find('limit') is None:
+            # the URDF spec requires it (urdfdom, so robot_state_publisher, refuses the file)
+            _fail(ModelError, source, f'joint {element.get("name")!r}.limit',
+                  f'missing (line {element.sourceline}): a {kind} joint needs <limit '
+                  'lower=... upper=... effort=... velocity=.../> (a joint without limits is '
+                  'continuous)')
     for element in root.iter('origin'):
         if element.getparent().tag in ('joint', 'inertial', 'collision', 'visual'):
             _check_origin(source, element)
@@ -678,8 +690,10 @@ def place_robot(robot: Robot, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0
     + q̇ a_w`` (prismatic) at the link origin. ``link_poses_w`` maps each link name to its
     frame's ``(position_w, q_wl)``.
 
-    :raises ConfigError: a wrong number of values, a non-finite one, or one beyond a limit;
-        a root pose that is not finite or a zero quaternion.
+    :raises ConfigError: a wrong number of values, a non-finite one, one beyond a limit, a
+        position beyond ±:data:`~rbd_ros.sim.params.MAX_JOINT_POSITION` or a velocity beyond
+        ±:data:`~rbd_ros.sim.params.MAX_JOINT_RATE`; a root pose that is not finite or a zero
+        quaternion.
     """
     source = robot.source
     q_values = _values(source, robot, joint_positions, 'initial_joint_positions', 'rad or m')
@@ -700,6 +714,17 @@ def place_robot(robot: Robot, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0
     coordinate = dict(zip(robot.moving_joints, zip(q_values, qd_values)))
     for k, name in enumerate(robot.moving_joints):
         joint = robot.joint(name)
+        units = ('m', 'm/s') if joint.kind == 'prismatic' else ('rad', 'rad/s')
+        for field, values, unit, bound, bound_name in (
+                ('initial_joint_positions', q_values, units[0], MAX_JOINT_POSITION,
+                 'MAX_JOINT_POSITION'),
+                ('initial_joint_velocities', qd_values, units[1], MAX_JOINT_RATE,
+                 'MAX_JOINT_RATE')):
+            value = float(values[k])
+            if not abs(value) <= bound:
+                _fail(ConfigError, source, f'{field}[{k}]', f'{value!r} {unit} for joint '
+                      f'{name!r} is beyond ±{bound:g} {unit} (rbd_ros.sim.params.'
+                      f'{bound_name})', value, unit)
         value = float(q_values[k])
         if (joint.lower is not None and value < joint.lower) or \
                 (joint.upper is not None and value > joint.upper):

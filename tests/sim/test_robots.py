@@ -38,6 +38,13 @@ ARM = os.path.join(URDF, 'arm3.urdf')
 G = (0.0, 0.0, -9.81)
 
 
+#: A wheel on a continuous joint to the world (no limits to hold its position).
+WHEEL = ('<robot name="wheel"><link name="world"/><link name="wheel"><inertial><mass '
+         'value="1"/><inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/>'
+         '</inertial></link><joint name="axle" type="continuous"><parent link="world"/>'
+         '<child link="wheel"/><axis xyz="0 0 1"/></joint></robot>')
+
+
 def _arm(**extra):
     params = {'robot_names': ['arm'], 'robots.arm.urdf_path': ARM}
     params.update({f'robots.arm.{k}': v for k, v in extra.items()})
@@ -136,6 +143,14 @@ def test_robot_description_takes_the_xml_itself():
     (_arm(initial_joint_positions=[0.1]), ConfigError, 'robots.arm.initial_joint_positions'),
     (_arm(initial_joint_positions=[5.0, 0.0, 0.0]), ConfigError,
      'robots.arm.initial_joint_positions[0]: 5.0'),
+    # refused up front, named: it was 'the first physics step is not finite', naming nothing
+    (_arm(initial_joint_velocities=[0.0, 1e200, 0.0]), ConfigError,
+     "robots.arm.initial_joint_velocities[1]: 1e+200 rad/s for joint 'elbow' is beyond "
+     '±1e+07 rad/s'),
+    ({'robot_names': ['wheel'], 'robots.wheel.robot_description': WHEEL,
+      'robots.wheel.initial_joint_positions': [1e300]}, ConfigError,
+     "robots.wheel.initial_joint_positions[0]: 1e+300 rad for joint 'axle' is beyond "
+     '±1e+07 rad'),
     (_arm(**{'joints.elbow.position_time_constant_s': 0.0}), ConfigError,
      'parameter robots.arm.joints.elbow.position_time_constant_s = 0.0 s: must be > 0'),
     (_arm(initial_position='up'), ConfigError, 'must be a list of numbers'),

@@ -373,6 +373,43 @@ def test_negative_joint_dynamics(tmp_path, kind, field, unit):
     refused(ModelError, path, path, f"joint 'j'.dynamics.{field}", f'-0.5 {unit} must be >= 0')
 
 
+@pytest.mark.parametrize('kind', ['revolute', 'prismatic'])
+def test_a_limited_joint_type_without_limit_is_refused(tmp_path, kind):
+    # the URDF spec requires <limit> of a revolute and a prismatic joint (urdfdom, so
+    # robot_state_publisher, refuses such a file); it was taken as a joint without limits
+    path = write(tmp_path, link('a') + link('b') + joint('j', kind, 'a', 'b',
+                                                         '<axis xyz="0 0 1"/>'))
+    refused(ModelError, path, path, "joint 'j'.limit", 'missing (line 2)',
+            f'a {kind} joint needs <limit')
+    # a continuous joint needs none
+    assert load_urdf(write(tmp_path, link('a') + link('b') + joint(
+        'j', 'continuous', 'a', 'b', '<axis xyz="0 0 1"/>'))).moving_joints == ('j',)
+
+
+@pytest.mark.parametrize('field, values, words', [
+    ('joint_positions', [1e300], "initial_joint_positions[0]: 1e+300 rad for joint 'j' is "
+     'beyond ±1e+07 rad (rbd_ros.sim.params.MAX_JOINT_POSITION)'),
+    ('joint_positions', [-1.0000001e7], 'beyond ±1e+07 rad'),
+    ('joint_velocities', [1e200], "initial_joint_velocities[0]: 1e+200 rad/s for joint 'j' "
+     'is beyond ±1e+07 rad/s (rbd_ros.sim.params.MAX_JOINT_RATE)'),
+])
+def test_initial_joint_values_beyond_their_bounds_are_refused(tmp_path, field, values, words):
+    # a continuous joint has no limits to hold its position: 1e300 rad was taken, and a rate
+    # of 1e200 rad/s made the first step non-finite (refused then, naming no parameter)
+    path = write(tmp_path, link('a') + link('b') + joint('j', 'continuous', 'a', 'b',
+                                                         '<axis xyz="0 0 1"/>'))
+    refused(ConfigError, path, words, **{field: values})
+    # the bounds themselves are taken
+    place_robot(load_urdf(path), **{field: [math.copysign(1e7, values[0])]})
+
+
+def test_a_prismatic_joint_rate_is_bounded_in_m_per_s(tmp_path):
+    path = write(tmp_path, link('a') + link('b') + joint(
+        'j', 'prismatic', 'a', 'b', '<limit lower="-1" upper="1" effort="1" velocity="1"/>'))
+    refused(ConfigError, path, "initial_joint_velocities[0]: -3e+20 m/s for joint 'j' is "
+            'beyond ±1e+07 m/s', joint_velocities=[-3e20])
+
+
 def test_unknown_joint_type(tmp_path):
     path = write(tmp_path, link('a') + link('b') + joint('j', 'ball', 'a', 'b'))
     refused(ModelError, path, path, "joint 'j'.type", "'ball'", 'revolute')

@@ -183,8 +183,10 @@ L_HAS_LOWER = 2
 L_HAS_UPPER = 3
 # stats: 0 max |C| after the last projection, 1 projection iterations (max), 2 failure flag,
 # 3 number of stops in the last call, 4 joint of the last stop, 5 the speed it removed
-# (rad/s or m/s, signed), 6 its time from the start of the call (s), 8 the sim time (s) of the
-# current sub-step's start, 9 the time (s) of the state being evaluated (an RK4 stage's)
+# (rad/s or m/s, signed), 6 its time from the start of the call (s), 7 the steps of the last
+# call whose event passes ran out (their rest taken by :func:`_clamped_rest`), 8 the sim time
+# (s) of the current sub-step's start, 9 the time (s) of the state being evaluated (an RK4
+# stage's)
 S_ERR = 0
 S_ITER = 1
 S_FAIL = 2
@@ -192,6 +194,7 @@ S_STOPS = 3
 S_STOP_JOINT = 4
 S_STOP_SPEED = 5
 S_STOP_TIME = 6
+S_CLAMPED = 7
 S_TIME = 8
 S_TSTAGE = 9
 S_SIZE = 10
@@ -1580,6 +1583,58 @@ def _hold_at_bounds(model, x, work):
 
 
 @_jit
+def _save_start(model, x, work):
+    """Keep the sub-step's start for :func:`_restore`: ``x``, ``ẋ``, the limits and frictions."""
+    for b in range(x.shape[0]):
+        for i in range(13):
+            work.x0[b, i] = x[b, i]
+            work.k0[b, i] = work.k[0, b, i]
+    for j in range(model.jint.shape[0]):
+        work.lim0[j] = work.lim_state[j]
+        if model.jint[j, J_FRICROW] >= 0:
+            work.fric[j, F_SIGN0] = work.fric[j, F_SIGN]
+            work.fric[j, F_ACTIVE0] = work.active[model.jint[j, J_FRICROW]]
+            # rows and ω_w are at x (left by the last dynamics evaluation)
+            work.fric[j, F_RATE0] = _row_rate(model, x, work, model.jint[j, J_FRICROW], 2)
+
+
+@_jit
+def _clamped_rest(model, x, work, h, tol, max_iter):
+    """
+    Take ``h``, the rest of a step whose event passes ran out, as one sub-step, limits clamped.
+
+    One RK4 sub-step and projection; then every free limit crossed in it (by more than
+    :data:`CROSS_TOL`) is held at its bound, with every other free limit at its bound and
+    moving into it (:func:`_hold_at_bounds`), the positions are projected onto them and the
+    velocity projection takes out the speed into them: an inelastic stop at the sub-step's
+    end instead of at its crossing, so no joint ends beyond its bound. Return ``(iterations,
+    the joint crossed deepest or -1, its rate before the stop)``; iterations < 0 when a
+    projection failed (the caller restores the sub-step's start).
+    """
+    it = _rk4(model, x, work, h, tol, max_iter)
+    if it < 0:
+        return it, -1, 0.0
+    first, speed = -1, 0.0
+    j, side, _ = _crossing(model, x, work)
+    while j >= 0:
+        if first < 0:
+            first, speed = j, _joint_speed(model, x, work, j)
+        set_limit(model, work, j, side)
+        j, side, _ = _crossing(model, x, work)
+    if first < 0:
+        return it, -1, 0.0
+    _hold_at_bounds(model, x, work)
+    body_derived(model, x, work)
+    joint_rows(model, x, work, True)
+    factor(model, work)
+    it_stop = _project_positions(model, x, work, tol, max_iter, 0)
+    if it_stop < 0:
+        return it_stop, first, speed
+    _end_of_step(model, x, work)
+    return max(it, it_stop), first, speed
+
+
+@_jit
 def _locate(model, x, work, event, j, side, bound, g_lo, hi, g_hi, h, tol, max_iter):
     """
     Find when an event inside the sub-step from ``work.x0`` happened; return ``(τ, g(τ))``.
@@ -1635,30 +1690,46 @@ def step(model, x, work, h, n_steps, tol, max_iter):
     :data:`STOP_RATE_TOL`, the joint sticks there (its friction row held, the velocity
     projection taking out what is left of its rate) and the rest of the step is taken from
     there, stuck or, if its load exceeds its friction, sliding the other way.
+    A step has ``2 n_joints + 2 + 2 n_friction`` such passes; one whose events outnumber them
+    (limits stopped and released in turn) takes its rest in one sub-step whose crossings are
+    clamped at its end (:func:`_clamped_rest`, counted in ``stats[S_CLAMPED]``), so every
+    step advances the state and the clock by ``h``.
     ``work.k[0]`` must hold ``ẋ`` at ``x`` (left there by :func:`initialize` and by every
     step). Return 0, or the step index + 1 at which the position projection failed.
     """
     worst = 0.0
     worst_it = 0
     work.stats[S_STOPS] = 0.0
+    work.stats[S_CLAMPED] = 0.0
     n_friction = 0
     for j in range(model.jint.shape[0]):
         if model.jint[j, J_FRICROW] >= 0:
             n_friction += 1
+    n_passes = 2 * model.jint.shape[0] + 2 + 2 * n_friction
     for s in range(n_steps):
         left = h
-        for _ in range(2 * model.jint.shape[0] + 2 + 2 * n_friction):
-            for b in range(x.shape[0]):
-                for i in range(13):
-                    work.x0[b, i] = x[b, i]
-                    work.k0[b, i] = work.k[0, b, i]
-            for j in range(model.jint.shape[0]):
-                work.lim0[j] = work.lim_state[j]
-                if model.jint[j, J_FRICROW] >= 0:
-                    work.fric[j, F_SIGN0] = work.fric[j, F_SIGN]
-                    work.fric[j, F_ACTIVE0] = work.active[model.jint[j, J_FRICROW]]
-                    # rows and ω_w are at x (left by the last dynamics evaluation)
-                    work.fric[j, F_RATE0] = _row_rate(model, x, work, model.jint[j, J_FRICROW], 2)
+        for p in range(n_passes + 1):
+            _save_start(model, x, work)
+            if p == n_passes:
+                # the event passes are used up (limits stopped and released in turn, as a
+                # position target moving beyond a bound that gravity pulls the joint off):
+                # the rest of the step is one sub-step, its crossings clamped at its end
+                it, j, speed = _clamped_rest(model, x, work, left, tol, max_iter)
+                if it < 0:
+                    _restore(model, x, work)  # stays finite: back to the sub-step start
+                    work.stats[S_FAIL] = 1.0
+                    return s + 1
+                if j >= 0:
+                    work.stats[S_STOPS] += 1.0
+                    work.stats[S_STOP_JOINT] = j
+                    work.stats[S_STOP_SPEED] = speed
+                    work.stats[S_STOP_TIME] = (s + 1) * h
+                work.stats[S_CLAMPED] += 1.0
+                work.stats[S_TIME] += left
+                work.stats[S_TSTAGE] = work.stats[S_TIME]
+                worst = max(worst, work.stats[S_ERR])
+                worst_it = max(worst_it, it)
+                break
             it = _rk4(model, x, work, left, tol, max_iter)
             if it < 0:
                 _restore(model, x, work)  # stays finite: back to the sub-step start
@@ -1693,6 +1764,7 @@ def step(model, x, work, h, n_steps, tol, max_iter):
                 worst_it = max(worst_it, it)
                 left -= tau
                 if left <= 1e-12 * h:
+                    work.stats[S_TIME] += left   # the clock takes the step whole
                     break
                 continue
             bound = model.jlim[j, L_UPPER] if side > 0 else model.jlim[j, L_LOWER]
@@ -1733,6 +1805,7 @@ def step(model, x, work, h, n_steps, tol, max_iter):
             worst = max(worst, work.stats[S_ERR])
             left -= tau
             if left <= 1e-12 * h:
+                work.stats[S_TIME] += left   # the clock takes the step whole
                 break
         for b in range(x.shape[0]):  # a step that is not finite is refused, not kept
             for i in range(13):

@@ -645,6 +645,19 @@ class ArticulatedSimulator:
                 float(stats[jk.S_STOP_SPEED]))
 
     @property
+    def clamped_steps(self) -> int:
+        """
+        Return how many steps of the last :meth:`step` call ran out of event passes.
+
+        A step locates each limit stop and friction stop inside it, one sub-step each, at
+        most ``2 n_joints + 2 + 2 n_friction`` of them; a step with more (limits stopped and
+        released in turn, as a joint driven into a bound that gravity pulls it off) takes its
+        rest in one sub-step whose crossings stop at its end (no joint beyond its bound, the
+        time still whole). 0 in an ordinary run.
+        """
+        return int(self._work.stats[jk.S_CLAMPED])
+
+    @property
     def held_limits(self):
         """Return per joint +1 (held at upper, or a cone limit held), -1 (at lower) or 0."""
         return [int(self._work.lim_state[j]) for j in range(len(self._joints))]

@@ -360,9 +360,9 @@ def test_door_on_the_floor_swung_against_its_limit(h_ns):
     its lower edge stays on the floor (centre height 0.5 m to 1e-9 m: the floor's contact
     and the hinge hold the same height, to what the joint loop leaves, see
     ``rbd_ros/core/contact/joints.py``). Measured at 1 ms and 10 ms: overshoot 0 and 2.2e-16
-    rad, spin after the stop 0, height error 0. (``held_limits`` reads 0 at the end of the
-    stop's step here, though the stop was held: without the floor it reads +1 and the limit
-    row's impulse is ``I ω`` = 4.2693 N m s; see the issue's notes.)
+    rad, spin after the stop 0, height error 0. ``held_limits`` reads +1 at the end of the
+    stop's step, as without the floor (it read 0 here when the contact step's joints were
+    new, though the stop held the door).
     """
     width, thick, height = 0.8, 0.04, 1.0
     shape = primitive_shape('box', [width, thick, height])
@@ -379,6 +379,7 @@ def test_door_on_the_floor_swung_against_its_limit(h_ns):
                          joints=[hinge], timestep_ns=h_ns)
     worst = [0.0, 0.0, 0.0]
     stopped = [None]
+    held = [None]
 
     def check(k):
         s = sim.body_state(0)
@@ -387,10 +388,13 @@ def test_door_on_the_floor_swung_against_its_limit(h_ns):
         worst[1] = max(worst[1], abs(s.position_w[2] - 0.5 * height))
         if stopped[0] is None and psi >= bound - 1e-12:   # the step that lands it on the stop
             stopped[0] = k
+            held[0] = (sim.held_limits, len(sim.contacts))
         if stopped[0] is not None and k > stopped[0]:
             worst[2] = max(worst[2], abs(s.angular_velocity_b[2]))
     _run(sim, round(1.5e9 / h_ns), check)
     assert stopped[0] is not None, worst
+    # the stop's step held the limit, with the floor's contacts in it
+    assert held[0][0] == [1] and held[0][1] > 0, held[0]
     assert worst[0] <= 1e-12, worst
     assert worst[1] <= 1e-9, worst
     assert worst[2] <= 1e-12, worst
