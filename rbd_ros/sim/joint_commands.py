@@ -95,6 +95,26 @@ def _target(topic, where, spec, index, mode, value):
     return JointTarget(index, mode, float(value))
 
 
+def in_range(joint, value):
+    """
+    Return ``value`` moved into the position targets ``joint`` can hold.
+
+    Those are its limits and a revolute joint's ``(-π, π]``: where a followed trajectory's
+    spline overshoots a limit between points that are within it, its reference rests at the
+    limit (the core refuses a target beyond).
+    """
+    lower, upper = joint.lower, joint.upper
+    if joint.kind == 'revolute':
+        least = math.nextafter(-math.pi, 0.0)
+        lower = least if lower is None else max(lower, least)
+        upper = math.pi if upper is None else min(upper, math.pi)
+    if lower is not None and value < lower:
+        return float(lower)
+    if upper is not None and value > upper:
+        return float(upper)
+    return value
+
+
 def _floats(topic, field, values, n):
     try:
         out = [float(v) for v in values]
@@ -363,9 +383,13 @@ class RobotInputs:
         for event, group in self._following:
             q, qd, _ = event.trajectory.sample(time_ns)
             qdd = event.trajectory.sample(time_ns + timestep_ns // 2)[2]
-            world.set_targets(event.robot, [(j, 'position', float(q[k]),
-                                             (float(qd[k]), float(qdd[k])))
-                                            for k, j in enumerate(group)])
+            specs = self._specs[event.robot]
+            targets = []
+            for k, j in enumerate(group):
+                held = in_range(specs[j].core, float(q[k]))
+                rates = (float(qd[k]), float(qdd[k])) if held == q[k] else (0.0, 0.0)
+                targets.append((j, 'position', held, rates))
+            world.set_targets(event.robot, targets)
         if self._timeout_ns:
             ended = [(event, group) for event, group in self._following
                      if time_ns >= event.trajectory.end_ns + self._timeout_ns]

@@ -26,14 +26,18 @@ import os
 import pytest
 
 from rbd_ros.core import ConfigError
+from rbd_ros.sim.config import NodeConfig
 from rbd_ros.sim.joint_commands import (CommandRejected, group_targets, joint_state_targets,
                                         JointTarget)
 from rbd_ros.sim.robots import read_command_groups, read_robots
+from rbd_ros.sim.session import SimSession
+from rbd_ros.sim.trajectory import TrajectoryPoint
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 ARM = os.path.join(ROOT, 'msg_config', 'urdf', 'arm3.urdf')
 NAN = math.nan
 TOPIC = 'arm/joint_command'
+S = 1_000_000_000  # ns
 
 
 @pytest.fixture(scope='module')
@@ -140,3 +144,28 @@ def test_a_mimic_joint_takes_no_command_and_no_place_in_a_group(gripper):
                                           r"joint \(of 'finger_left'\) and takes no command"):
         read_command_groups({'command_group_names': ['g'], 'command_groups.g.robot': 'gripper',
                              'command_groups.g.joints': ['finger_right']}, [gripper])
+
+
+def _arm_session():
+    """Return a session of arm3 (joints only) with the group ``g`` of its three joints."""
+    config = NodeConfig.from_parameters({
+        'robot_names': ['arm'], 'robots.arm.urdf_path': ARM, 'gravity': [0.0, 0.0, -9.81],
+        'command_group_names': ['g'], 'command_groups.g.robot': 'arm',
+        'command_groups.g.joints': ['shoulder', 'elbow', 'wrist']})
+    return SimSession(config)
+
+
+def test_a_trajectory_whose_spline_passes_a_limit_is_followed_up_to_the_limit():
+    # Both points are within [-3, 3] rad, but the cubic from 2.9 rad at 5 rad/s to 2.95 rad
+    # at rest in 0.2 s peaks at 3.06 rad: the reference is held at the limit there, and the
+    # session goes on (it used to stop on the core's ConfigError: the node exited).
+    session = _arm_session()
+    session.advance(10)
+    session.submit_command('g/joint_trajectory', (
+        ['shoulder', 'elbow', 'wrist'], 0,
+        [TrajectoryPoint(S, [2.9, 0.0, 0.0], [5.0, 0.0, 0.0]),
+         TrajectoryPoint(S + S // 5, [2.95, 0.0, 0.0], [0.0, 0.0, 0.0])]))
+    while session.time_ns < 2 * S:
+        session.advance(1000)
+        assert session.error is None and session.simulator.joint_positions(0)[0] <= 3.0
+    assert abs(session.simulator.joint_positions(0)[0] - 2.95) < 1e-6
