@@ -53,6 +53,15 @@ REJECT_REASONS = ('unknown_joint', 'duplicate_joint', 'mimic_joint', 'length', '
                   'limit')
 #: The interfaces of a command group (ros2_control's command interface names).
 INTERFACES = ('position', 'velocity', 'effort')
+#: The largest target a joint takes, by interface (rad, rad/s, N m; m, m/s, N for a prismatic
+#: joint), and the largest acceleration a trajectory point gives (rad/s² or m/s²). Beyond, a
+#: command is refused (``limit``): a continuous joint's angle past 1e6 rad keeps no 1e-10 rad
+#: of precision; a velocity of 1e3 rad/s turns a joint 1 rad a 1 ms step, what the contact
+#: step still follows; an effort of 1e6 is the default ``max_torque_nm`` / ``max_force_n`` of
+#: a wrench. A joint without URDF limits took any finite value, and a step that could not
+#: follow it paused the world (1e300 rad/s, 1e12 N m).
+MAX_TARGET = {'position': 1e6, 'velocity': 1e3, 'effort': 1e6}
+MAX_ACCELERATION = 1e5
 
 
 class CommandRejected(WrenchRejected):
@@ -92,7 +101,19 @@ def _target(topic, where, spec, index, mode, value):
             raise CommandRejected('limit', f'{topic}: {where}: {exc}') from None
     elif mode == 'velocity' and spec.velocity_limit is not None:
         value = min(max(value, -spec.velocity_limit), spec.velocity_limit)
+    _bounded(topic, where, spec, value, MAX_TARGET[mode], mode)
     return JointTarget(index, mode, float(value))
+
+
+def _bounded(topic, where, spec, value, bound, mode):
+    """Refuse ``value`` beyond ``±bound`` (``limit``), naming it with its unit."""
+    if not abs(value) <= bound:
+        linear = spec.core.kind == 'prismatic'
+        unit = {'position': 'm' if linear else 'rad', 'velocity': 'm/s' if linear else 'rad/s',
+                'effort': 'N' if linear else 'N m',
+                'acceleration': 'm/s²' if linear else 'rad/s²'}[mode]
+        raise CommandRejected('limit', f'{topic}: {where}: {value!r} {unit} is beyond the '
+                              f'largest {mode} a joint takes, {bound:g} {unit}')
 
 
 def in_range(joint, value):
@@ -334,10 +355,17 @@ class RobotInputs:
         group_names = [specs[j].name for j in spec.group]
         traj = parse_trajectory(spec.name, group_names, names, stamp_ns, points, effect_ns,
                                 [q[j] for j in spec.group], [qd[j] for j in spec.group])
+        knots = traj.knots
         for p in range(len(traj.times_ns)):  # every point must be a target its joints can hold
+            _, v, a = knots[p + 1]
             for k, j in enumerate(spec.group):
-                _target(spec.name, f'points[{p}].positions ({specs[j].name})', specs[j], j,
-                        'position', float(traj.point_positions(p)[k]))
+                where = f'points[{p}].%s ({specs[j].name})'
+                _target(spec.name, where % 'positions', specs[j], j, 'position',
+                        float(traj.point_positions(p)[k]))
+                _bounded(spec.name, where % 'velocities', specs[j], float(v[k]),
+                         MAX_TARGET['velocity'], 'velocity')
+                _bounded(spec.name, where % 'accelerations', specs[j], float(a[k]),
+                         MAX_ACCELERATION, 'acceleration')
         return traj
 
     def apply_pending(self, time_ns, world):

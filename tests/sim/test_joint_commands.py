@@ -169,3 +169,54 @@ def test_a_trajectory_whose_spline_passes_a_limit_is_followed_up_to_the_limit():
         session.advance(1000)
         assert session.error is None and session.simulator.joint_positions(0)[0] <= 3.0
     assert abs(session.simulator.joint_positions(0)[0] - 2.95) < 1e-6
+
+
+def _continuous_pendulum():
+    """Return a session of the URDF pendulum on a continuous joint (no limits at all)."""
+    with open(os.path.join(ROOT, 'msg_config', 'urdf', 'pendulum.urdf')) as f:
+        urdf = f.read().replace('type="revolute"', 'type="continuous"')
+    urdf = urdf.replace('<limit lower="-3.1" upper="3.1" effort="10" velocity="10"/>', '')
+    return SimSession(NodeConfig.from_parameters({
+        'robot_names': ['p'], 'robots.p.robot_description': urdf,
+        'gravity': [0.0, 0.0, -9.81]}))
+
+
+@pytest.mark.parametrize('field, value, words', [
+    ('position', 1e300, 'position[0] (pivot): 1e+300 rad is beyond the largest position a '
+     'joint takes, 1e+06 rad'),
+    ('velocity', 1e300, 'velocity[0] (pivot): 1e+300 rad/s is beyond the largest velocity'),
+    ('velocity', -1e4, 'velocity[0] (pivot): -10000.0 rad/s is beyond'),
+    ('effort', 1e12, 'effort[0] (pivot): 1000000000000.0 N m is beyond the largest effort'),
+])
+def test_a_target_beyond_what_a_step_can_take_is_refused_and_the_world_goes_on(
+        field, value, words):
+    # A joint without URDF limits took any finite target; the step could not follow it and
+    # the world paused (ConvergenceError: the projection's error inf).
+    session = _continuous_pendulum()
+    session.advance(10)
+    with pytest.raises(CommandRejected) as caught:
+        session.submit_command('p/joint_command', (['pivot'], *[
+            [value] if f == field else [] for f in ('position', 'velocity', 'effort')]))
+    assert caught.value.reason == 'limit' and words in str(caught.value), str(caught.value)
+    assert session.commands.rejected == {'limit': 1}
+    session.advance(100)
+    assert session.error is None and session.time_ns > 10_000_000
+
+
+@pytest.mark.parametrize('field, words', [
+    ('velocities', 'points[0].velocities (shoulder): 1e+300 rad/s is beyond'),
+    ('accelerations', 'points[0].accelerations (shoulder): 1e+300 rad/s² is beyond'),
+])
+def test_a_trajectory_with_absurd_rates_is_refused_and_the_world_goes_on(field, words):
+    session = _arm_session()
+    session.advance(10)
+    rates = {'velocities': [0.0] * 3, 'accelerations': [0.0] * 3}
+    rates[field] = [1e300, 0.0, 0.0]
+    with pytest.raises(CommandRejected) as caught:
+        session.submit_command('g/joint_trajectory', (
+            ['shoulder', 'elbow', 'wrist'], 0,
+            [TrajectoryPoint(S, [0.1, 0.0, 0.0], rates['velocities'],
+                             rates['accelerations'])]))
+    assert caught.value.reason == 'limit' and words in str(caught.value), str(caught.value)
+    session.advance(100)
+    assert session.error is None
