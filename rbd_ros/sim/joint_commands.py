@@ -406,7 +406,9 @@ class RobotInputs:
         at mid-step: the step's mean acceleration for a cubic (whose acceleration is linear in
         time), so the target's rate at the step end is the reference's, and what the joint
         lags behind is of order h² (measured: 7.6e-6 rad at the waypoints of a 3-link arm's
-        cubic with the start-of-step acceleration, 5e-8 with this one).
+        cubic with the start-of-step acceleration, 5e-8 with this one). Where the reference is
+        beyond a limit (held at it, :func:`in_range`) or faster than :data:`MAX_TARGET`'s
+        velocity or :data:`MAX_ACCELERATION`, it is given without feed-forward.
         """
         for event, group in self._following:
             q, qd, _ = event.trajectory.sample(time_ns)
@@ -415,7 +417,10 @@ class RobotInputs:
             targets = []
             for k, j in enumerate(group):
                 held = in_range(specs[j].core, float(q[k]))
-                rates = (float(qd[k]), float(qdd[k])) if held == q[k] else (0.0, 0.0)
+                rates = (float(qd[k]), float(qdd[k]))
+                if held != q[k] or not (abs(rates[0]) <= MAX_TARGET['velocity']
+                                        and abs(rates[1]) <= MAX_ACCELERATION):
+                    rates = (0.0, 0.0)  # beyond a limit, or faster than a step can follow
                 targets.append((j, 'position', held, rates))
             world.set_targets(event.robot, targets)
         if self._timeout_ns:

@@ -146,12 +146,12 @@ def test_a_mimic_joint_takes_no_command_and_no_place_in_a_group(gripper):
                              'command_groups.g.joints': ['finger_right']}, [gripper])
 
 
-def _arm_session():
+def _arm_session(**extra):
     """Return a session of arm3 (joints only) with the group ``g`` of its three joints."""
     config = NodeConfig.from_parameters({
         'robot_names': ['arm'], 'robots.arm.urdf_path': ARM, 'gravity': [0.0, 0.0, -9.81],
         'command_group_names': ['g'], 'command_groups.g.robot': 'arm',
-        'command_groups.g.joints': ['shoulder', 'elbow', 'wrist']})
+        'command_groups.g.joints': ['shoulder', 'elbow', 'wrist'], **extra})
     return SimSession(config)
 
 
@@ -220,3 +220,18 @@ def test_a_trajectory_with_absurd_rates_is_refused_and_the_world_goes_on(field, 
     assert caught.value.reason == 'limit' and words in str(caught.value), str(caught.value)
     session.advance(100)
     assert session.error is None
+
+
+def test_a_followed_spline_faster_than_a_step_can_follow_gives_no_feed_forward():
+    # A first point 1 ns after the trajectory starts: the segment to it from the joints'
+    # state moves at ~1e8 rad/s, sampled at the step start as the feed-forward rate; the
+    # step of a world with contact failed with its error inf and the world paused.
+    session = _arm_session(**{'ground.enabled': True})
+    session.advance(10)
+    session.submit_command('g/joint_trajectory', (
+        ['shoulder', 'elbow', 'wrist'], 0,
+        [TrajectoryPoint(1, [0.1, 0.0, 0.0]), TrajectoryPoint(2, [2.0, 0.0, 0.0])]))
+    while session.time_ns < S:
+        session.advance(1000)
+        assert session.error is None
+    assert abs(session.simulator.joint_positions(0)[0] - 2.0) < 1e-3
