@@ -36,6 +36,7 @@ import threading
 import time
 
 from geometry_msgs.msg import PointStamped
+import numpy as np
 from rbd_ros.core import ConfigError, jitcache, NonFiniteError, RbdError, RecordingError
 from rbd_ros.msgs import conversions as conv
 from rbd_ros.msgs import markers
@@ -533,7 +534,9 @@ class RigidBodyNode(Node):
         # The poses exactly as the pose topics carry them (the sample builders' values).
         x = self._columns
         values = [b.column_values(x[:, i]) for i, b in enumerate(self._builder.bodies)]
-        bodies = self._markers.array([v[0] for v in values], [v[1] for v in values], t,
+        # (N, 3) and (N, 4) also for N = 0 (robots over a ground, no free bodies)
+        bodies = self._markers.array(np.reshape([v[0] for v in values], (len(values), 3)),
+                                     np.reshape([v[1] for v in values], (len(values), 4)), t,
                                      normalise=False)
         contacts = self.session.simulator.contacts
         if len(contacts):

@@ -53,6 +53,15 @@ REJECT_REASONS = ('unknown_joint', 'duplicate_joint', 'mimic_joint', 'length', '
                   'limit')
 #: The interfaces of a command group (ros2_control's command interface names).
 INTERFACES = ('position', 'velocity', 'effort')
+#: The largest target a joint takes, by interface (rad, rad/s, N m; m, m/s, N for a prismatic
+#: joint), and the largest acceleration a trajectory point gives (rad/s² or m/s²). Beyond, a
+#: command is refused (``limit``): a continuous joint's angle past 1e6 rad keeps no 1e-10 rad
+#: of precision; a velocity of 1e3 rad/s turns a joint 1 rad a 1 ms step, what the contact
+#: step still follows; an effort of 1e6 is the default ``max_torque_nm`` / ``max_force_n`` of
+#: a wrench. A joint without URDF limits took any finite value, and a step that could not
+#: follow it paused the world (1e300 rad/s, 1e12 N m).
+MAX_TARGET = {'position': 1e6, 'velocity': 1e3, 'effort': 1e6}
+MAX_ACCELERATION = 1e5
 
 
 class CommandRejected(WrenchRejected):
@@ -92,7 +101,39 @@ def _target(topic, where, spec, index, mode, value):
             raise CommandRejected('limit', f'{topic}: {where}: {exc}') from None
     elif mode == 'velocity' and spec.velocity_limit is not None:
         value = min(max(value, -spec.velocity_limit), spec.velocity_limit)
+    _bounded(topic, where, spec, value, MAX_TARGET[mode], mode)
     return JointTarget(index, mode, float(value))
+
+
+def _bounded(topic, where, spec, value, bound, mode):
+    """Refuse ``value`` beyond ``±bound`` (``limit``), naming it with its unit."""
+    if not abs(value) <= bound:
+        linear = spec.core.kind == 'prismatic'
+        unit = {'position': 'm' if linear else 'rad', 'velocity': 'm/s' if linear else 'rad/s',
+                'effort': 'N' if linear else 'N m',
+                'acceleration': 'm/s²' if linear else 'rad/s²'}[mode]
+        raise CommandRejected('limit', f'{topic}: {where}: {value!r} {unit} is beyond the '
+                              f'largest {mode} a joint takes, {bound:g} {unit}')
+
+
+def in_range(joint, value):
+    """
+    Return ``value`` moved into the position targets ``joint`` can hold.
+
+    Those are its limits and a revolute joint's ``(-π, π]``: where a followed trajectory's
+    spline overshoots a limit between points that are within it, its reference rests at the
+    limit (the core refuses a target beyond).
+    """
+    lower, upper = joint.lower, joint.upper
+    if joint.kind == 'revolute':
+        least = math.nextafter(-math.pi, 0.0)
+        lower = least if lower is None else max(lower, least)
+        upper = math.pi if upper is None else min(upper, math.pi)
+    if lower is not None and value < lower:
+        return float(lower)
+    if upper is not None and value > upper:
+        return float(upper)
+    return value
 
 
 def _floats(topic, field, values, n):
@@ -314,10 +355,17 @@ class RobotInputs:
         group_names = [specs[j].name for j in spec.group]
         traj = parse_trajectory(spec.name, group_names, names, stamp_ns, points, effect_ns,
                                 [q[j] for j in spec.group], [qd[j] for j in spec.group])
+        knots = traj.knots
         for p in range(len(traj.times_ns)):  # every point must be a target its joints can hold
+            _, v, a = knots[p + 1]
             for k, j in enumerate(spec.group):
-                _target(spec.name, f'points[{p}].positions ({specs[j].name})', specs[j], j,
-                        'position', float(traj.point_positions(p)[k]))
+                where = f'points[{p}].%s ({specs[j].name})'
+                _target(spec.name, where % 'positions', specs[j], j, 'position',
+                        float(traj.point_positions(p)[k]))
+                _bounded(spec.name, where % 'velocities', specs[j], float(v[k]),
+                         MAX_TARGET['velocity'], 'velocity')
+                _bounded(spec.name, where % 'accelerations', specs[j], float(a[k]),
+                         MAX_ACCELERATION, 'acceleration')
         return traj
 
     def apply_pending(self, time_ns, world):
@@ -358,14 +406,23 @@ class RobotInputs:
         at mid-step: the step's mean acceleration for a cubic (whose acceleration is linear in
         time), so the target's rate at the step end is the reference's, and what the joint
         lags behind is of order h² (measured: 7.6e-6 rad at the waypoints of a 3-link arm's
-        cubic with the start-of-step acceleration, 5e-8 with this one).
+        cubic with the start-of-step acceleration, 5e-8 with this one). Where the reference is
+        beyond a limit (held at it, :func:`in_range`) or faster than :data:`MAX_TARGET`'s
+        velocity or :data:`MAX_ACCELERATION`, it is given without feed-forward.
         """
         for event, group in self._following:
             q, qd, _ = event.trajectory.sample(time_ns)
             qdd = event.trajectory.sample(time_ns + timestep_ns // 2)[2]
-            world.set_targets(event.robot, [(j, 'position', float(q[k]),
-                                             (float(qd[k]), float(qdd[k])))
-                                            for k, j in enumerate(group)])
+            specs = self._specs[event.robot]
+            targets = []
+            for k, j in enumerate(group):
+                held = in_range(specs[j].core, float(q[k]))
+                rates = (float(qd[k]), float(qdd[k]))
+                if held != q[k] or not (abs(rates[0]) <= MAX_TARGET['velocity']
+                                        and abs(rates[1]) <= MAX_ACCELERATION):
+                    rates = (0.0, 0.0)  # beyond a limit, or faster than a step can follow
+                targets.append((j, 'position', held, rates))
+            world.set_targets(event.robot, targets)
         if self._timeout_ns:
             ended = [(event, group) for event, group in self._following
                      if time_ns >= event.trajectory.end_ns + self._timeout_ns]

@@ -225,8 +225,7 @@ class RobotWorld:
         """
         moving = self._moving[r]
         q, qd = self._sim.joint_coordinates(moving)
-        efforts = self._sim.joint_efforts().tolist()
-        return q, qd, [efforts[j] for j in moving]
+        return q, qd, self.joint_efforts(r).tolist()
 
     def joint_positions(self, r: int) -> np.ndarray:
         """Return robot ``r``'s moving joint positions (rad or m), ``joint_states`` order."""
@@ -238,6 +237,8 @@ class RobotWorld:
 
     def joint_efforts(self, r: int) -> np.ndarray:
         """Return robot ``r``'s motor efforts applied over the last step (N m or N)."""
+        if not self._moving[r]:  # a floating robot without joints: the step may have none
+            return np.zeros(0)
         efforts = self._sim.joint_efforts()
         return np.array([float(efforts[j]) for j in self._moving[r]])
 

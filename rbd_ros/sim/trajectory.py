@@ -30,6 +30,8 @@ reference ``(q, q̇, q̈)`` of every joint of the group at any sim time:
   ends give: positions only → **linear**; positions and velocities → **cubic** (Hermite);
   positions, velocities and accelerations → **quintic**. Each matches its ends' values exactly.
 - **After the last point** the last positions are held (``q̇ = q̈ = 0``).
+- **Limits.** Where a spline overshoots a joint limit between points within it, the node
+  holds the reference at the limit (:func:`rbd_ros.sim.joint_commands.in_range`).
 
 Rejected whole, with a reason (:data:`REJECT_REASONS`) and one line naming the field: no
 points, a joint name that is not in the group or given twice, a group joint missing (the

@@ -257,3 +257,21 @@ def test_a_link_fixed_to_the_world_is_on_static_markers_once_in_the_world_frame(
     # 2 + 0.2 in floats, as the placement composes them
     assert (p.x, p.y, p.z) == (0.0, 0.0, 2.0 + 0.2) and (q.x, q.y, q.z, q.w) == (0, 0, 0, 1)
     assert (ceiling.scale.x, ceiling.scale.y, ceiling.scale.z) == (0.3, 0.3, 0.1)
+
+
+@pytest.mark.parametrize('urdf', ['arm3.urdf', 'free_body.urdf'])
+def test_a_robot_over_a_ground_without_free_bodies_records_and_replays(
+        start_node, tmp_path, urdf):
+    # A robot and a ground, no body_names: a contact world of no free bodies. Recording its
+    # first sample built the bodies' markers from an empty list (shape (0,), not (0, 3)):
+    # 'positions_w: shape (0,) for 0 bodies', exit 2 at start (a markers subscriber's first
+    # sample too). It now runs, and its recording replays MATCH.
+    bag = tmp_path / 'bag'
+    node = start_node({
+        'robot_names': ['r'], 'robots.r.urdf_path': str(REPO / 'msg_config' / 'urdf' / urdf),
+        'robots.r.initial_position': [0.0, 0.0, 0.5], 'ground.enabled': True,
+        'gravity': [0.0, 0.0, -9.81], 'real_time_factor': 0.0, 'duration_s': 0.1,
+        'record_path': str(bag)})
+    assert node.wait(120) == 0, node.stderr
+    result = replay_bag(str(bag))
+    assert result.match, result.problems

@@ -26,14 +26,18 @@ import os
 import pytest
 
 from rbd_ros.core import ConfigError
+from rbd_ros.sim.config import NodeConfig
 from rbd_ros.sim.joint_commands import (CommandRejected, group_targets, joint_state_targets,
                                         JointTarget)
 from rbd_ros.sim.robots import read_command_groups, read_robots
+from rbd_ros.sim.session import SimSession
+from rbd_ros.sim.trajectory import TrajectoryPoint
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 ARM = os.path.join(ROOT, 'msg_config', 'urdf', 'arm3.urdf')
 NAN = math.nan
 TOPIC = 'arm/joint_command'
+S = 1_000_000_000  # ns
 
 
 @pytest.fixture(scope='module')
@@ -140,3 +144,94 @@ def test_a_mimic_joint_takes_no_command_and_no_place_in_a_group(gripper):
                                           r"joint \(of 'finger_left'\) and takes no command"):
         read_command_groups({'command_group_names': ['g'], 'command_groups.g.robot': 'gripper',
                              'command_groups.g.joints': ['finger_right']}, [gripper])
+
+
+def _arm_session(**extra):
+    """Return a session of arm3 (joints only) with the group ``g`` of its three joints."""
+    config = NodeConfig.from_parameters({
+        'robot_names': ['arm'], 'robots.arm.urdf_path': ARM, 'gravity': [0.0, 0.0, -9.81],
+        'command_group_names': ['g'], 'command_groups.g.robot': 'arm',
+        'command_groups.g.joints': ['shoulder', 'elbow', 'wrist'], **extra})
+    return SimSession(config)
+
+
+def test_a_trajectory_whose_spline_passes_a_limit_is_followed_up_to_the_limit():
+    # Both points are within [-3, 3] rad, but the cubic from 2.9 rad at 5 rad/s to 2.95 rad
+    # at rest in 0.2 s peaks at 3.06 rad: the reference is held at the limit there, and the
+    # session goes on (it used to stop on the core's ConfigError: the node exited).
+    session = _arm_session()
+    session.advance(10)
+    session.submit_command('g/joint_trajectory', (
+        ['shoulder', 'elbow', 'wrist'], 0,
+        [TrajectoryPoint(S, [2.9, 0.0, 0.0], [5.0, 0.0, 0.0]),
+         TrajectoryPoint(S + S // 5, [2.95, 0.0, 0.0], [0.0, 0.0, 0.0])]))
+    while session.time_ns < 2 * S:
+        session.advance(1000)
+        assert session.error is None and session.simulator.joint_positions(0)[0] <= 3.0
+    assert abs(session.simulator.joint_positions(0)[0] - 2.95) < 1e-6
+
+
+def _continuous_pendulum():
+    """Return a session of the URDF pendulum on a continuous joint (no limits at all)."""
+    with open(os.path.join(ROOT, 'msg_config', 'urdf', 'pendulum.urdf')) as f:
+        urdf = f.read().replace('type="revolute"', 'type="continuous"')
+    urdf = urdf.replace('<limit lower="-3.1" upper="3.1" effort="10" velocity="10"/>', '')
+    return SimSession(NodeConfig.from_parameters({
+        'robot_names': ['p'], 'robots.p.robot_description': urdf,
+        'gravity': [0.0, 0.0, -9.81]}))
+
+
+@pytest.mark.parametrize('field, value, words', [
+    ('position', 1e300, 'position[0] (pivot): 1e+300 rad is beyond the largest position a '
+     'joint takes, 1e+06 rad'),
+    ('velocity', 1e300, 'velocity[0] (pivot): 1e+300 rad/s is beyond the largest velocity'),
+    ('velocity', -1e4, 'velocity[0] (pivot): -10000.0 rad/s is beyond'),
+    ('effort', 1e12, 'effort[0] (pivot): 1000000000000.0 N m is beyond the largest effort'),
+])
+def test_a_target_beyond_what_a_step_can_take_is_refused_and_the_world_goes_on(
+        field, value, words):
+    # A joint without URDF limits took any finite target; the step could not follow it and
+    # the world paused (ConvergenceError: the projection's error inf).
+    session = _continuous_pendulum()
+    session.advance(10)
+    with pytest.raises(CommandRejected) as caught:
+        session.submit_command('p/joint_command', (['pivot'], *[
+            [value] if f == field else [] for f in ('position', 'velocity', 'effort')]))
+    assert caught.value.reason == 'limit' and words in str(caught.value), str(caught.value)
+    assert session.commands.rejected == {'limit': 1}
+    session.advance(100)
+    assert session.error is None and session.time_ns > 10_000_000
+
+
+@pytest.mark.parametrize('field, words', [
+    ('velocities', 'points[0].velocities (shoulder): 1e+300 rad/s is beyond'),
+    ('accelerations', 'points[0].accelerations (shoulder): 1e+300 rad/s² is beyond'),
+])
+def test_a_trajectory_with_absurd_rates_is_refused_and_the_world_goes_on(field, words):
+    session = _arm_session()
+    session.advance(10)
+    rates = {'velocities': [0.0] * 3, 'accelerations': [0.0] * 3}
+    rates[field] = [1e300, 0.0, 0.0]
+    with pytest.raises(CommandRejected) as caught:
+        session.submit_command('g/joint_trajectory', (
+            ['shoulder', 'elbow', 'wrist'], 0,
+            [TrajectoryPoint(S, [0.1, 0.0, 0.0], rates['velocities'],
+                             rates['accelerations'])]))
+    assert caught.value.reason == 'limit' and words in str(caught.value), str(caught.value)
+    session.advance(100)
+    assert session.error is None
+
+
+def test_a_followed_spline_faster_than_a_step_can_follow_gives_no_feed_forward():
+    # A first point 1 ns after the trajectory starts: the segment to it from the joints'
+    # state moves at ~1e8 rad/s, sampled at the step start as the feed-forward rate; the
+    # step of a world with contact failed with its error inf and the world paused.
+    session = _arm_session(**{'ground.enabled': True})
+    session.advance(10)
+    session.submit_command('g/joint_trajectory', (
+        ['shoulder', 'elbow', 'wrist'], 0,
+        [TrajectoryPoint(1, [0.1, 0.0, 0.0]), TrajectoryPoint(2, [2.0, 0.0, 0.0])]))
+    while session.time_ns < S:
+        session.advance(1000)
+        assert session.error is None
+    assert abs(session.simulator.joint_positions(0)[0] - 2.0) < 1e-3

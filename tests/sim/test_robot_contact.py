@@ -124,6 +124,16 @@ def test_a_floating_box_robot_lands_as_a_free_box_and_rests_at_its_half_height()
     assert robot.link_poses(0)[0][0] == tuple(x[:3].tolist())
 
 
+def test_a_floating_robot_without_joints_has_empty_joint_states():
+    # Its joint_states (published and recorded at t = 0) asked the contact step, which has
+    # no joints, for its motor efforts: ConfigError 'a world without joints has no motors',
+    # so a recorded node (or one with a joint_states subscriber) stopped at start.
+    robot = make_simulator(_box_robot())
+    assert robot.joint_states(0) == ([], [], [])
+    robot.step(10)
+    assert robot.joint_states(0) == ([], [], []) and robot.joint_efforts(0).shape == (0,)
+
+
 def _pendulum(**more):
     return {'robot_names': ['pendulum'],
             'robots.pendulum.urdf_path': str(PENDULUM_URDF),
