@@ -523,3 +523,31 @@ def test_a_continuous_joint_counts_its_turns(integrator, omega, chunk):
     assert abs(q) > 6.0 * math.pi  # over three turns
     world.reset()
     assert world.joint_states()[0] == [0.0]
+
+
+def test_a_velocity_motor_turns_a_hinge_without_limits_through_pi_and_on():
+    # pendulum_world's hinge has no limits: its angle is measured in (−π, π]. Driven at 3 rad/s
+    # it passes π at ~1.06 s; the motor's goal for the step, q + v* h, was set before the angle
+    # wrapped, so the drifted joint missed it by ~2π and the world paused ("pre-stabilization
+    # ... error 3.17"). Now it turns on: at 3 rad/s exactly (the velocity row's coordinate grows
+    # by v* h a step, to the projection's 1e-13), through a whole turn and more.
+    params = yaml.safe_load((REPO / 'msg_config' / 'pendulum_world.yaml').read_text())[
+        '/**']['ros__parameters']
+    params = {**params, 'body_names': ['bob']}
+    params = {k: v for k, v in params.items() if not k.startswith('bodies.target')}
+    session = SimSession(NodeConfig.from_parameters(params))
+    session.advance(10)
+    session.submit_command('joint_command', (['hinge'], [], [3.0], []))
+    session.advance(1)   # the command takes effect at this step's start
+    start_ns, (q0,) = session.time_ns, session.simulator.joint_states()[0]
+    turned, last = 0.0, q0
+    while session.time_ns < 2_500_000_000:  # through π at ~1.06 s, and on past -π
+        session.advance(100)
+        assert session.error is None, session.error
+        (q,), (rate,), _ = session.simulator.joint_states()
+        step = q - last
+        turned += step - 2.0 * math.pi * math.floor(step / (2.0 * math.pi) + 0.5)
+        last = q
+        assert abs(rate - 3.0) <= 1e-9, rate
+    assert abs(turned - 3.0 * (session.time_ns - start_ns) * 1e-9) <= 1e-9, turned
+    assert turned > 2.0 * math.pi   # a whole turn

@@ -204,10 +204,29 @@ def motor_rows(joints):
     for j in range(model.jint.shape[0]):
         row = model.jint[j, jk.J_MOTROW]
         if row >= 0 and work.active[row] != 0:
-            work.con[row] = work.axial[j, 0] - drive[j, D_GOAL]
+            work.con[row] = _turn(model, j, work.axial[j, 0] - drive[j, D_GOAL])
         row = model.jint[j, jk.J_FRICROW]
         if row >= 0 and work.active[row] != 0:   # a stuck joint stays where it started
-            work.con[row] = work.axial[j, 0] - drive[j, D_REST]
+            work.con[row] = _turn(model, j, work.axial[j, 0] - drive[j, D_REST])
+
+
+#: A revolute joint's kind code (its angle is measured in (−π, π]).
+_REVOLUTE = jk.KIND_CODES['revolute']
+
+
+@_inl
+def _turn(model, j, d):
+    """
+    Return a coordinate difference ``d``; a revolute joint's beyond ±π as the nearest turn.
+
+    A revolute joint's angle is measured in (−π, π] (a continuous joint's is its running angle),
+    so a joint turning through ±π over the step lands 2π away from a goal set before it: a
+    velocity motor's ``q + v* h`` was missed by ~2π and the world paused. Within ±π, ``d`` as
+    it is (the same bits).
+    """
+    if model.jint[j, jk.J_KIND] == _REVOLUTE and abs(d) > math.pi:
+        return d - 2.0 * math.pi * math.floor(d / (2.0 * math.pi) + 0.5)
+    return d
 
 
 @_jit
