@@ -76,8 +76,8 @@ from rbd_ros.core.inertia import validate_inertia, validate_mass
 from rbd_ros.core.joints import Joint
 from rbd_ros.core.rotations import matrix_to_quat, quat_to_matrix
 from rbd_ros.sim.meshes import resolve_mesh_path
-from rbd_ros.sim.params import (MAX_JOINT_POSITION, MAX_JOINT_RATE, MAX_POSITION_M,
-                                PARAMETERS_BY_NAME)
+from rbd_ros.sim.params import (MAX_JOINT_POSITION, MAX_JOINT_RATE, MAX_MESH_FILE_BYTES,
+                                MAX_POSITION_M, PARAMETERS_BY_NAME)
 import yourdfpy
 
 #: Every URDF joint type.
@@ -402,6 +402,11 @@ def _collision(source, link, index, element, base_dir, to_body):
             if not os.path.isfile(path):
                 _fail(ModelError, source, f'{who}.mesh.filename',
                       f'{filename!r} ({path}) does not exist or is not a file', filename)
+            size = os.path.getsize(path)
+            if size > MAX_MESH_FILE_BYTES:  # the limit of every mesh file, before it is read
+                _fail(ModelError, source, f'{who}.mesh.filename',
+                      f'{filename!r} ({path}) is {size} bytes, more than the limit of '
+                      f'{MAX_MESH_FILE_BYTES} bytes', filename)
             scale = geometry.mesh.scale
             scale = (1.0, 1.0, 1.0) if scale is None else np.broadcast_to(scale, 3)
             shape = load_mesh(path, scale, centre=False, field=f'{who}.mesh.')

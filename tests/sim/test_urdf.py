@@ -493,3 +493,18 @@ def test_a_cycle_of_mimics_and_a_planar_mimic_are_refused(tmp_path):
     with pytest.raises(ModelError, match=r"joint 'p'.mimic.joint: 'a'; a planar joint cannot "
                                          'mimic'):
         load_urdf(write(tmp_path, body))
+
+
+def test_a_urdf_mesh_past_the_mesh_file_limit_is_refused_before_it_is_read(tmp_path):
+    # The limit of every mesh file (a body's or an obstacle's: sim/meshes.py) holds for a URDF
+    # link's too: a 4 GB sparse STL was read whole (8.6 GB resident, 83 s) before "holds no
+    # triangles". A file one byte over the limit is refused from its size alone.
+    from rbd_ros.sim.params import MAX_MESH_FILE_BYTES
+    huge = tmp_path / 'huge.stl'
+    with open(huge, 'wb') as f:
+        f.truncate(MAX_MESH_FILE_BYTES + 1)  # sparse: no disk
+    xml = (URDF_DIR / 'arm3.urdf').read_text()
+    xml = xml.replace('<cylinder radius="0.03" length="0.5"/>', f'<mesh filename="{huge}"/>', 1)
+    with pytest.raises(ModelError, match=rf'\.mesh\.filename: .* is {MAX_MESH_FILE_BYTES + 1} '
+                       rf'bytes, more than the limit of {MAX_MESH_FILE_BYTES} bytes'):
+        load_urdf(xml=xml)
