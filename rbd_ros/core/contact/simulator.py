@@ -341,7 +341,7 @@ class WorldSimulator(BatchSimulator):
         check_overlaps([(b.name, b.shape, s.position_w, s.orientation_wb)
                         for b, s in zip(bodies, states)], static, overlap_tolerance_m, pairs)
         if defer_projection and self._joints:
-            self._deferred = (static, overlap_tolerance_m, pairs)
+            self._deferred = (overlap_tolerance_m, pairs)
         super().__init__([b.model for b in bodies], states, integrator=integrator,
                          timestep_ns=timestep_ns, threads=1)
         self._bodies = bodies
@@ -401,12 +401,13 @@ class WorldSimulator(BatchSimulator):
         """
         if self._deferred is None:
             return
-        static, tolerance_m, pairs = self._deferred
+        tolerance_m, pairs = self._deferred
         articulated = self._articulated
         articulated.project_initial()
         states = articulated.states
         check_overlaps([(b.name, b.shape, s.position_w, s.orientation_wb)
-                        for b, s in zip(self._bodies, states)], static, tolerance_m, pairs)
+                        for b, s in zip(self._bodies, states)], self._static, tolerance_m,
+                       pairs)
         self._deferred = None
         for i, state in enumerate(states):
             self._x[:, i] = layout.pack_state(state)
