@@ -27,10 +27,12 @@ The parameters (these names exactly; the list is not the prefix of its items, so
   and axis in the world frame, at the bodies' initial poses. The joint coordinate is 0 there:
   the child's rest pose relative to the parent (``q_rest``) is the initial one.
 - ``joints.<name>.lower`` and ``.upper`` (rad or m): revolute and prismatic limits; both 0 (the
-  defaults) for none. ``.effort_limit`` (N·m or N) and ``.velocity_limit`` (rad/s or m/s): the
-  motor's caps, 0 (the default) for none. ``.damping`` (N·m·s/rad or N·s/m) and ``.friction``
-  (N·m or N), >= 0, and ``.position_time_constant_s`` (s, > 0) as a robot joint's
-  (:mod:`rbd_ros.sim.robots`).
+  defaults) for none. ``.cone_rad`` (rad, in (0, π]): a spherical joint's cone limit, the
+  angle of its axis in the child off the axis in the parent (both ``.axis`` at the initial
+  poses) at most ``cone_rad``; 0 (the default) for none. ``.effort_limit`` (N·m or N) and
+  ``.velocity_limit`` (rad/s or m/s): the motor's caps, 0 (the default) for none.
+  ``.damping`` (N·m·s/rad or N·s/m) and ``.friction`` (N·m or N), >= 0, and
+  ``.position_time_constant_s`` (s, > 0) as a robot joint's (:mod:`rbd_ros.sim.robots`).
 
 Everything is handed to the core's :class:`~rbd_ros.core.joints.model.Joint` as given (origins
 and axis turned into the bodies' frames): limits, damping (its exact flow) and Coulomb
@@ -75,7 +77,8 @@ _MAX = 1e12  # the bound advertised for a quantity with no natural limit (as par
 # The core Joint's fields -> the parameter that gives them.
 _CORE_FIELDS = {'kind': 'type', 'parent': 'parent', 'child': 'child', 'axis_b': 'axis',
                 'origin_parent_b': 'position', 'origin_child_b': 'position',
-                'lower': 'lower', 'upper': 'upper', 'effort_limit': 'effort_limit',
+                'lower': 'lower', 'upper': 'upper', 'cone_rad': 'cone_rad',
+                'effort_limit': 'effort_limit',
                 'damping': 'damping', 'friction': 'friction'}
 _CORE_UNIT = re.compile(r'\A(?: (?:N m s/rad|N s/m|N m|rad|N|m)\b)?;? ?')
 _CORE_MESSAGE = re.compile(r"joint '([A-Za-z0-9_]+)'\.([a-z_0-9]+): (.*)\Z", re.S)
@@ -105,6 +108,10 @@ def joint_parameter_specs(name: str) -> Tuple[ParamSpec, ...]:
         ParamSpec(prefix + 'upper', DOUBLE, 0.0, 'rad or m',
                   f'{who}: upper limit; lower = upper = 0: no limits.', (-_MAX, _MAX),
                   rule='>= lower'),
+        ParamSpec(prefix + 'cone_rad', DOUBLE, 0.0, 'rad',
+                  f'{who}: cone limit of a spherical joint: its axis in the child at most this '
+                  'far off the axis in the parent (both .axis at the initial poses); 0 = none.',
+                  (0.0, math.pi), rule='0 (none) or in (0, π], spherical joints only'),
         ParamSpec(prefix + 'effort_limit', DOUBLE, 0.0, 'N·m or N',
                   f"{who}: cap of its motor's effort; 0 = none.", (0.0, _MAX), rule='>= 0'),
         ParamSpec(prefix + 'velocity_limit', DOUBLE, 0.0, 'rad/s or m/s',
@@ -215,6 +222,7 @@ def _read_joint(params, name, bodies, robots):
                       axis_b=tuple(axis_p), q_rest=tuple(q_pc),
                       lower=v['lower'] if limited else None,
                       upper=v['upper'] if limited else None,
+                      cone_rad=v['cone_rad'] or None,
                       effort_limit=v['effort_limit'] or None, damping=v['damping'],
                       friction=v['friction'])
     except RbdError as exc:

@@ -166,6 +166,14 @@ REFUSED = {
     'friction_on_a_fixed_joint': (
         {'joints.hinge.type': 'fixed', 'joints.hinge.friction': 0.5},
         'parameter joints.hinge.friction = 0.5 N·m or N: a fixed joint takes no friction'),
+    'cone_on_a_revolute_joint': (
+        {'joints.hinge.cone_rad': 0.5},
+        'parameter joints.hinge.cone_rad = 0.5 rad: only a spherical joint has a cone limit'),
+    'cone_beyond_pi': ({'joints.hinge.type': 'spherical', 'joints.hinge.cone_rad': 4.0},
+                       'parameter joints.hinge.cone_rad = 4.0 rad: must be in [0, 3.14159]'),
+    'negative_cone': ({'joints.hinge.type': 'spherical', 'joints.hinge.cone_rad': -0.1},
+                      'parameter joints.hinge.cone_rad = -0.1 rad: must be 0 (none) or in '
+                      '(0, π], spherical joints only'),
     'a_joint_not_listed': ({'joints.door.type': 'revolute'},
                            "parameter joints.door.type = 'revolute': unknown parameter name"),
     'without_body_names': (
@@ -344,6 +352,52 @@ def test_a_damped_world_joint_decays_as_its_closed_form():
         worst = max(worst, abs(rate / expected - 1.0))
         assert effort == 0.0   # no motor: the damping is not a motor's effort
     assert worst <= 1e-12, worst
+
+
+def test_a_ball_joints_cone_stops_the_ball_dead_on_its_rim():
+    # The pendulum file's ball alone on a ball joint (.type spherical) whose .axis points from
+    # the pivot to the ball (45 deg out), with .cone_rad = 0.3: released from rest it swings
+    # down in its plane and the cone stops it 0.3 rad on (the axis in the child is the same
+    # line at the initial pose), pi/4 - 0.3 rad off the vertical, where gravity holds it.
+    # The contact step's stop is inelastic and lands it on the rim to its 1e-13: after the
+    # stop the ball's angle is the rim's to 1e-12 rad and its speed 1e-12 m/s, and the energy
+    # left is the potential at the rim to 1e-12 J: the stop took all of
+    # m g L (cos(pi/4 - 0.3) - cos(pi/4)). Measured: 1.1e-16 (angle and speed), 1.3e-15 J.
+    theta0, cone, length, pivot = math.pi / 4.0, 0.3, 0.8, (0.0, 0.0, 1.2)
+    lever = (-length * math.sin(theta0), 0.0, -length * math.cos(theta0))
+    params = {k: v for k, v in _pendulum().items() if not k.startswith('bodies.target.')}
+    params.update({'body_names': ['bob'], 'joints.hinge.type': 'spherical',
+                   'joints.hinge.axis': list(lever), 'joints.hinge.cone_rad': cone})
+    config = NodeConfig.from_parameters(params)
+    assert config.world_joints[0].joint.cone_rad == cone
+    session = SimSession(config)
+    session.paused = False
+    world = session.simulator
+    mass = world.bodies[0].model.mass_kg
+    g = 9.81
+
+    def angle():   # the ball's angle off the downward vertical, towards -x
+        d = world.body_state(0).position_w - np.asarray(pivot)
+        return math.atan2(-d[0], -d[2])
+
+    def energy():
+        s = world.body_state(0)
+        return s.kinetic_energy(world.bodies[0].model) + mass * g * s.position_w[2]
+    e0 = energy()
+    while world.held_limits != [1]:
+        session.advance(1)
+        assert angle() >= theta0 - cone - 1e-12
+        assert session.time_ns < 1_000_000_000
+    rim = theta0 - cone
+    worst = 0.0
+    for _ in range(300):
+        session.advance(1)
+        worst = max(worst, abs(angle() - rim),
+                    np.abs(world.body_state(0).linear_velocity_w).max())
+    assert worst <= 1e-12, worst
+    lost = mass * g * length * (math.cos(rim) - math.cos(theta0))
+    assert abs(e0 - energy() - lost) <= 1e-12, (e0 - energy(), lost)
+    assert world.joint_error()[1] <= 1e-12
 
 
 def test_joint_wrenches_are_what_holds_a_chain_at_rest_and_a_swinging_ball():

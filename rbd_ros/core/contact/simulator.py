@@ -263,13 +263,14 @@ class WorldSimulator(BatchSimulator):
         index, ``parent=None`` the world), as :class:`~rbd_ros.core.joints.ArticulatedSimulator`
         takes them and checks them; the states are projected onto them first, as there
         (with ``defer_projection``, at the first step).
-        Motors as there (:meth:`set_motor`); limits (``lower``, ``upper``) as speculative
-        inelastic stops (:mod:`rbd_ros.core.contact.limits`); ``damping`` as its exact flow
+        Motors as there (:meth:`set_motor`); limits (``lower``, ``upper``, and a spherical
+        joint's ``cone_rad``, the angle of its axis off the parent's) as speculative
+        inelastic stops (:mod:`rbd_ros.core.contact.limits`: a cone stop takes out the swing
+        into the rim alone); ``damping`` as its exact flow
         over each velocity update and ``friction`` as a velocity target 0 bounded by the
         friction (:mod:`rbd_ros.core.contact.motors`: a joint sticks exactly while the effort
         holding it is within its friction, else slides against it); a mimic as one more row
-        of the visits. Without cone limits for now (refused in one line). A jointed body
-        collides as any
+        of the visits. A jointed body collides as any
         other; two bodies of one joint collide with each other too (give them shapes that
         clear at the joint, or list them in ``no_collision``).
     :param no_collision: body index pairs ``(a, b)`` that never collide with each other
@@ -371,9 +372,6 @@ class WorldSimulator(BatchSimulator):
         for i, joint in enumerate(self._joints):
             if not isinstance(joint, Joint):
                 raise ConfigError(f'joints[{i}]: {type(joint).__name__} is not a Joint')
-            if joint.cone_rad is not None:
-                raise ConfigError(f'joint {joint.name!r}.cone_rad: {joint.cone_rad!r}; a world '
-                                  'with contact takes no joint cone_rad yet (leave it None)')
         articulated = joints_simulator.ArticulatedSimulator(
             [b.model for b in bodies], states, self._joints, timestep_ns=timestep_ns,
             defer_projection=defer)

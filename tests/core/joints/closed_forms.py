@@ -198,27 +198,27 @@ def limit_stop(length_m, mass_kg, g=G):
     return omega, inertia * omega, 0.5 * inertia * omega * omega
 
 
-def cone_stop(i1, mgd, theta0, phidot0, alpha, up=True):
+def cone_stop(i1, mgd, theta0, phidot0, alpha, up=True, thetadot0=0.0):
     """
     Return how a symmetric rod on a ball joint, no spin about its axis, meets a cone's rim.
 
     The rod (inertia ``i1`` kg m^2 across its axis about the pivot, ``mgd = m g d`` N m with
-    ``d`` the pivot-COM distance) leaves angle ``theta0`` off the cone's axis with no rate in
-    ``theta`` and the azimuth rate ``phidot0``. The axis points up (``up``; gravity pulls the
-    rod off it) or down. With no spin about its axis, ``omega = phidot (z - cos theta f)``:
-    ``L_z = i1 phidot sin^2 theta`` and ``E = (1/2) i1 (theta'^2 + phidot^2 sin^2 theta)
-    +- mgd cos theta`` are kept (the Lagrangian of the symmetric top with ``omega_3 = 0``,
-    Goldstein ch. 5). At ``theta = alpha`` the rod swings around the rim at
-    ``omega_t = phidot_a sin alpha`` and into it at ``omega_n`` from the energy; an inelastic
-    stop takes ``omega_n`` alone (its swing axis ``n`` is a principal axis of the rod about the
-    pivot) and removes ``(1/2) i1 omega_n^2``.
+    ``d`` the pivot-COM distance) leaves angle ``theta0`` off the cone's axis at the rate
+    ``thetadot0`` in ``theta`` (rad/s, 0 by default) and the azimuth rate ``phidot0``. The axis
+    points up (``up``; gravity pulls the rod off it) or down. With no spin about its axis,
+    ``omega = phidot (z - cos theta f)``: ``L_z = i1 phidot sin^2 theta`` and ``E = (1/2) i1
+    (theta'^2 + phidot^2 sin^2 theta) +- mgd cos theta`` are kept (the Lagrangian of the
+    symmetric top with ``omega_3 = 0``, Goldstein ch. 5). At ``theta = alpha`` the rod swings
+    around the rim at ``omega_t = phidot_a sin alpha`` and into it at ``omega_n`` from the
+    energy; an inelastic stop takes ``omega_n`` alone (its swing axis ``n`` is a principal axis
+    of the rod about the pivot) and removes ``(1/2) i1 omega_n^2``.
 
     :return: ``(omega_n, omega_t, phidot_a, energy_lost_j)`` (rad/s, rad/s, rad/s, J)
     """
     i1 = _positive('i1', i1, 'kg m^2')
     sign = 1.0 if up else -1.0
     phidot_a = phidot0 * math.sin(theta0) ** 2 / math.sin(alpha) ** 2
-    kinetic0 = 0.5 * i1 * (phidot0 * math.sin(theta0)) ** 2
+    kinetic0 = 0.5 * i1 * ((phidot0 * math.sin(theta0)) ** 2 + thetadot0 ** 2)
     kinetic_a = kinetic0 + sign * mgd * (math.cos(theta0) - math.cos(alpha))
     omega_t = phidot_a * math.sin(alpha)
     omega_n2 = 2.0 * kinetic_a / i1 - omega_t * omega_t

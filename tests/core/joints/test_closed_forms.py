@@ -184,6 +184,11 @@ def test_cone_stop_and_rim_torque_against_a_planar_fall_and_a_conical_pendulum()
     assert phidot_a == pytest.approx(3.0 * math.sin(0.5) ** 2 / math.sin(1.0) ** 2,
                                      rel=ROUND_OFF)
     assert omega_t == pytest.approx(phidot_a * math.sin(1.0), rel=ROUND_OFF)
+    # A rate in theta at the start adds its kinetic energy to the normal part: with no
+    # gravity and no azimuth rate the rod reaches the rim at that rate and loses all of it.
+    omega_n, omega_t, _, lost = cone_stop(2.0, 0.0, 0.2, 0.0, 0.7, up=False, thetadot0=1.5)
+    assert (omega_n, omega_t) == (pytest.approx(1.5, rel=ROUND_OFF), 0.0)
+    assert lost == pytest.approx(0.5 * 2.0 * 1.5 ** 2, rel=ROUND_OFF)
     # Hanging, at the free conical pendulum's rate phidot^2 = m g d / (I1 cos alpha) (the
     # textbook rigid conical pendulum), the rim carries nothing; faster, it pushes (< 0).
     i1, mgd, alpha = 1.0 / 3.0, 0.5 * 9.81, 0.6

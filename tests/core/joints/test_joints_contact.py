@@ -282,10 +282,15 @@ def test_hinged_pair_striking_a_box_keeps_momentum(h_ns):
 
 def test_unsupported_joint_fields_are_refused_in_one_line():
     bob = _body('bob', 'sphere', [R])
+    # a cone limit is taken (tests/core/joints/test_cone_limit_contact.py); a start beyond it
+    # is the articulated system's refusal, as for the other limits
     coned = Joint('pivot', 'spherical', None, 0, origin_child_b=(0.0, 0.0, L),
                   axis_b=(0.0, 0.0, 1.0), cone_rad=0.5)
-    with pytest.raises(ConfigError, match=r"joint 'pivot'\.cone_rad: 0\.5; a world with contact"):
-        WorldSimulator([bob], [BodyState(position_w=(0.0, 0.0, -L))], None, joints=[coned])
+    tilted = BodyState(position_w=(-L * math.sin(0.6), 0.0, -L * math.cos(0.6)),
+                       orientation_wb=(math.cos(0.3), 0.0, math.sin(0.3), 0.0))
+    with pytest.raises(ConfigError, match=r"^joint 'pivot'\.cone_rad: the initial angle off the "
+                                          r'axis 0\.(6|59+)\d* rad is beyond cone_rad 0\.5 rad$'):
+        WorldSimulator([bob], [tilted], None, joints=[coned])
     # damping and friction are taken (tests/core/joints/test_joint_friction_contact.py), and
     # mimics (below); a mimic of a joint that is not there is the articulated system's refusal
     tied = Joint('pivot', 'revolute', None, 0, origin_child_b=(0.0, 0.0, L),
