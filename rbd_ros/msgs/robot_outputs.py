@@ -26,7 +26,8 @@ every machine.
 - ``nav_msgs/Odometry`` on ``<robot>/odom``, a floating robot's only (REP 105): the root link's
   frame in the world frame (``child_frame_id`` that frame's id), twist in that link frame.
   Packed by :class:`rbd_ros.msgs.outputs.BodyOutputs` (the free bodies' odom rule, its one
-  home) from :meth:`rbd_ros.sim.robot_world.RobotWorld.root_state`; :class:`RobotOutputs` names the kind.
+  home) from :meth:`rbd_ros.sim.robot_world.RobotWorld.root_state`; :class:`RobotOutputs`
+  names the kind.
 - ``sensor_msgs/MultiDOFJointState`` on ``<robot>/joint_wrenches``: stamped with sim time,
   ``frame_id`` empty (each wrench is in its own joint's child link frame), ``joint_names``
   every URDF joint in document order (fixed joints included), ``transforms`` and ``twist``
