@@ -604,7 +604,8 @@ class LinkMarkers:
                     if fixed:  # its pose in the world: x_w = R(q_link) x_l + p_link
                         position = quat_to_matrix(link_q) @ position + link_p
                         orientation = quat_multiply(link_q, orientation)
-                    marker = _link_marker(collision, index, world_frame if fixed else link.name,
+                    marker = _link_marker(collision, index, world_frame if fixed else
+                                          robot.link_frame(link.name, world_frame),
                                           position, orientation, color)
                     marker.frame_locked = not fixed
                     marker.text = f'{robot.name}/{link.name}'

@@ -24,9 +24,10 @@ every machine.
   empty (as joint_state_broadcaster), the moving joints in URDF order with position (rad or m),
   velocity and effort (the motor's, applied over the last step; 0 without a motor).
 - ``nav_msgs/Odometry`` on ``<robot>/odom``, a floating robot's only (REP 105): the root link's
-  frame in the world frame (``child_frame_id`` its name), twist in that link frame. Packed by
-  :class:`rbd_ros.msgs.outputs.BodyOutputs` (the free bodies' odom rule, its one home) from
-  :meth:`rbd_ros.sim.robot_world.RobotWorld.root_state`; :class:`RobotOutputs` names the kind.
+  frame in the world frame (``child_frame_id`` that frame's id), twist in that link frame.
+  Packed by :class:`rbd_ros.msgs.outputs.BodyOutputs` (the free bodies' odom rule, its one
+  home) from :meth:`rbd_ros.sim.robot_world.RobotWorld.root_state`; :class:`RobotOutputs`
+  names the kind.
 - ``sensor_msgs/MultiDOFJointState`` on ``<robot>/joint_wrenches``: stamped with sim time,
   ``frame_id`` empty (each wrench is in its own joint's child link frame), ``joint_names``
   every URDF joint in document order (fixed joints included), ``transforms`` and ``twist``
@@ -35,7 +36,8 @@ every machine.
   NaN at time 0, before the first step has solved them).
 - ``/tf``: one transform per URDF joint, parent link → child link (fixed joints included), as
   robot_state_publisher gives them, plus world frame → root link for a floating robot. A link's
-  frame id is its URDF name; the URDF's ``world`` link is the node's world frame. The
+  frame id is :meth:`rbd_ros.sim.robots.RobotConfig.link_frame` (its robot's ``frame_prefix`` +
+  its URDF name; the URDF's ``world`` link is the node's world frame). The
   transform is the parent's frame pose inverted times the child's, from the simulated link
   poses (:meth:`rbd_ros.sim.robot_world.RobotWorld.link_poses`), so it agrees with
   ``joint_states`` through the URDF's kinematics to the joints' projection tolerance; a link
@@ -152,9 +154,8 @@ class RobotOutputs(JointOutputs):
         self.odom_kind = None if urdf.fixed_to_world else f'{robot.name}/odom'
         self.kinds = tuple(k for k in (self.kind, self.odom_kind, self.wrench_kind) if k)
         #: The root link's frame id (odom's ``child_frame_id``).
-        self.root_frame = urdf.root
-        frame = {link.name: (world_frame if link.name == 'world' and urdf.fixed_to_world
-                             else link.name) for link in urdf.links}
+        self.root_frame = robot.link_frame(urdf.root, world_frame)
+        frame = {link.name: robot.link_frame(link.name, world_frame) for link in urdf.links}
         link_index = {link.name: k for k, link in enumerate(urdf.links)}
         #: (parent link index or None for the world frame, child link index, frame bytes)
         self.transforms = []

@@ -255,7 +255,11 @@ class NodeConfig:
                     bodies = _world_bodies(values, body_inputs, static_world, integrator)
             world_joints = joint_params.read_world_joints(
                 values, {b.name: b for b in bodies}, robots)
-            return cls(bodies=bodies, **time_settings, **_frame_settings(values, bodies),
+            frames = _frame_settings(values, bodies)
+            robot_params.check_link_frames(
+                values['world_frame'], {values['world_frame']: 'world_frame', **{
+                    b.body_frame: f'{b.parameter_prefix}body_frame' for b in bodies}}, robots)
+            return cls(bodies=bodies, **time_settings, **frames,
                        **_limits_and_recording(values), parameters=values,
                        static_world=static_world, robots=robots, command_groups=groups,
                        world_joints=world_joints)

@@ -31,6 +31,12 @@ The parameters (these names exactly; a list parameter is never the prefix of its
   ``friction`` and ``restitution``), in a world with contact (:mod:`rbd_ros.sim.robot_contact`);
   ``.self_collision`` (default true): its links that are not parent and child of one joint
   collide with each other there (adjacent links never do).
+- ``robots.<name>.frame_prefix`` (default empty): put before each of its link names to make
+  their TF frame ids (``/tf``, ``odom``'s child frame, the links' ``markers``), as
+  robot_state_publisher's ``frame_prefix`` does: two robots from one URDF need one each (e.g.
+  ``left/``, ``right/``), since every TF frame of the node must be unique
+  (:func:`check_link_frames`). The URDF's ``world`` link of a robot fixed to the world is the
+  node's world frame, never prefixed.
 - ``robots.<name>.joints.<joint>.position_time_constant_s`` (s, > 0, default
   :data:`DEFAULT_POSITION_TIME_CONSTANT_S`): the time constant of that joint's position
   commands (the exact critically damped response, see :mod:`rbd_ros.core.joints`).
@@ -51,7 +57,8 @@ motor, and no damping or friction but what the URDF or the parameters give.
 """
 
 from dataclasses import dataclass, replace
-from typing import Dict, Tuple
+import re
+from typing import Dict, Mapping, Tuple
 
 from rbd_ros.core import ConfigError, RbdError
 from rbd_ros.core.contact.world import is_valid_name, NAME_RULE
@@ -69,6 +76,10 @@ DEFAULT_POSITION_TIME_CONSTANT_S = 0.05
 MAX_ROBOTS = 100
 #: The bound advertised for a joint's damping and friction (no natural limit; as params').
 MAX_JOINT_DYNAMICS = 1e12
+
+#: What a ``frame_prefix`` may hold: empty, or letters, digits, ``_ . - /``, not starting with
+#: ``/`` (tf2 refuses frame ids that do) and at most 256 characters.
+FRAME_PREFIX_RULE = re.compile(r'(?:[A-Za-z0-9_][A-Za-z0-9_./-]{0,255})?')
 
 ROBOT_NAMES_SPEC = PARAMETERS_BY_NAME[ROBOT_NAMES]
 GROUP_NAMES_SPEC = PARAMETERS_BY_NAME[GROUP_NAMES]
@@ -177,6 +188,11 @@ def robot_parameter_specs(name: str) -> Tuple[ParamSpec, ...]:
         ParamSpec(prefix + 'self_collision', BOOL, True, '',
                   f'Robot {name!r}: in a world with contact, its links that are not parent '
                   'and child of one joint collide with each other.'),
+        ParamSpec(prefix + 'frame_prefix', STRING, '', '',
+                  f'Robot {name!r}: put before its link names to make their TF frame ids '
+                  "(as robot_state_publisher's frame_prefix; the world link excepted).",
+                  rule='empty, or letters, digits, _ . - / (not first), at most 256; '
+                       'every TF frame of the node unique'),
     )
 
 
@@ -228,6 +244,17 @@ class RobotConfig:
     friction: float = 0.5
     restitution: float = 0.0
     self_collision: bool = True
+    frame_prefix: str = ''
+
+    def link_frame(self, link: str, world_frame: str) -> str:
+        """
+        Return the TF frame id of URDF link ``link``: ``frame_prefix`` + its name.
+
+        The ``world`` link of a robot fixed to the world is the node's ``world_frame``.
+        """
+        if link == 'world' and self.robot.fixed_to_world:
+            return world_frame
+        return self.frame_prefix + link
 
     @property
     def joint_names(self) -> Tuple[str, ...]:
@@ -286,6 +313,10 @@ def _read_robot(params, name, gravity_w):
         raise ConfigError(f'parameter {prefix}urdf_path / {prefix}robot_description: {given} '
                           'given; give exactly one (a URDF file, or its XML)',
                           field=prefix + 'urdf_path', value=path)
+    if not FRAME_PREFIX_RULE.fullmatch(values['frame_prefix']):
+        fail(by_base['frame_prefix'], values['frame_prefix'],
+             "must be empty, or letters, digits, '_', '.', '-' and '/' (not first), "
+             'at most 256 characters')
     position = position3(by_base['initial_position'], values['initial_position'])
     orientation = unit_quaternion(by_base['initial_orientation'], values['initial_orientation'])
     # Imported here: yourdfpy, lxml and trimesh cost ~0.5 s, paid only by files with robots.
@@ -311,7 +342,7 @@ def _read_robot(params, name, gravity_w):
                       for joint in robot.moving_joints)
     return RobotConfig(name, robot, replace(placement, joints=tuple(joints)), constants,
                        specs + joint_specs, values['friction'], values['restitution'],
-                       values['self_collision'])
+                       values['self_collision'], values['frame_prefix'])
 
 
 def read_robots(params: Dict[str, object], gravity_w=(0.0, 0.0, 0.0)) -> Tuple[RobotConfig, ...]:
@@ -324,6 +355,32 @@ def read_robots(params: Dict[str, object], gravity_w=(0.0, 0.0, 0.0)) -> Tuple[R
     """
     names = list_names(params, ROBOT_NAMES_SPEC, MAX_ROBOTS)
     return tuple(_read_robot(params, name, gravity_w) for name in names)
+
+
+def check_link_frames(world_frame: str, taken: Mapping[str, str], robots) -> None:
+    """
+    Refuse a robot link whose TF frame id is already another frame's, in one line.
+
+    :param taken: frame id → what owns it (``world_frame``, ``bodies.<b>.body_frame``): the
+        node's other frames.
+    :param robots: the :class:`RobotConfig` values; each link's frame is
+        :meth:`RobotConfig.link_frame` (two robots from one URDF need their own
+        ``frame_prefix``: ``/tf`` would otherwise carry two poses for one frame).
+    :raises ConfigError: naming the robot's ``frame_prefix``, the link, the frame and its owner.
+    """
+    seen = dict(taken)
+    for robot in robots:
+        spec = next(s for s in robot.specs if s.name.endswith('.frame_prefix'))
+        for link in robot.robot.links:
+            frame = robot.link_frame(link.name, world_frame)
+            if frame == world_frame and link.name == 'world':
+                continue  # the world link is the world frame itself
+            if frame in seen:
+                fail(spec, robot.frame_prefix,
+                     f'link {link.name!r} of robot {robot.name!r} would be TF frame '
+                     f'{frame!r}, already the frame of {seen[frame]} (a frame_prefix makes '
+                     f"the robot's frames its own, e.g. '{robot.name}/')")
+            seen[frame] = f'link {link.name!r} of robot {robot.name!r}'
 
 
 def list_names(params, spec, most):

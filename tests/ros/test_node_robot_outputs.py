@@ -354,3 +354,98 @@ def test_a_hanging_chain_reports_k_m_g_and_a_fixed_robot_no_odom(
     result = replay_bag(bag)
     assert result.match, result.problems
     assert result.topics[f'{ns}/arm/joint_wrenches'].samples >= 2
+
+
+def _link_names(path):
+    """Return the URDF file's link names in document order (read here, not by rbd_ros)."""
+    return [link.get('name') for link in ET.parse(path).getroot().iter('link')]
+
+
+def test_two_robots_of_one_urdf_publish_their_own_frames_with_frame_prefix(
+        start_node, probe_for, tmp_path):
+    """
+    Name every link frame with its robot's ``frame_prefix``.
+
+    Two arm3 robots (one URDF) and a floater, each with a prefix: ``/tf``, ``odom`` and the
+    links' ``markers`` name every link frame with it (the URDF's ``world`` link stays the world
+    frame), and the two arms' link transforms are the same.
+    """
+    from nav_msgs.msg import Odometry
+    from tf2_msgs.msg import TFMessage
+    from visualization_msgs.msg import MarkerArray
+    urdf = tmp_path / 'floater.urdf'
+    # In a world with contact every moving link needs a collision shape: a box at each COM.
+    box = '<collision><origin xyz="{}"/><geometry><box size="0.1 0.1 0.1"/></geometry></collision>'
+    urdf.write_text(FLOATING_URDF.replace(
+        '</inertial>\n  </link>\n  <joint name="bracket_joint"',
+        '</inertial>' + box.format('0.1 0 0.05') + '\n  </link>\n  <joint name="bracket_joint"'
+    ).replace('</inertial>\n  </link>\n</robot>',
+              '</inertial>' + box.format('0.25 0 0') + '\n  </link>\n</robot>'))
+    assert urdf.read_text().count('<collision>') == 2
+    bag = tmp_path / 'two_arms'
+    arm = str(URDF / 'arm3.urdf')
+    bends = [0.3, -0.2, 0.1]
+    node = start_node({
+        'robot_names': ['left', 'right', 'floater'],
+        'robots.left.urdf_path': arm, 'robots.left.frame_prefix': 'left/',
+        'robots.left.initial_position': [0.0, 0.0, 2.0],
+        'robots.left.initial_joint_positions': list(bends),  # no YAML alias (rcl refuses)
+        'robots.right.urdf_path': arm, 'robots.right.frame_prefix': 'right/',
+        'robots.right.initial_position': [0.0, 1.0, 2.0],
+        'robots.right.initial_joint_positions': list(bends),
+        'robots.floater.urdf_path': str(urdf), 'robots.floater.frame_prefix': 'f/',
+        'robots.floater.initial_position': [3.0, 0.0, 3.0],
+        'ground.enabled': True, 'gravity': [0.0, 0.0, -G], 'publish_tf': True,
+        'publish_rate_hz': 1000.0, 'start_paused': True, 'record_path': str(bag)},
+        namespace=True)
+    probe = probe_for(node, inputs=(), outputs=())
+    tf, odom, markers = {}, {}, {}
+    probe.node.create_subscription(
+        TFMessage, '/tf', lambda m: tf.__setitem__(time_from_msg(m.transforms[0].header.stamp),
+                                                   m), 1000)
+    probe.node.create_subscription(
+        Odometry, 'floater/odom', lambda m: odom.__setitem__(time_from_msg(m.header.stamp), m),
+        1000)
+    probe.node.create_subscription(
+        MarkerArray, 'markers',
+        lambda m: markers.__setitem__(time_from_msg(m.markers[0].header.stamp), m), 1000)
+    # A request sent before the service is matched is lost: wait for it (a start takes seconds).
+    probe.wait(probe.clients['step'].service_is_ready, 120, 'the step service')
+    t = 0
+    for _ in range(3):
+        t = _step(probe)
+    probe.wait(lambda: t in tf and t in odom and t in markers, 30, f'the sample at {t} ns')
+    assert node.stop() == 0
+
+    arm_links = _link_names(URDF / 'arm3.urdf')
+    assert arm_links[0] == 'world'
+    frames = {tr.child_frame_id: tr for tr in tf[t].transforms}
+    expected = ({f'{side}/{link}' for side in ('left', 'right') for link in arm_links[1:]}
+                | {f'f/{link}' for link in _link_names(urdf)})
+    assert set(frames) == expected, sorted(frames)
+    # Parents: the world frame for each arm's mount (hung from the URDF's world link) and the
+    # floater's root; a prefixed link of the same robot for every other frame.
+    for child, tr in frames.items():
+        side = child.split('/')[0]
+        assert tr.header.frame_id == 'world' or tr.header.frame_id.startswith(side + '/'), tr
+    assert {child for child, tr in frames.items() if tr.header.frame_id == 'world'} == {
+        'left/mount', 'right/mount', 'f/base'}
+    assert odom[t].child_frame_id == 'f/base' and odom[t].header.frame_id == 'world'
+    # One URDF, the same joint positions, 1 m apart in y: the mount transforms differ by that
+    # placement; each link in its parent link is the same motion (two identical chains under
+    # the same gravity; the world coordinates differ, so a few ulps: 1e-12 m and rad).
+    left, right = frames['left/mount'].transform, frames['right/mount'].transform
+    assert abs(right.translation.y - left.translation.y - 1.0) <= 1e-12
+    for link in arm_links[2:]:
+        a, b = frames[f'left/{link}'].transform, frames[f'right/{link}'].transform
+        for field in ('x', 'y', 'z'):
+            assert abs(getattr(a.translation, field) - getattr(b.translation, field)) <= 1e-12
+        assert abs(a.rotation.w - b.rotation.w) <= 1e-12, link
+    # The moving links' markers are drawn in their prefixed frames; the mounts (fixed to the
+    # world) are static markers in the world frame.
+    link_frames = {m.header.frame_id for m in markers[t].markers if m.ns == 'links'}
+    assert link_frames == {f'{side}/{link}' for side in ('left', 'right')
+                           for link in ('upper', 'fore', 'hand')} | {'f/base', 'f/arm'}, \
+        link_frames
+    result = replay_bag(bag)
+    assert result.match, result.problems

@@ -158,6 +158,9 @@ def test_robot_description_takes_the_xml_itself():
      'parameter robots.arm.joints.elbow.damping = -1.0 N·m·s/rad or N·s/m: must be >= 0'),
     (_arm(**{'joints.wrist.friction': math.inf}), ConfigError,
      'parameter robots.arm.joints.wrist.friction = inf N·m or N'),
+    (_arm(frame_prefix='/arm'), ConfigError,
+     "parameter robots.arm.frame_prefix = '/arm': must be empty, or letters"),
+    (_arm(frame_prefix='arm /'), ConfigError, "parameter robots.arm.frame_prefix = 'arm /'"),
 ])
 def test_bad_robot_parameters_are_refused_in_one_line(params, error, words):
     with pytest.raises(error) as caught:
@@ -165,6 +168,46 @@ def test_bad_robot_parameters_are_refused_in_one_line(params, error, words):
     message = str(caught.value)
     assert words in message, message
     assert '\n' not in message
+
+
+def _two_arms(**more):
+    return {'robot_names': ['a', 'b'], 'robots.a.urdf_path': ARM, 'robots.b.urdf_path': ARM,
+            'robots.b.initial_position': [0.0, 1.0, 0.0], **more}
+
+
+@pytest.mark.parametrize('more, words', [
+    # /tf would carry two poses for 'mount', 'upper', ... (one per robot)
+    ({}, "parameter robots.b.frame_prefix = '': link 'mount' of robot 'b' would be TF frame "
+         "'mount', already the frame of link 'mount' of robot 'a'"),
+    ({'robots.a.frame_prefix': 'x/', 'robots.b.frame_prefix': 'x/'},
+     "robots.b.frame_prefix = 'x/': link 'mount' of robot 'b' would be TF frame 'x/mount'"),
+    ({'robots.b.frame_prefix': 'b/', 'world_frame': 'upper'},
+     "robots.a.frame_prefix = '': link 'upper' of robot 'a' would be TF frame 'upper', "
+     'already the frame of world_frame'),
+])
+def test_two_robots_of_one_urdf_need_their_own_frames(more, words):
+    with pytest.raises(ConfigError) as caught:
+        NodeConfig.from_parameters(_two_arms(**more))
+    assert words in str(caught.value) and '\n' not in str(caught.value), str(caught.value)
+
+
+def test_a_frame_prefix_names_every_link_frame_but_the_world_link():
+    config = NodeConfig.from_parameters(_two_arms(**{'robots.b.frame_prefix': 'right/'}))
+    a, b = config.robots
+    links = [link.name for link in b.robot.links]
+    assert links[0] == 'world' and b.link_frame('world', 'map') == 'map'
+    assert [b.link_frame(name, 'map') for name in links[1:]] == [
+        'right/' + name for name in links[1:]]
+    assert [a.link_frame(name, 'map') for name in links[1:]] == links[1:]
+    # A body whose frame is a robot's link frame is refused too.
+    with pytest.raises(ConfigError) as caught:
+        NodeConfig.from_parameters({
+            **_two_arms(**{'robots.b.frame_prefix': 'right/'}), 'body_names': ['box'],
+            'bodies.box.shape': 'box', 'bodies.box.dimensions_m': [0.1, 0.1, 0.1],
+            'bodies.box.initial_position': [3.0, 0.0, 0.05], 'ground.enabled': True,
+            'bodies.box.body_frame': 'right/hand'})
+    assert ("link 'hand' of robot 'b' would be TF frame 'right/hand', already the frame of "
+            'bodies.box.body_frame') in str(caught.value)
 
 
 def test_a_moving_link_without_inertial_names_the_file_and_link(tmp_path):
