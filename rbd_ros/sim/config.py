@@ -255,6 +255,11 @@ class NodeConfig:
                     bodies = _world_bodies(values, body_inputs, static_world, integrator)
             world_joints = joint_params.read_world_joints(
                 values, {b.name: b for b in bodies}, robots)
+            for robot in robots:  # <name>/odom of a floating robot is a body's <name>/odom
+                if robot.name in values['body_names']:
+                    fail(robot_params.ROBOT_NAMES_SPEC, list(values[robot_params.ROBOT_NAMES]),
+                         f"{robot.name!r} is also in body_names: a robot's topics and a "
+                         "body's are both '<name>/...'; name them apart")
             frames = _frame_settings(values, bodies)
             robot_params.check_link_frames(
                 values['world_frame'], {values['world_frame']: 'world_frame', **{

@@ -246,7 +246,7 @@ PARAMETERS = (
               '(see doc/joints.md).', rule='distinct names of letters, digits and _'),
     ParamSpec('robot_names', STRING_ARRAY, (), '',
               'Robots read from URDF, each with robots.<name>.* (see doc/robots.md).',
-              rule='distinct names of letters, digits and _'),
+              rule='distinct names of letters, digits and _, none in body_names'),
     ParamSpec('command_group_names', STRING_ARRAY, (), '',
               'Joint groups commanded as forward_command_controller and '
               'joint_trajectory_controller are, each with command_groups.<name>.*.',

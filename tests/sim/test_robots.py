@@ -191,6 +191,20 @@ def test_two_robots_of_one_urdf_need_their_own_frames(more, words):
     assert words in str(caught.value) and '\n' not in str(caught.value), str(caught.value)
 
 
+def test_a_robot_named_like_a_body_is_refused():
+    # A floating robot's <name>/odom would be the body's <name>/odom: one topic, two sources.
+    with pytest.raises(ConfigError) as caught:
+        NodeConfig.from_parameters({
+            'robot_names': ['box'], 'robots.box.urdf_path': ARM,
+            'robots.box.initial_position': [0.0, 0.0, 2.0], 'robots.box.frame_prefix': 'r/',
+            'body_names': ['box'], 'bodies.box.shape': 'box',
+            'bodies.box.dimensions_m': [0.1, 0.1, 0.1],
+            'bodies.box.initial_position': [3.0, 0.0, 0.05], 'ground.enabled': True})
+    assert str(caught.value) == (
+        "parameter robot_names = ['box']: 'box' is also in body_names: a robot's topics and a "
+        "body's are both '<name>/...'; name them apart"), str(caught.value)
+
+
 def test_a_frame_prefix_names_every_link_frame_but_the_world_link():
     config = NodeConfig.from_parameters(_two_arms(**{'robots.b.frame_prefix': 'right/'}))
     a, b = config.robots
