@@ -27,7 +27,7 @@ import pytest
 
 from rbd_ros.core import ConfigError
 from rbd_ros.sim.config import NodeConfig
-from rbd_ros.sim.joint_commands import (CommandRejected, group_targets, joint_state_targets,
+from rbd_ros.sim.joint_commands import (CommandRejected, MAX_TRAJECTORY_POINTS, group_targets, joint_state_targets,
                                         JointTarget)
 from rbd_ros.sim.robots import read_command_groups, read_robots
 from rbd_ros.sim.session import SimSession
@@ -235,3 +235,46 @@ def test_a_followed_spline_faster_than_a_step_can_follow_gives_no_feed_forward()
         session.advance(1000)
         assert session.error is None
     assert abs(session.simulator.joint_positions(0)[0] - 2.0) < 1e-3
+
+
+class _CountedPoints(list):
+    """Trajectory points that count how many were read (a real list of real points)."""
+
+    read = 0
+
+    def __getitem__(self, k):
+        self.read += 1
+        return super().__getitem__(k)
+
+    def __iter__(self):
+        for k in range(len(self)):
+            yield self[k]
+
+
+def test_a_trajectory_of_too_many_points_is_refused_from_its_count_and_counted():
+    # 100 000 points blocked the node's executor ~4.8 s, every point read and checked before
+    # anything could refuse the trajectory. Points 1 ms apart, on the arm's start pose: a
+    # trajectory that would otherwise be followed.
+    session = _arm_session()
+    session.advance(10)
+
+    def points(n):
+        return _CountedPoints(TrajectoryPoint((k + 1) * 1_000_000, [0.0, 0.0, 0.0])
+                              for k in range(n))
+
+    too_many = points(MAX_TRAJECTORY_POINTS + 1)
+    with pytest.raises(CommandRejected) as caught:
+        session.submit_command('g/joint_trajectory', (['shoulder', 'elbow', 'wrist'], 0,
+                                                      too_many))
+    assert caught.value.reason == 'limit'
+    assert str(caught.value) == (f'g/joint_trajectory: points: {MAX_TRAJECTORY_POINTS + 1} '
+                                 'points is beyond the most a trajectory takes, '
+                                 f'{MAX_TRAJECTORY_POINTS}')
+    assert too_many.read == 0
+    assert session.commands.rejected == {'limit': 1}
+    most = points(MAX_TRAJECTORY_POINTS)  # the cap itself is taken and followed
+    session.submit_command('g/joint_trajectory', (['shoulder', 'elbow', 'wrist'], 0, most))
+    assert most.read >= MAX_TRAJECTORY_POINTS
+    session.advance(100)
+    assert session.commands.following and session.error is None
+    assert session.commands.rejected == {'limit': 1}
