@@ -160,18 +160,20 @@ def _floats(topic, field, values, n):
 
 def joint_state_targets(topic: str, joints: Sequence[JointSpec], names: Sequence[str],
                         position: Sequence[float] = (), velocity: Sequence[float] = (),
-                        effort: Sequence[float] = ()) -> Tuple[JointTarget, ...]:
+                        effort: Sequence[float] = (),
+                        owner: str = 'this robot') -> Tuple[JointTarget, ...]:
     """
     Return the targets of a ``JointState`` command, or raise :class:`CommandRejected`.
 
     :param joints: the robot's moving joints, ``joint_states`` order.
+    :param owner: whose joints they are, as an unknown name's rejection says it.
     """
     index = {spec.name: k for k, spec in enumerate(joints)}
     seen = {}
     for k, name in enumerate(names):
         if name not in index:
             raise CommandRejected('unknown_joint', f'{topic}: name[{k}]: {name!r} is not a '
-                                  f'moving joint of this robot ({", ".join(index)})')
+                                  f'moving joint of {owner} ({", ".join(index)})')
         if name in seen:
             raise CommandRejected('duplicate_joint', f'{topic}: name[{k}]: {name!r} is also '
                                   f'name[{seen[name]}]')
@@ -241,13 +243,14 @@ class CommandEvent:
 
 @dataclass(frozen=True)
 class CommandInput:
-    """One command topic: its kind (``joint_command``, ``commands``, ``joint_trajectory``)."""
+    """One command topic: its kind (``joint_command``, ``commands``, ``joint_trajectory``), robot."""
 
     name: str
     kind: str
     robot: int
     group: Tuple[int, ...] = ()
     interface: str = 'position'
+    owner: str = 'this robot'  # whose joints, as a rejection names them
 
 
 def command_inputs(robots, groups) -> Tuple[CommandInput, ...]:
@@ -354,7 +357,7 @@ class RobotInputs:
     def _check(self, spec, payload, state, effect_ns=0):
         specs = self._specs[spec.robot]
         if spec.kind == 'joint_command':
-            return joint_state_targets(spec.name, specs, *payload)
+            return joint_state_targets(spec.name, specs, *payload, owner=spec.owner)
         if spec.kind == 'commands':
             return group_targets(spec.name, specs, spec.group, spec.interface, payload)
         names, stamp_ns, points = payload

@@ -542,7 +542,8 @@ class WorldJointInputs(RobotInputs):
 
     def __init__(self, world_joints, timeout_ns=0, robots=(), groups=()):
         super().__init__(robots, groups, timeout_ns)
-        spec = CommandInput('joint_command', 'joint_command', len(self.robots))
+        spec = CommandInput('joint_command', 'joint_command', len(self.robots),
+                            owner="the world's joint_names")
         self.inputs[spec.name] = spec
         self.received[spec.name] = 0
         self._specs.append(tuple(JointSpec(j.name, j.joint, j.velocity_limit)

@@ -278,6 +278,9 @@ def test_the_readout_is_the_cores_joint_coordinate_and_bad_commands_are_rejected
     with pytest.raises(CommandRejected) as info:
         session.submit_command('joint_command', (['door'], [0.1], [], []))
     assert info.value.reason == 'unknown_joint'
+    # A world's joints are its joint_names, not a robot's (the message said "of this robot").
+    assert str(info.value) == ("joint_command: name[0]: 'door' is not a moving joint of the "
+                               "world's joint_names (hinge)")
     with pytest.raises(CommandRejected) as info:
         session.submit_command('joint_command', (['hinge'], [math.inf], [], []))
     assert info.value.reason == 'non_finite'
