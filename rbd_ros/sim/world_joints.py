@@ -119,7 +119,7 @@ def joint_parameter_specs(name: str) -> Tuple[ParamSpec, ...]:
         ParamSpec(prefix + 'position_time_constant_s', DOUBLE,
                   DEFAULT_POSITION_TIME_CONSTANT_S, 's',
                   f'{who}: time constant of its position commands (critically damped).',
-                  (0.0, 1e6), rule='> 0'),
+                  (0.0, 1e6), rule='> 0, >= timestep_s'),
     )
 
 

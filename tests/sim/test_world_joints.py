@@ -158,6 +158,10 @@ REFUSED = {
                          'parameter joints.hinge.damping = -1.0 N·m·s/rad or N·s/m: must be'),
     'time_constant_0': ({'joints.hinge.position_time_constant_s': 0.0},
                         'parameter joints.hinge.position_time_constant_s = 0.0 s: must be > 0'),
+    'time_constant_below_the_step': (
+        {'joints.hinge.position_time_constant_s': 0.0005},
+        'parameter joints.hinge.position_time_constant_s = 0.0005 s: must be >= the step, '
+        'timestep_s = 0.001 s'),
     'not_a_number': ({'joints.hinge.upper': 'high'},
                      "parameter joints.hinge.upper = 'high' rad or m: must be a number"),
     'limits_on_a_continuous_joint': (
