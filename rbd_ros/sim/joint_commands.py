@@ -33,8 +33,9 @@ leader and takes no command), an array whose length is neither 0 nor
 the number of names (a Float64MultiArray: not the group's size), an infinite value (or NaN in a
 Float64MultiArray), a position beyond a limit (the core's rule,
 :func:`rbd_ros.core.joints.model.check_position_target`), a trajectory of more than
-:data:`MAX_TRAJECTORY_POINTS` points (from their count, before any is read). A velocity target beyond the URDF's
-``<limit velocity>`` is clipped to it; an effort beyond ``effort`` is clipped by the motor.
+:data:`MAX_TRAJECTORY_POINTS` points (from their count, before any is read). A velocity
+target beyond the URDF's ``<limit velocity>`` is clipped to it; an effort beyond ``effort``
+is clipped by the motor.
 
 A target takes effect at the start of the next step and is held until replaced, as a wrench is;
 with ``wrench_timeout_s > 0`` it expires as a wrench does and leaves the joint free.
@@ -243,7 +244,7 @@ class CommandEvent:
 
 @dataclass(frozen=True)
 class CommandInput:
-    """One command topic: its kind (``joint_command``, ``commands``, ``joint_trajectory``), robot."""
+    """One command topic: its kind and robot, and whose joints they are (``owner``)."""
 
     name: str
     kind: str

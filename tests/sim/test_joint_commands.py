@@ -27,8 +27,8 @@ import pytest
 
 from rbd_ros.core import ConfigError
 from rbd_ros.sim.config import NodeConfig
-from rbd_ros.sim.joint_commands import (CommandRejected, MAX_TRAJECTORY_POINTS, group_targets, joint_state_targets,
-                                        JointTarget)
+from rbd_ros.sim.joint_commands import (CommandRejected, group_targets, joint_state_targets,
+                                        JointTarget, MAX_TRAJECTORY_POINTS)
 from rbd_ros.sim.robots import read_command_groups, read_robots
 from rbd_ros.sim.session import SimSession
 from rbd_ros.sim.trajectory import TrajectoryPoint
