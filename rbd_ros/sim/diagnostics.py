@@ -24,6 +24,7 @@ import time
 
 import numpy as np
 from rbd_ros.core import layout
+from rbd_ros.core.contact.joints import JOINT_LOOPS
 from rbd_ros.core.rotations import quat_rotate
 
 
@@ -62,6 +63,11 @@ def status(session, values):
     message = session.error or ('paused' if session.paused else 'running')
     if non_finite:
         message += '; not finite: ' + ', '.join(non_finite)
+    if values.get('joint_contact_loops_max', 0) >= JOINT_LOOPS:
+        level = 'error' if level == 'error' else 'warn'
+        message += (f'; a joint-contact solve did not converge in {JOINT_LOOPS} joint visits '
+                    '(slow steps; contacts left approaching at up to '
+                    f"{values['joint_contact_left_max_m_s']:.3g} m/s)")
     return level, message
 
 
@@ -92,6 +98,9 @@ class Diagnostics:
             joint_error = s.simulator.articulated.joint_error()  # None before the first step
             if joint_error is not None:
                 commands['joint_error_max_m'], commands['joint_error_max_rad'] = joint_error
+            if getattr(s.simulator.articulated, 'joint_stats', None) is not None:
+                (commands['joint_contact_loops_max'],
+                 commands['joint_contact_left_max_m_s']) = s.take_joint_loops()
         return {
             'sim_time_s': s.time_ns * 1e-9,
             'real_time_factor': (s.time_ns - sim0) / max(1, now - wall0),

@@ -32,8 +32,10 @@ name that the robot does not have or that is given twice, a mimic joint (it foll
 leader and takes no command), an array whose length is neither 0 nor
 the number of names (a Float64MultiArray: not the group's size), an infinite value (or NaN in a
 Float64MultiArray), a position beyond a limit (the core's rule,
-:func:`rbd_ros.core.joints.model.check_position_target`). A velocity target beyond the URDF's
-``<limit velocity>`` is clipped to it; an effort beyond ``effort`` is clipped by the motor.
+:func:`rbd_ros.core.joints.model.check_position_target`), a trajectory of more than
+:data:`MAX_TRAJECTORY_POINTS` points (from their count, before any is read). A velocity
+target beyond the URDF's ``<limit velocity>`` is clipped to it; an effort beyond ``effort``
+is clipped by the motor.
 
 A target takes effect at the start of the next step and is held until replaced, as a wrench is;
 with ``wrench_timeout_s > 0`` it expires as a wrench does and leaves the joint free.
@@ -62,6 +64,12 @@ INTERFACES = ('position', 'velocity', 'effort')
 #: follow it paused the world (1e300 rad/s, 1e12 N m).
 MAX_TARGET = {'position': 1e6, 'velocity': 1e3, 'effort': 1e6}
 MAX_ACCELERATION = 1e5
+#: The most points a trajectory takes (``limit`` beyond), refused from the count before any
+#: point is read: 100 000 points blocked the node's executor for ~4.8 s (each point converted,
+#: checked when received and again when it takes effect, ~50 µs a time); 1000 take 0.09 s
+#: and 0.07 s, 10 000 took 0.5 s and 0.6 s (measured on a loaded 2-core machine). MoveIt's
+#: and most planners' trajectories have tens to hundreds of points; 10 s at 100 Hz fit.
+MAX_TRAJECTORY_POINTS = 1000
 
 
 class CommandRejected(WrenchRejected):
@@ -153,18 +161,20 @@ def _floats(topic, field, values, n):
 
 def joint_state_targets(topic: str, joints: Sequence[JointSpec], names: Sequence[str],
                         position: Sequence[float] = (), velocity: Sequence[float] = (),
-                        effort: Sequence[float] = ()) -> Tuple[JointTarget, ...]:
+                        effort: Sequence[float] = (),
+                        owner: str = 'this robot') -> Tuple[JointTarget, ...]:
     """
     Return the targets of a ``JointState`` command, or raise :class:`CommandRejected`.
 
     :param joints: the robot's moving joints, ``joint_states`` order.
+    :param owner: whose joints they are, as an unknown name's rejection says it.
     """
     index = {spec.name: k for k, spec in enumerate(joints)}
     seen = {}
     for k, name in enumerate(names):
         if name not in index:
             raise CommandRejected('unknown_joint', f'{topic}: name[{k}]: {name!r} is not a '
-                                  f'moving joint of this robot ({", ".join(index)})')
+                                  f'moving joint of {owner} ({", ".join(index)})')
         if name in seen:
             raise CommandRejected('duplicate_joint', f'{topic}: name[{k}]: {name!r} is also '
                                   f'name[{seen[name]}]')
@@ -234,13 +244,14 @@ class CommandEvent:
 
 @dataclass(frozen=True)
 class CommandInput:
-    """One command topic: its kind (``joint_command``, ``commands``, ``joint_trajectory``)."""
+    """One command topic: its kind and robot, and whose joints they are (``owner``)."""
 
     name: str
     kind: str
     robot: int
     group: Tuple[int, ...] = ()
     interface: str = 'position'
+    owner: str = 'this robot'  # whose joints, as a rejection names them
 
 
 def command_inputs(robots, groups) -> Tuple[CommandInput, ...]:
@@ -347,10 +358,13 @@ class RobotInputs:
     def _check(self, spec, payload, state, effect_ns=0):
         specs = self._specs[spec.robot]
         if spec.kind == 'joint_command':
-            return joint_state_targets(spec.name, specs, *payload)
+            return joint_state_targets(spec.name, specs, *payload, owner=spec.owner)
         if spec.kind == 'commands':
             return group_targets(spec.name, specs, spec.group, spec.interface, payload)
         names, stamp_ns, points = payload
+        if len(points) > MAX_TRAJECTORY_POINTS:
+            raise CommandRejected('limit', f'{spec.name}: points: {len(points)} points is beyond '
+                                  f'the most a trajectory takes, {MAX_TRAJECTORY_POINTS}')
         q, qd = state
         group_names = [specs[j].name for j in spec.group]
         traj = parse_trajectory(spec.name, group_names, names, stamp_ns, points, effect_ns,

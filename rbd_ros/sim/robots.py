@@ -209,7 +209,7 @@ def joint_parameter_specs(robot: str, joint: str, damping: float = 0.0,
     return (ParamSpec(prefix + 'position_time_constant_s', DOUBLE,
                       DEFAULT_POSITION_TIME_CONSTANT_S, 's',
                       f'{who}: time constant of its position commands (critically damped).',
-                      (0.0, 1e6), rule='> 0'),
+                      (0.0, 1e6), rule='> 0, >= timestep_s'),
             ParamSpec(prefix + 'damping', DOUBLE, float(damping), 'N·m·s/rad or N·s/m',
                       f'{who}: viscous damping, the force -damping·q̇ along the joint; default '
                       "the URDF's <dynamics damping>, else 0.", (0.0, MAX_JOINT_DYNAMICS),

@@ -41,6 +41,7 @@ value, ``time_from_start`` negative or not strictly increasing, efforts (this fo
 positions; an effort trajectory is not followed, so it is refused rather than ignored).
 """
 
+import bisect
 from dataclasses import dataclass
 from typing import Sequence, Tuple
 
@@ -169,7 +170,7 @@ class Trajectory:
             return self._knots[-1][0].copy(), np.zeros(n), np.zeros(n)
         if time_ns < self.start_ns:
             return self._knots[0][0].copy(), np.zeros(n), np.zeros(n)
-        i = next(k for k, t in enumerate(self.times_ns) if time_ns < t)
+        i = bisect.bisect_right(self.times_ns, time_ns)  # the first point after time_ns
         t0 = self.start_ns if i == 0 else self.times_ns[i - 1]
         return _evaluate(self._coefficients_of(i), (time_ns - t0) * _NS)
 

@@ -488,6 +488,12 @@ def _joint_values(source, joint):
                       value)
     if joint.type not in ('revolute', 'prismatic'):
         lower = upper = None   # URDF: continuous and the others ignore lower and upper
+    else:
+        # The URDF spec: lower and upper default to 0. urdfdom reads them so, and with it
+        # robot_state_publisher, ros2_control's joint limits and MoveIt; taken as no limits,
+        # the simulated joint moved where the controllers reading the same file hold it.
+        lower = 0.0 if lower is None else lower
+        upper = 0.0 if upper is None else upper
     if lower is not None and upper is not None and lower > upper:
         _fail(ModelError, source, f'{who}.limit.lower', f'{lower!r} {unit} is above upper '
               f'{upper!r} {unit}', lower, unit)
@@ -733,9 +739,10 @@ def place_robot(robot: Robot, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0
         value = float(q_values[k])
         if (joint.lower is not None and value < joint.lower) or \
                 (joint.upper is not None and value > joint.upper):
+            unit = 'rad' if joint.kind == 'revolute' else 'm'
             _fail(ConfigError, source, f'initial_joint_positions[{k}]',
-                  f'{value!r} for joint {name!r} is outside its limits [{joint.lower!r}, '
-                  f'{joint.upper!r}]', value, 'rad' if joint.kind == 'revolute' else 'm')
+                  f'{value!r} {unit} for joint {name!r} is outside its limits '
+                  f'[{joint.lower!r}, {joint.upper!r}] {unit}', value, unit)
     # forward kinematics, parents first: pose (4x4), v at the link origin, omega (world)
     frames = {robot.root: (root_pose, np.zeros(3), np.zeros(3))}
     pending = list(robot.joints)

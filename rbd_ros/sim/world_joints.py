@@ -126,7 +126,7 @@ def joint_parameter_specs(name: str) -> Tuple[ParamSpec, ...]:
         ParamSpec(prefix + 'position_time_constant_s', DOUBLE,
                   DEFAULT_POSITION_TIME_CONSTANT_S, 's',
                   f'{who}: time constant of its position commands (critically damped).',
-                  (0.0, 1e6), rule='> 0'),
+                  (0.0, 1e6), rule='> 0, >= timestep_s'),
     )
 
 
@@ -550,7 +550,8 @@ class WorldJointInputs(RobotInputs):
 
     def __init__(self, world_joints, timeout_ns=0, robots=(), groups=()):
         super().__init__(robots, groups, timeout_ns)
-        spec = CommandInput('joint_command', 'joint_command', len(self.robots))
+        spec = CommandInput('joint_command', 'joint_command', len(self.robots),
+                            owner="the world's joint_names")
         self.inputs[spec.name] = spec
         self.received[spec.name] = 0
         self._specs.append(tuple(JointSpec(j.name, j.joint, j.velocity_limit)

@@ -68,11 +68,23 @@ def test_parameters_qos_overrides_and_force_messages_of_a_single_body(start_node
         assert not result.successful
         assert 'parameter use_sim_time = True: read-only at run time' in result.reason
 
-        # ros2 param describe mass_kg: no range from 0.0 (0 is refused), the rule instead.
-        (descriptor,) = call(probe, DescribeParameters, 'describe_parameters',
-                             DescribeParameters.Request(names=['mass_kg'])).descriptors
-        assert list(descriptor.floating_point_range) == []
-        assert descriptor.additional_constraints == '> 0'
+        # ros2 param describe: every double's range with its upper bound. A '> 0' one from the
+        # smallest positive double (not 0.0, which is refused); it had no range at all, so no
+        # upper bound either.
+        names = ['mass_kg', 'timestep_s', 'max_force_n', 'restitution', 'publish_rate_hz']
+        descriptors = call(probe, DescribeParameters, 'describe_parameters',
+                           DescribeParameters.Request(names=names)).descriptors
+        ranges = {name: [(r.from_value, r.to_value) for r in d.floating_point_range]
+                  for name, d in zip(names, descriptors)}
+        assert ranges == {'mass_kg': [(5e-324, 1e12)], 'timestep_s': [(5e-324, 1.0)],
+                          'max_force_n': [(5e-324, 1e12)], 'restitution': [(0.0, 1.0)],
+                          'publish_rate_hz': [(0.0, 1e9)]}, ranges
+        assert descriptors[0].additional_constraints == '> 0'
+        # the range is what rclpy enforces on a set: beyond the upper bound is refused
+        result = call(probe, SetParameters, 'set_parameters', SetParameters.Request(parameters=[
+            ParameterMsg(name='real_time_factor', value=ParameterValue(
+                type=ParameterType.PARAMETER_DOUBLE, double_value=2e6))])).results[0]
+        assert not result.successful
 
         # Both overrides were applied to the drag and /clicked_point subscriptions ...
         for topic in ('/rbd_small/drag', '/clicked_point'):

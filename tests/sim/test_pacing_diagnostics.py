@@ -123,3 +123,43 @@ def test_a_non_finite_value_is_a_warning_naming_it():
     level, message = status(session, {'kinetic_energy_j': float('inf'), 'steps_taken': 3})
     assert level == 'warn'
     assert message.endswith('not finite: kinetic_energy_j'), message
+
+
+def test_a_joint_contact_solve_that_does_not_converge_is_a_warning_naming_it():
+    # A gripper (velocity group, trajectory closing it to -0.01 m) squeezes a 2 cm box on its
+    # palm: from t = 78 ms its finger's motor saturates against the box and the joint visits
+    # alternating with the contact sweeps run to their cap (64 a stage) without converging,
+    # each step ~2.4 s of wall time (1 s of sim time took > 10 min), silently. Before the squeeze
+    # the loops converge in a few visits.
+    import os
+    from rbd_ros.core.contact.joints import JOINT_LOOPS
+    from rbd_ros.sim.trajectory import TrajectoryPoint
+    urdf = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
+        os.path.abspath(__file__)))), 'msg_config', 'urdf', 'gripper.urdf')
+    session = SimSession(NodeConfig.from_parameters({
+        'robot_names': ['gripper'], 'robots.gripper.urdf_path': urdf,
+        'gravity': [0.0, 0.0, -9.81], 'body_names': ['box'], 'bodies.box.shape': 'box',
+        'bodies.box.dimensions_m': [0.02, 0.02, 0.02], 'bodies.box.mass_kg': 0.05,
+        'bodies.box.initial_position': [0.0, 0.0, 1.05], 'ground.enabled': True,
+        'command_group_names': ['g'], 'command_groups.g.robot': 'gripper',
+        'command_groups.g.interface': 'velocity'}))
+    session.paused = False
+    diagnostics = Diagnostics(session, pacing.Pacer(1.0))
+    session.advance(10)
+    session.submit_command('g/joint_trajectory', (['finger_left'], 0, [
+        TrajectoryPoint(100_000_000, [-0.01]), TrajectoryPoint(200_000_000, [0.02])]))
+    while session.time_ns < 70_000_000:  # the box landed on the palm, between the fingers
+        session.advance(10)
+    values = diagnostics.values()
+    assert 0 < values['joint_contact_loops_max'] < JOINT_LOOPS, values
+    assert status(session, values) == ('ok', 'running')
+    while session.time_ns < 79_000_000:  # the squeeze
+        session.advance(10)
+    values = diagnostics.values()
+    assert values['joint_contact_loops_max'] == JOINT_LOOPS, values
+    left = values['joint_contact_left_max_m_s']
+    assert left > 1e-3, values  # measured 0.12 m/s: far from the sweeps' 1e-12 m/s
+    assert status(session, values) == (
+        'warn', f'running; a joint-contact solve did not converge in {JOINT_LOOPS} joint '
+        f'visits (slow steps; contacts left approaching at up to {left:.3g} m/s)')
+    assert diagnostics.values()['joint_contact_loops_max'] == 0  # taken: since the last read

@@ -386,6 +386,29 @@ def test_a_limited_joint_type_without_limit_is_refused(tmp_path, kind):
         'j', 'continuous', 'a', 'b', '<axis xyz="0 0 1"/>'))).moving_joints == ('j',)
 
 
+@pytest.mark.parametrize('kind', ['revolute', 'prismatic'])
+@pytest.mark.parametrize('given, lower, upper', [
+    ('upper="0.5"', 0.0, 0.5), ('lower="-0.5"', -0.5, 0.0), ('', 0.0, 0.0)])
+def test_a_limit_without_lower_or_upper_takes_the_spec_s_default_zero(tmp_path, kind, given,
+                                                                      lower, upper):
+    # The URDF spec and urdfdom (robot_state_publisher, ros2_control, MoveIt): lower and upper
+    # default to 0. Taken as no limit, the joint moved where every ROS tool holds it.
+    path = write(tmp_path, link('a') + link('b') + joint(
+        'j', kind, 'a', 'b', f'<axis xyz="0 0 1"/><limit {given} effort="1" velocity="1"/>'))
+    (j,) = load_urdf(path).joints
+    assert (j.lower, j.upper) == (lower, upper)
+    unit = 'rad' if kind == 'revolute' else 'm'
+    refused(ConfigError, path, f"initial_joint_positions[0]: 0.75 {unit} for joint 'j' is "
+            f'outside its limits [{lower!r}, {upper!r}]', joint_positions=[0.75])
+    # a bound given below the other's default is lower > upper, refused as any other
+    if given:
+        flipped = given.replace('0.5"', '-0.5"') if 'upper' in given else \
+            given.replace('-0.5"', '0.5"')
+        refused(ModelError, write(tmp_path, link('a') + link('b') + joint(
+            'j', kind, 'a', 'b', f'<axis xyz="0 0 1"/><limit {flipped} effort="1" '
+            'velocity="1"/>')), "joint 'j'.limit.lower", 'is above upper')
+
+
 @pytest.mark.parametrize('field, values, words', [
     ('joint_positions', [1e300], "initial_joint_positions[0]: 1e+300 rad for joint 'j' is "
      'beyond ±1e+07 rad (rbd_ros.sim.params.MAX_JOINT_POSITION)'),

@@ -158,6 +158,10 @@ REFUSED = {
                          'parameter joints.hinge.damping = -1.0 N·m·s/rad or N·s/m: must be'),
     'time_constant_0': ({'joints.hinge.position_time_constant_s': 0.0},
                         'parameter joints.hinge.position_time_constant_s = 0.0 s: must be > 0'),
+    'time_constant_below_the_step': (
+        {'joints.hinge.position_time_constant_s': 0.0005},
+        'parameter joints.hinge.position_time_constant_s = 0.0005 s: must be >= the step, '
+        'timestep_s = 0.001 s'),
     'not_a_number': ({'joints.hinge.upper': 'high'},
                      "parameter joints.hinge.upper = 'high' rad or m: must be a number"),
     'limits_on_a_continuous_joint': (
@@ -286,6 +290,9 @@ def test_the_readout_is_the_cores_joint_coordinate_and_bad_commands_are_rejected
     with pytest.raises(CommandRejected) as info:
         session.submit_command('joint_command', (['door'], [0.1], [], []))
     assert info.value.reason == 'unknown_joint'
+    # A world's joints are its joint_names, not a robot's (the message said "of this robot").
+    assert str(info.value) == ("joint_command: name[0]: 'door' is not a moving joint of the "
+                               "world's joint_names (hinge)")
     with pytest.raises(CommandRejected) as info:
         session.submit_command('joint_command', (['hinge'], [math.inf], [], []))
     assert info.value.reason == 'non_finite'
