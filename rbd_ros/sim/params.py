@@ -148,7 +148,9 @@ PARAMETERS = (
               "Alternative to inertia: a core shape ('box', 'sphere', 'cylinder', ...); "
               "'' with inertia [] = a 0.2 x 0.1 x 0.05 m box.", rule='not with inertia'),
     ParamSpec('dimensions_m', DOUBLE_ARRAY, (), 'm',
-              'Sizes of shape (box: [x, y, z]; sphere: [radius]; cylinder: [radius, length]).',
+              'Sizes of shape (box: [x, y, z] edges; sphere, spherical_shell: [radius]; '
+              "cylinder, capsule: [radius, length], a capsule's length its cylindrical part; "
+              'ellipsoid: [a, b, c] semi-axes).',
               rule='as the shape needs'),
     ParamSpec('initial_position', DOUBLE_ARRAY, (0.0, 0.0, 0.0), 'm',
               'Initial COM position, world frame.', rule='3 finite values'),
