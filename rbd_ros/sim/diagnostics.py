@@ -113,5 +113,5 @@ class Diagnostics:
             **{f'drags_rejected_{k}': v for k, v in s.drags.rejected.items()},
             'kinetic_energy_j': energy,
             'angular_momentum_norm_nms': math.hypot(*momentum),
-            'wall_time_dropped_s': self.pacer.dropped_ns * 1e-9, 'resets': s.resets,
+            'wall_time_dropped_s': self.pacer.dropped_wall_ns * 1e-9, 'resets': s.resets,
             'pacing_lag_max_ms': self.pacer.take_lag_max() * 1e-6, **commands}

@@ -42,7 +42,8 @@ class Pacer:
         self.real_time_factor = real_time_factor
         self.clock = clock
         self.dropped_ns = 0  # sim time dropped from a backlog, in total
-        self.lag_max_ns = 0  # largest wall-minus-sim lag seen at a tick, since take_lag_max
+        self.dropped_wall_ns = 0  # the wall time it stood for (sim time over the factor)
+        self.lag_max_ns = 0  # largest lag of sim time behind its wall-clock target (sim ns)
         self.step_wall_ns = 1_000_000  # wall time per step of the last run (1 ms until measured)
         self.wall_anchor_ns = self.sim_anchor_ns = 0
 
@@ -69,7 +70,8 @@ class Pacer:
         Return ``(steps due now, steps dropped)`` at ``sim_time_ns`` (RTF > 0).
 
         More than :data:`MAX_BACKLOG_STEPS` due: the cap is kept and the rest dropped (the
-        anchor moves on by them and :attr:`dropped_ns` counts them).
+        anchor moves on by them and :attr:`dropped_ns` counts them; :attr:`dropped_wall_ns`
+        the wall time they stood for).
         """
         elapsed_ns = self.clock() - self.wall_anchor_ns
         rtf = self.real_time_factor
@@ -80,6 +82,7 @@ class Pacer:
             return due, 0
         dropped = due - MAX_BACKLOG_STEPS
         self.dropped_ns += dropped * timestep_ns
+        self.dropped_wall_ns += round(dropped * timestep_ns / rtf)
         self.sim_anchor_ns -= dropped * timestep_ns
         return MAX_BACKLOG_STEPS, dropped
 

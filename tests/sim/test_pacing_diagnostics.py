@@ -69,6 +69,17 @@ def test_a_backlog_over_the_cap_is_dropped_and_counted():
     assert pacer.due_steps(pacing.MAX_BACKLOG_STEPS * MS, MS) == (0, 0)
 
 
+def test_the_wall_time_dropped_is_the_sim_time_dropped_over_the_factor():
+    # At 4x, 1250 steps of 1 ms fall due in 312.5 ms of wall time; the 250 dropped stood for
+    # 62.5 ms of it (the diagnostics' wall_time_dropped_s), not 250 ms (their sim time).
+    clock = HandClock()
+    pacer = pacing.Pacer(4.0, clock=clock)
+    pacer.anchor(0)
+    clock.now_ns += (pacing.MAX_BACKLOG_STEPS + 250) * MS // 4
+    assert pacer.due_steps(0, MS) == (pacing.MAX_BACKLOG_STEPS, 250)
+    assert (pacer.dropped_ns, pacer.dropped_wall_ns) == (250 * MS, 250 * MS // 4)
+
+
 def test_a_change_of_factor_re_anchors_without_a_jump():
     clock = HandClock()
     pacer = pacing.Pacer(1.0, clock=clock)
