@@ -74,16 +74,24 @@ def load_series(bag: Bag) -> Dict[str, Any]:
     (topic -> list of ``(t_s, force(3), torque(3))``), ``model`` (BodyModel or None),
     ``timeout_s``.
 
-    :raises RbdError: the recording has no odom, pose or twist topic.
+    :raises RbdError: the recording has no odom, pose or twist topic, or no sample on them.
     """
     state_topics, wrench_topics = _plotted_topics(bag)
     twist_frame = (bag.config or {}).get('twist_frame', 'world')
     rows, wrenches = _read_samples(bag, state_topics, wrench_topics, twist_frame)
     times = sorted(rows)
+    _check_samples(bag, times, state_topics)
     series = _state_series(rows, times)
     model, timeout_s = _body_model(bag)
     return {'t_s': np.array(times, dtype=float) / NS_PER_S, **series,
             'wrenches': wrenches, 'model': model, 'timeout_s': timeout_s}
+
+
+def _check_samples(bag: Bag, times: List[int], topics: List[str]) -> None:
+    """Refuse a recording without a sample to plot (an empty figure would say nothing)."""
+    if not len(times):
+        raise RbdError(f'{bag.mcap_path}: no recorded samples to plot on {sorted(topics)} '
+                       '(a recording cut off before its first chunk was complete holds none)')
 
 
 def _plotted_topics(bag: Bag) -> Tuple[List[str], List[str]]:
@@ -377,6 +385,7 @@ def load_world(bag: Bag) -> Dict[str, Any]:
             contact[body][raw.log_time_ns] = np.linalg.norm(
                 _vec(msg.wrench.force) + _vec(msg.wrench.torque))
     times = sorted(set.intersection(*(set(v) for v in odom.values()))) if names else []
+    _check_samples(bag, times, [t for t, (_, kind) in topics.items() if kind == 'odom'])
     out = {'names': names, 't_s': np.array(times) / NS_PER_S, 'position_w': {},
            'kinetic_j': {}, 'in_contact': np.zeros(len(times))}
     for body in config.bodies:
@@ -486,7 +495,7 @@ def load_joints(bag: Bag) -> Dict[str, Any]:
     (``joint_names`` order); NaN where a sample lacks a value (the forces are NaN at t = 0,
     before the first step has solved them).
 
-    :raises RbdError: the recording holds no ``joint_states`` of its joints.
+    :raises RbdError: the recording holds no ``joint_states`` of its joints, or no sample on them.
     """
     from rbd_ros.bag.replay import config_from_bag  # the stored config, its URDFs inside
     config = config_from_bag(bag)
@@ -532,6 +541,7 @@ def load_joints(bag: Bag) -> Dict[str, Any]:
                 if name in index:
                     row[index[name]] = np.linalg.norm(_vec(wrench.force))
     times, force_times = sorted(rows), sorted(force_rows)
+    _check_samples(bag, times, list(states))
     table = np.array([rows[t] for t in times]).reshape(-1, 3, n)
     return {'t_s': np.array(times, dtype=float) / NS_PER_S, 'joints': labels, 'units': units,
             'position': table[:, 0], 'velocity': table[:, 1], 'effort': table[:, 2],

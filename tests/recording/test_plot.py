@@ -227,6 +227,33 @@ def test_plot_bad_input_one_line(tmp_path, capsys):
     assert not (tmp_path / 'x.png').exists()
 
 
+def _cut_before_first_chunk(src, dst):
+    """
+    Copy bag ``src`` to ``dst`` cut 100 bytes into its first MCAP chunk (opcode 0x06).
+
+    What SIGKILL leaves of a run killed before its first chunk closed: the header, schemas,
+    channels and configuration record (written at start, outside the chunks), no sample.
+    """
+    data = next(src.glob('*.mcap')).read_bytes()
+    pos = 8  # after the magic: records are opcode (1 byte), length (uint64 LE), content
+    while data[pos] != 0x06:
+        pos += 9 + int.from_bytes(data[pos + 1:pos + 9], 'little')
+    dst.mkdir()
+    (dst / 'cut_0.mcap').write_bytes(data[:pos + 100])
+    return dst
+
+
+@pytest.mark.parametrize('name', ['box_pushed', 'floor_world_push', 'robot_pendulum'])
+def test_a_bag_without_samples_is_refused_in_one_line_not_drawn_empty(name, tmp_path, capsys):
+    # One bag per drawing (a body, a world, a robot): each wrote a PNG of empty axes, exit 0.
+    bag = _cut_before_first_chunk(REPO / 'bags' / name, tmp_path / name)
+    out = tmp_path / 'x.png'
+    assert main([str(bag), '-o', str(out)]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if 'error' in line]
+    assert len(errors) == 1 and 'no recorded samples to plot on' in errors[0], errors
+    assert not out.exists()
+
+
 def test_a_world_plot_shows_every_body_from_the_recorded_samples(tmp_path):
     bag = open_bag(str(Path(__file__).resolve().parents[2] / 'bags' / 'floor_world_push'))
     data = load_world(bag)
