@@ -693,6 +693,25 @@ def _time_settings(values):
             'wrench_timeout_ns': to_ns(p['wrench_timeout_s'], values['wrench_timeout_s'])}
 
 
+def frame_id_problem(frame):
+    """
+    Return why ``frame`` cannot be a tf2 frame id, or None.
+
+    tf2 refuses an empty id and one starting with ``/`` (``lookupTransform`` raises "frame_ids
+    cannot start with a '/'"); a whitespace or control character (a NUL ends the id in C)
+    would make a frame that no one can name back.
+    """
+    if not frame:
+        return 'must not be empty'
+    if frame.startswith('/'):
+        return "must not start with '/' (tf2 refuses such frame ids)"
+    for index, char in enumerate(frame):
+        if char.isspace() or not char.isprintable():
+            return (f'holds {char!r} at index {index}: a frame id has no whitespace or '
+                    'control characters')
+    return None
+
+
 def _frame_settings(values, bodies=()):
     """Check the frame ids and keywords; the optional outputs (``/clock``, ``/tf``)."""
     p = PARAMETERS_BY_NAME
@@ -702,15 +721,17 @@ def _frame_settings(values, bodies=()):
             continue  # the top-level body_frame: checked below
         spec = PARAMETERS_BY_NAME['body_frame']
         where = f'{body.parameter_prefix}body_frame'
-        if not body.body_frame:
-            fail(dataclass_replace(spec, name=where), body.body_frame, 'must not be empty')
+        problem = frame_id_problem(body.body_frame)
+        if problem:
+            fail(dataclass_replace(spec, name=where), body.body_frame, problem)
         if body.body_frame in seen:
             fail(dataclass_replace(spec, name=where), body.body_frame,
                  f'is already the frame of {seen[body.body_frame]}')
         seen[body.body_frame] = where
     for name in ('world_frame', 'body_frame'):
-        if not values[name]:
-            fail(p[name], values[name], 'must not be empty')
+        problem = frame_id_problem(values[name])
+        if problem:
+            fail(p[name], values[name], problem)
     if values['world_frame'] == values['body_frame']:
         fail(p['body_frame'], values['body_frame'], 'must differ from world_frame')
     for name in ('twist_frame', 'default_wrench_frame'):
