@@ -604,7 +604,8 @@ def _static_world(values, obstacle_names):
                 fail(specs['dimensions_m'], get['dimensions_m'],
                      "is not used by shape 'mesh' (its size is the file's times mesh_scale)",
                      ModelError)
-            resolved = mesh_file(get['mesh_path'], specs['mesh_path'].name)
+            resolved = mesh_file(get['mesh_path'], specs['mesh_path'].name,
+                                 get['mesh_scale'])
         elif get['shape'] not in PRIMITIVES:
             fail(specs['shape'], get['shape'],
                  'must be one of ' + ', '.join(PRIMITIVES) + ' or mesh', ModelError)
@@ -623,7 +624,13 @@ def _static_world(values, obstacle_names):
                 name, get['shape'], get['dimensions_m'], resolved, get['mesh_scale'],
                 get['position'], q_wxyz, get['friction'], get['restitution']))
         except ModelError as exc:
-            raise ModelError(f'parameter {exc}') from None
+            # 'obstacles.<name>.mesh_path: <path>: why' as a body's 'parameter <field> =
+            # <value>: <path>: why' (the value as given, then the file it resolved to)
+            message, key = str(exc), (exc.field or '').rpartition('.')[2]
+            if key in ('mesh_path', 'mesh_scale') and message.startswith(exc.field + ': '):
+                message = (f'{exc.field} = {fmt(get[key])}: '
+                           f'{message[len(exc.field) + 2:]}')
+            raise ModelError(f'parameter {message}', field=exc.field) from None
     if ground is None and not obstacles:
         return None
     return StaticWorld(ground, tuple(obstacles))
