@@ -107,8 +107,9 @@ def _obj_problem(data):
     for face in _OBJ_FACE.finditer(data):  # one line at a time: no list of all the lines
         triangles += max(0, len(face.group(1).split()) - 2)
         if triangles > MAX_MESH_TRIANGLES:  # refused for its count: the rest is not read
-            return triangles, (f'has at least {triangles} triangles, more than the limit of '
-                               f'{MAX_MESH_TRIANGLES} (rbd_ros.sim.limits.MAX_MESH_TRIANGLES)'), None
+            return triangles, (
+                f'has at least {triangles} triangles, more than the limit of '
+                f'{MAX_MESH_TRIANGLES} (rbd_ros.sim.limits.MAX_MESH_TRIANGLES)'), None
     points = _coordinates([v for m in _OBJ_VERTEX.finditer(data) for v in m.groups()])
     return triangles, None if points is not None else _NOT_FINITE, points
 
