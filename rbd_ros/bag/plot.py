@@ -38,10 +38,11 @@ schemas stored in the file; rclpy is not imported.
 import argparse
 import os
 import sys
-from typing import Any, Dict, List, NamedTuple, Optional, Tuple, Union
+from typing import Any, Dict, Iterator, List, NamedTuple, Optional, Tuple, Union
 
 import numpy as np
 from rbd_ros.bag.cli import open_bag_with_notes, run_on_bag
+from rbd_ros.bag.reader import RawMessage, run_starts
 from rbd_ros.bag.recording import Bag, open_bag
 from rbd_ros.core import BodyState, RbdError
 from rbd_ros.core.model import BodyModel
@@ -87,6 +88,20 @@ def load_series(bag: Bag) -> Dict[str, Any]:
             'wrenches': wrenches, 'model': model, 'timeout_s': timeout_s}
 
 
+def last_run(bag: Bag, topics: List[str]) -> Iterator[Tuple[RawMessage, Any]]:
+    """
+    Yield ``(raw, decoded)`` of ``topics`` from the last run of the recording only.
+
+    A plot keyed by sim time would otherwise draw the runs between ``~/reset`` calls over
+    each other (a later run's samples in place of an earlier one's, the rest of that one
+    after them); :func:`_finish` says how many runs there were.
+    """
+    start = ([0] + run_starts(bag.messages(topics)))[-1]  # a first pass: nothing kept
+    for index, item in enumerate(bag.decoded_messages(topics)):
+        if index >= start:
+            yield item
+
+
 def _check_samples(bag: Bag, times: List[int], topics: List[str]) -> None:
     """Refuse a recording without a sample to plot (an empty figure would say nothing)."""
     if not len(times):
@@ -120,7 +135,7 @@ def _read_samples(bag: Bag, state_topics: List[str], wrench_topics: List[str],
     rows = {}
     wrenches = {topic: [] for topic in wrench_topics}
     velocity_frame = 'b' if twist_frame == 'body' else 'w'
-    for raw, msg in bag.decoded_messages(state_topics + wrench_topics):
+    for raw, msg in last_run(bag, state_topics + wrench_topics):
         t = raw.log_time_ns
         if raw.topic in wrenches:
             wrenches[raw.topic].append(
@@ -318,6 +333,9 @@ def _panel_summaries(axes, notes: List[Optional[str]]) -> List[Dict[str, Any]]:
 def _finish(fig, bag: Bag, title: Optional[str]) -> None:
     """Title the figure (the bag's name, and whether it was finalised); lay it out."""
     status = '' if bag.finalised else '  [not finalised]'
+    runs = len(run_starts(bag.messages())) + 1
+    if runs > 1:
+        status += f'  [the last of {runs} runs: ~/reset]'
     fig.suptitle(title or f'{os.path.basename(os.path.normpath(bag.path))}{status}')
     fig.tight_layout()
 
@@ -375,7 +393,7 @@ def load_world(bag: Bag) -> Dict[str, Any]:
             topics[topic] = (body, kind)
     odom = {name: {} for name in names}
     contact = {name: {} for name in names}
-    for raw, msg in bag.decoded_messages(list(topics)):
+    for raw, msg in last_run(bag, list(topics)):
         body, kind = topics[raw.topic]
         if kind == 'odom':
             odom[body][raw.log_time_ns] = (_vec(msg.pose.pose.position),
@@ -523,7 +541,7 @@ def load_joints(bag: Bag) -> Dict[str, Any]:
     wrench_first = np.cumsum([0] + [len(group.every) for group in groups])
     rows, force_rows = {}, {}
     n, m = len(labels), len(wrench_labels)
-    for raw, msg in bag.decoded_messages(list(states) + list(wrenches)):
+    for raw, msg in last_run(bag, list(states) + list(wrenches)):
         t = raw.log_time_ns
         if raw.topic in states:
             r = states[raw.topic]
@@ -630,7 +648,7 @@ def animate_bag(bag: Union[str, os.PathLike, Bag], out_path: str) -> int:
         if info.type_name == _POSE and index is not None:
             topics[t] = index
     poses = {}
-    for raw, msg in bag.decoded_messages(list(topics)):
+    for raw, msg in last_run(bag, list(topics)):
         row = poses.setdefault(raw.log_time_ns, [None] * len(shapes))
         row[topics[raw.topic]] = (_vec(msg.pose.position), _quat(msg.pose.orientation))
     times = [t for t in sorted(poses) if all(v is not None for v in poses[t])]

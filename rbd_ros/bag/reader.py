@@ -340,6 +340,35 @@ def _load_metadata_yaml(meta_path):
     return meta
 
 
+def split_runs(messages: Iterable[RawMessage]) -> List[List[RawMessage]]:
+    """
+    Return ``messages`` (file order) cut into the runs between ``~/reset`` calls.
+
+    The node writes in sim time order and a reset sends sim time back to 0, so a message
+    earlier than the one before it starts a new run (replay steps each from the initial state,
+    plot draws the last).
+    """
+    runs = [[]]
+    for raw, new_run in _run_starts(messages):
+        if new_run:
+            runs.append([])
+        runs[-1].append(raw)
+    return runs
+
+
+def _run_starts(messages: Iterable[RawMessage]) -> Iterator[Tuple[RawMessage, bool]]:
+    """Yield each message and whether it starts a run after a reset (its time went back)."""
+    latest = -1
+    for raw in messages:
+        yield raw, raw.log_time_ns < latest
+        latest = raw.log_time_ns
+
+
+def run_starts(messages: Iterable[RawMessage]) -> List[int]:
+    """Return the index of the first message of each run after a reset (see split_runs)."""
+    return [index for index, (_, new_run) in enumerate(_run_starts(messages)) if new_run]
+
+
 def open_bag(path: Union[str, os.PathLike]) -> Bag:
     """
     Open a recording (a bag directory or an ``.mcap`` file), finalised or not.

@@ -64,6 +64,7 @@ import warnings
 import numpy as np
 from rbd_ros.bag import recorder as run_record
 from rbd_ros.bag.cli import open_bag_with_notes, run_on_bag
+from rbd_ros.bag.reader import split_runs
 from rbd_ros.bag.recording import Bag, open_bag, RawMessage
 from rbd_ros.bag.replay_result import format_summary, ReplayResult, TopicResult  # noqa: F401
 from rbd_ros.core import cachedir, NonFiniteError
@@ -513,12 +514,7 @@ class Replayer:
         """
         bag, result = self.bag, self.result
         wanted = list(self.kinds) + list(self.inputs)
-        runs, latest = [[]], -1
-        for raw in bag.messages(wanted):
-            if raw.log_time_ns < latest:
-                runs.append([])  # time went back: a ~/reset
-            latest = raw.log_time_ns
-            runs[-1].append(raw)
+        runs = split_runs(bag.messages(wanted))
         result.notes = list(bag.notes)
         messages, self.resets = [], []
         for run in runs:

@@ -33,6 +33,7 @@ from rbd_ros.bag.plot import (draw, draw_robots, draw_world, load_series, load_w
 from rbd_ros.bag.recording import open_bag
 from rbd_ros.sim.config import NodeConfig
 from rbd_ros.sim.params import recorded_parameters
+from sim_recorder import rewrite_bag
 import yaml
 
 REPO = Path(__file__).resolve().parents[2]
@@ -252,6 +253,31 @@ def test_a_bag_without_samples_is_refused_in_one_line_not_drawn_empty(name, tmp_
     errors = [line for line in capsys.readouterr().err.splitlines() if 'error' in line]
     assert len(errors) == 1 and 'no recorded samples to plot on' in errors[0], errors
     assert not out.exists()
+
+
+def _reset_copy(name, tmp_path, until_ns):
+    """Return bag ``name`` followed by its own first ``until_ns`` again: a ~/reset, as written."""
+    bag = open_bag(str(REPO / 'bags' / name))
+    again = [(raw.topic, raw.data, raw.log_time_ns) for raw in bag.messages()
+             if raw.log_time_ns <= until_ns]
+    return rewrite_bag(str(REPO / 'bags' / name), str(tmp_path / name), extra=again)
+
+
+def test_a_plot_after_a_reset_draws_the_last_run_and_says_so(tmp_path):
+    # Samples keyed by sim time: the second run's 0.5 s were drawn in place of the first's,
+    # then the first run's rest after them, as one run.
+    until = 500_000_000
+    world = open_bag(_reset_copy('floor_world_push', tmp_path, until))
+    data = load_world(world)
+    assert data['t_s'][-1] == until / 1e9 and len(data['t_s']) == 51  # 0.5 s at 100 Hz
+    body = open_bag(_reset_copy('box_pushed', tmp_path, until))
+    series = load_series(body)
+    assert series['t_s'][-1] == until / 1e9
+    fig, _ = draw(body)
+    try:
+        assert fig._suptitle.get_text().endswith('[the last of 2 runs: ~/reset]')
+    finally:
+        pyplot.close(fig)
 
 
 def test_a_world_plot_shows_every_body_from_the_recorded_samples(tmp_path):
