@@ -346,7 +346,9 @@ def split_runs(messages: Iterable[RawMessage]) -> List[List[RawMessage]]:
 
     The node writes in sim time order and a reset sends sim time back to 0, so a message
     earlier than the one before it starts a new run (replay steps each from the initial state,
-    plot draws the last).
+    plot draws the last); so does a second message of one topic at t = 0 (a reset within the
+    first publish period: an output's t = 0 sample again, or an input taking effect at 0
+    again, each written once a run otherwise).
     """
     runs = [[]]
     for raw, new_run in _run_starts(messages):
@@ -358,10 +360,16 @@ def split_runs(messages: Iterable[RawMessage]) -> List[List[RawMessage]]:
 
 def _run_starts(messages: Iterable[RawMessage]) -> Iterator[Tuple[RawMessage, bool]]:
     """Yield each message and whether it starts a run after a reset (its time went back)."""
-    latest = -1
+    latest, at_zero = -1, set()
     for raw in messages:
-        yield raw, raw.log_time_ns < latest
-        latest = raw.log_time_ns
+        t = raw.log_time_ns
+        new_run = t < latest or (t == 0 and raw.topic in at_zero)
+        if new_run:
+            at_zero = set()
+        if t == 0:
+            at_zero.add(raw.topic)
+        latest = t
+        yield raw, new_run
 
 
 def run_starts(messages: Iterable[RawMessage]) -> List[int]:
