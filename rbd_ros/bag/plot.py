@@ -333,7 +333,9 @@ def _panel_summaries(axes, notes: List[Optional[str]]) -> List[Dict[str, Any]]:
 def _finish(fig, bag: Bag, title: Optional[str]) -> None:
     """Title the figure (the bag's name, and whether it was finalised); lay it out."""
     status = '' if bag.finalised else '  [not finalised]'
-    runs = len(run_starts(bag.messages())) + 1
+    # /diagnostics comes by wall time: paused at t = 0 it repeats t = 0 without a reset
+    runs = len(run_starts(bag.messages(
+        [t for t, info in bag.topics.items() if info.type_name != types.DIAGNOSTIC_ARRAY]))) + 1
     if runs > 1:
         status += f'  [the last of {runs} runs: ~/reset]'
     fig.suptitle(title or f'{os.path.basename(os.path.normpath(bag.path))}{status}')
