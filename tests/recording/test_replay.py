@@ -253,9 +253,11 @@ def test_replay_error_is_an_rbd_error_not_an_os_error():
 
 def test_a_reset_within_the_first_publish_period_starts_a_new_run(tmp_path):
     """
-    A wrench took effect at t = 0, then a ~/reset before the sample at 10 ms: time never went
-    back, but the t = 0 samples come again. As one run, replay held the wrench through the
-    second run (MISMATCH); the repeated t = 0 sample starts a run from the initial state.
+    A ~/reset before the first sample after a wrench at t = 0 starts a run too.
+
+    Time never went back there, but the t = 0 samples come again. As one run, replay held the
+    wrench through the second run (MISMATCH); the repeated t = 0 sample starts a run from the
+    initial state.
     """
     first = record_scripted_run(str(tmp_path / 'first'), {'publish_clock': True},
                                 BOX_SCRIPT[:1], MS).path  # samples and the wrench at 0
