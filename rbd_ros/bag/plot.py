@@ -38,10 +38,11 @@ schemas stored in the file; rclpy is not imported.
 import argparse
 import os
 import sys
-from typing import Any, Dict, List, NamedTuple, Optional, Tuple, Union
+from typing import Any, Dict, Iterator, List, NamedTuple, Optional, Tuple, Union
 
 import numpy as np
 from rbd_ros.bag.cli import open_bag_with_notes, run_on_bag
+from rbd_ros.bag.reader import RawMessage, run_starts
 from rbd_ros.bag.recording import Bag, open_bag
 from rbd_ros.core import BodyState, RbdError
 from rbd_ros.core.model import BodyModel
@@ -74,16 +75,38 @@ def load_series(bag: Bag) -> Dict[str, Any]:
     (topic -> list of ``(t_s, force(3), torque(3))``), ``model`` (BodyModel or None),
     ``timeout_s``.
 
-    :raises RbdError: the recording has no odom, pose or twist topic.
+    :raises RbdError: the recording has no odom, pose or twist topic, or no sample on them.
     """
     state_topics, wrench_topics = _plotted_topics(bag)
     twist_frame = (bag.config or {}).get('twist_frame', 'world')
     rows, wrenches = _read_samples(bag, state_topics, wrench_topics, twist_frame)
     times = sorted(rows)
+    _check_samples(bag, times, state_topics)
     series = _state_series(rows, times)
     model, timeout_s = _body_model(bag)
     return {'t_s': np.array(times, dtype=float) / NS_PER_S, **series,
             'wrenches': wrenches, 'model': model, 'timeout_s': timeout_s}
+
+
+def last_run(bag: Bag, topics: List[str]) -> Iterator[Tuple[RawMessage, Any]]:
+    """
+    Yield ``(raw, decoded)`` of ``topics`` from the last run of the recording only.
+
+    A plot keyed by sim time would otherwise draw the runs between ``~/reset`` calls over
+    each other (a later run's samples in place of an earlier one's, the rest of that one
+    after them); :func:`_finish` says how many runs there were.
+    """
+    start = ([0] + run_starts(bag.messages(topics)))[-1]  # a first pass: nothing kept
+    for index, item in enumerate(bag.decoded_messages(topics)):
+        if index >= start:
+            yield item
+
+
+def _check_samples(bag: Bag, times: List[int], topics: List[str]) -> None:
+    """Refuse a recording without a sample to plot (an empty figure would say nothing)."""
+    if not len(times):
+        raise RbdError(f'{bag.mcap_path}: no recorded samples to plot on {sorted(topics)} '
+                       '(a recording cut off before its first chunk was complete holds none)')
 
 
 def _plotted_topics(bag: Bag) -> Tuple[List[str], List[str]]:
@@ -112,7 +135,7 @@ def _read_samples(bag: Bag, state_topics: List[str], wrench_topics: List[str],
     rows = {}
     wrenches = {topic: [] for topic in wrench_topics}
     velocity_frame = 'b' if twist_frame == 'body' else 'w'
-    for raw, msg in bag.decoded_messages(state_topics + wrench_topics):
+    for raw, msg in last_run(bag, state_topics + wrench_topics):
         t = raw.log_time_ns
         if raw.topic in wrenches:
             wrenches[raw.topic].append(
@@ -310,6 +333,11 @@ def _panel_summaries(axes, notes: List[Optional[str]]) -> List[Dict[str, Any]]:
 def _finish(fig, bag: Bag, title: Optional[str]) -> None:
     """Title the figure (the bag's name, and whether it was finalised); lay it out."""
     status = '' if bag.finalised else '  [not finalised]'
+    # /diagnostics comes by wall time: paused at t = 0 it repeats t = 0 without a reset
+    runs = len(run_starts(bag.messages(
+        [t for t, info in bag.topics.items() if info.type_name != types.DIAGNOSTIC_ARRAY]))) + 1
+    if runs > 1:
+        status += f'  [the last of {runs} runs: ~/reset]'
     fig.suptitle(title or f'{os.path.basename(os.path.normpath(bag.path))}{status}')
     fig.tight_layout()
 
@@ -367,7 +395,7 @@ def load_world(bag: Bag) -> Dict[str, Any]:
             topics[topic] = (body, kind)
     odom = {name: {} for name in names}
     contact = {name: {} for name in names}
-    for raw, msg in bag.decoded_messages(list(topics)):
+    for raw, msg in last_run(bag, list(topics)):
         body, kind = topics[raw.topic]
         if kind == 'odom':
             odom[body][raw.log_time_ns] = (_vec(msg.pose.pose.position),
@@ -377,6 +405,7 @@ def load_world(bag: Bag) -> Dict[str, Any]:
             contact[body][raw.log_time_ns] = np.linalg.norm(
                 _vec(msg.wrench.force) + _vec(msg.wrench.torque))
     times = sorted(set.intersection(*(set(v) for v in odom.values()))) if names else []
+    _check_samples(bag, times, [t for t, (_, kind) in topics.items() if kind == 'odom'])
     out = {'names': names, 't_s': np.array(times) / NS_PER_S, 'position_w': {},
            'kinetic_j': {}, 'in_contact': np.zeros(len(times))}
     for body in config.bodies:
@@ -486,7 +515,7 @@ def load_joints(bag: Bag) -> Dict[str, Any]:
     (``joint_names`` order); NaN where a sample lacks a value (the forces are NaN at t = 0,
     before the first step has solved them).
 
-    :raises RbdError: the recording holds no ``joint_states`` of its joints.
+    :raises RbdError: the recording holds no ``joint_states`` of its joints, or no sample on them.
     """
     from rbd_ros.bag.replay import config_from_bag  # the stored config, its URDFs inside
     config = config_from_bag(bag)
@@ -514,7 +543,7 @@ def load_joints(bag: Bag) -> Dict[str, Any]:
     wrench_first = np.cumsum([0] + [len(group.every) for group in groups])
     rows, force_rows = {}, {}
     n, m = len(labels), len(wrench_labels)
-    for raw, msg in bag.decoded_messages(list(states) + list(wrenches)):
+    for raw, msg in last_run(bag, list(states) + list(wrenches)):
         t = raw.log_time_ns
         if raw.topic in states:
             r = states[raw.topic]
@@ -532,6 +561,7 @@ def load_joints(bag: Bag) -> Dict[str, Any]:
                 if name in index:
                     row[index[name]] = np.linalg.norm(_vec(wrench.force))
     times, force_times = sorted(rows), sorted(force_rows)
+    _check_samples(bag, times, list(states))
     table = np.array([rows[t] for t in times]).reshape(-1, 3, n)
     return {'t_s': np.array(times, dtype=float) / NS_PER_S, 'joints': labels, 'units': units,
             'position': table[:, 0], 'velocity': table[:, 1], 'effort': table[:, 2],
@@ -620,7 +650,7 @@ def animate_bag(bag: Union[str, os.PathLike, Bag], out_path: str) -> int:
         if info.type_name == _POSE and index is not None:
             topics[t] = index
     poses = {}
-    for raw, msg in bag.decoded_messages(list(topics)):
+    for raw, msg in last_run(bag, list(topics)):
         row = poses.setdefault(raw.log_time_ns, [None] * len(shapes))
         row[topics[raw.topic]] = (_vec(msg.pose.position), _quat(msg.pose.orientation))
     times = [t for t in sorted(poses) if all(v is not None for v in poses[t])]

@@ -340,6 +340,43 @@ def _load_metadata_yaml(meta_path):
     return meta
 
 
+def split_runs(messages: Iterable[RawMessage]) -> List[List[RawMessage]]:
+    """
+    Return ``messages`` (file order) cut into the runs between ``~/reset`` calls.
+
+    The node writes in sim time order and a reset sends sim time back to 0, so a message
+    earlier than the one before it starts a new run (replay steps each from the initial state,
+    plot draws the last); so does a second message of one topic at t = 0 (a reset within the
+    first publish period: an output's t = 0 sample again, or an input taking effect at 0
+    again, each written once a run otherwise).
+    """
+    runs = [[]]
+    for raw, new_run in _run_starts(messages):
+        if new_run:
+            runs.append([])
+        runs[-1].append(raw)
+    return runs
+
+
+def _run_starts(messages: Iterable[RawMessage]) -> Iterator[Tuple[RawMessage, bool]]:
+    """Yield each message and whether it starts a run after a reset (its time went back)."""
+    latest, at_zero = -1, set()
+    for raw in messages:
+        t = raw.log_time_ns
+        new_run = t < latest or (t == 0 and raw.topic in at_zero)
+        if new_run:
+            at_zero = set()
+        if t == 0:
+            at_zero.add(raw.topic)
+        latest = t
+        yield raw, new_run
+
+
+def run_starts(messages: Iterable[RawMessage]) -> List[int]:
+    """Return the index of the first message of each run after a reset (see split_runs)."""
+    return [index for index, (_, new_run) in enumerate(_run_starts(messages)) if new_run]
+
+
 def open_bag(path: Union[str, os.PathLike]) -> Bag:
     """
     Open a recording (a bag directory or an ``.mcap`` file), finalised or not.

@@ -64,6 +64,7 @@ import warnings
 import numpy as np
 from rbd_ros.bag import recorder as run_record
 from rbd_ros.bag.cli import open_bag_with_notes, run_on_bag
+from rbd_ros.bag.reader import split_runs
 from rbd_ros.bag.recording import Bag, open_bag, RawMessage
 from rbd_ros.bag.replay_result import format_summary, ReplayResult, TopicResult  # noqa: F401
 from rbd_ros.core import cachedir, NonFiniteError
@@ -496,36 +497,41 @@ class Replayer:
         self._decoders = {}
         self._expected_time_ns = None  # sim time of the sample bytes in _expected
         self._expected = {}  # kind -> CDR bytes the node would have recorded at that time
+        self.resets = []  # index of the first message of each run after a ~/reset
 
     def recorded_messages(self) -> Optional[List[RawMessage]]:
         """
-        Return the messages to replay in log time order, or None after a reset (a problem).
+        Return the messages to replay, each run between ``~/reset`` calls in log time order.
+
+        The node writes in sim time order, so a message earlier than one before it in the file
+        starts a run after a reset (from the initial state at t = 0); :attr:`resets` keeps the
+        index of each such first message, where :meth:`run` resets the session.
 
         :raises ReplayError: no output sample, or log times (or the recorded failure time) that
-            cannot come from one run of the recorded configuration (:func:`check_times`).
+            cannot come from runs of the recorded configuration (:func:`check_times`).
         :raises RecordingError: more steps to replay than :func:`rbd_ros.sim.limits.check_steps`
-            allows.
+            allows (the runs' steps summed).
         """
         bag, result = self.bag, self.result
         wanted = list(self.kinds) + list(self.inputs)
-        messages = list(bag.messages(wanted))
+        runs = split_runs(bag.messages(wanted))
         result.notes = list(bag.notes)
-        last_time = {}
-        for raw in messages:
-            if raw.log_time_ns < last_time.get(raw.topic, -1):
-                result.problems.append(
-                    f'{raw.topic}: log time goes back from {last_time[raw.topic]} ns to '
-                    f'{raw.log_time_ns} ns (a ~/reset during the run?); replay covers runs '
-                    'without resets')
-                return None
-            last_time[raw.topic] = raw.log_time_ns
-        messages.sort(key=lambda m: m.log_time_ns)  # stable: keeps file order at equal times
+        messages, self.resets = [], []
+        for run in runs:
+            run.sort(key=lambda m: m.log_time_ns)  # stable: keeps file order at equal times
+            check_times(bag, self.recorded, run, self.kinds)
+            if messages:
+                self.resets.append(len(messages))
+            messages += run
         if not any(m.topic in self.kinds for m in messages):
             raise ReplayError(f'{bag.mcap_path}: no recorded output samples to compare '
                               f'({len(messages)} messages on the replayed topics)')
-        check_times(bag, self.recorded, messages, self.kinds)
-        limits.check_steps(bag)  # after the time checks: they say more about a log time
-        last = messages[-1].log_time_ns
+        if self.resets:
+            result.remarks.append(f'{len(self.resets)} ~/reset during the run: each run after '
+                                  'one was replayed from the initial state at t = 0')
+        # after the time checks: they say more about a log time
+        limits.check_steps(bag, sum(run[-1].log_time_ns for run in runs if run))
+        last = runs[-1][-1].log_time_ns if runs[-1] else 0
         if self.failure is not None and self.failure[0] > (
                 last + self.recorded.timestep_ns + self.recorded.publish_period_ns):
             raise ReplayError(
@@ -541,8 +547,13 @@ class Replayer:
         bar = _Progress(len(messages), progress)
         replay_failure = None
         index = -1
+        resets = set(self.resets)
         try:
             for index, raw in enumerate(messages):
+                if index in resets:
+                    self.end_run()
+                    session.reset()
+                    self._expected_time_ns = None  # its samples were of the run before
                 if not self.advance_to(raw.log_time_ns):
                     result.problems.append(
                         f'the recording goes on to {raw.log_time_ns} ns, past the end of the '
@@ -558,10 +569,7 @@ class Replayer:
             if self.failure is not None and not self.study:
                 # The recorded failing step: it must fail again.
                 self.advance_to(self.failure[0] + self.config.timestep_ns)
-            if self._pending and not session.finished:
-                # Let the wrenches recorded at the last time take effect, to confirm them.
-                self.took_effect(session.advance(1).events)
-            self.check_events()
+            self.end_run()
         except NonFiniteError as exc:
             self.took_effect(getattr(exc, 'events', ()))
             self.check_events()
@@ -580,6 +588,13 @@ class Replayer:
             result.run_crashed = (f'the node stopped on an exception at t = {when} ns: '
                                   f'{run[run_record.RUN_EXCEPTION]}')
         return result
+
+    def end_run(self) -> None:
+        """Confirm the wrenches recorded at the last time of a run (to its end or a reset)."""
+        if self._pending and not self.session.finished:
+            # The node records an input at the start of the step it acts in: that step ran.
+            self.took_effect(self.session.advance(1).events)
+        self.check_events()
 
     def took_effect(self, events: Iterable[AppliedEvent]) -> None:
         """Digest the wrenches the session reports as applied and keep them for checking."""

@@ -641,7 +641,8 @@ def _static_world(values, obstacle_names):
                 fail(specs['dimensions_m'], get['dimensions_m'],
                      "is not used by shape 'mesh' (its size is the file's times mesh_scale)",
                      ModelError)
-            resolved = mesh_file(get['mesh_path'], specs['mesh_path'].name)
+            resolved = mesh_file(get['mesh_path'], specs['mesh_path'].name,
+                                 get['mesh_scale'])
         elif get['shape'] not in PRIMITIVES:
             fail(specs['shape'], get['shape'],
                  'must be one of ' + ', '.join(PRIMITIVES) + ' or mesh', ModelError)
@@ -660,7 +661,13 @@ def _static_world(values, obstacle_names):
                 name, get['shape'], get['dimensions_m'], resolved, get['mesh_scale'],
                 get['position'], q_wxyz, get['friction'], get['restitution']))
         except ModelError as exc:
-            raise ModelError(f'parameter {exc}') from None
+            # 'obstacles.<name>.mesh_path: <path>: why' as a body's 'parameter <field> =
+            # <value>: <path>: why' (the value as given, then the file it resolved to)
+            message, key = str(exc), (exc.field or '').rpartition('.')[2]
+            if key in ('mesh_path', 'mesh_scale') and message.startswith(exc.field + ': '):
+                message = (f'{exc.field} = {fmt(get[key])}: '
+                           f'{message[len(exc.field) + 2:]}')
+            raise ModelError(f'parameter {message}', field=exc.field) from None
     if ground is None and not obstacles:
         return None
     return StaticWorld(ground, tuple(obstacles))
@@ -730,6 +737,25 @@ def _time_settings(values):
             'wrench_timeout_ns': to_ns(p['wrench_timeout_s'], values['wrench_timeout_s'])}
 
 
+def frame_id_problem(frame):
+    """
+    Return why ``frame`` cannot be a tf2 frame id, or None.
+
+    tf2 refuses an empty id and one starting with ``/`` (``lookupTransform`` raises "frame_ids
+    cannot start with a '/'"); a whitespace or control character (a NUL ends the id in C)
+    would make a frame that no one can name back.
+    """
+    if not frame:
+        return 'must not be empty'
+    if frame.startswith('/'):
+        return "must not start with '/' (tf2 refuses such frame ids)"
+    for index, char in enumerate(frame):
+        if char.isspace() or not char.isprintable():
+            return (f'holds {char!r} at index {index}: a frame id has no whitespace or '
+                    'control characters')
+    return None
+
+
 def _frame_settings(values, bodies=()):
     """Check the frame ids and keywords; the optional outputs (``/clock``, ``/tf``)."""
     p = PARAMETERS_BY_NAME
@@ -739,15 +765,17 @@ def _frame_settings(values, bodies=()):
             continue  # the top-level body_frame: checked below
         spec = PARAMETERS_BY_NAME['body_frame']
         where = f'{body.parameter_prefix}body_frame'
-        if not body.body_frame:
-            fail(dataclass_replace(spec, name=where), body.body_frame, 'must not be empty')
+        problem = frame_id_problem(body.body_frame)
+        if problem:
+            fail(dataclass_replace(spec, name=where), body.body_frame, problem)
         if body.body_frame in seen:
             fail(dataclass_replace(spec, name=where), body.body_frame,
                  f'is already the frame of {seen[body.body_frame]}')
         seen[body.body_frame] = where
     for name in ('world_frame', 'body_frame'):
-        if not values[name]:
-            fail(p[name], values[name], 'must not be empty')
+        problem = frame_id_problem(values[name])
+        if problem:
+            fail(p[name], values[name], problem)
     if values['world_frame'] == values['body_frame']:
         fail(p['body_frame'], values['body_frame'], 'must differ from world_frame')
     for name in ('twist_frame', 'default_wrench_frame'):

@@ -134,11 +134,12 @@ def _check_attachment(f, name, offset, length):
             f'more than the limit of {MAX_MESH_BYTES} bytes (rbd_ros.sim.limits.MAX_MESH_BYTES)')
 
 
-def check_steps(bag):
+def check_steps(bag, end_ns=None):
     """
     Refuse a recording whose replay would take more steps than the limits allow.
 
-    The steps: the last log time over the recorded step, times the bodies.
+    The steps: the last log time (or ``end_ns``: the last log times of the runs between
+    ``~/reset`` calls, summed) over the recorded step, times the bodies.
 
     :param bag: an opened :class:`rbd_ros.bag.recording.Bag`.
     :raises RecordingError: naming ``timestep_s``, its value, the steps and the limits.
@@ -146,13 +147,14 @@ def check_steps(bag):
     from rbd_ros.sim.params import recorded_parameters  # today's names, also for an old bag
     config = recorded_parameters(bag.config or {})
     timestep_s = config.get('timestep_s')
-    if isinstance(timestep_s, (int, float)) and timestep_s > 0 and bag.end_ns:
-        steps = bag.end_ns / (timestep_s * 1e9)
+    end_ns = bag.end_ns if end_ns is None else end_ns
+    if isinstance(timestep_s, (int, float)) and timestep_s > 0 and end_ns:
+        steps = end_ns / (timestep_s * 1e9)
         bodies = max(1, len(config.get('body_names') or ()))
         if steps > MAX_REPLAY_STEPS or steps * bodies > MAX_REPLAY_BODY_STEPS:
             raise RecordingError(
                 f'{bag.mcap_path}: timestep_s = {timestep_s:g} s up to the last message at '
-                f'{bag.end_ns} ns is {steps:.3g} steps of {bodies} bodies, more than the limit '
+                f'{end_ns} ns is {steps:.3g} steps of {bodies} bodies, more than the limit '
                 f'of {MAX_REPLAY_STEPS} steps and {MAX_REPLAY_BODY_STEPS} body-steps '
                 '(rbd_ros.sim.limits.MAX_REPLAY_STEPS, MAX_REPLAY_BODY_STEPS)')
 

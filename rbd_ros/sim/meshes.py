@@ -38,7 +38,8 @@ import numpy as np
 from rbd_ros.core import ModelError
 from rbd_ros.core.contact.shapes import load_mesh
 from rbd_ros.sim.limits import MAX_MESH_TRIANGLES
-from rbd_ros.sim.params import fail, MAX_MESH_FILE_BYTES, MAX_SIZE
+from rbd_ros.sim.params import (fail, MAX_MESH_FILE_BYTES, MAX_POSITION_M, MAX_SIZE,
+                                MIN_SIZE)
 
 #: The mesh file types read (by the name's suffix, any case): STL (binary or ASCII) and OBJ.
 MESH_SUFFIXES = ('.stl', '.obj')
@@ -57,48 +58,81 @@ _OBJ_VERTEX = re.compile(rb'^v[ \t]+' + rb'[ \t]+'.join([_NUMBER] * 3), re.MULTI
 _OBJ_FACE = re.compile(rb'^f[ \t]([^\r\n]*)', re.MULTILINE)
 
 
-def _not_finite(values):
-    """Return True when some of ``values`` (an array, or number tokens as bytes) is not finite."""
+_NOT_FINITE = 'has non-finite vertex coordinates'
+
+
+def _coordinates(values):
+    """
+    Return ``values`` (an array, or number tokens as bytes) as float64 ``(n, 3)``, or None.
+
+    None when some value is not finite or no number at all. Quiet: random bytes read as
+    float32 hold NaNs, whose cast warned on stderr beside the one-line refusal.
+    """
     try:
-        array = np.asarray(values, dtype=np.float64)
+        with np.errstate(all='ignore'):
+            array = np.asarray(values, dtype=np.float64).reshape(-1, 3)
     except ValueError:
-        return True  # a token that is no number at all
-    return not np.all(np.isfinite(array))
+        return None  # a token that is no number at all
+    return array if np.all(np.isfinite(array)) else None
 
 
 def _stl_problem(data):
-    """Return ``(triangles, problem)`` of STL bytes: binary if its size matches, else ASCII."""
+    """
+    Return ``(triangles, problem, vertex coordinates)`` of STL bytes.
+
+    Binary if its size matches the triangle count of its header, else ASCII.
+    """
     if len(data) >= 84:
         (declared,) = struct.unpack_from('<I', data, 80)
         if 84 + 50 * declared == len(data):
-            facets = np.frombuffer(data, _FACET, count=declared, offset=84)
-            if _not_finite(facets['vertices']):
-                return declared, 'has non-finite vertex coordinates'
-            return declared, None
+            points = _coordinates(np.frombuffer(data, _FACET, count=declared,
+                                                offset=84)['vertices'])
+            return declared, None if points is not None else _NOT_FINITE, points
     else:
         declared = None
     if not data.lstrip()[:5].lower() == b'solid':
         size = ('' if declared is None else
                 f', not the 84 + 50 x {declared} its header declares for a binary STL')
-        return 0, f'is not an STL file ({len(data)} bytes{size}; no ASCII "solid" at the start)'
+        return 0, (f'is not an STL file ({len(data)} bytes{size}; no ASCII "solid" at the '
+                   'start)'), None
     triangles = data.count(b'facet')  # 'facet normal' opens one, 'endfacet' closes it
     triangles //= 2
-    if _not_finite([v for m in _STL_VERTEX.finditer(data) for v in m.groups()]):
-        return triangles, 'has non-finite vertex coordinates'
-    return triangles, None
+    points = _coordinates([v for m in _STL_VERTEX.finditer(data) for v in m.groups()])
+    return triangles, None if points is not None else _NOT_FINITE, points
 
 
 def _obj_problem(data):
-    """Return ``(triangles, problem)`` of OBJ bytes: its faces' triangles, its vertices."""
+    """Return ``(triangles, problem, vertex coordinates)`` of OBJ bytes."""
     triangles = 0
     for face in _OBJ_FACE.finditer(data):  # one line at a time: no list of all the lines
         triangles += max(0, len(face.group(1).split()) - 2)
         if triangles > MAX_MESH_TRIANGLES:  # refused for its count: the rest is not read
-            return triangles, (f'has at least {triangles} triangles, more than the limit of '
-                               f'{MAX_MESH_TRIANGLES} (rbd_ros.sim.limits.MAX_MESH_TRIANGLES)')
-    if _not_finite([v for m in _OBJ_VERTEX.finditer(data) for v in m.groups()]):
-        return triangles, 'has non-finite vertex coordinates'
-    return triangles, None
+            return triangles, (
+                f'has at least {triangles} triangles, more than the limit of '
+                f'{MAX_MESH_TRIANGLES} (rbd_ros.sim.limits.MAX_MESH_TRIANGLES)'), None
+    points = _coordinates([v for m in _OBJ_VERTEX.finditer(data) for v in m.groups()])
+    return triangles, None if points is not None else _NOT_FINITE, points
+
+
+def _check_data(name, data):
+    """Return ``(problem or None, vertex coordinates (n, 3) or None)`` of a mesh file's bytes."""
+    if not data:
+        return 'is empty (0 bytes)', None
+    for magic, kind in _COMPRESSED:
+        if data.startswith(magic):
+            return (f'is {kind}-compressed data, not a mesh (compressed meshes are refused: '
+                    'nothing is decompressed)'), None
+    suffix = os.path.splitext(str(name))[1].lower()
+    if suffix not in MESH_SUFFIXES:
+        return (f'is a {suffix or "suffix-less"!r} file; a mesh is an STL or OBJ file '
+                f'({", ".join(MESH_SUFFIXES)})'), None
+    triangles, problem, points = (_stl_problem if suffix == '.stl' else _obj_problem)(data)
+    if problem is None and triangles == 0:
+        problem = 'holds no triangles'
+    elif problem is None and triangles > MAX_MESH_TRIANGLES:
+        problem = (f'has {triangles} triangles, more than the limit of {MAX_MESH_TRIANGLES} '
+                   '(rbd_ros.sim.limits.MAX_MESH_TRIANGLES)')
+    return problem, points
 
 
 def mesh_data_problem(name, data):
@@ -111,23 +145,32 @@ def mesh_data_problem(name, data):
     no triangles, more than :data:`MAX_MESH_TRIANGLES`, or a non-finite vertex coordinate.
     Costs one pass over the bytes; nothing is built.
     """
-    if not data:
-        return 'is empty (0 bytes)'
-    for magic, kind in _COMPRESSED:
-        if data.startswith(magic):
-            return (f'is {kind}-compressed data, not a mesh (compressed meshes are refused: '
-                    'nothing is decompressed)')
-    suffix = os.path.splitext(str(name))[1].lower()
-    if suffix not in MESH_SUFFIXES:
-        return (f'is a {suffix or "suffix-less"!r} file; a mesh is an STL or OBJ file '
-                f'({", ".join(MESH_SUFFIXES)})')
-    triangles, problem = (_stl_problem if suffix == '.stl' else _obj_problem)(data)
-    if problem is None and triangles == 0:
-        problem = 'holds no triangles'
-    elif problem is None and triangles > MAX_MESH_TRIANGLES:
-        problem = (f'has {triangles} triangles, more than the limit of {MAX_MESH_TRIANGLES} '
-                   '(rbd_ros.sim.limits.MAX_MESH_TRIANGLES)')
-    return problem
+    return _check_data(name, data)[0]
+
+
+def mesh_size_problem(points, scale):
+    """
+    Return why vertex coordinates ``points`` (n, 3) times ``scale`` make no body, or None.
+
+    The scaled mesh must span from :data:`MIN_SIZE` to :data:`MAX_SIZE` m (the sizes a
+    primitive's ``dimensions_m`` may have) and lie within ±:data:`MAX_POSITION_M` of its
+    origin. The mesh library merges vertices closer than 1e-8 (in file units): a mesh far
+    smaller collapsed to one vertex, and one of 1e29 m overflowed that rounding, both then
+    refused as "1 vertices".
+    """
+    if points is None or not len(points):
+        return None
+    with np.errstate(all='ignore'):
+        scaled = points * np.asarray(scale, dtype=np.float64)
+        span = float((scaled.max(axis=0) - scaled.min(axis=0)).max())
+        far = float(np.abs(scaled).max())
+    if not (MIN_SIZE <= span <= MAX_SIZE):
+        return (f'spans {span:.6g} m (coordinates x mesh_scale), outside the sizes a body may '
+                f'have, [{MIN_SIZE:g}, {MAX_SIZE:g}] m')
+    if not far <= MAX_POSITION_M:
+        return (f'has a vertex {far:.6g} m from its origin (coordinates x mesh_scale), beyond '
+                f'±{MAX_POSITION_M:g} m')
+    return None
 
 
 def resolve_mesh_path(path, field):
@@ -189,17 +232,21 @@ def _open_mesh_file(value, field):
     return path, fd
 
 
-def mesh_file(value, field):
+def mesh_file(value, field, scale=None):
     """
     Return the resolved file of the ``*mesh_path`` parameter ``field = value`` after checking it.
 
     It must be a regular file (never a FIFO, a device such as ``/dev/zero``, a directory) of at
-    most :data:`MAX_MESH_FILE_BYTES` bytes, whose bytes pass :func:`mesh_data_problem`.
+    most :data:`MAX_MESH_FILE_BYTES` bytes, whose bytes pass :func:`mesh_data_problem`; given
+    its ``mesh_scale``, its size must pass :func:`mesh_size_problem`.
 
     :raises ModelError: one line naming ``field``, its value and the reason.
     """
     path, data = _read(value, field)
-    problem = mesh_data_problem(path, data)
+    problem, points = _check_data(path, data)
+    if problem is None and scale is not None and len(scale) == 3 and all(
+            MIN_MESH_SCALE <= v <= MAX_SIZE for v in scale):  # else the scale's own check
+        problem = mesh_size_problem(points, scale)
     if problem is not None:
         raise ModelError(f'parameter {field} = {value!r}: {path!r} {problem}', field=field,
                          value=value)
@@ -224,7 +271,7 @@ def read_mesh_file(value, field):
 
 def mesh_shape(spec_path, spec_scale, path, scale):
     """Load the mesh of a ``*mesh_path`` parameter, errors naming the parameter."""
-    file_path = mesh_file(path, spec_path.name)
+    file_path = mesh_file(path, spec_path.name, scale)
     field = spec_path.name[:-len('mesh_path')]
     try:
         shape = load_mesh(file_path, scale, field=field)

@@ -33,6 +33,7 @@ from rbd_ros.bag.plot import (draw, draw_robots, draw_world, load_series, load_w
 from rbd_ros.bag.recording import open_bag
 from rbd_ros.sim.config import NodeConfig
 from rbd_ros.sim.params import recorded_parameters
+from sim_recorder import rewrite_bag
 import yaml
 
 REPO = Path(__file__).resolve().parents[2]
@@ -225,6 +226,58 @@ def test_plot_bad_input_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and 'not an MCAP file' in err
     assert not (tmp_path / 'x.png').exists()
+
+
+def _cut_before_first_chunk(src, dst):
+    """
+    Copy bag ``src`` to ``dst`` cut 100 bytes into its first MCAP chunk (opcode 0x06).
+
+    What SIGKILL leaves of a run killed before its first chunk closed: the header, schemas,
+    channels and configuration record (written at start, outside the chunks), no sample.
+    """
+    data = next(src.glob('*.mcap')).read_bytes()
+    pos = 8  # after the magic: records are opcode (1 byte), length (uint64 LE), content
+    while data[pos] != 0x06:
+        pos += 9 + int.from_bytes(data[pos + 1:pos + 9], 'little')
+    dst.mkdir()
+    (dst / 'cut_0.mcap').write_bytes(data[:pos + 100])
+    return dst
+
+
+@pytest.mark.parametrize('name', ['box_pushed', 'floor_world_push', 'robot_pendulum'])
+def test_a_bag_without_samples_is_refused_in_one_line_not_drawn_empty(name, tmp_path, capsys):
+    # One bag per drawing (a body, a world, a robot): each wrote a PNG of empty axes, exit 0.
+    bag = _cut_before_first_chunk(REPO / 'bags' / name, tmp_path / name)
+    out = tmp_path / 'x.png'
+    assert main([str(bag), '-o', str(out)]) == 2
+    errors = [line for line in capsys.readouterr().err.splitlines() if 'error' in line]
+    assert len(errors) == 1 and 'no recorded samples to plot on' in errors[0], errors
+    assert not out.exists()
+
+
+def _reset_copy(name, tmp_path, until_ns):
+    """Return bag ``name`` followed by its own first ``until_ns`` again: a ~/reset, as written."""
+    bag = open_bag(str(REPO / 'bags' / name))
+    again = [(raw.topic, raw.data, raw.log_time_ns) for raw in bag.messages()
+             if raw.log_time_ns <= until_ns]
+    return rewrite_bag(str(REPO / 'bags' / name), str(tmp_path / name), extra=again)
+
+
+def test_a_plot_after_a_reset_draws_the_last_run_and_says_so(tmp_path):
+    # Samples keyed by sim time: the second run's 0.5 s were drawn in place of the first's,
+    # then the first run's rest after them, as one run.
+    until = 500_000_000
+    world = open_bag(_reset_copy('floor_world_push', tmp_path, until))
+    data = load_world(world)
+    assert data['t_s'][-1] == until / 1e9 and len(data['t_s']) == 51  # 0.5 s at 100 Hz
+    body = open_bag(_reset_copy('box_pushed', tmp_path, until))
+    series = load_series(body)
+    assert series['t_s'][-1] == until / 1e9
+    fig, _ = draw(body)
+    try:
+        assert fig._suptitle.get_text().endswith('[the last of 2 runs: ~/reset]')
+    finally:
+        pyplot.close(fig)
 
 
 def test_a_world_plot_shows_every_body_from_the_recorded_samples(tmp_path):

@@ -251,6 +251,28 @@ def test_replay_error_is_an_rbd_error_not_an_os_error():
     assert not isinstance(info.value, OSError)
 
 
+def test_a_reset_within_the_first_publish_period_starts_a_new_run(tmp_path):
+    """
+    A ~/reset before the first sample after a wrench at t = 0 starts a run too.
+
+    Time never went back there, but the t = 0 samples come again. As one run, replay held the
+    wrench through the second run (MISMATCH); the repeated t = 0 sample starts a run from the
+    initial state.
+    """
+    first = record_scripted_run(str(tmp_path / 'first'), {'publish_clock': True},
+                                BOX_SCRIPT[:1], MS).path  # samples and the wrench at 0
+    quiet = record_scripted_run(str(tmp_path / 'quiet'), {'publish_clock': True}, [],
+                                300 * MS).path  # the run after the reset: no wrench
+    again = [(raw.topic, raw.data, raw.log_time_ns) for raw in open_bag(quiet).messages()]
+    bag = rewrite_bag(first, str(tmp_path / 'reset'), drop=lambda i, raw: raw.log_time_ns > 0,
+                      extra=again)  # the run record: the one wrench's digest
+    result = replay_bag(bag)
+    assert result.match, result.problems
+    assert result.remarks == ['1 ~/reset during the run: each run after one was replayed '
+                              'from the initial state at t = 0']
+    assert result.wrenches == 1 and result.compared == 4 + 4 * 31  # 4 topics, 0 and 0-0.3 s
+
+
 def test_replayer_steps_in_named_parts():
     """The Replayer's steps, driven one by one, replay a reference bag to the same MATCH."""
     from rbd_ros.bag.replay import Replayer, TopicResult

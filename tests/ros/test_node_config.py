@@ -145,6 +145,15 @@ def test_integer_values_are_accepted_for_doubles():
     ({'default_wrench_frame': 'map'}, ConfigError, "must be 'world' or 'body'"),
     ({'body_frame': 'world'}, ConfigError, 'must differ from world_frame'),
     ({'world_frame': ''}, ConfigError, 'must not be empty'),
+    # tf2 refuses a frame id with a leading '/'; a NUL or a space made a frame no one can name
+    # (all three were broadcast on /tf)
+    ({'world_frame': '/world'}, ConfigError, "world_frame = '/world': must not start with '/'"),
+    ({'body_frame': 'a b'}, ConfigError, "body_frame = 'a b': holds ' ' at index 1"),
+    ({'body_names': ['a'], 'bodies.a.shape': 'sphere', 'bodies.a.dimensions_m': [0.1],
+      'bodies.a.body_frame': 'a\x00'}, ConfigError,
+     "bodies.a.body_frame = 'a\\x00': holds '\\x00' at index 1: a frame id has no whitespace"),
+    ({'body_names': ['a'], 'bodies.a.shape': 'sphere', 'bodies.a.dimensions_m': [0.1],
+      'bodies.a.body_frame': '/a'}, ConfigError, "bodies.a.body_frame = '/a': must not start"),
     ({'gravity': [0.0, -9.81]}, ModelError, 'must have 3 values'),
     ({'initial_orientation': [0.0, 0.0, 0.0, 0.0]}, ConfigError, 'norm 0'),
     ({'mas_kg': 1.0}, ConfigError, 'parameter mas_kg = 1.0: unknown parameter name'),

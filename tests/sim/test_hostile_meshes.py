@@ -144,6 +144,28 @@ def _directory(tmp):
     return str(tmp / 'folder.stl')
 
 
+def _random_bytes(tmp):
+    """Return a binary STL of 12 triangles of random bytes (NaNs among its float32 values)."""
+    path = tmp / 'random.stl'
+    path.write_bytes(bytes(80) + struct.pack('<I', 12)
+                     + np.random.default_rng(0).bytes(50 * 12))
+    return str(path)
+
+
+def _scaled_box(tmp, factor):
+    """Return a binary STL of the 0.2 m box with its coordinates times ``factor``."""
+    box = _box()
+    return _raw_stl(tmp, f'box_{factor:g}.stl', np.array(box.vertices) * factor, box.faces)
+
+
+def _obstacle(mesh_path):
+    """Return a world of a ball on a floor beside a mesh obstacle 'o' of ``mesh_path``."""
+    return {'body_names': ['a'], 'bodies.a.shape': 'sphere', 'bodies.a.dimensions_m': [0.1],
+            'bodies.a.initial_position': [0.0, 0.0, 1.0], 'obstacle_names': ['o'],
+            'obstacles.o.shape': 'mesh', 'obstacles.o.mesh_path': mesh_path,
+            'obstacles.o.position': [3.0, 0.0, 0.5]}
+
+
 def _body(mesh_path, **fields):
     """Return a world of one body 'a' shaped by ``mesh_path``, plus its other ``fields``."""
     return {'body_names': ['a'], 'bodies.a.mesh_path': mesh_path,
@@ -172,6 +194,20 @@ CASES = {  # id: (tmp_path -> parameters, words the one line must hold)
                         [FIELD, 'is 100000084 bytes, more than the limit of '
                          f'{MAX_MESH_FILE_BYTES} bytes']),
     'zip': (lambda tmp: _body(_zipped(tmp)), [FIELD, 'is zip-compressed data, not a mesh']),
+    # 1e30 x the box (float32 holds it): the mesh library's vertex merge overflowed and the
+    # refusal said "has 12 faces and 1 vertices"; 1e-9 x: every vertex merged, the same words
+    'huge-coordinates': (lambda tmp: _body(_scaled_box(tmp, 1e30)),
+                         [FIELD, 'spans 2e+29 m (coordinates x mesh_scale), outside the sizes '
+                          'a body may have, [1e-06, 1e+06] m']),
+    'tiny-coordinates': (lambda tmp: _body(_scaled_box(tmp, 1e-9)),
+                         [FIELD, 'spans 2e-10 m (coordinates x mesh_scale)']),
+    'scaled-past-max-size': (lambda tmp: _body(_scaled_box(tmp, 10.0), mesh_scale=[1e6, 1.0, 1.0]),
+                             [FIELD, 'spans 2e+06 m (coordinates x mesh_scale)']),
+    # numpy's "invalid value encountered in cast" warnings came before the line (3 lines)
+    'random-bytes': (lambda tmp: _body(_random_bytes(tmp)), [FIELD, 'non-finite vertex']),
+    # an obstacle's mesh was 'parameter obstacles.o.mesh_path: <path>: ...', a body's '... = '
+    'obstacle-open': (lambda tmp: _obstacle(_open(tmp)),
+                      ["parameter obstacles.o.mesh_path = '", 'the mesh is open']),
     'scale-0': (lambda tmp: _body(_export(tmp, 'box.stl', _box()), mesh_scale=[0.0, 1.0, 1.0]),
                 ['parameter bodies.a.mesh_scale = [0.0, 1.0, 1.0]',
                  f'must be 3 factors in [{MIN_MESH_SCALE:g}, 1e+06]']),
