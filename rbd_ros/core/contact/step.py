@@ -231,9 +231,11 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
     or velocity motor needed more than its effort limit, or a stuck joint more than its
     friction, is taken again from its start with that motor saturated or that joint slipping
     (``saturate``), at most once more per joint and friction. The joints' damping is its
-    exact flow over each velocity update (``damp``, after the motors' kick). Limits
-    (:mod:`~rbd_ros.core.contact.limits`) are freed at each step's start and held by the
-    pre-stabilization where the drift would cross them.
+    exact flow over each velocity update, between two post-stabilizations: kick, project,
+    damp, project (``damp`` projects first, so it flows the rates the joints have, not the
+    kick's; with kick–drift–kick the second half kick's contact stage then sees them too).
+    Limits (:mod:`~rbd_ros.core.contact.limits`) are freed at each step's start and held by
+    the pre-stabilization where the drift would cross them.
     """
     shapes, statics, work = Shapes(*shape_fields), Statics(*static_fields), Work(*work_fields)
     n = x.shape[1]
@@ -307,7 +309,9 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
                     kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
                 if joints is not None:
                     motors_kick(joints, x, work.vel, 0.5 * h, True)
-                    damp(joints, x, work.vel, 0.5 * h)
+                    # The damped joints' rates are the rows' again before the contacts.
+                    if damp(joints, x, work.vel, 0.5 * h):
+                        post_stabilize(joints, x, work.vel, False)
                 c2 = contact_stage(x, prm, shapes, statics, h, PHASE_CONTACT, 2, True, wrench,
                                    work, False, joints, VISIT_POST, method)
                 same_pose = True  # the next step's first stage sees this pose
