@@ -284,21 +284,31 @@ def motors_kick(joints, x, vel, dt, end):
 
 
 @_jit
-def damp(joints, x, vel, dt):
+def damp(joints, x, vel, dt, project_first):
     """
     Give ``x`` the exact flow of the joints' damping over ``dt`` (:func:`~.motors.damp`).
 
-    Nothing (not a bit) when no joint has damping.
+    ``project_first``: the twists are a kick's, projected first (:func:`post_stabilize`, the
+    motor, limit and friction rows on), so the flow acts on the rates the joints have after
+    the kick, not on the kick's: a joint that its motor, limit or friction holds is at rest,
+    and its damping does nothing (flowing the kicked rate took ``d`` times gravity's kick
+    off what the motor then held, an O(h) error in its effort); else they are projected
+    already. The caller projects again after (the flow moves a held joint, which the rows
+    take back: a motor's effort includes the damping it overcomes). Return whether any joint
+    has damping: nothing (not a bit) is done otherwise.
     """
     damped = False
     for j in range(joints.model.jint.shape[0]):
         if joints.model.jprm[j, jk.J_DAMPING] != 0.0:
             damped = True
     if not damped:
-        return
+        return False
+    if project_first:
+        post_stabilize(joints, x, vel, False)
     _load(joints, x, vel, False)
     cm.damp(joints, dt)
     _store(joints, x)
+    return True
 
 
 @_jit

@@ -62,7 +62,10 @@ start, ``-f sign(q̇)``, 0 while ``|q̇| <= FRICTION_REST_RATE``, and the motor 
 effort includes it), as in the tree step. The friction's effort over the step is
 ``work.fric[j, F_APPLIED]`` (:func:`finish`).
 
-**Damping** ``d`` is the exact flow of ``-d q̇`` over each velocity update (:func:`damp`).
+**Damping** ``d`` is the exact flow of ``-d q̇`` over the step (:func:`damp`), between
+two projections with every row on (:func:`rbd_ros.core.contact.joints.damp`, where
+:func:`rbd_ros.core.contact.step.world_step` puts it): a joint its motor, limit or friction
+holds has the rate of its hold when the flow acts, so at rest the damping does nothing.
 """
 
 import math
@@ -415,9 +418,11 @@ def damp(joints, dt):
     the factor of the rows), so ``q̇' = −d a q̇`` with ``a = J δu`` (the joint's inverse
     effective inertia) and ``q̇(dt) = q̇ exp(−d a dt)`` exactly: the impulse
     ``q̇ (exp(−d a dt) − 1) / a`` along ``δu``. The twists are first projected onto the rows
-    (the rate is then the mechanism's). One damped joint (a hinge or slider to the world, the
-    joints' rows alone) decays exactly as ``exp(−d t / I)``; several are taken in index order,
-    a splitting of their coupled flow (each exact, the coupling O(dt²)).
+    (the rate is then the mechanism's); the caller has projected them with the limit, motor
+    and friction rows on, so a held joint's rate is the one it is held at. One damped
+    joint (a hinge or slider to the world, the joints' rows alone) decays exactly as
+    ``exp(−d t / I)``; several are taken in index order, a splitting of their coupled flow
+    (each exact, the coupling O(dt²)).
     """
     model, work, jx, saved = joints.model, joints.work, joints.jx, joints.rows_on
     jint, jprm, active = model.jint, model.jprm, work.active

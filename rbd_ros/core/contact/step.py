@@ -231,9 +231,13 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
     or velocity motor needed more than its effort limit, or a stuck joint more than its
     friction, is taken again from its start with that motor saturated or that joint slipping
     (``saturate``), at most once more per joint and friction. The joints' damping is its
-    exact flow over each velocity update (``damp``, after the motors' kick). Limits
-    (:mod:`~rbd_ros.core.contact.limits`) are freed at each step's start and held by the
-    pre-stabilization where the drift would cross them.
+    exact flow between two post-stabilizations, never on a kick's rates before they are
+    projected: symplectic Euler kick, project, damp, project; kick–drift–kick half the flow
+    before its first half kick and half after its second (kick, project, damp, project:
+    its contact stage then sees the rates the joints have), symmetric as the bodies'
+    damping, so the damped motion stays second order.
+    Limits (:mod:`~rbd_ros.core.contact.limits`) are freed at each step's start and held by
+    the pre-stabilization where the drift would cross them.
     """
     shapes, statics, work = Shapes(*shape_fields), Statics(*static_fields), Work(*work_fields)
     n = x.shape[1]
@@ -266,6 +270,11 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
             if joints is not None:
                 post_stabilize(joints, x, work.vel, False)
             if method == kk.MIDPOINT_CAYLEY:
+                # The joints' damping: half its flow before the first half kick, half after
+                # the second, each between two projections (symmetric, as the bodies').
+                if joints is not None:
+                    if damp(joints, x, work.vel, 0.5 * h, False):
+                        post_stabilize(joints, x, work.vel, False)
                 lmom = np.empty((n, 3))
                 # 2. First half kick.
                 for i in range(n):
@@ -279,7 +288,6 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
                     lmom[i, 0], lmom[i, 1], lmom[i, 2] = lx, ly, lz
                 if joints is not None:
                     motors_kick(joints, x, work.vel, 0.5 * h, False)
-                    damp(joints, x, work.vel, 0.5 * h)
                     post_stabilize(joints, x, work.vel, False)
                 # 3. Contacts on the kicked velocities.
                 c1 = contact_stage(x, prm, shapes, statics, h, PHASE_CONTACT, 1, True, wrench,
@@ -307,7 +315,9 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
                     kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
                 if joints is not None:
                     motors_kick(joints, x, work.vel, 0.5 * h, True)
-                    damp(joints, x, work.vel, 0.5 * h)
+                    # The damped joints' rates are the rows' again before the contacts.
+                    if damp(joints, x, work.vel, 0.5 * h, True):
+                        post_stabilize(joints, x, work.vel, False)
                 c2 = contact_stage(x, prm, shapes, statics, h, PHASE_CONTACT, 2, True, wrench,
                                    work, False, joints, VISIT_POST, method)
                 same_pose = True  # the next step's first stage sees this pose
@@ -320,7 +330,7 @@ def world_step(x, prm, ld, t, method, h, dt_ns, n_steps, shape_fields, static_fi
                     kk._write_state(x, i, (px, py, pz, qw, qx, qy, qz, vx, vy, vz, wx, wy, wz))
                 if joints is not None:
                     motors_kick(joints, x, work.vel, h, False)
-                    damp(joints, x, work.vel, h)
+                    damp(joints, x, work.vel, h, True)
                     post_stabilize(joints, x, work.vel, False)
                 c1 = contact_stage(x, prm, shapes, statics, h, PHASE_CONTACT, 1, True, wrench,
                                    work, True, joints, VISIT_PRE, method)
