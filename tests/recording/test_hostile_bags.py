@@ -253,27 +253,38 @@ def test_the_documented_bounds():
     assert MAX_ARRAY_ITEMS == 10 * MAX_BODIES
 
 
+def dump(data):
+    """
+    Return ``data`` as YAML, by libyaml's emitter where PyYAML has it.
+
+    The same text as ``yaml.safe_dump`` (both sort keys and use block style), written ~4 times
+    faster: the pure-Python emitter took ~5 s of CPU per list of MAX_YAML_ITEMS items, most of
+    the test below.
+    """
+    return yaml.dump(data, Dumper=getattr(yaml, 'CSafeDumper', yaml.SafeDumper))
+
+
 def test_yaml_collections_past_the_item_limit_are_refused_while_parsing():
     """A list or map at its limit is read; one more item is refused, naming its key."""
-    at_limit = yaml.safe_dump({'body_names': [f'b{i}' for i in range(MAX_YAML_ITEMS)]})
+    at_limit = dump({'body_names': [f'b{i}' for i in range(MAX_YAML_ITEMS)]})
     assert len(load_yaml(at_limit, 'doc')['body_names']) == MAX_YAML_ITEMS
-    over = yaml.safe_dump({'x': 1, 'nested': {'body_names': list(range(MAX_YAML_ITEMS + 1))}})
+    over = dump({'x': 1, 'nested': {'body_names': list(range(MAX_YAML_ITEMS + 1))}})
     with pytest.raises(RecordingError, match=r"^doc: the list 'body_names' has more than "
                                              f'{MAX_YAML_ITEMS} items'):
         load_yaml(over, 'doc')
     # A configuration's lists are held to the node's bound on an array parameter.
     array = {'body_names': list(range(MAX_ARRAY_ITEMS))}
-    assert len(load_yaml(yaml.safe_dump(array), 'c', configuration=True)['body_names']) == \
+    assert len(load_yaml(dump(array), 'c', configuration=True)['body_names']) == \
         MAX_ARRAY_ITEMS
     array['body_names'].append(0)
     with pytest.raises(RecordingError, match=r"^c: the list 'body_names' has more than "
                                              f'{MAX_ARRAY_ITEMS} items .*MAX_ARRAY_ITEMS'):
-        load_yaml(yaml.safe_dump(array), 'c', configuration=True)
+        load_yaml(dump(array), 'c', configuration=True)
     flat = {f'k{i}': i for i in range(MAX_YAML_ITEMS)}
-    assert len(load_yaml(yaml.safe_dump(flat), 'doc')) == MAX_YAML_ITEMS
+    assert len(load_yaml(dump(flat), 'doc')) == MAX_YAML_ITEMS
     flat[f'k{MAX_YAML_ITEMS}'] = 0
     with pytest.raises(RecordingError, match=f'^doc: the map has more than {MAX_YAML_ITEMS}'):
-        load_yaml(yaml.safe_dump(flat), 'doc')
+        load_yaml(dump(flat), 'doc')
     # Parsed by libyaml, read as PyYAML's safe loader reads it.
     text = (REPO / 'msg_config' / 'stack.yaml').read_text()
     assert load_yaml(text, 'doc') == yaml.safe_load(text)
