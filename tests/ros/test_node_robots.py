@@ -106,6 +106,8 @@ def test_joint_friction_holds_a_pendulum_and_damping_decays_another(start_node, 
         'robots.damped.urdf_path': str(URDF / 'pendulum.urdf'),
         'robots.damped.initial_joint_positions': [theta_damped],
         'robots.damped.joints.pivot.damping': damping, 'gravity': [0.0, 0.0, -G],
+        # one URDF's links twice: each robot's TF frames its own
+        'robots.damped.frame_prefix': 'damped/',
         'duration_s': 8.0, 'publish_rate_hz': 1000.0})
     held = _joint_states(bag, '/held/joint_states')
     assert len(held) == 8001
