@@ -261,11 +261,8 @@ class NodeConfig:
                          f"{robot.name!r} is also in body_names: a robot's topics and a "
                          "body's are both '<name>/...'; name them apart")
             _check_time_constants(robots, world_joints, time_settings['timestep_ns'])
-            frames = _frame_settings(values, bodies)
-            robot_params.check_link_frames(
-                values['world_frame'], {values['world_frame']: 'world_frame', **{
-                    b.body_frame: f'{b.parameter_prefix}body_frame' for b in bodies}}, robots)
-            return cls(bodies=bodies, **time_settings, **frames,
+            return cls(bodies=bodies, **time_settings,
+                       **_frame_settings(values, bodies, robots),
                        **_limits_and_recording(values), parameters=values,
                        static_world=static_world, robots=robots, command_groups=groups,
                        world_joints=world_joints)
@@ -756,8 +753,13 @@ def frame_id_problem(frame):
     return None
 
 
-def _frame_settings(values, bodies=()):
-    """Check the frame ids and keywords; the optional outputs (``/clock``, ``/tf``)."""
+def _frame_settings(values, bodies=(), robots=()):
+    """
+    Check the frame ids and keywords; the optional outputs (``/clock``, ``/tf``).
+
+    Every frame is the node's one: the world's, each body's, each robot link's
+    (:func:`rbd_ros.sim.robots.check_link_frames`, after the others).
+    """
     p = PARAMETERS_BY_NAME
     seen = {values['world_frame']: 'world_frame'}
     for body in bodies:
@@ -781,6 +783,7 @@ def _frame_settings(values, bodies=()):
     for name in ('twist_frame', 'default_wrench_frame'):
         if values[name] not in FRAME_KEYWORDS:
             fail(p[name], values[name], "must be 'world' or 'body'")
+    robot_params.check_link_frames(values['world_frame'], seen, robots)
     return {name: values[name] for name in (
         'world_frame', 'twist_frame', 'default_wrench_frame', 'publish_clock', 'publish_tf',
         'publish_markers')}

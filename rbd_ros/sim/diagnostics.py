@@ -98,9 +98,9 @@ class Diagnostics:
             joint_error = s.simulator.articulated.joint_error()  # None before the first step
             if joint_error is not None:
                 commands['joint_error_max_m'], commands['joint_error_max_rad'] = joint_error
-            if getattr(s.simulator.articulated, 'joint_stats', None) is not None:
-                (commands['joint_contact_loops_max'],
-                 commands['joint_contact_left_max_m_s']) = s.take_joint_loops()
+            loops = s.take_joint_loops()  # None: no joint-contact solve in this world
+            if loops is not None:
+                commands['joint_contact_loops_max'], commands['joint_contact_left_max_m_s'] = loops
         return {
             'sim_time_s': s.time_ns * 1e-9,
             'real_time_factor': (s.time_ns - sim0) / max(1, now - wall0),

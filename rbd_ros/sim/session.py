@@ -320,8 +320,12 @@ class SimSession:
         self.resets += 1
         self.error = None
 
+    def _joint_stats(self):
+        """Return the contact step's joint figures of its last call, None without any."""
+        return getattr(getattr(self.simulator, 'articulated', None), 'joint_stats', None)
+
     def _note_joint_loops(self):
-        stats = getattr(getattr(self.simulator, 'articulated', None), 'joint_stats', None)
+        stats = self._joint_stats()
         if stats is not None:   # a jointed world with contact (its last call's figures)
             loops, left = self._joint_loops
             self._joint_loops = (max(loops, stats[2]), max(left, stats[3]))
@@ -330,14 +334,14 @@ class SimSession:
         """
         Return ``(most joint visits of one contact stage, largest contact violation m/s)``.
 
-        Since the last call, over the steps taken (a jointed world with contact; ``(0, 0.0)``
-        otherwise), and start over. Visits at the cap
+        Since the last call, over the steps taken, and start over; None but in a jointed
+        world with contact. Visits at the cap
         (:data:`rbd_ros.core.contact.joints.JOINT_LOOPS`) are a joint-contact solve that did
         not converge: its steps cost the cap (a squeezed gripper's took ~2.4 s each) and
         leave contacts approaching at the violation.
         """
         figures, self._joint_loops = self._joint_loops, (0, 0.0)
-        return figures
+        return None if self._joint_stats() is None else figures
 
     def pop_releases(self):
         """Return (and forget) one line per release of the inputs of a non-finite step."""
