@@ -275,3 +275,46 @@ def test_a_robot_over_a_ground_without_free_bodies_records_and_replays(
     assert node.wait(120) == 0, node.stderr
     result = replay_bag(str(bag))
     assert result.match, result.problems
+
+
+def test_a_gripper_squeeze_that_does_not_converge_is_a_diagnostics_warning(
+        start_node, probe_for):
+    # README ("what it does not do") and doc/robots.md promise it: a gripper on a velocity
+    # group whose trajectory closes it on a 2 cm box on its palm runs its joint-contact loops
+    # to their cap every step of the squeeze (seconds a step). Through the node: /diagnostics
+    # turns WARN naming the unconverged solve, with the loops at the cap and the contacts left
+    # approaching (tests/sim/test_pacing_diagnostics.py has the session's figures: 0.12 m/s).
+    from rbd_ros.core.contact.joints import JOINT_LOOPS
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+    from builtin_interfaces.msg import Duration
+    node = start_node({
+        'robot_names': ['gripper'],
+        'robots.gripper.urdf_path': str(REPO / 'msg_config' / 'urdf' / 'gripper.urdf'),
+        'gravity': [0.0, 0.0, -9.81], 'body_names': ['box'], 'bodies.box.shape': 'box',
+        'bodies.box.dimensions_m': [0.02, 0.02, 0.02], 'bodies.box.mass_kg': 0.05,
+        'bodies.box.initial_position': [0.0, 0.0, 1.05], 'ground.enabled': True,
+        'command_group_names': ['g'], 'command_groups.g.robot': 'gripper',
+        'command_groups.g.interface': 'velocity', 'start_paused': True,
+        'real_time_factor': 0.0}, namespace=True)
+    probe = probe_for(node, inputs=(), outputs=('diagnostics',))
+    trajectory = probe.node.create_publisher(JointTrajectory, 'g/joint_trajectory', 10)
+    probe.wait(lambda: trajectory.get_subscription_count(), 60, 'the trajectory subscription')
+    trajectory.publish(JointTrajectory(joint_names=['finger_left'], points=[
+        JointTrajectoryPoint(positions=[-0.01], time_from_start=Duration(nanosec=100_000_000)),
+        JointTrajectoryPoint(positions=[0.02], time_from_start=Duration(nanosec=200_000_000))]))
+    probe.diagnostic_values(lambda v: v.get('commands_received') == '1', 30)
+    probe.pause(False)
+
+    def warned():
+        for msg in reversed(probe.diagnostics):
+            status = msg.status[0]
+            values = {kv.key: kv.value for kv in status.values}
+            if 'did not converge' in status.message:
+                return status, values
+        return None
+    status, values = probe.wait(warned, 120, 'a /diagnostics warning of the squeeze')
+    assert status.level == status.WARN, status
+    assert float(values['joint_contact_loops_max']) == JOINT_LOOPS, values
+    assert float(values['joint_contact_left_max_m_s']) > 1e-3, values  # far from 1e-12 m/s
+    assert f'did not converge in {JOINT_LOOPS} joint visits' in status.message, status.message
+    assert node.stop() == 0
