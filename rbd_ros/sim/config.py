@@ -55,8 +55,7 @@ from rbd_ros.sim.params import (body_parameter_specs, BODY_PARAMETERS, check_min
                                 check_range, check_real_time_factor, coerce,
                                 DEFAULT_DIMENSIONS_M, DEFAULT_SHAPE, DOUBLE, fail, fmt,
                                 FRAME_KEYWORDS, input_parameter_specs, INTEGER, MAIN_INPUT,
-                                MAX_BODIES,
-                                MIN_PUBLISH_RATE_HZ, NS_PER_S, obstacle_parameter_specs,
+                                MAX_BODIES, NS_PER_S, obstacle_parameter_specs,
                                 PARAMETERS, PARAMETERS_BY_NAME, position3, refuse_old_names,
                                 to_ns, unit_quaternion, vector3)
 
@@ -720,11 +719,6 @@ def _time_settings(values):
     if values['integrator'] not in INTEGRATORS:
         fail(p['integrator'], values['integrator'], 'must be one of ' + ', '.join(INTEGRATORS))
     timestep_ns = to_ns(p['timestep_s'], values['timestep_s'])
-    if not values['publish_rate_hz'] > 0.0:
-        fail(p['publish_rate_hz'], values['publish_rate_hz'], 'must be > 0')
-    if values['publish_rate_hz'] < MIN_PUBLISH_RATE_HZ:
-        fail(p['publish_rate_hz'], values['publish_rate_hz'],
-             f'must be >= {MIN_PUBLISH_RATE_HZ:g} Hz (a publish period of at most 1e6 s)')
     check_real_time_factor(values['real_time_factor'])
     return {'integrator': values['integrator'], 'timestep_ns': timestep_ns,
             'publish_period_ns': max(1, round(NS_PER_S / values['publish_rate_hz'])),

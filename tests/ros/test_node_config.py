@@ -129,12 +129,13 @@ def test_integer_values_are_accepted_for_doubles():
     ({'shape': 'cone'}, ModelError, "parameter shape = 'cone': must be one of"),
     ({'integrator': 'euler'}, ConfigError, "parameter integrator = 'euler': must be one of"),
     ({'timestep_s': 0.0}, ConfigError, 'parameter timestep_s = 0.0 s: must be > 0'),
-    ({'publish_rate_hz': 0.0}, ConfigError, 'publish_rate_hz = 0.0 Hz: must be > 0'),
+    ({'publish_rate_hz': 0.0}, ConfigError, 'publish_rate_hz = 0.0 Hz: must be >= 1e-06 (a'),
     ({'real_time_factor': -1.0}, ConfigError, 'real_time_factor = -1.0: must be 0, or in'),
     ({'real_time_factor': 5e-324}, ConfigError,
      'real_time_factor = 5e-324: must be 0 (as fast as possible) or in [0.001, 1e+06]'),
     ({'real_time_factor': 2e6}, ConfigError, 'real_time_factor = 2000000.0: must be in'),
-    ({'publish_rate_hz': 1e-300}, ConfigError, 'publish_rate_hz = 1e-300 Hz: must be >= 1e-06'),
+    ({'publish_rate_hz': 1e-300}, ConfigError,
+     'publish_rate_hz = 1e-300 Hz: must be >= 1e-06 (a publish period of at most 1e6 s)'),
     ({'timestep_s': 1e-13}, ConfigError,
      'timestep_s = 1e-13 s: rounds to 0 ns: must be at least 1 ns'),
     ({'wrench_timeout_s': 1e-13}, ConfigError,
@@ -320,3 +321,17 @@ def test_the_documented_rules_state_every_upper_bound():
         rule = rows[spec.name][4]
         high = re.escape(_doc_number(spec.bounds[1]))
         assert re.search(rf'(≤ |, ){high}( |,|\]|$)', rule), (spec.name, rule)
+
+
+def test_the_advertised_range_starts_at_the_smallest_accepted_value():
+    # ros2 param describe shows floating_point_range's from_value: it must be what check_range
+    # accepts, not below it (publish_rate_hz advertised 0.0 while its rule refused < 1e-6).
+    from rbd_ros.ros import parameters as ros_parameters
+    for spec in sim_params.PARAMETERS:
+        if spec.kind != sim_params.DOUBLE or spec.bounds is None:
+            continue
+        (advertised,) = ros_parameters.descriptor(spec).floating_point_range
+        sim_params.check_range(spec, advertised.from_value)  # accepted: raises if refused
+        below = math.nextafter(advertised.from_value, -math.inf)
+        with pytest.raises((ConfigError, ModelError), match=f'parameter {spec.name} = '):
+            sim_params.check_range(spec, below)

@@ -78,7 +78,7 @@ def test_parameters_qos_overrides_and_force_messages_of_a_single_body(start_node
                   for name, d in zip(names, descriptors)}
         assert ranges == {'mass_kg': [(5e-324, 1e12)], 'timestep_s': [(5e-324, 1.0)],
                           'max_force_n': [(5e-324, 1e12)], 'restitution': [(0.0, 1.0)],
-                          'publish_rate_hz': [(0.0, 1e9)]}, ranges
+                          'publish_rate_hz': [(1e-6, 1e9)]}, ranges
         assert descriptors[0].additional_constraints == '> 0'
         # the range is what rclpy enforces on a set: beyond the upper bound is refused
         result = call(probe, SetParameters, 'set_parameters', SetParameters.Request(parameters=[
