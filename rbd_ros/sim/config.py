@@ -51,13 +51,12 @@ from rbd_ros.core.inertia import from_shape, inertia_from_components, SHAPES
 from rbd_ros.sim import robots as robot_params
 from rbd_ros.sim import world_joints as joint_params
 from rbd_ros.sim.meshes import check_sizes, mesh_file, mesh_shape
-from rbd_ros.sim.params import (body_parameter_specs, BODY_PARAMETERS, check_min_size,
-                                check_range, check_real_time_factor, coerce,
-                                DEFAULT_DIMENSIONS_M, DEFAULT_SHAPE, DOUBLE, fail, fmt,
-                                FRAME_KEYWORDS, input_parameter_specs, INTEGER, MAIN_INPUT,
-                                MAX_BODIES, NS_PER_S, obstacle_parameter_specs,
-                                PARAMETERS, PARAMETERS_BY_NAME, position3, refuse_old_names,
-                                to_ns, unit_quaternion, vector3)
+from rbd_ros.sim.params import (body_parameter_specs, BODY_PARAMETERS, check_min_size, check_range,
+                                check_real_time_factor, coerce, DEFAULT_DIMENSIONS_M,
+                                DEFAULT_SHAPE, DOUBLE, fail, fmt, frame_id_problem, FRAME_KEYWORDS,
+                                input_parameter_specs, INTEGER, MAIN_INPUT, MAX_BODIES, NS_PER_S,
+                                obstacle_parameter_specs, PARAMETERS, PARAMETERS_BY_NAME,
+                                position3, refuse_old_names, to_ns, unit_quaternion, vector3)
 
 
 @dataclass(frozen=True)
@@ -726,25 +725,6 @@ def _time_settings(values):
             'duration_ns': to_ns(p['duration_s'], values['duration_s']),
             'start_paused': values['start_paused'],
             'wrench_timeout_ns': to_ns(p['wrench_timeout_s'], values['wrench_timeout_s'])}
-
-
-def frame_id_problem(frame):
-    """
-    Return why ``frame`` cannot be a tf2 frame id, or None.
-
-    tf2 refuses an empty id and one starting with ``/`` (``lookupTransform`` raises "frame_ids
-    cannot start with a '/'"); a whitespace or control character (a NUL ends the id in C)
-    would make a frame that no one can name back.
-    """
-    if not frame:
-        return 'must not be empty'
-    if frame.startswith('/'):
-        return "must not start with '/' (tf2 refuses such frame ids)"
-    for index, char in enumerate(frame):
-        if char.isspace() or not char.isprintable():
-            return (f'holds {char!r} at index {index}: a frame id has no whitespace or '
-                    'control characters')
-    return None
 
 
 def _frame_settings(values, bodies=(), robots=()):

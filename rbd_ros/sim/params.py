@@ -499,6 +499,25 @@ def coerce(spec, value):
     raise AssertionError(kind)  # pragma: no cover - the table only uses the kinds above
 
 
+def frame_id_problem(frame):
+    """
+    Return why ``frame`` cannot be a tf2 frame id, or None.
+
+    tf2 refuses an empty id and one starting with ``/`` (``lookupTransform`` raises "frame_ids
+    cannot start with a '/'"); a whitespace or control character (a NUL ends the id in C)
+    would make a frame that no one can name back.
+    """
+    if not frame:
+        return 'must not be empty'
+    if frame.startswith('/'):
+        return "must not start with '/' (tf2 refuses such frame ids)"
+    for index, char in enumerate(frame):
+        if char.isspace() or not char.isprintable():
+            return (f'holds {char!r} at index {index}: a frame id has no whitespace or '
+                    'control characters')
+    return None
+
+
 def check_range(spec, value):
     """
     Refuse a number outside ``spec.bounds``: the one home of every range and ``> 0`` rule.

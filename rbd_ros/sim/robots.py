@@ -57,13 +57,13 @@ motor, and no damping or friction but what the URDF or the parameters give.
 """
 
 from dataclasses import dataclass, replace
-import re
 from typing import Dict, Mapping, Tuple
 
 from rbd_ros.core import ConfigError, RbdError
 from rbd_ros.core.contact.world import is_valid_name, NAME_RULE
 from rbd_ros.sim.joint_commands import INTERFACES, JointSpec
 from rbd_ros.sim.params import (BOOL, check_range, coerce, DOUBLE, DOUBLE_ARRAY, fail,
+                                frame_id_problem,
                                 PARAMETERS_BY_NAME, ParamSpec, position3, STRING,
                                 STRING_ARRAY, unit_quaternion)
 
@@ -76,10 +76,6 @@ DEFAULT_POSITION_TIME_CONSTANT_S = 0.05
 MAX_ROBOTS = 100
 #: The bound advertised for a joint's damping and friction (no natural limit; as params').
 MAX_JOINT_DYNAMICS = 1e12
-
-#: What a ``frame_prefix`` may hold: empty, or letters, digits, ``_ . - /``, not starting with
-#: ``/`` (tf2 refuses frame ids that do) and at most 256 characters.
-FRAME_PREFIX_RULE = re.compile(r'(?:[A-Za-z0-9_][A-Za-z0-9_./-]{0,255})?')
 
 ROBOT_NAMES_SPEC = PARAMETERS_BY_NAME[ROBOT_NAMES]
 GROUP_NAMES_SPEC = PARAMETERS_BY_NAME[GROUP_NAMES]
@@ -191,8 +187,8 @@ def robot_parameter_specs(name: str) -> Tuple[ParamSpec, ...]:
         ParamSpec(prefix + 'frame_prefix', STRING, '', '',
                   f'Robot {name!r}: put before its link names to make their TF frame ids '
                   "(as robot_state_publisher's frame_prefix; the world link excepted).",
-                  rule='empty, or letters, digits, _ . - / (not first), at most 256; '
-                       'every TF frame of the node unique'),
+                  rule='empty, or no leading / (tf2 refuses it), whitespace or control '
+                       'characters; every TF frame of the node unique'),
     )
 
 
@@ -313,10 +309,10 @@ def _read_robot(params, name, gravity_w):
         raise ConfigError(f'parameter {prefix}urdf_path / {prefix}robot_description: {given} '
                           'given; give exactly one (a URDF file, or its XML)',
                           field=prefix + 'urdf_path', value=path)
-    if not FRAME_PREFIX_RULE.fullmatch(values['frame_prefix']):
-        fail(by_base['frame_prefix'], values['frame_prefix'],
-             "must be empty, or letters, digits, '_', '.', '-' and '/' (not first), "
-             'at most 256 characters')
+    # A prefix starts every link frame of the robot: the frame id rule of every frame holds.
+    problem = values['frame_prefix'] and frame_id_problem(values['frame_prefix'])
+    if problem:
+        fail(by_base['frame_prefix'], values['frame_prefix'], problem)
     position = position3(by_base['initial_position'], values['initial_position'])
     orientation = unit_quaternion(by_base['initial_orientation'], values['initial_orientation'])
     # Imported here: yourdfpy, lxml and trimesh cost ~0.5 s, paid only by files with robots.
@@ -375,6 +371,11 @@ def check_link_frames(world_frame: str, taken: Mapping[str, str], robots) -> Non
             frame = robot.link_frame(link.name, world_frame)
             if frame == world_frame and link.name == 'world':
                 continue  # the world link is the world frame itself
+            problem = frame_id_problem(frame)  # the URDF's link name (the prefix is checked)
+            if problem:
+                fail(spec, robot.frame_prefix,
+                     f'link {link.name!r} of robot {robot.name!r} would be TF frame '
+                     f'{frame!r}, which {problem}')
             if frame in seen:
                 fail(spec, robot.frame_prefix,
                      f'link {link.name!r} of robot {robot.name!r} would be TF frame '

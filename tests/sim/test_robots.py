@@ -159,7 +159,7 @@ def test_robot_description_takes_the_xml_itself():
     (_arm(**{'joints.wrist.friction': math.inf}), ConfigError,
      'parameter robots.arm.joints.wrist.friction = inf N·m or N'),
     (_arm(frame_prefix='/arm'), ConfigError,
-     "parameter robots.arm.frame_prefix = '/arm': must be empty, or letters"),
+     "parameter robots.arm.frame_prefix = '/arm': must not start with '/'"),
     (_arm(frame_prefix='arm /'), ConfigError, "parameter robots.arm.frame_prefix = 'arm /'"),
 ])
 def test_bad_robot_parameters_are_refused_in_one_line(params, error, words):
@@ -189,6 +189,19 @@ def test_two_robots_of_one_urdf_need_their_own_frames(more, words):
     with pytest.raises(ConfigError) as caught:
         NodeConfig.from_parameters(_two_arms(**more))
     assert words in str(caught.value) and '\n' not in str(caught.value), str(caught.value)
+
+
+def test_a_urdf_link_that_cannot_be_a_tf_frame_is_refused():
+    # A link named 'base link' was broadcast on /tf as a frame id no one can name back (tf2
+    # takes no whitespace); the same rule as world_frame's and every body's, naming the link.
+    xml = ('<robot name="r"><link name="base link"><inertial><mass value="1"/><inertia '
+           'ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link></robot>')
+    with pytest.raises(ConfigError) as caught:
+        NodeConfig.from_parameters({'robot_names': ['r'], 'robots.r.robot_description': xml})
+    assert str(caught.value) == (
+        "parameter robots.r.frame_prefix = '': link 'base link' of robot 'r' would be TF "
+        "frame 'base link', which holds ' ' at index 4: a frame id has no whitespace or "
+        'control characters'), str(caught.value)
 
 
 def test_a_robot_named_like_a_body_is_refused():
