@@ -189,7 +189,7 @@ def _body_model(bag: Bag) -> Tuple[Optional[BodyModel], float]:
     """
     if bag.config is None:
         return None, 0.0
-    from rbd_ros.bag.replay import config_from_bag  # the stored config, its meshes attached
+    from rbd_ros.bag.replay_setup import config_from_bag  # the stored config, its meshes attached
     config = config_from_bag(bag)
     model = config.bodies[0].model if len(config.bodies) == 1 else None
     return model, config.wrench_timeout_ns / NS_PER_S
@@ -384,7 +384,7 @@ def load_world(bag: Bag) -> Dict[str, Any]:
     ``m v²/2 + ω_bᵀ I_b ω_b / 2`` from each body's odometry (twist in its body frame) and its
     stored mass model.
     """
-    from rbd_ros.bag.replay import config_from_bag  # the stored config, its meshes attached
+    from rbd_ros.bag.replay_setup import config_from_bag  # the stored config, its meshes attached
     config = config_from_bag(bag)
     names = [body.name for body in config.bodies]
     topics = {}
@@ -517,7 +517,7 @@ def load_joints(bag: Bag) -> Dict[str, Any]:
 
     :raises RbdError: the recording holds no ``joint_states`` of its joints, or no sample on them.
     """
-    from rbd_ros.bag.replay import config_from_bag  # the stored config, its URDFs inside
+    from rbd_ros.bag.replay_setup import config_from_bag  # the stored config, its URDFs inside
     config = config_from_bag(bag)
     groups = _joint_groups(config)
     states, wrenches = {}, {}
@@ -633,7 +633,7 @@ def animate_bag(bag: Union[str, os.PathLike, Bag], out_path: str) -> int:
     :data:`ANIMATION_FPS` frames per sim second, played in real time.
     """
     from rbd_ros.bag.animate import write_animation
-    from rbd_ros.bag.replay import config_from_bag
+    from rbd_ros.bag.replay_setup import config_from_bag
     if not isinstance(bag, Bag):
         bag = open_bag(bag)
     config = config_from_bag(bag)
