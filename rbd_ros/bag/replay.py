@@ -30,8 +30,8 @@ The inputs are checked too: replay digests the wrenches that took effect
 (:class:`rbd_ros.sim.session.AppliedDigest`) and compares with the digest the node stored in the
 ``rbd_ros.run`` record, bit for bit.  A run that hit a non-finite step must fail again at the
 same sim time with the same message (reproduced, a match).  Log times are checked against the
-recorded configuration before any stepping (:func:`check_times`), so a crafted bag cannot make
-replay step without bound.
+recorded configuration before any stepping (:func:`rbd_ros.bag.replay_setup.check_times`), so a
+crafted bag cannot make replay step without bound.
 
 By default the comparison is bit-exact (every float identical to the last bit, stamps and frame
 ids equal).  ``--tolerance`` relaxes it to ``error <= tolerance`` for each of: position (m,
@@ -48,6 +48,13 @@ on stderr, never a traceback), 3 the replay matches a recorded run that failed (
 step reproduced, or the node's process ended with an exception): never ``MATCH`` for a run
 that did not end as it should; 141 the reader closed the pipe (``replay --json bag | head``:
 no traceback).
+
+This module is the command and :func:`replay_bag`; the stages are its neighbours:
+:mod:`rbd_ros.bag.replay_setup` (the stored configuration, which topic is which, the time
+checks), :mod:`rbd_ros.bag.replayer` (the :class:`Replayer` and its loop over runs),
+:mod:`rbd_ros.bag.replay_compare` (how a sample, a failure and the wrench digest are judged),
+:mod:`rbd_ros.bag.replay_result` (what a replay found, and its summary). Their public names
+are importable from here too.
 """
 
 import argparse

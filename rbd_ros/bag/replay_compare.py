@@ -15,28 +15,32 @@
 """
 Replay's judgements: a recomputed output sample against the recorded one, and the run's end.
 
-:func:`_compare` holds one sample to the recorded message field by field (:func:`_fields`):
-bit-exact by default, else ``error <= tolerance`` in each field's unit (position m as the
-Euclidean norm of the difference, orientation rad as the geodesic angle, velocities m/s and
-rad/s, forces N, torques N m, joint values in their joint's unit), errors kept as maxima in
-:class:`rbd_ros.bag.replay_result.TopicResult`.  :func:`_judge_failure` judges a non-finite step
-(reproduced, or a mismatch) and :func:`_judge_digest` the applied wrenches against the digest
-the node stored, bit for bit.
+:func:`compare_fields` holds one sample to the recorded message field by field
+(:func:`message_fields`): bit-exact by default, else ``error <= tolerance`` in each field's unit
+(position m as the Euclidean norm of the difference, orientation rad as the geodesic angle,
+velocities m/s and rad/s, forces N, torques N m, joint values in their joint's unit), errors
+kept as maxima in :class:`rbd_ros.bag.replay_result.TopicResult`.  :func:`judge_failure` judges
+a non-finite step (reproduced, or a mismatch) and :func:`judge_digest` the applied wrenches
+against the digest the node stored, bit for bit.
 
 Neighbours: :mod:`rbd_ros.bag.replayer` calls these as it steps,
 :mod:`rbd_ros.bag.replay_result` holds what they find.
 """
 
 import math
+from typing import Any, Dict, Optional, Tuple
 
 import numpy as np
 from rbd_ros.bag import recorder as run_record
+from rbd_ros.bag.recording import Bag
+from rbd_ros.bag.replay_result import ReplayResult, TopicResult
 from rbd_ros.core.rotations import quat_angle_between
 from rbd_ros.msgs import conversions
 from rbd_ros.msgs import outputs
+from rbd_ros.sim.session import AppliedDigest
 
 
-def _fields(kind, msg):
+def message_fields(kind: str, msg) -> Tuple[int, tuple, Dict[str, Any]]:
     """Return ``(stamp_ns, frame_ids, {field: array})`` of an output message, by field name."""
     vec, quat = conversions.vector_from_msg, conversions.quaternion_from_msg
     if kind == 'clock':
@@ -70,15 +74,15 @@ def expected_message(kind, state, config, contact_wrench=None):
     return outputs.sample_builder(config).message(kind, state, contact_wrench)
 
 
-#: The compared fields of each output kind (see :func:`_fields`).
-_KIND_FIELDS = {'pose': ('position', 'orientation'), 'twist': ('linear', 'angular'),
-                'odom': ('position', 'orientation', 'linear', 'angular'),
-                'contact_wrench': ('force', 'torque'), 'clock': (),
-                'joint_states': ('joint_position', 'joint_velocity', 'joint_effort'),
-                'joint_wrenches': ('joint_force', 'joint_torque')}
+#: The compared fields of each output kind (see :func:`message_fields`).
+KIND_FIELDS = {'pose': ('position', 'orientation'), 'twist': ('linear', 'angular'),
+               'odom': ('position', 'orientation', 'linear', 'angular'),
+               'contact_wrench': ('force', 'torque'), 'clock': (),
+               'joint_states': ('joint_position', 'joint_velocity', 'joint_effort'),
+               'joint_wrenches': ('joint_force', 'joint_torque')}
 
 
-_ERROR_FIELDS = {
+ERROR_FIELDS = {
     'position': 'max_position_error_m',
     'orientation': 'max_orientation_error_rad',
     'linear': 'max_linear_velocity_error_m_s',
@@ -93,10 +97,11 @@ _ERROR_FIELDS = {
 }
 
 
-def _compare(result, kind, t_ns, expected, recorded, tolerance):
+def compare_fields(result: TopicResult, kind: str, t_ns: int, expected: Any, recorded: Any,
+                   tolerance: Optional[float]) -> bool:
     """Compare one sample; update ``result``; return True on match."""
-    e_stamp, e_frames, e_fields = _fields(kind, expected)
-    r_stamp, r_frames, r_fields = _fields(kind, recorded)
+    e_stamp, e_frames, e_fields = message_fields(kind, expected)
+    r_stamp, r_frames, r_fields = message_fields(kind, recorded)
     result.samples += 1
     reasons = []
     if e_stamp != r_stamp:
@@ -117,7 +122,7 @@ def _compare(result, kind, t_ns, expected, recorded, tolerance):
             error = float(np.linalg.norm(np.subtract(e_value, r_value)))
         if not math.isfinite(error):
             error = math.inf
-        result.take_error(_ERROR_FIELDS[name], error)
+        result.take_error(ERROR_FIELDS[name], error)
         if not exact:
             result.bit_exact = False
         if (not exact) if tolerance is None else not error <= tolerance:
@@ -131,7 +136,8 @@ def _compare(result, kind, t_ns, expected, recorded, tolerance):
     return True
 
 
-def _judge_failure(result, recorded, replayed, study):
+def judge_failure(result: ReplayResult, recorded: Optional[Tuple[int, str]],
+                  replayed: Optional[Tuple[int, str]], study: bool) -> None:
     """Judge a non-finite step: reproduced (same sim time, same cause) or a mismatch."""
     if recorded is None and replayed is None:
         return
@@ -155,7 +161,7 @@ def _judge_failure(result, recorded, replayed, study):
             f'failed at t = {replayed[0]} ns ({replayed[1]})')
 
 
-def _judge_digest(result, bag, digest, study):
+def judge_digest(result: ReplayResult, bag: Bag, digest: AppliedDigest, study: bool) -> None:
     """Compare the wrenches applied on replay with what the node applied, bit for bit."""
     run = bag.run_metadata or {}
     if study:
@@ -177,7 +183,8 @@ def _judge_digest(result, bag, digest, study):
             'what the node applied')
 
 
-def _restamp(kind, msg, t_ns):
+def restamp(kind: str, msg, t_ns: int) -> Any:
+    """Set the stamp of the output message ``msg`` of ``kind`` to ``t_ns``; return ``msg``."""
     stamp = conversions.time_to_msg(t_ns)
     if kind == 'clock':
         msg.clock = stamp

@@ -31,7 +31,7 @@ import hashlib
 import os
 from pathlib import Path
 import tempfile
-from typing import Collection, Iterable, Optional, Tuple, Union
+from typing import Collection, Dict, Iterable, Optional, Tuple, Union
 import warnings
 
 from rbd_ros.bag import recorder as run_record
@@ -43,6 +43,7 @@ from rbd_ros.msgs import outputs
 from rbd_ros.msgs import type_names as types
 from rbd_ros.sim.config import NodeConfig
 from rbd_ros.sim.params import recorded_parameters
+from rbd_ros.sim.session import SimSession
 
 
 WRENCH_TYPE = types.WRENCH_STAMPED
@@ -124,7 +125,7 @@ def _use_attached_meshes(bag, params):
         params[name] = str(target)
 
 
-def _compared_kinds(config, builder):
+def compared_kinds(config: NodeConfig, builder: outputs.SampleBuilder) -> Dict[str, str]:
     """
     Return ``{kind: type name}`` of the compared outputs: each body's, and ``clock``.
 
@@ -147,7 +148,7 @@ def _compared_kinds(config, builder):
 COMMAND_TYPES = (types.JOINT_STATE, types.FLOAT64_MULTI_ARRAY, types.JOINT_TRAJECTORY)
 
 
-def _command_for_topic(session, topic):
+def command_for_topic(session: SimSession, topic: str) -> Optional[str]:
     """Map a recorded command topic to its input (``<robot>/joint_command``, ...), or None."""
     if session.commands is None:
         return None
@@ -166,7 +167,7 @@ def command_payload(msg) -> Union[list, tuple]:
     return conversions.joint_command_from_msg(msg)
 
 
-def _output_kind(kinds, topic, type_name):
+def output_kind(kinds: Dict[str, str], topic: str, type_name: str) -> Optional[str]:
     """
     Return the compared kind of a recorded topic, or None (an input, or not compared).
 
@@ -186,7 +187,7 @@ def _output_kind(kinds, topic, type_name):
     return best
 
 
-def _drag_for_topic(session, topic):
+def drag_for_topic(session: SimSession, topic: str) -> str:
     """Map a recorded drag topic (``drag``, ``<body>/drag``, ``/clicked_point``) to its input."""
     if topic == '/clicked_point':
         return 'clicked_point'
@@ -197,7 +198,7 @@ def _drag_for_topic(session, topic):
                       f'configuration (inputs: {list(session.drags.input_names)})')
 
 
-def _input_for_topic(config, topic):
+def input_for_topic(config: NodeConfig, topic: str) -> str:
     """Map an absolute recorded wrench topic to the input whose (relative) topic it ends with."""
     best = None
     for spec in config.wrench_inputs:

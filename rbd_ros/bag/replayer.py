@@ -32,12 +32,12 @@ from typing import Iterable, List, Optional
 from rbd_ros.bag import recorder as run_record
 from rbd_ros.bag.reader import split_runs
 from rbd_ros.bag.recording import Bag, RawMessage
-from rbd_ros.bag.replay_compare import (_compare, _ERROR_FIELDS, _judge_digest, _judge_failure,
-                                        _KIND_FIELDS, _restamp)
+from rbd_ros.bag.replay_compare import (compare_fields, ERROR_FIELDS, judge_digest,
+                                        judge_failure, KIND_FIELDS, restamp)
 from rbd_ros.bag.replay_result import ReplayResult, TopicResult
-from rbd_ros.bag.replay_setup import (_command_for_topic, _compared_kinds, _drag_for_topic,
-                                      _input_for_topic, _output_kind, check_times,
-                                      command_payload, COMMAND_TYPES, config_from_bag,
+from rbd_ros.bag.replay_setup import (check_times, command_for_topic, command_payload,
+                                      COMMAND_TYPES, compared_kinds, config_from_bag,
+                                      drag_for_topic, input_for_topic, output_kind,
                                       OUTPUT_KINDS, POINT_TYPE, recorded_failure, ReplayError,
                                       WRENCH_TYPE)
 from rbd_ros.core import NonFiniteError
@@ -107,19 +107,19 @@ class Replayer:
         self.kinds = {}  # output topic -> kind ('pose', 'twist', 'odom', 'clock')
         self.inputs = {}  # wrench topic -> input name
         self._builder = outputs.sample_builder(self.config)
-        compared = _compared_kinds(self.config, self._builder)
+        compared = compared_kinds(self.config, self._builder)
         for topic, info in bag.topics.items():
-            kind = _output_kind(compared, topic, info.type_name)  # 'pose', '<body>/pose', ...
+            kind = output_kind(compared, topic, info.type_name)  # 'pose', '<body>/pose', ...
             if kind is not None:
                 self.kinds[topic] = kind  # contact_wrench too: the node refuses it as input
             elif info.type_name in OUTPUT_KINDS:
                 continue  # the /clock of named bodies: their per-body samples are compared
             elif info.type_name == WRENCH_TYPE:
-                self.inputs[topic] = _input_for_topic(self.config, topic)
+                self.inputs[topic] = input_for_topic(self.config, topic)
             elif info.type_name == POINT_TYPE:
-                self.inputs[topic] = _drag_for_topic(self.session, topic)
-            elif info.type_name in COMMAND_TYPES and _command_for_topic(self.session, topic):
-                self.inputs[topic] = _command_for_topic(self.session, topic)
+                self.inputs[topic] = drag_for_topic(self.session, topic)
+            elif info.type_name in COMMAND_TYPES and command_for_topic(self.session, topic):
+                self.inputs[topic] = command_for_topic(self.session, topic)
         self.result = ReplayResult(
             bag=str(bag.path), finalised=bag.finalised, notes=[],
             integrator=self.config.integrator, timestep_ns=self.config.timestep_ns,
@@ -216,8 +216,8 @@ class Replayer:
                                       'not replayed')
         finally:
             bar.close()
-        _judge_failure(result, self.failure, replay_failure, self.study)
-        _judge_digest(result, self.bag, self.digest, self.study)
+        judge_failure(result, self.failure, replay_failure, self.study)
+        judge_digest(result, self.bag, self.digest, self.study)
         run = self.bag.run_metadata or {}
         if run.get(run_record.RUN_EXCEPTION):
             when = run.get(run_record.RUN_EXCEPTION_TIME_NS, '?')
@@ -326,8 +326,8 @@ class Replayer:
             return False
         result = self.result.topics[raw.topic]
         result.samples += 1
-        for name in _KIND_FIELDS[kind.rsplit('/', 1)[-1]]:
-            result.take_error(_ERROR_FIELDS[name], 0.0)
+        for name in KIND_FIELDS[kind.rsplit('/', 1)[-1]]:
+            result.take_error(ERROR_FIELDS[name], 0.0)
         return True
 
     def compare_sample(self, raw: RawMessage, msg) -> bool:
@@ -338,8 +338,8 @@ class Replayer:
                                                    self.session.simulator)
             if self.session.time_ns != t:
                 expected.header.stamp = conversions.time_to_msg(t)
-            return _compare(self.result.topics[raw.topic], kind.rsplit('/', 1)[-1], t,
-                            expected, msg, self.tolerance)
+            return compare_fields(self.result.topics[raw.topic], kind.rsplit('/', 1)[-1], t,
+                                  expected, msg, self.tolerance)
         index = self._builder.body_index(kind) or 0  # clock: body 0's time
         wrenches = self.session.contact_wrenches_w
         wrench = None if wrenches is None else (wrenches[index][:3].tolist(),
@@ -349,5 +349,6 @@ class Replayer:
         if self.session.time_ns != t:
             # Replayed with another step: compare the values at the first step end at or after
             # t (the stamp is not what is being studied).
-            expected = _restamp(kind, expected, t)
-        return _compare(self.result.topics[raw.topic], kind, t, expected, msg, self.tolerance)
+            expected = restamp(kind, expected, t)
+        return compare_fields(self.result.topics[raw.topic], kind, t, expected, msg,
+                              self.tolerance)
