@@ -15,24 +15,15 @@
 """
 Plot a recording to one PNG (``ros2 run rbd_ros plot <bag> [-o out.png]``), headless.
 
-Panels over sim time (s): COM position (m, world); orientation as the rotation vector
-``quat_log(q_wb)`` (rad, world); linear velocity ``v_w`` (m/s, world); angular velocity ``ω_b``
-(rad/s, body); the applied wrenches (force N and torque N·m of each input, as received, held
-from the step they took effect at until replaced or until ``wrench_timeout_s``); the kinetic
-energy (J; and the total mechanical energy when there is gravity) and ``|L|`` about the COM
-(kg·m²/s, ``|I_b ω_b|``).
-
-A robot recording (``robot_names``) gets its own figure (:func:`draw_robots`): every moving
-joint's position, velocity and motor effort from ``<robot>/joint_states`` (rad or m, rad/s or
-m/s, N m or N, as the joint is revolute or prismatic), and the magnitude of every joint's
-constraint force from ``<robot>/joint_wrenches`` (N). A world of several bodies gets
-:func:`draw_world`, and with joints between its bodies (``joint_names``) the same four joint
-panels below, from its ``joint_states`` and ``joint_wrenches`` (:func:`load_joints`).
-
-The state comes from ``odom`` (pose in world, twist in body coordinates, REP 105), or from
-``pose`` + ``twist`` when there is no odometry.  Energy and momentum need the body model, which
-is rebuilt from the configuration stored in the recording.  Messages are decoded with the
-schemas stored in the file; rclpy is not imported.
+:func:`render` draws the figure the stored configuration asks for: a robot recording
+(``robot_names``) the joint panels of :func:`rbd_ros.bag.plot_joints.draw_robots`; a world of
+several bodies (``body_names``) :func:`rbd_ros.bag.plot_world.draw_world`, with the same joint
+panels below when it has joints; else a single body's eight panels,
+:func:`rbd_ros.bag.plot_body.draw`. Each figure draws the recording's last run
+(:mod:`rbd_ros.bag.plot_common`: after ``~/reset`` calls the title says of how many).
+``--animate`` also writes an animation of the bodies (:func:`animate_bag`, drawn by
+:mod:`rbd_ros.bag.animate`). Messages are decoded with the schemas stored in the file; rclpy is
+not imported. The figures' public names are importable from here too.
 """
 
 import argparse

@@ -15,6 +15,17 @@
 """
 The figure of a single body's recording: eight panels over sim time (:func:`draw`).
 
+Panels over sim time (s): COM position (m, world); orientation as the rotation vector
+``quat_log(q_wb)`` (rad, world); linear velocity ``v_w`` (m/s, world); angular velocity ``ω_b``
+(rad/s, body); the applied wrenches (force N and torque N·m of each input, as received, held
+from the step they took effect at until replaced or until ``wrench_timeout_s``); the kinetic
+energy (J; and the total mechanical energy when there is gravity) and ``|L|`` about the COM
+(kg·m²/s, ``|I_b ω_b|``).
+
+The state comes from ``odom`` (pose in world, twist in body coordinates, REP 105), or from
+``pose`` + ``twist`` when there is no odometry.  Energy and momentum need the body model, which
+is rebuilt from the configuration stored in the recording.
+
 Neighbours: :mod:`rbd_ros.bag.plot_common` (what every figure shares), the other figures
 :mod:`rbd_ros.bag.plot_world` and :mod:`rbd_ros.bag.plot_joints`, the command
 :mod:`rbd_ros.bag.plot`.
@@ -24,8 +35,8 @@ import os
 from typing import Any, Dict, List, Optional, Tuple, Union
 
 import numpy as np
-from rbd_ros.bag.plot_common import (_check_samples, _finish, _note, _panel_summaries, _pyplot,
-                                     last_run)
+from rbd_ros.bag.plot_common import (agg_pyplot, check_samples, finish_figure, last_run,
+                                     note_panel, panel_summaries)
 from rbd_ros.bag.recording import Bag, open_bag
 from rbd_ros.core import BodyState, RbdError
 from rbd_ros.core.model import BodyModel
@@ -72,7 +83,7 @@ def load_series(bag: Bag) -> Dict[str, Any]:
     twist_frame = (bag.config or {}).get('twist_frame', 'world')
     rows, wrenches = _read_samples(bag, state_topics, wrench_topics, twist_frame)
     times = sorted(rows)
-    _check_samples(bag, times, state_topics)
+    check_samples(bag, times, state_topics)
     series = _state_series(rows, times)
     model, timeout_s = _body_model(bag)
     return {'t_s': np.array(times, dtype=float) / NS_PER_S, **series,
@@ -238,7 +249,7 @@ def _draw_wrenches(axes, data: Dict[str, Any], notes: List[Optional[str]]) -> No
         if drawn:
             ax.legend(fontsize=7, loc='best', ncol=2)
         else:
-            notes[panel] = _note(ax, 'no wrench recorded')
+            notes[panel] = note_panel(ax, 'no wrench recorded')
 
 
 def _body_states(data: Dict[str, Any]) -> List[Optional[BodyState]]:
@@ -273,7 +284,7 @@ def _draw_invariants(axes, data: Dict[str, Any], notes: List[Optional[str]]) -> 
         axes[7].plot(t, momentum, color='tab:purple', linewidth=1.2, label='|L|')
     else:
         for k, ax in enumerate(axes[6:], 6):
-            notes[k] = _note(ax, 'no body model in the recording')
+            notes[k] = note_panel(ax, 'no body model in the recording')
     for ax in axes[6:]:
         _conserved_scale(ax)
     axes[6].set_title('energy', fontsize=10)
@@ -299,12 +310,12 @@ def draw(bag: Union[str, os.PathLike, Bag],
     if not isinstance(bag, Bag):
         bag = open_bag(bag)
     data = load_series(bag)  # a bag refused is refused before matplotlib's ~0.5 s import
-    plt = _pyplot()
+    plt = agg_pyplot()
     fig, axes = plt.subplots(4, 2, figsize=(13, 12), sharex=True)
     axes = axes.ravel()
     notes = [None] * len(axes)
     _draw_state(axes, data)
     _draw_wrenches(axes, data, notes)
     _draw_invariants(axes, data, notes)
-    _finish(fig, bag, title)
-    return fig, _panel_summaries(axes, notes)
+    finish_figure(fig, bag, title)
+    return fig, panel_summaries(axes, notes)

@@ -40,7 +40,7 @@ def last_run(bag: Bag, topics: List[str]) -> Iterator[Tuple[RawMessage, Any]]:
 
     A plot keyed by sim time would otherwise draw the runs between ``~/reset`` calls over
     each other (a later run's samples in place of an earlier one's, the rest of that one
-    after them); :func:`_finish` says how many runs there were.
+    after them); :func:`finish_figure` says how many runs there were.
     """
     start = ([0] + run_starts(bag.messages(topics)))[-1]  # a first pass: nothing kept
     for index, item in enumerate(bag.decoded_messages(topics)):
@@ -48,20 +48,20 @@ def last_run(bag: Bag, topics: List[str]) -> Iterator[Tuple[RawMessage, Any]]:
             yield item
 
 
-def _check_samples(bag: Bag, times: List[int], topics: List[str]) -> None:
+def check_samples(bag: Bag, times: List[int], topics: List[str]) -> None:
     """Refuse a recording without a sample to plot (an empty figure would say nothing)."""
     if not len(times):
         raise RbdError(f'{bag.mcap_path}: no recorded samples to plot on {sorted(topics)} '
                        '(a recording cut off before its first chunk was complete holds none)')
 
 
-def _note(ax, text: str) -> str:
+def note_panel(ax: Any, text: str) -> str:
     """Write ``text`` in the middle of an empty panel; return it."""
     ax.text(0.5, 0.5, text, ha='center', va='center', transform=ax.transAxes)
     return text
 
 
-def _panel_summaries(axes, notes: List[Optional[str]]) -> List[Dict[str, Any]]:
+def panel_summaries(axes: Any, notes: List[Optional[str]]) -> List[Dict[str, Any]]:
     """Describe each laid-out panel: title, box, every curve's data, note."""
     return [{'title': ax.get_title(), 'box': tuple(ax.get_position().extents),
              'lines': {line.get_label(): (np.asarray(line.get_xdata(), dtype=float),
@@ -70,7 +70,7 @@ def _panel_summaries(axes, notes: List[Optional[str]]) -> List[Dict[str, Any]]:
              'note': note} for ax, note in zip(axes, notes)]
 
 
-def _finish(fig, bag: Bag, title: Optional[str]) -> None:
+def finish_figure(fig: Any, bag: Bag, title: Optional[str]) -> None:
     """Title the figure (the bag's name, and whether it was finalised); lay it out."""
     status = '' if bag.finalised else '  [not finalised]'
     # /diagnostics comes by wall time: paused at t = 0 it repeats t = 0 without a reset
@@ -82,7 +82,7 @@ def _finish(fig, bag: Bag, title: Optional[str]) -> None:
     fig.tight_layout()
 
 
-def _pyplot():
+def agg_pyplot() -> Any:
     """Return ``matplotlib.pyplot`` on the Agg backend (no display needed)."""
     import matplotlib
     matplotlib.use('Agg')

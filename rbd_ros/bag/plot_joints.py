@@ -15,6 +15,13 @@
 """
 The joint panels of a recording: a robot's (:func:`draw_robots`), or a world's joints'.
 
+Four panels: every moving joint's position, velocity and motor effort from its
+``joint_states`` (rad or m, rad/s or m/s, N m or N, as the joint is revolute or prismatic), and
+the magnitude of every joint's constraint force from its ``joint_wrenches`` (N). A robot's
+come from ``<robot>/joint_states`` and ``<robot>/joint_wrenches``; a world with joints between
+its bodies (``joint_names``) has its own ``joint_states`` and ``joint_wrenches``
+(:func:`load_joints` reads both kinds).
+
 Neighbours: :mod:`rbd_ros.bag.plot_common` (what every figure shares),
 :mod:`rbd_ros.bag.plot_world` (draws a jointed world's joints with these panels), the command
 :mod:`rbd_ros.bag.plot`.
@@ -23,8 +30,8 @@ Neighbours: :mod:`rbd_ros.bag.plot_common` (what every figure shares),
 from typing import Any, Dict, List, NamedTuple, Optional, Tuple
 
 import numpy as np
-from rbd_ros.bag.plot_common import (_check_samples, _finish, _note, _panel_summaries, _pyplot,
-                                     last_run)
+from rbd_ros.bag.plot_common import (agg_pyplot, check_samples, finish_figure, last_run,
+                                     note_panel, panel_summaries)
 from rbd_ros.bag.recording import Bag
 from rbd_ros.core import RbdError
 from rbd_ros.msgs import type_names as types
@@ -123,7 +130,7 @@ def load_joints(bag: Bag) -> Dict[str, Any]:
                 if name in index:
                     row[index[name]] = np.linalg.norm(_vec(wrench.force))
     times, force_times = sorted(rows), sorted(force_rows)
-    _check_samples(bag, times, list(states))
+    check_samples(bag, times, list(states))
     table = np.array([rows[t] for t in times]).reshape(-1, 3, n)
     return {'t_s': np.array(times, dtype=float) / NS_PER_S, 'joints': labels, 'units': units,
             'position': table[:, 0], 'velocity': table[:, 1], 'effort': table[:, 2],
@@ -132,7 +139,7 @@ def load_joints(bag: Bag) -> Dict[str, Any]:
             'force_n': np.array([force_rows[t] for t in force_times]).reshape(-1, m)}
 
 
-def _draw_joints(axes, data: Dict[str, Any], notes: List[Optional[str]]) -> None:
+def draw_joints(axes: Any, data: Dict[str, Any], notes: List[Optional[str]]) -> None:
     """Four panels: joint positions, velocities, efforts, and joint force magnitudes."""
     t = data['t_s']
     for k, label in enumerate(data['joints']):
@@ -144,7 +151,7 @@ def _draw_joints(axes, data: Dict[str, Any], notes: List[Optional[str]]) -> None
         axes[panel].set_title(what, fontsize=10)
         axes[panel].set_ylabel(' or '.join(sorted({u[panel] for u in data['units']})))
         if not data['joints']:
-            notes[panel] = _note(axes[panel], 'no moving joint')
+            notes[panel] = note_panel(axes[panel], 'no moving joint')
     drawn = False
     for k, label in enumerate(data['wrench_joints']):
         force = data['force_n'][:, k]
@@ -155,7 +162,7 @@ def _draw_joints(axes, data: Dict[str, Any], notes: List[Optional[str]]) -> None
                       fontsize=10)
     axes[3].set_ylabel('N')
     if not drawn:
-        notes[3] = _note(axes[3], 'no joint wrench recorded')
+        notes[3] = note_panel(axes[3], 'no joint wrench recorded')
     for ax in axes:
         ax.grid(True, alpha=0.3)
         if ax.get_lines() and len(ax.get_lines()) <= 12:
@@ -172,10 +179,10 @@ def draw_robots(bag: Bag, title: Optional[str] = None) -> Tuple[Any, List[Dict[s
         label is ``<robot>/<joint>``.
     """
     data = load_joints(bag)  # a bag refused is refused before matplotlib's ~0.5 s import
-    plt = _pyplot()
+    plt = agg_pyplot()
     fig, axes = plt.subplots(2, 2, figsize=(13, 9), sharex=True)
     axes = axes.ravel()
     notes = [None] * len(axes)
-    _draw_joints(axes, data, notes)
-    _finish(fig, bag, title)
-    return fig, _panel_summaries(axes, notes)
+    draw_joints(axes, data, notes)
+    finish_figure(fig, bag, title)
+    return fig, panel_summaries(axes, notes)

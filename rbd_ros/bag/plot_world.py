@@ -23,9 +23,9 @@ body's figure), the command :mod:`rbd_ros.bag.plot`.
 from typing import Any, Dict, Optional, Tuple
 
 import numpy as np
-from rbd_ros.bag.plot_common import (_check_samples, _finish, _panel_summaries, _pyplot,
-                                     last_run)
-from rbd_ros.bag.plot_joints import _draw_joints, load_joints
+from rbd_ros.bag.plot_common import (agg_pyplot, check_samples, finish_figure, last_run,
+                                     panel_summaries)
+from rbd_ros.bag.plot_joints import draw_joints, load_joints
 from rbd_ros.bag.recording import Bag
 from rbd_ros.msgs.conversions import vector_from_msg as _vec
 from rbd_ros.sim.params import NS_PER_S, recorded_parameters
@@ -61,7 +61,7 @@ def load_world(bag: Bag) -> Dict[str, Any]:
             contact[body][raw.log_time_ns] = np.linalg.norm(
                 _vec(msg.wrench.force) + _vec(msg.wrench.torque))
     times = sorted(set.intersection(*(set(v) for v in odom.values()))) if names else []
-    _check_samples(bag, times, [t for t, (_, kind) in topics.items() if kind == 'odom'])
+    check_samples(bag, times, [t for t, (_, kind) in topics.items() if kind == 'odom'])
     out = {'names': names, 't_s': np.array(times) / NS_PER_S, 'position_w': {},
            'kinetic_j': {}, 'in_contact': np.zeros(len(times))}
     for body in config.bodies:
@@ -90,7 +90,7 @@ def draw_world(bag: Bag, title: Optional[str] = None) -> Tuple[Any, Dict[str, An
     """
     data = load_world(bag)  # a bag refused is refused before matplotlib's ~0.5 s import
     joints = load_joints(bag) if recorded_parameters(bag.config).get('joint_names') else None
-    plt = _pyplot()
+    plt = agg_pyplot()
     rows = 2 if joints is None else 4
     fig, axes = plt.subplots(rows, 2, figsize=(13, 4.5 * rows))
     axes = axes.ravel()
@@ -100,7 +100,7 @@ def draw_world(bag: Bag, title: Optional[str] = None) -> Tuple[Any, Dict[str, An
         for ax in axes[4:]:
             ax.sharex(height)
         below = notes[4:]
-        _draw_joints(axes[4:], joints, below)
+        draw_joints(axes[4:], joints, below)
         notes[4:] = below
     t = data['t_s']
     for name in data['names']:
@@ -123,5 +123,5 @@ def draw_world(bag: Bag, title: Optional[str] = None) -> Tuple[Any, Dict[str, An
         ax.grid(True, alpha=0.3)
         if len(data['names']) <= 12:
             ax.legend(fontsize=8)
-    _finish(fig, bag, title)
-    return fig, {**data, 'joints': joints, 'panels': _panel_summaries(axes, notes)}
+    finish_figure(fig, bag, title)
+    return fig, {**data, 'joints': joints, 'panels': panel_summaries(axes, notes)}
