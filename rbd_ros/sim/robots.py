@@ -320,7 +320,8 @@ def _read_robot(params, name, gravity_w):
     position = position3(by_base['initial_position'], values['initial_position'])
     orientation = unit_quaternion(by_base['initial_orientation'], values['initial_orientation'])
     # Imported here: yourdfpy, lxml and trimesh cost ~0.5 s, paid only by files with robots.
-    from rbd_ros.sim.urdf import load_urdf, place_robot
+    from rbd_ros.sim.robot_placement import place_robot
+    from rbd_ros.sim.urdf import load_urdf
     try:
         robot = load_urdf(path) if path else load_urdf(xml=xml)
         placement = place_robot(
