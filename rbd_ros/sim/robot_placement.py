@@ -34,7 +34,7 @@ from rbd_ros.core.errors import ConfigError, finite_vector
 from rbd_ros.core.joints import Joint
 from rbd_ros.core.rotations import matrix_to_quat, quat_to_matrix
 from rbd_ros.sim.params import MAX_JOINT_POSITION, MAX_JOINT_RATE
-from rbd_ros.sim.urdf import _fail, _pose, MOVING_TYPES, Robot
+from rbd_ros.sim.urdf import frozen_pose, MOVING_TYPES, refuse, Robot
 
 
 @dataclass(frozen=True)
@@ -63,9 +63,9 @@ def _mimic_values(source, robot, q_values, qd_values, given):
                     (qd_values, mult * qd_l, 'initial_joint_velocities', 'rad/s or m/s',
                      given[1])):
                 if was_given and abs(values[k] - value) > 1e-9 * max(1.0, abs(value)):
-                    _fail(ConfigError, source, f'{field}[{k}]', f'{float(values[k])!r} for '
-                          f'joint {name!r}, a mimic of {lead!r}, must be {value!r} (multiplier '
-                          f'{mult!r} times its value plus offset)', float(values[k]), unit)
+                    refuse(ConfigError, source, f'{field}[{k}]', f'{float(values[k])!r} for '
+                           f'joint {name!r}, a mimic of {lead!r}, must be {value!r} (multiplier '
+                           f'{mult!r} times its value plus offset)', float(values[k]), unit)
                 values[k] = value
         return float(q_values[k]), float(qd_values[k])
 
@@ -89,15 +89,15 @@ def _values(source, robot, values, name, unit):
     try:
         array = np.array(values, dtype=np.float64).reshape(-1)
     except (TypeError, ValueError):
-        _fail(ConfigError, source, name, f'{values!r} is not a list of numbers in {unit}',
-              values, unit)
+        refuse(ConfigError, source, name, f'{values!r} is not a list of numbers in {unit}',
+               values, unit)
     if array.size != n:
-        _fail(ConfigError, source, name, f'{array.size} values for {n} moving joints '
-              f'({", ".join(robot.moving_joints)}); one per joint in URDF order, fixed '
-              'joints skipped', list(values), unit)
+        refuse(ConfigError, source, name, f'{array.size} values for {n} moving joints '
+               f'({", ".join(robot.moving_joints)}); one per joint in URDF order, fixed '
+               'joints skipped', list(values), unit)
     if not np.all(np.isfinite(array)):
-        _fail(ConfigError, source, name, f'{array.tolist()} {unit} must be finite',
-              list(values), unit)
+        refuse(ConfigError, source, name, f'{array.tolist()} {unit} must be finite',
+               list(values), unit)
     return array
 
 
@@ -129,8 +129,8 @@ def place_robot(robot: Robot, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0
                          error=ConfigError)
     norm = float(np.linalg.norm(quat))
     if not norm > 1e-9:
-        _fail(ConfigError, source, 'initial_orientation', f'{quat.tolist()} has zero norm, '
-              'not a rotation', quat.tolist())
+        refuse(ConfigError, source, 'initial_orientation', f'{quat.tolist()} has zero norm, '
+               'not a rotation', quat.tolist())
     root_pose = np.eye(4)
     root_pose[:3, :3] = quat_to_matrix(quat / norm)
     root_pose[:3, 3] = position
@@ -147,16 +147,16 @@ def place_robot(robot: Robot, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0
                  'MAX_JOINT_RATE')):
             value = float(values[k])
             if not abs(value) <= bound:
-                _fail(ConfigError, source, f'{field}[{k}]', f'{value!r} {unit} for joint '
-                      f'{name!r} is beyond ±{bound:g} {unit} (rbd_ros.sim.params.'
-                      f'{bound_name})', value, unit)
+                refuse(ConfigError, source, f'{field}[{k}]', f'{value!r} {unit} for joint '
+                       f'{name!r} is beyond ±{bound:g} {unit} (rbd_ros.sim.params.'
+                       f'{bound_name})', value, unit)
         value = float(q_values[k])
         if (joint.lower is not None and value < joint.lower) or \
                 (joint.upper is not None and value > joint.upper):
             unit = 'rad' if joint.kind == 'revolute' else 'm'
-            _fail(ConfigError, source, f'initial_joint_positions[{k}]',
-                  f'{value!r} {unit} for joint {name!r} is outside its limits '
-                  f'[{joint.lower!r}, {joint.upper!r}] {unit}', value, unit)
+            refuse(ConfigError, source, f'initial_joint_positions[{k}]',
+                   f'{value!r} {unit} for joint {name!r} is outside its limits '
+                   f'[{joint.lower!r}, {joint.upper!r}] {unit}', value, unit)
     # forward kinematics, parents first: pose (4x4), v at the link origin, omega (world)
     frames = {robot.root: (root_pose, np.zeros(3), np.zeros(3))}
     pending = list(robot.joints)
@@ -218,5 +218,5 @@ def place_robot(robot: Robot, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0
         joints.append(Joint(joint.name, kind, parent.body, child.body,
                             origin_parent_b=frame_j[:3, 3], origin_child_b=-child.com_m,
                             axis_b=rot @ joint.axis, q_rest=matrix_to_quat(rot), **extra))
-    poses = {name: _pose(frame[0]) for name, frame in frames.items()}
+    poses = {name: frozen_pose(frame[0]) for name, frame in frames.items()}
     return Placement(tuple(models), tuple(states), tuple(joints), poses)

@@ -228,7 +228,8 @@ class RobotConfig:
     :ivar name: its name in ``robot_names``.
     :ivar robot: the :class:`rbd_ros.sim.urdf.Robot` (``robot.urdf`` is what
         ``<name>/robot_description`` publishes).
-    :ivar placement: the :class:`rbd_ros.sim.urdf.Placement` at time 0 (bodies, states, joints).
+    :ivar placement: the :class:`rbd_ros.sim.robot_placement.Placement` at time 0 (bodies,
+        states, joints).
     :ivar time_constants_s: per moving joint (``joint_states`` order), its position time
         constant, s.
     :ivar specs: every parameter of this robot, its joints' included.
@@ -238,7 +239,7 @@ class RobotConfig:
 
     name: str
     robot: object  # rbd_ros.sim.urdf.Robot
-    placement: object  # rbd_ros.sim.urdf.Placement
+    placement: object  # rbd_ros.sim.robot_placement.Placement
     time_constants_s: Tuple[float, ...]
     specs: Tuple[ParamSpec, ...]
     friction: float = 0.5

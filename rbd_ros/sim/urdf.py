@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-Robots from URDF: :func:`load_urdf` reads one, :func:`place_robot` puts it in the world.
+Robots from URDF: :func:`load_urdf` reads one and checks it, with the conventions below.
 
 The XML is parsed strictly by lxml (a malformed file is refused, not recovered) and read by
 ``yourdfpy``; a ``.xacro`` file is expanded by the ``xacro`` package first. Conventions:
@@ -64,7 +64,7 @@ import io
 import math
 import os
 from pathlib import Path
-from typing import Optional, Tuple
+from typing import Any, NoReturn, Optional, Tuple, Type
 import warnings
 
 from lxml import etree
@@ -136,8 +136,9 @@ class RobotJoint:
     ``velocity`` (the ``<limit>`` velocity), ``damping`` and ``friction`` (``<dynamics>``, N m
     s/rad or N s/m and N m or N; simulated on revolute, continuous and prismatic joints) and
     ``mimic`` (``(joint, multiplier, offset)``: held, see the module docstring); ``core`` is
-    the index of its
-    :class:`Joint` in :attr:`Placement.joints`, or None (folded fixed joints, floating).
+    the index of its :class:`rbd_ros.core.joints.Joint` in
+    :attr:`rbd_ros.sim.robot_placement.Placement.joints`, or None (folded fixed joints,
+    floating).
     """
 
     name: str
@@ -186,7 +187,8 @@ class Robot:
         return next(joint for joint in self.joints if joint.name == name)
 
 
-def _fail(error, source, field, detail, value=None, unit=None):
+def refuse(error: Type[RbdError], source: str, field: str, detail: str, value: Any = None,
+           unit: Optional[str] = None) -> NoReturn:
     """Raise ``error('<source>: <field>: <detail>')`` carrying field, value and unit."""
     raise error(f'{source}: {field}: {detail}', field=field, value=value, unit=unit,
                 detail=detail)
@@ -224,26 +226,26 @@ def _parse(source, data):
     try:
         root = etree.fromstring(data, etree.XMLParser(remove_blank_text=True))
     except etree.XMLSyntaxError as exc:
-        _fail(ConfigError, source, 'xml', f'malformed XML: {exc}')
+        refuse(ConfigError, source, 'xml', f'malformed XML: {exc}')
     if root.tag != 'robot':
-        _fail(ConfigError, source, 'xml', f'the root element is <{root.tag}>, not <robot>')
+        refuse(ConfigError, source, 'xml', f'the root element is <{root.tag}>, not <robot>')
     for element in root.iter('link', 'joint'):
         if not element.get('name'):
-            _fail(ModelError, source, f'<{element.tag}> (line {element.sourceline})',
-                  'has no name attribute')
+            refuse(ModelError, source, f'<{element.tag}> (line {element.sourceline})',
+                   'has no name attribute')
     for element in root.iter('joint'):
         for tag in ('parent', 'child'):
             found = element.find(tag)
             if found is None or not found.get('link'):
-                _fail(ModelError, source, f'joint {element.get("name")!r}.{tag}',
-                      f'missing (line {element.sourceline}): a joint needs <{tag} link=...>')
+                refuse(ModelError, source, f'joint {element.get("name")!r}.{tag}',
+                       f'missing (line {element.sourceline}): a joint needs <{tag} link=...>')
         kind = element.get('type')
         if kind in LIMITED_TYPES and element.find('limit') is None:
             # the URDF spec requires it (urdfdom, so robot_state_publisher, refuses the file)
-            _fail(ModelError, source, f'joint {element.get("name")!r}.limit',
-                  f'missing (line {element.sourceline}): a {kind} joint needs <limit '
-                  'lower=... upper=... effort=... velocity=.../> (a joint without limits is '
-                  'continuous)')
+            refuse(ModelError, source, f'joint {element.get("name")!r}.limit',
+                   f'missing (line {element.sourceline}): a {kind} joint needs <limit '
+                   'lower=... upper=... effort=... velocity=.../> (a joint without limits is '
+                   'continuous)')
     for element in root.iter('origin'):
         if element.getparent().tag in ('joint', 'inertial', 'collision', 'visual'):
             _check_origin(source, element)
@@ -252,7 +254,7 @@ def _parse(source, data):
                                   build_collision_scene_graph=False, load_meshes=False,
                                   load_collision_meshes=False).robot
     except (KeyError, ValueError, TypeError, AttributeError, IndexError) as exc:
-        _fail(ConfigError, source, 'xml', f'not a valid URDF ({type(exc).__name__}: {exc})')
+        refuse(ConfigError, source, 'xml', f'not a valid URDF ({type(exc).__name__}: {exc})')
 
 
 def _origin_field(element):
@@ -289,14 +291,14 @@ def _check_origin(source, element):
         except ValueError:
             values = None
         if values is None or len(values) != 3:
-            _fail(ModelError, source, field, f'{text!r} must be 3 numbers in {unit} '
-                  f'(line {element.sourceline})', text, unit)
+            refuse(ModelError, source, field, f'{text!r} must be 3 numbers in {unit} '
+                   f'(line {element.sourceline})', text, unit)
         if not all(math.isfinite(v) for v in values):
-            _fail(ModelError, source, field, f'{values} {unit} must be finite '
-                  f'(line {element.sourceline})', values, unit)
+            refuse(ModelError, source, field, f'{values} {unit} must be finite '
+                   f'(line {element.sourceline})', values, unit)
         if attribute == 'xyz' and any(abs(v) > MAX_POSITION_M for v in values):
-            _fail(ModelError, source, field, f'{values} m: every component must be within '
-                  f'±{MAX_POSITION_M:g} m (line {element.sourceline})', values, unit)
+            refuse(ModelError, source, field, f'{values} m: every component must be within '
+                   f'±{MAX_POSITION_M:g} m (line {element.sourceline})', values, unit)
 
 
 def _number(value, source, field, unit, default=None):
@@ -305,9 +307,9 @@ def _number(value, source, field, unit, default=None):
     try:
         number = float(value)
     except (TypeError, ValueError):
-        _fail(ModelError, source, field, f'{value!r} is not a number in {unit}', value, unit)
+        refuse(ModelError, source, field, f'{value!r} is not a number in {unit}', value, unit)
     if not math.isfinite(number):
-        _fail(ModelError, source, field, f'{number!r} {unit} must be finite', value, unit)
+        refuse(ModelError, source, field, f'{number!r} {unit} must be finite', value, unit)
     return number
 
 
@@ -316,7 +318,7 @@ def _matrix(origin):
     return np.eye(4) if origin is None else np.asarray(origin, dtype=np.float64)
 
 
-def _pose(matrix):
+def frozen_pose(matrix: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
     """Return ``(position, quaternion w x y z)`` of a 4x4, frozen."""
     position = np.array(matrix[:3, 3])
     quat = matrix_to_quat(matrix[:3, :3])
@@ -341,23 +343,23 @@ def _inertial(source, link):
         return None
     who = f'link {link.name!r}'
     if inertial.mass is None:
-        _fail(ModelError, source, f'{who}.inertial.mass', 'missing; <inertial> needs <mass>')
+        refuse(ModelError, source, f'{who}.inertial.mass', 'missing; <inertial> needs <mass>')
     try:
         mass = validate_mass(inertial.mass, 'mass')
     except RbdError as exc:
-        _fail(ModelError, source, f'{who}.inertial.mass', exc.detail or str(exc),
-              inertial.mass, 'kg')
+        refuse(ModelError, source, f'{who}.inertial.mass', exc.detail or str(exc),
+               inertial.mass, 'kg')
     if mass > MAX_MASS_KG:  # 1e308 kg under gravity: an infinite force in the first step
-        _fail(ModelError, source, f'{who}.inertial.mass',
-              f"{mass!r} kg must be <= {MAX_MASS_KG:g} (the mass_kg parameter's bound)",
-              mass, 'kg')
+        refuse(ModelError, source, f'{who}.inertial.mass',
+               f"{mass!r} kg must be <= {MAX_MASS_KG:g} (the mass_kg parameter's bound)",
+               mass, 'kg')
     frame = _matrix(inertial.origin)
     raw = np.asarray(inertial.inertia if inertial.inertia is not None else np.zeros((3, 3)))
     try:
         validate_inertia(raw, 'inertia')
     except RbdError as exc:
-        _fail(ModelError, source, f'{who}.inertial.inertia', exc.detail or str(exc),
-              raw.tolist(), 'kg m²')
+        refuse(ModelError, source, f'{who}.inertial.inertia', exc.detail or str(exc),
+               raw.tolist(), 'kg m²')
     rot = frame[:3, :3]
     inertia = rot @ raw @ rot.T
     inertia = 0.5 * (inertia + inertia.T)
@@ -371,7 +373,7 @@ def _collision(source, link, index, element, base_dir, to_body):
     mesh_file = None
     try:
         if geometry is None:
-            _fail(ModelError, source, who, 'has no <geometry>')
+            refuse(ModelError, source, who, 'has no <geometry>')
         if geometry.box is not None:
             shape = primitive_shape('box', geometry.box.size, field=f'{who}.box.')
         elif geometry.cylinder is not None:
@@ -387,27 +389,27 @@ def _collision(source, link, index, element, base_dir, to_body):
             if not os.path.isabs(path):
                 path = os.path.join(base_dir, path)
             if not os.path.isfile(path):
-                _fail(ModelError, source, f'{who}.mesh.filename',
-                      f'{filename!r} ({path}) does not exist or is not a file', filename)
+                refuse(ModelError, source, f'{who}.mesh.filename',
+                       f'{filename!r} ({path}) does not exist or is not a file', filename)
             size = os.path.getsize(path)
             if size > MAX_MESH_FILE_BYTES:  # the limit of every mesh file, before it is read
-                _fail(ModelError, source, f'{who}.mesh.filename',
-                      f'{filename!r} ({path}) is {size} bytes, more than the limit of '
-                      f'{MAX_MESH_FILE_BYTES} bytes', filename)
+                refuse(ModelError, source, f'{who}.mesh.filename',
+                       f'{filename!r} ({path}) is {size} bytes, more than the limit of '
+                       f'{MAX_MESH_FILE_BYTES} bytes', filename)
             scale = geometry.mesh.scale
             scale = (1.0, 1.0, 1.0) if scale is None else np.broadcast_to(scale, 3)
             shape = load_mesh(path, scale, centre=False, field=f'{who}.mesh.')
             mesh_file = (filename, path, tuple(float(f) for f in scale))
         else:
-            _fail(ModelError, source, who, 'has no box, cylinder, sphere or mesh')
+            refuse(ModelError, source, who, 'has no box, cylinder, sphere or mesh')
     except RbdError as exc:
         if str(exc).startswith(source):
             raise
         raise type(exc)(f'{source}: {exc}', field=exc.field, value=exc.value,
                         unit=exc.unit, detail=exc.detail) from None
     origin = _matrix(element.origin)
-    position, quat = _pose(to_body @ origin)
-    return RobotCollision(shape, position, quat, *_pose(origin), mesh_file)
+    position, quat = frozen_pose(to_body @ origin)
+    return RobotCollision(shape, position, quat, *frozen_pose(origin), mesh_file)
 
 
 def _check_tree(source, robot):
@@ -417,29 +419,29 @@ def _check_tree(source, robot):
         seen = set()
         for item in items:
             if item.name in seen:
-                _fail(ModelError, source, f'{kind} {item.name!r}', 'named twice; names must be '
-                      'unique')
+                refuse(ModelError, source, f'{kind} {item.name!r}', 'named twice; names must be '
+                       'unique')
             seen.add(item.name)
     parent_of = {}
     for joint in robot.joints:
         who = f'joint {joint.name!r}'
         if joint.type not in URDF_JOINT_TYPES:
-            _fail(ModelError, source, f'{who}.type', f'{joint.type!r} is not one of '
-                  f'{", ".join(URDF_JOINT_TYPES)}', joint.type)
+            refuse(ModelError, source, f'{who}.type', f'{joint.type!r} is not one of '
+                   f'{", ".join(URDF_JOINT_TYPES)}', joint.type)
         for field in ('parent', 'child'):
             if getattr(joint, field) not in names:
-                _fail(ModelError, source, f'{who}.{field}', f'link {getattr(joint, field)!r} '
-                      'is not a link of the robot', getattr(joint, field))
+                refuse(ModelError, source, f'{who}.{field}', f'link {getattr(joint, field)!r} '
+                       'is not a link of the robot', getattr(joint, field))
         if joint.child in parent_of:
-            _fail(ModelError, source, f'{who}.child', f'link {joint.child!r} is already the '
-                  f'child of joint {parent_of[joint.child].name!r}: a link with two parents '
-                  'is a loop, and a URDF is a tree', joint.child)
+            refuse(ModelError, source, f'{who}.child', f'link {joint.child!r} is already the '
+                   f'child of joint {parent_of[joint.child].name!r}: a link with two parents '
+                   'is a loop, and a URDF is a tree', joint.child)
         parent_of[joint.child] = joint
     roots = [name for name in names if name not in parent_of]
     if len(roots) != 1:
         detail = ('every link is a child: the joints form a loop' if not roots else
                   f'{len(roots)} root links ({", ".join(map(repr, roots))}); a URDF is one tree')
-        _fail(ModelError, source, 'links', detail)
+        refuse(ModelError, source, 'links', detail)
     # a loop not through the root leaves links unreached from it
     reached, frontier = {roots[0]}, [roots[0]]
     while frontier:
@@ -450,8 +452,8 @@ def _check_tree(source, robot):
                 frontier.append(joint.child)
     loose = [name for name in names if name not in reached]
     if loose:
-        _fail(ModelError, source, f'link {loose[0]!r}', 'is on a loop of joints not reached '
-              f'from the root {roots[0]!r}; a URDF is a tree')
+        refuse(ModelError, source, f'link {loose[0]!r}', 'is on a loop of joints not reached '
+               f'from the root {roots[0]!r}; a URDF is a tree')
     return roots[0], parent_of
 
 
@@ -471,8 +473,8 @@ def _joint_values(source, joint):
                            'rad/s' if rotary else 'm/s')
         for name, value in (('effort', effort), ('velocity', velocity)):
             if value is not None and value < 0.0:
-                _fail(ModelError, source, f'{who}.limit.{name}', f'{value!r} must be >= 0',
-                      value)
+                refuse(ModelError, source, f'{who}.limit.{name}', f'{value!r} must be >= 0',
+                       value)
     if joint.type not in ('revolute', 'prismatic'):
         lower = upper = None   # URDF: continuous and the others ignore lower and upper
     else:
@@ -482,8 +484,8 @@ def _joint_values(source, joint):
         lower = 0.0 if lower is None else lower
         upper = 0.0 if upper is None else upper
     if lower is not None and upper is not None and lower > upper:
-        _fail(ModelError, source, f'{who}.limit.lower', f'{lower!r} {unit} is above upper '
-              f'{upper!r} {unit}', lower, unit)
+        refuse(ModelError, source, f'{who}.limit.lower', f'{lower!r} {unit} is above upper '
+               f'{upper!r} {unit}', lower, unit)
     damping = friction = 0.0
     if dynamics is not None:
         units = {'damping': 'N m s/rad' if rotary else 'N s/m',
@@ -494,8 +496,8 @@ def _joint_values(source, joint):
                            units['friction'], 0.0)
         for name, value in (('damping', damping), ('friction', friction)):
             if value < 0.0:
-                _fail(ModelError, source, f'{who}.dynamics.{name}',
-                      f'{value!r} {units[name]} must be >= 0', value, units[name])
+                refuse(ModelError, source, f'{who}.dynamics.{name}',
+                       f'{value!r} {units[name]} must be >= 0', value, units[name])
     mimic = None
     if joint.mimic is not None:
         mimic = (joint.mimic.joint, _number(joint.mimic.multiplier, source,
@@ -512,8 +514,8 @@ def _joint_values(source, joint):
             norm = float(np.linalg.norm(axis))
     if joint.type != 'fixed' and joint.type != 'floating' and not (
             math.isfinite(norm) and norm > 1e-12):
-        _fail(ModelError, source, f'{who}.axis', f'{axis.tolist()} is not a direction',
-              axis.tolist())
+        refuse(ModelError, source, f'{who}.axis', f'{axis.tolist()} is not a direction',
+               axis.tolist())
     axis = axis / norm if norm > 0.0 else np.array([1.0, 0.0, 0.0])
     return lower, upper, effort, velocity, damping, friction, mimic, axis
 
@@ -544,8 +546,8 @@ def load_urdf(path=None, *, xml=None) -> Robot:
             joint = parent_of.get(link.name)
             how = 'the floating root' if joint is None else f'on {joint.type} joint ' \
                 f'{joint.name!r}'
-            _fail(ModelError, source, f'link {link.name!r}.inertial', f'missing: a moving '
-                  f'link ({how}) needs <inertial> with mass and inertia')
+            refuse(ModelError, source, f'link {link.name!r}.inertial', f'missing: a moving '
+                   f'link ({how}) needs <inertial> with mass and inertia')
         body_links.append(link.name)
         return len(body_links) - 1, _translation(-inertials[link.name][1])
 
@@ -569,7 +571,7 @@ def load_urdf(path=None, *, xml=None) -> Robot:
     links = []
     for link in parsed.links:
         body, pose = carriers[link.name]
-        position, quat = _pose(pose)
+        position, quat = frozen_pose(pose)
         collisions = tuple(_collision(source, link, k, element, base_dir, pose)
                            for k, element in enumerate(link.collisions))
         inertial = inertials[link.name]
@@ -602,19 +604,19 @@ def _check_mimics(source, joints):
             continue
         field, leader = f'joint {joint.name!r}.mimic.joint', joint.mimic[0]
         if joint.kind not in MOVING_TYPES:
-            _fail(ModelError, source, field, f'{leader!r}; a {joint.kind} joint cannot mimic '
-                  f'(only {", ".join(MOVING_TYPES)} can)', leader)
+            refuse(ModelError, source, field, f'{leader!r}; a {joint.kind} joint cannot mimic '
+                   f'(only {", ".join(MOVING_TYPES)} can)', leader)
         if leader == joint.name:
-            _fail(ModelError, source, field, f'{leader!r} is the joint itself', leader)
+            refuse(ModelError, source, field, f'{leader!r} is the joint itself', leader)
         if leader not in by_name:
-            _fail(ModelError, source, field, f'{leader!r} is not a joint of this robot', leader)
+            refuse(ModelError, source, field, f'{leader!r} is not a joint of this robot', leader)
         if by_name[leader].kind not in MOVING_TYPES:
-            _fail(ModelError, source, field, f'{leader!r} is a {by_name[leader].kind} joint; a '
-                  f'mimic follows a {", ".join(MOVING_TYPES)} joint', leader)
+            refuse(ModelError, source, field, f'{leader!r} is a {by_name[leader].kind} joint; a '
+                   f'mimic follows a {", ".join(MOVING_TYPES)} joint', leader)
         chain, seen = by_name[leader], {joint.name}
         while chain is not None:
             if chain.name in seen:
-                _fail(ModelError, source, field, f'{leader!r} leads back to {joint.name!r} (a '
-                      'cycle of mimics)', leader)
+                refuse(ModelError, source, field, f'{leader!r} leads back to {joint.name!r} (a '
+                       'cycle of mimics)', leader)
             seen.add(chain.name)
             chain = None if chain.mimic is None else by_name[chain.mimic[0]]
