@@ -15,7 +15,7 @@
 """
 What a replay found: per topic (:class:`TopicResult`), per run (:class:`ReplayResult`), as text.
 
-:class:`rbd_ros.bag.replay.Replayer` fills them; ``replay`` prints :func:`format_summary`, or
+:class:`rbd_ros.bag.replayer.Replayer` fills them; ``replay`` prints :func:`format_summary`, or
 ``--json`` :meth:`ReplayResult.to_dict`. Errors are maxima over a topic's samples, each in its
 field's unit; ``match`` (every sample and wrench identical, or within the tolerance, and no
 problem) decides the exit status.

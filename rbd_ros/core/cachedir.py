@@ -24,7 +24,7 @@ trusted when it is read (numba loads its cache with :mod:`pickle`; the SDF cache
 attached to bags are read back as physics), so whoever could write the folder could run code or
 change results. The users: the numba kernel cache (:mod:`rbd_ros.core.jitcache`), the SDF cache
 (:mod:`rbd_ros.core.contact.shapes`) and replay's copies of a bag's meshes
-(:mod:`rbd_ros.bag.replay`). Nothing here runs at import.
+(:mod:`rbd_ros.bag.replay_setup`). Nothing here runs at import.
 """
 
 import os

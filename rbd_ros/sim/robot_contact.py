@@ -18,10 +18,11 @@ URDF robots in a world with contact: :class:`RobotContactWorld` (no rclpy).
 A params file with ``robot_names`` and free bodies (``body_names``), obstacles or a ground is
 one contact world (:class:`rbd_ros.core.contact.simulator.WorldSimulator`): the free bodies
 first, in ``body_names`` order, then every robot's moving links (the bodies
-:func:`rbd_ros.sim.urdf.place_robot` makes: mass, inertia, folded fixed links), each a world
-body; every URDF joint the core has (revolute, continuous, prismatic, planar, fixed between
-moving links) is a core joint of the contact step, named ``<robot>/<joint>``. A robot-only
-file keeps :class:`rbd_ros.sim.robot_world.RobotWorld` (the joints-only core, no contact).
+:func:`rbd_ros.sim.robot_placement.place_robot` makes: mass, inertia, folded fixed links),
+each a world body; every URDF joint the core has (revolute, continuous, prismatic, planar,
+fixed between moving links) is a core joint of the contact step, named ``<robot>/<joint>``.
+A robot-only file keeps :class:`rbd_ros.sim.robot_world.RobotWorld` (the joints-only core, no
+contact).
 
 **Collision shapes** (:func:`link_shape`). A body's shape comes from the ``<collision>``
 elements of the links it carries (the moving link and the massless links folded into it),

@@ -224,7 +224,8 @@ class RobotConfig:
     :ivar name: its name in ``robot_names``.
     :ivar robot: the :class:`rbd_ros.sim.urdf.Robot` (``robot.urdf`` is what
         ``<name>/robot_description`` publishes).
-    :ivar placement: the :class:`rbd_ros.sim.urdf.Placement` at time 0 (bodies, states, joints).
+    :ivar placement: the :class:`rbd_ros.sim.robot_placement.Placement` at time 0 (bodies,
+        states, joints).
     :ivar time_constants_s: per moving joint (``joint_states`` order), its position time
         constant, s.
     :ivar specs: every parameter of this robot, its joints' included.
@@ -234,7 +235,7 @@ class RobotConfig:
 
     name: str
     robot: object  # rbd_ros.sim.urdf.Robot
-    placement: object  # rbd_ros.sim.urdf.Placement
+    placement: object  # rbd_ros.sim.robot_placement.Placement
     time_constants_s: Tuple[float, ...]
     specs: Tuple[ParamSpec, ...]
     friction: float = 0.5
@@ -316,7 +317,8 @@ def _read_robot(params, name, gravity_w):
     position = position3(by_base['initial_position'], values['initial_position'])
     orientation = unit_quaternion(by_base['initial_orientation'], values['initial_orientation'])
     # Imported here: yourdfpy, lxml and trimesh cost ~0.5 s, paid only by files with robots.
-    from rbd_ros.sim.urdf import load_urdf, place_robot
+    from rbd_ros.sim.robot_placement import place_robot
+    from rbd_ros.sim.urdf import load_urdf
     try:
         robot = load_urdf(path) if path else load_urdf(xml=xml)
         placement = place_robot(

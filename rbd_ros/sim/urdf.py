@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-Robots from URDF: :func:`load_urdf` reads one, :func:`place_robot` puts it in the world.
+Robots from URDF: :func:`load_urdf` reads one and checks it, with the conventions below.
 
 The XML is parsed strictly by lxml (a malformed file is refused, not recovered) and read by
 ``yourdfpy``; a ``.xacro`` file is expanded by the ``xacro`` package first. Conventions:
@@ -64,20 +64,17 @@ import io
 import math
 import os
 from pathlib import Path
-from typing import Optional, Tuple
+from typing import Any, NoReturn, Optional, Tuple, Type
 import warnings
 
 from lxml import etree
 import numpy as np
-from rbd_ros.core import BodyModel, BodyState
 from rbd_ros.core.contact.shapes import CollisionShape, load_mesh, primitive_shape
-from rbd_ros.core.errors import ConfigError, finite_vector, ModelError, RbdError
+from rbd_ros.core.errors import ConfigError, ModelError, RbdError
 from rbd_ros.core.inertia import validate_inertia, validate_mass
-from rbd_ros.core.joints import Joint
-from rbd_ros.core.rotations import matrix_to_quat, quat_to_matrix
+from rbd_ros.core.rotations import matrix_to_quat
 from rbd_ros.sim.meshes import resolve_mesh_path
-from rbd_ros.sim.params import (MAX_JOINT_POSITION, MAX_JOINT_RATE, MAX_MESH_FILE_BYTES,
-                                MAX_POSITION_M, PARAMETERS_BY_NAME)
+from rbd_ros.sim.params import MAX_MESH_FILE_BYTES, MAX_POSITION_M, PARAMETERS_BY_NAME
 import yourdfpy
 
 #: Every URDF joint type.
@@ -139,8 +136,9 @@ class RobotJoint:
     ``velocity`` (the ``<limit>`` velocity), ``damping`` and ``friction`` (``<dynamics>``, N m
     s/rad or N s/m and N m or N; simulated on revolute, continuous and prismatic joints) and
     ``mimic`` (``(joint, multiplier, offset)``: held, see the module docstring); ``core`` is
-    the index of its
-    :class:`Joint` in :attr:`Placement.joints`, or None (folded fixed joints, floating).
+    the index of its :class:`rbd_ros.core.joints.Joint` in
+    :attr:`rbd_ros.sim.robot_placement.Placement.joints`, or None (folded fixed joints,
+    floating).
     """
 
     name: str
@@ -189,17 +187,8 @@ class Robot:
         return next(joint for joint in self.joints if joint.name == name)
 
 
-@dataclass(frozen=True)
-class Placement:
-    """What :class:`rbd_ros.core.joints.ArticulatedSimulator` takes, and each link's pose."""
-
-    models: Tuple[BodyModel, ...]
-    states: Tuple[BodyState, ...]
-    joints: Tuple[Joint, ...]
-    link_poses_w: dict
-
-
-def _fail(error, source, field, detail, value=None, unit=None):
+def refuse(error: Type[RbdError], source: str, field: str, detail: str, value: Any = None,
+           unit: Optional[str] = None) -> NoReturn:
     """Raise ``error('<source>: <field>: <detail>')`` carrying field, value and unit."""
     raise error(f'{source}: {field}: {detail}', field=field, value=value, unit=unit,
                 detail=detail)
@@ -237,26 +226,26 @@ def _parse(source, data):
     try:
         root = etree.fromstring(data, etree.XMLParser(remove_blank_text=True))
     except etree.XMLSyntaxError as exc:
-        _fail(ConfigError, source, 'xml', f'malformed XML: {exc}')
+        refuse(ConfigError, source, 'xml', f'malformed XML: {exc}')
     if root.tag != 'robot':
-        _fail(ConfigError, source, 'xml', f'the root element is <{root.tag}>, not <robot>')
+        refuse(ConfigError, source, 'xml', f'the root element is <{root.tag}>, not <robot>')
     for element in root.iter('link', 'joint'):
         if not element.get('name'):
-            _fail(ModelError, source, f'<{element.tag}> (line {element.sourceline})',
-                  'has no name attribute')
+            refuse(ModelError, source, f'<{element.tag}> (line {element.sourceline})',
+                   'has no name attribute')
     for element in root.iter('joint'):
         for tag in ('parent', 'child'):
             found = element.find(tag)
             if found is None or not found.get('link'):
-                _fail(ModelError, source, f'joint {element.get("name")!r}.{tag}',
-                      f'missing (line {element.sourceline}): a joint needs <{tag} link=...>')
+                refuse(ModelError, source, f'joint {element.get("name")!r}.{tag}',
+                       f'missing (line {element.sourceline}): a joint needs <{tag} link=...>')
         kind = element.get('type')
         if kind in LIMITED_TYPES and element.find('limit') is None:
             # the URDF spec requires it (urdfdom, so robot_state_publisher, refuses the file)
-            _fail(ModelError, source, f'joint {element.get("name")!r}.limit',
-                  f'missing (line {element.sourceline}): a {kind} joint needs <limit '
-                  'lower=... upper=... effort=... velocity=.../> (a joint without limits is '
-                  'continuous)')
+            refuse(ModelError, source, f'joint {element.get("name")!r}.limit',
+                   f'missing (line {element.sourceline}): a {kind} joint needs <limit '
+                   'lower=... upper=... effort=... velocity=.../> (a joint without limits is '
+                   'continuous)')
     for element in root.iter('origin'):
         if element.getparent().tag in ('joint', 'inertial', 'collision', 'visual'):
             _check_origin(source, element)
@@ -265,7 +254,7 @@ def _parse(source, data):
                                   build_collision_scene_graph=False, load_meshes=False,
                                   load_collision_meshes=False).robot
     except (KeyError, ValueError, TypeError, AttributeError, IndexError) as exc:
-        _fail(ConfigError, source, 'xml', f'not a valid URDF ({type(exc).__name__}: {exc})')
+        refuse(ConfigError, source, 'xml', f'not a valid URDF ({type(exc).__name__}: {exc})')
 
 
 def _origin_field(element):
@@ -302,14 +291,14 @@ def _check_origin(source, element):
         except ValueError:
             values = None
         if values is None or len(values) != 3:
-            _fail(ModelError, source, field, f'{text!r} must be 3 numbers in {unit} '
-                  f'(line {element.sourceline})', text, unit)
+            refuse(ModelError, source, field, f'{text!r} must be 3 numbers in {unit} '
+                   f'(line {element.sourceline})', text, unit)
         if not all(math.isfinite(v) for v in values):
-            _fail(ModelError, source, field, f'{values} {unit} must be finite '
-                  f'(line {element.sourceline})', values, unit)
+            refuse(ModelError, source, field, f'{values} {unit} must be finite '
+                   f'(line {element.sourceline})', values, unit)
         if attribute == 'xyz' and any(abs(v) > MAX_POSITION_M for v in values):
-            _fail(ModelError, source, field, f'{values} m: every component must be within '
-                  f'±{MAX_POSITION_M:g} m (line {element.sourceline})', values, unit)
+            refuse(ModelError, source, field, f'{values} m: every component must be within '
+                   f'±{MAX_POSITION_M:g} m (line {element.sourceline})', values, unit)
 
 
 def _number(value, source, field, unit, default=None):
@@ -318,9 +307,9 @@ def _number(value, source, field, unit, default=None):
     try:
         number = float(value)
     except (TypeError, ValueError):
-        _fail(ModelError, source, field, f'{value!r} is not a number in {unit}', value, unit)
+        refuse(ModelError, source, field, f'{value!r} is not a number in {unit}', value, unit)
     if not math.isfinite(number):
-        _fail(ModelError, source, field, f'{number!r} {unit} must be finite', value, unit)
+        refuse(ModelError, source, field, f'{number!r} {unit} must be finite', value, unit)
     return number
 
 
@@ -329,7 +318,7 @@ def _matrix(origin):
     return np.eye(4) if origin is None else np.asarray(origin, dtype=np.float64)
 
 
-def _pose(matrix):
+def frozen_pose(matrix: np.ndarray) -> Tuple[np.ndarray, np.ndarray]:
     """Return ``(position, quaternion w x y z)`` of a 4x4, frozen."""
     position = np.array(matrix[:3, 3])
     quat = matrix_to_quat(matrix[:3, :3])
@@ -354,23 +343,23 @@ def _inertial(source, link):
         return None
     who = f'link {link.name!r}'
     if inertial.mass is None:
-        _fail(ModelError, source, f'{who}.inertial.mass', 'missing; <inertial> needs <mass>')
+        refuse(ModelError, source, f'{who}.inertial.mass', 'missing; <inertial> needs <mass>')
     try:
         mass = validate_mass(inertial.mass, 'mass')
     except RbdError as exc:
-        _fail(ModelError, source, f'{who}.inertial.mass', exc.detail or str(exc),
-              inertial.mass, 'kg')
+        refuse(ModelError, source, f'{who}.inertial.mass', exc.detail or str(exc),
+               inertial.mass, 'kg')
     if mass > MAX_MASS_KG:  # 1e308 kg under gravity: an infinite force in the first step
-        _fail(ModelError, source, f'{who}.inertial.mass',
-              f"{mass!r} kg must be <= {MAX_MASS_KG:g} (the mass_kg parameter's bound)",
-              mass, 'kg')
+        refuse(ModelError, source, f'{who}.inertial.mass',
+               f"{mass!r} kg must be <= {MAX_MASS_KG:g} (the mass_kg parameter's bound)",
+               mass, 'kg')
     frame = _matrix(inertial.origin)
     raw = np.asarray(inertial.inertia if inertial.inertia is not None else np.zeros((3, 3)))
     try:
         validate_inertia(raw, 'inertia')
     except RbdError as exc:
-        _fail(ModelError, source, f'{who}.inertial.inertia', exc.detail or str(exc),
-              raw.tolist(), 'kg m²')
+        refuse(ModelError, source, f'{who}.inertial.inertia', exc.detail or str(exc),
+               raw.tolist(), 'kg m²')
     rot = frame[:3, :3]
     inertia = rot @ raw @ rot.T
     inertia = 0.5 * (inertia + inertia.T)
@@ -384,7 +373,7 @@ def _collision(source, link, index, element, base_dir, to_body):
     mesh_file = None
     try:
         if geometry is None:
-            _fail(ModelError, source, who, 'has no <geometry>')
+            refuse(ModelError, source, who, 'has no <geometry>')
         if geometry.box is not None:
             shape = primitive_shape('box', geometry.box.size, field=f'{who}.box.')
         elif geometry.cylinder is not None:
@@ -400,27 +389,27 @@ def _collision(source, link, index, element, base_dir, to_body):
             if not os.path.isabs(path):
                 path = os.path.join(base_dir, path)
             if not os.path.isfile(path):
-                _fail(ModelError, source, f'{who}.mesh.filename',
-                      f'{filename!r} ({path}) does not exist or is not a file', filename)
+                refuse(ModelError, source, f'{who}.mesh.filename',
+                       f'{filename!r} ({path}) does not exist or is not a file', filename)
             size = os.path.getsize(path)
             if size > MAX_MESH_FILE_BYTES:  # the limit of every mesh file, before it is read
-                _fail(ModelError, source, f'{who}.mesh.filename',
-                      f'{filename!r} ({path}) is {size} bytes, more than the limit of '
-                      f'{MAX_MESH_FILE_BYTES} bytes', filename)
+                refuse(ModelError, source, f'{who}.mesh.filename',
+                       f'{filename!r} ({path}) is {size} bytes, more than the limit of '
+                       f'{MAX_MESH_FILE_BYTES} bytes', filename)
             scale = geometry.mesh.scale
             scale = (1.0, 1.0, 1.0) if scale is None else np.broadcast_to(scale, 3)
             shape = load_mesh(path, scale, centre=False, field=f'{who}.mesh.')
             mesh_file = (filename, path, tuple(float(f) for f in scale))
         else:
-            _fail(ModelError, source, who, 'has no box, cylinder, sphere or mesh')
+            refuse(ModelError, source, who, 'has no box, cylinder, sphere or mesh')
     except RbdError as exc:
         if str(exc).startswith(source):
             raise
         raise type(exc)(f'{source}: {exc}', field=exc.field, value=exc.value,
                         unit=exc.unit, detail=exc.detail) from None
     origin = _matrix(element.origin)
-    position, quat = _pose(to_body @ origin)
-    return RobotCollision(shape, position, quat, *_pose(origin), mesh_file)
+    position, quat = frozen_pose(to_body @ origin)
+    return RobotCollision(shape, position, quat, *frozen_pose(origin), mesh_file)
 
 
 def _check_tree(source, robot):
@@ -430,29 +419,29 @@ def _check_tree(source, robot):
         seen = set()
         for item in items:
             if item.name in seen:
-                _fail(ModelError, source, f'{kind} {item.name!r}', 'named twice; names must be '
-                      'unique')
+                refuse(ModelError, source, f'{kind} {item.name!r}', 'named twice; names must be '
+                       'unique')
             seen.add(item.name)
     parent_of = {}
     for joint in robot.joints:
         who = f'joint {joint.name!r}'
         if joint.type not in URDF_JOINT_TYPES:
-            _fail(ModelError, source, f'{who}.type', f'{joint.type!r} is not one of '
-                  f'{", ".join(URDF_JOINT_TYPES)}', joint.type)
+            refuse(ModelError, source, f'{who}.type', f'{joint.type!r} is not one of '
+                   f'{", ".join(URDF_JOINT_TYPES)}', joint.type)
         for field in ('parent', 'child'):
             if getattr(joint, field) not in names:
-                _fail(ModelError, source, f'{who}.{field}', f'link {getattr(joint, field)!r} '
-                      'is not a link of the robot', getattr(joint, field))
+                refuse(ModelError, source, f'{who}.{field}', f'link {getattr(joint, field)!r} '
+                       'is not a link of the robot', getattr(joint, field))
         if joint.child in parent_of:
-            _fail(ModelError, source, f'{who}.child', f'link {joint.child!r} is already the '
-                  f'child of joint {parent_of[joint.child].name!r}: a link with two parents '
-                  'is a loop, and a URDF is a tree', joint.child)
+            refuse(ModelError, source, f'{who}.child', f'link {joint.child!r} is already the '
+                   f'child of joint {parent_of[joint.child].name!r}: a link with two parents '
+                   'is a loop, and a URDF is a tree', joint.child)
         parent_of[joint.child] = joint
     roots = [name for name in names if name not in parent_of]
     if len(roots) != 1:
         detail = ('every link is a child: the joints form a loop' if not roots else
                   f'{len(roots)} root links ({", ".join(map(repr, roots))}); a URDF is one tree')
-        _fail(ModelError, source, 'links', detail)
+        refuse(ModelError, source, 'links', detail)
     # a loop not through the root leaves links unreached from it
     reached, frontier = {roots[0]}, [roots[0]]
     while frontier:
@@ -463,8 +452,8 @@ def _check_tree(source, robot):
                 frontier.append(joint.child)
     loose = [name for name in names if name not in reached]
     if loose:
-        _fail(ModelError, source, f'link {loose[0]!r}', 'is on a loop of joints not reached '
-              f'from the root {roots[0]!r}; a URDF is a tree')
+        refuse(ModelError, source, f'link {loose[0]!r}', 'is on a loop of joints not reached '
+               f'from the root {roots[0]!r}; a URDF is a tree')
     return roots[0], parent_of
 
 
@@ -484,8 +473,8 @@ def _joint_values(source, joint):
                            'rad/s' if rotary else 'm/s')
         for name, value in (('effort', effort), ('velocity', velocity)):
             if value is not None and value < 0.0:
-                _fail(ModelError, source, f'{who}.limit.{name}', f'{value!r} must be >= 0',
-                      value)
+                refuse(ModelError, source, f'{who}.limit.{name}', f'{value!r} must be >= 0',
+                       value)
     if joint.type not in ('revolute', 'prismatic'):
         lower = upper = None   # URDF: continuous and the others ignore lower and upper
     else:
@@ -495,8 +484,8 @@ def _joint_values(source, joint):
         lower = 0.0 if lower is None else lower
         upper = 0.0 if upper is None else upper
     if lower is not None and upper is not None and lower > upper:
-        _fail(ModelError, source, f'{who}.limit.lower', f'{lower!r} {unit} is above upper '
-              f'{upper!r} {unit}', lower, unit)
+        refuse(ModelError, source, f'{who}.limit.lower', f'{lower!r} {unit} is above upper '
+               f'{upper!r} {unit}', lower, unit)
     damping = friction = 0.0
     if dynamics is not None:
         units = {'damping': 'N m s/rad' if rotary else 'N s/m',
@@ -507,8 +496,8 @@ def _joint_values(source, joint):
                            units['friction'], 0.0)
         for name, value in (('damping', damping), ('friction', friction)):
             if value < 0.0:
-                _fail(ModelError, source, f'{who}.dynamics.{name}',
-                      f'{value!r} {units[name]} must be >= 0', value, units[name])
+                refuse(ModelError, source, f'{who}.dynamics.{name}',
+                       f'{value!r} {units[name]} must be >= 0', value, units[name])
     mimic = None
     if joint.mimic is not None:
         mimic = (joint.mimic.joint, _number(joint.mimic.multiplier, source,
@@ -525,8 +514,8 @@ def _joint_values(source, joint):
             norm = float(np.linalg.norm(axis))
     if joint.type != 'fixed' and joint.type != 'floating' and not (
             math.isfinite(norm) and norm > 1e-12):
-        _fail(ModelError, source, f'{who}.axis', f'{axis.tolist()} is not a direction',
-              axis.tolist())
+        refuse(ModelError, source, f'{who}.axis', f'{axis.tolist()} is not a direction',
+               axis.tolist())
     axis = axis / norm if norm > 0.0 else np.array([1.0, 0.0, 0.0])
     return lower, upper, effort, velocity, damping, friction, mimic, axis
 
@@ -557,8 +546,8 @@ def load_urdf(path=None, *, xml=None) -> Robot:
             joint = parent_of.get(link.name)
             how = 'the floating root' if joint is None else f'on {joint.type} joint ' \
                 f'{joint.name!r}'
-            _fail(ModelError, source, f'link {link.name!r}.inertial', f'missing: a moving '
-                  f'link ({how}) needs <inertial> with mass and inertia')
+            refuse(ModelError, source, f'link {link.name!r}.inertial', f'missing: a moving '
+                   f'link ({how}) needs <inertial> with mass and inertia')
         body_links.append(link.name)
         return len(body_links) - 1, _translation(-inertials[link.name][1])
 
@@ -582,7 +571,7 @@ def load_urdf(path=None, *, xml=None) -> Robot:
     links = []
     for link in parsed.links:
         body, pose = carriers[link.name]
-        position, quat = _pose(pose)
+        position, quat = frozen_pose(pose)
         collisions = tuple(_collision(source, link, k, element, base_dir, pose)
                            for k, element in enumerate(link.collisions))
         inertial = inertials[link.name]
@@ -615,194 +604,19 @@ def _check_mimics(source, joints):
             continue
         field, leader = f'joint {joint.name!r}.mimic.joint', joint.mimic[0]
         if joint.kind not in MOVING_TYPES:
-            _fail(ModelError, source, field, f'{leader!r}; a {joint.kind} joint cannot mimic '
-                  f'(only {", ".join(MOVING_TYPES)} can)', leader)
+            refuse(ModelError, source, field, f'{leader!r}; a {joint.kind} joint cannot mimic '
+                   f'(only {", ".join(MOVING_TYPES)} can)', leader)
         if leader == joint.name:
-            _fail(ModelError, source, field, f'{leader!r} is the joint itself', leader)
+            refuse(ModelError, source, field, f'{leader!r} is the joint itself', leader)
         if leader not in by_name:
-            _fail(ModelError, source, field, f'{leader!r} is not a joint of this robot', leader)
+            refuse(ModelError, source, field, f'{leader!r} is not a joint of this robot', leader)
         if by_name[leader].kind not in MOVING_TYPES:
-            _fail(ModelError, source, field, f'{leader!r} is a {by_name[leader].kind} joint; a '
-                  f'mimic follows a {", ".join(MOVING_TYPES)} joint', leader)
+            refuse(ModelError, source, field, f'{leader!r} is a {by_name[leader].kind} joint; a '
+                   f'mimic follows a {", ".join(MOVING_TYPES)} joint', leader)
         chain, seen = by_name[leader], {joint.name}
         while chain is not None:
             if chain.name in seen:
-                _fail(ModelError, source, field, f'{leader!r} leads back to {joint.name!r} (a '
-                      'cycle of mimics)', leader)
+                refuse(ModelError, source, field, f'{leader!r} leads back to {joint.name!r} (a '
+                       'cycle of mimics)', leader)
             seen.add(chain.name)
             chain = None if chain.mimic is None else by_name[chain.mimic[0]]
-
-
-def _mimic_values(source, robot, q_values, qd_values, given):
-    """Set each mimic's initial coordinate and rate from its leader's; refuse a mismatch."""
-    index = {name: k for k, name in enumerate(robot.moving_joints)}
-
-    def follow(name):
-        joint = robot.joint(name)
-        k = index[name]
-        if joint.mimic is not None:
-            lead, mult, offset = joint.mimic
-            q_l, qd_l = follow(lead)
-            for values, value, field, unit, was_given in (
-                    (q_values, mult * q_l + offset, 'initial_joint_positions', 'rad or m',
-                     given[0]),
-                    (qd_values, mult * qd_l, 'initial_joint_velocities', 'rad/s or m/s',
-                     given[1])):
-                if was_given and abs(values[k] - value) > 1e-9 * max(1.0, abs(value)):
-                    _fail(ConfigError, source, f'{field}[{k}]', f'{float(values[k])!r} for '
-                          f'joint {name!r}, a mimic of {lead!r}, must be {value!r} (multiplier '
-                          f'{mult!r} times its value plus offset)', float(values[k]), unit)
-                values[k] = value
-        return float(q_values[k]), float(qd_values[k])
-
-    for name in robot.moving_joints:
-        follow(name)
-
-
-def _perpendicular(axis):
-    """Return a unit vector perpendicular to ``axis`` (crossed with its least aligned axis)."""
-    other = np.zeros(3)
-    other[int(np.argmin(np.abs(axis)))] = 1.0
-    out = np.cross(axis, other)
-    return out / np.linalg.norm(out)
-
-
-def _values(source, robot, values, name, unit):
-    """Return ``values`` as one finite number per moving joint (zeros for None)."""
-    n = len(robot.moving_joints)
-    if values is None:
-        return np.zeros(n)
-    try:
-        array = np.array(values, dtype=np.float64).reshape(-1)
-    except (TypeError, ValueError):
-        _fail(ConfigError, source, name, f'{values!r} is not a list of numbers in {unit}',
-              values, unit)
-    if array.size != n:
-        _fail(ConfigError, source, name, f'{array.size} values for {n} moving joints '
-              f'({", ".join(robot.moving_joints)}); one per joint in URDF order, fixed '
-              'joints skipped', list(values), unit)
-    if not np.all(np.isfinite(array)):
-        _fail(ConfigError, source, name, f'{array.tolist()} {unit} must be finite',
-              list(values), unit)
-    return array
-
-
-def place_robot(robot: Robot, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0.0, 0.0, 0.0),
-                joint_positions=None, joint_velocities=None, gravity_w=(0.0, 0.0, -9.81),
-                time_ns: int = 0) -> Placement:
-    """
-    Return the bodies, states and joints of ``robot`` placed in the world.
-
-    Forward kinematics from the root link's frame at ``position_w`` (m) and ``orientation_wb``
-    (``w, x, y, z``; the ``world`` link when fixed to the world), at rest, through every joint
-    at ``joint_positions`` (rad or m) and ``joint_velocities`` (rad/s or m/s), one value each
-    per :attr:`Robot.moving_joints` (None: zeros). A link's velocity is its parent's rigid
-    motion plus the joint rate: ``ω_c = ω_p + q̇ a_w`` (rotary), ``v_c = v_p + ω_p × r
-    + q̇ a_w`` (prismatic) at the link origin. ``link_poses_w`` maps each link name to its
-    frame's ``(position_w, q_wl)``.
-
-    :raises ConfigError: a wrong number of values, a non-finite one, one beyond a limit, a
-        position beyond ±:data:`~rbd_ros.sim.params.MAX_JOINT_POSITION` or a velocity beyond
-        ±:data:`~rbd_ros.sim.params.MAX_JOINT_RATE`; a root pose that is not finite or a zero
-        quaternion.
-    """
-    source = robot.source
-    q_values = _values(source, robot, joint_positions, 'initial_joint_positions', 'rad or m')
-    qd_values = _values(source, robot, joint_velocities, 'initial_joint_velocities',
-                        'rad/s or m/s')
-    position = finite_vector(position_w, 'initial_position', 'm', error=ConfigError)
-    quat = finite_vector(orientation_wb, 'initial_orientation', 'quaternion (w, x, y, z)', 4,
-                         error=ConfigError)
-    norm = float(np.linalg.norm(quat))
-    if not norm > 1e-9:
-        _fail(ConfigError, source, 'initial_orientation', f'{quat.tolist()} has zero norm, '
-              'not a rotation', quat.tolist())
-    root_pose = np.eye(4)
-    root_pose[:3, :3] = quat_to_matrix(quat / norm)
-    root_pose[:3, 3] = position
-    _mimic_values(source, robot, q_values, qd_values,
-                  (joint_positions is not None, joint_velocities is not None))
-    coordinate = dict(zip(robot.moving_joints, zip(q_values, qd_values)))
-    for k, name in enumerate(robot.moving_joints):
-        joint = robot.joint(name)
-        units = ('m', 'm/s') if joint.kind == 'prismatic' else ('rad', 'rad/s')
-        for field, values, unit, bound, bound_name in (
-                ('initial_joint_positions', q_values, units[0], MAX_JOINT_POSITION,
-                 'MAX_JOINT_POSITION'),
-                ('initial_joint_velocities', qd_values, units[1], MAX_JOINT_RATE,
-                 'MAX_JOINT_RATE')):
-            value = float(values[k])
-            if not abs(value) <= bound:
-                _fail(ConfigError, source, f'{field}[{k}]', f'{value!r} {unit} for joint '
-                      f'{name!r} is beyond ±{bound:g} {unit} (rbd_ros.sim.params.'
-                      f'{bound_name})', value, unit)
-        value = float(q_values[k])
-        if (joint.lower is not None and value < joint.lower) or \
-                (joint.upper is not None and value > joint.upper):
-            unit = 'rad' if joint.kind == 'revolute' else 'm'
-            _fail(ConfigError, source, f'initial_joint_positions[{k}]',
-                  f'{value!r} {unit} for joint {name!r} is outside its limits '
-                  f'[{joint.lower!r}, {joint.upper!r}] {unit}', value, unit)
-    # forward kinematics, parents first: pose (4x4), v at the link origin, omega (world)
-    frames = {robot.root: (root_pose, np.zeros(3), np.zeros(3))}
-    pending = list(robot.joints)
-    while pending:
-        joint = next(j for j in pending if j.parent in frames)
-        pending.remove(joint)
-        pose_p, vel_p, omega_p = frames[joint.parent]
-        frame_j = pose_p @ joint.origin
-        axis_w = frame_j[:3, :3] @ joint.axis
-        q, qd = coordinate.get(joint.name, (0.0, 0.0))
-        motion = np.eye(4)
-        omega, vel = omega_p.copy(), vel_p + np.cross(omega_p, frame_j[:3, 3] - pose_p[:3, 3])
-        if joint.kind in ('revolute', 'continuous'):
-            motion[:3, :3] = quat_to_matrix(np.concatenate(
-                ([math.cos(0.5 * q)], math.sin(0.5 * q) * joint.axis)))
-            omega = omega + qd * axis_w
-        elif joint.kind == 'prismatic':
-            motion[:3, 3] = q * joint.axis
-            vel = vel + qd * axis_w + np.cross(omega_p, q * axis_w)
-        frames[joint.child] = (frame_j @ motion, vel, omega)
-    models, states = [], []
-    for name in robot.body_links:
-        link = robot.link(name)
-        pose, vel, omega = frames[name]
-        rot = pose[:3, :3]
-        offset_w = rot @ link.com_m
-        models.append(BodyModel(link.mass_kg, link.inertia_b, gravity_w=gravity_w))
-        states.append(BodyState(pose[:3, 3] + offset_w, matrix_to_quat(rot),
-                                vel + np.cross(omega, offset_w), rot.T @ omega,
-                                time_ns=time_ns))
-    links = {link.name: link for link in robot.links}
-    joints = []
-    for joint in robot.joints:
-        if joint.core is None:
-            continue
-        parent = links[joint.parent]
-        if parent.body is None:
-            carrier = frames[joint.parent][0]
-            parent_frame = carrier
-        else:
-            parent_frame = np.eye(4)
-            parent_frame[:3, :3] = quat_to_matrix(parent.orientation_b)
-            parent_frame[:3, 3] = parent.position_b
-        frame_j = parent_frame @ joint.origin
-        rot = frame_j[:3, :3]
-        child = links[joint.child]
-        kind = joint.kind
-        extra = {}
-        if kind in ('revolute', 'prismatic'):
-            extra = {'lower': joint.lower, 'upper': joint.upper}
-        if kind in MOVING_TYPES:
-            extra.update(effort_limit=joint.effort, damping=joint.damping,
-                         friction=joint.friction)
-            if joint.mimic is not None:
-                extra.update(mimic=joint.mimic[0], mimic_multiplier=joint.mimic[1],
-                             mimic_offset=joint.mimic[2])
-        if kind == 'planar':
-            extra['axis2_b'] = rot @ _perpendicular(joint.axis)
-        joints.append(Joint(joint.name, kind, parent.body, child.body,
-                            origin_parent_b=frame_j[:3, 3], origin_child_b=-child.com_m,
-                            axis_b=rot @ joint.axis, q_rest=matrix_to_quat(rot), **extra))
-    poses = {name: _pose(frame[0]) for name, frame in frames.items()}
-    return Placement(tuple(models), tuple(states), tuple(joints), poses)

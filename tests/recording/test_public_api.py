@@ -22,12 +22,14 @@ import sys
 import typing
 
 import pytest
-from rbd_ros.bag import animate, cli, plot, recording, replay
+from rbd_ros.bag import (animate, cli, plot, plot_body, plot_common, plot_joints, plot_world,
+                         recording, replay, replay_compare, replay_setup, replayer)
 from rbd_ros.msgs import markers, schemas
 from rbd_ros.sim import tessellation
 
 REPO = Path(__file__).resolve().parents[2]
-MODULES = (cli, plot, recording, replay, schemas, markers, tessellation, animate)
+MODULES = (cli, plot, plot_common, plot_body, plot_world, plot_joints, recording, replay,
+           replay_setup, replay_compare, replayer, schemas, markers, tessellation, animate)
 # replay.expected_message is being rewritten on another branch (how replay rebuilds messages).
 NOT_YET = {'expected_message'}
 

@@ -28,7 +28,8 @@ import numpy as np
 import pytest
 
 from rbd_ros.core.joints import ArticulatedSimulator
-from rbd_ros.sim.urdf import load_urdf, place_robot
+from rbd_ros.sim.robot_placement import place_robot
+from rbd_ros.sim.urdf import load_urdf
 
 #: Round-off of a few operations on values of order 1 to 10.
 TOL = 1e-12

@@ -24,7 +24,8 @@ from rbd_ros.core import ConfigError, ModelError
 from rbd_ros.core.joints import ArticulatedSimulator
 from rbd_ros.core.rotations import quat_from_axis_angle, quat_to_matrix
 from rbd_ros.sim.meshes import resolve_mesh_path
-from rbd_ros.sim.urdf import load_urdf, place_robot
+from rbd_ros.sim.robot_placement import place_robot
+from rbd_ros.sim.urdf import load_urdf
 from tests.core.joints.closed_forms import (chain_joint_forces, compound_pendulum_l_eq,
                                             pendulum_period)
 from tests.core.joints.test_articulated import run_angle, zero_crossings
