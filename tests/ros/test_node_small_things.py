@@ -181,7 +181,7 @@ def imported_modules(stderr):
             if line.startswith('import time:')}
 
 
-def test_a_node_loads_its_kernels_without_numbas_scipy_probe(tmp_path):
+def test_a_node_loads_its_kernels_without_numbas_scipy_probe_and_coverage(tmp_path):
     # A node start skips numba's probe for scipy's BLAS (~0.25 s of CPU a start; no kernel
     # calls BLAS): rbd_ros.core.numba_target. The node ran its steps, so numba's target is up.
     node = NodeProcess(tmp_path, params_file=REPO / 'msg_config' / 'default.yaml',
@@ -191,3 +191,6 @@ def test_a_node_loads_its_kernels_without_numbas_scipy_probe(tmp_path):
     imported = imported_modules(node.stderr)
     assert 'numba.np.arraymath' in imported and 'rbd_ros.core.contact.simulator' in imported
     assert 'scipy.linalg' not in imported  # (the probe itself is listed: it is refused)
+    # Nor does numba import coverage.py (~0.05 s of CPU; listed too: refused), unless a
+    # measurement runs already.
+    assert 'coverage.control' not in imported or os.environ.get('COVERAGE_PROCESS_START')
