@@ -80,7 +80,7 @@ print(json.dumps(seen))
 
 def test_the_executables_load_numba_without_its_scipy_blas_probe():
     """
-    numba imports scipy.linalg (~0.25 s of CPU) only to see whether np.correlate may use BLAS.
+    Numba imports scipy.linalg (~0.25 s of CPU) only to see whether np.correlate may use BLAS.
 
     rbd_ros's executables skip that (rbd_ros.core.numba_target): without it the probe runs
     whenever scipy is installed, which is what makes this test able to fail.

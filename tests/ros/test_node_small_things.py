@@ -176,7 +176,7 @@ def test_sigint_during_a_cold_compile_exits_at_once(tmp_path, monkeypatch):
 
 
 def imported_modules(stderr):
-    """The modules a ``python -X importtime`` process imported, read from its stderr."""
+    """Return the modules a ``python -X importtime`` process imported, read from its stderr."""
     return {line.rsplit('|', 1)[-1].strip() for line in stderr.splitlines()
             if line.startswith('import time:')}
 
