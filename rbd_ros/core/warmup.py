@@ -32,7 +32,7 @@ import time
 
 import numpy as np
 
-from rbd_ros.core import jitcache
+from rbd_ros.core import jitcache, numba_target
 from rbd_ros.core.inertia import box
 from rbd_ros.core.model import BodyModel
 from rbd_ros.core.simulator import BatchSimulator, Simulator
@@ -123,6 +123,7 @@ def main(argv=None):
     parser.add_argument('--only', choices=KINDS, action='append',
                         help='compile only this kind (repeatable)')
     args = parser.parse_args(argv)
+    numba_target.skip_blas_probe()
     compile_kernels(args.only or (KINDS if args.batch else KINDS[:-1]))
     return 0
 

@@ -28,7 +28,7 @@ import tempfile
 import threading
 import time
 
-from rbd_ros.core import RbdError
+from rbd_ros.core import numba_target, RbdError
 from rbd_ros.ros import endpoints
 from rbd_ros.ros import participant
 from rbd_ros.ros.node import PAST_SLOW_START_UP, RigidBodyNode, say
@@ -112,6 +112,7 @@ def main(args=None):
     stop = []
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda signum, _: stop.append(signal.Signals(signum).name))
+    numba_target.skip_blas_probe()  # ~0.25 s of CPU a start, for a check no kernel needs
     # The participant, created with the node, reads its profile (rbd_ros.ros.participant).
     with participant.node_profile():
         error = _init_rclpy(args)

@@ -60,3 +60,36 @@ def test_importing_core_creates_no_directory_and_sets_no_environment(tmp_path):
     assert seen['after_build'] == ['.cache']
     assert seen['numba_cache_dir'] == os.path.join(
         str(tmp_path), '.cache', 'rbd_ros', 'numba', f'layout-{layout.fingerprint_hash()}')
+
+
+BLAS_PROBE = """
+import importlib.util, json, sys
+skip = sys.argv[1] == 'skip'
+if skip:
+    from rbd_ros.core import numba_target
+    numba_target.skip_blas_probe()
+import numba.np.arraymath as arraymath
+seen = {'probed': 'scipy.linalg.cython_blas' in sys.modules, 'blas': arraymath._HAVE_BLAS,
+        'scipy': importlib.util.find_spec('scipy') is not None}
+if seen['scipy']:  # still importable afterwards: numba's linear algebra finds it when needed
+    import scipy.linalg.cython_blas  # noqa: F401
+    seen['importable'] = True
+print(json.dumps(seen))
+"""
+
+
+def test_the_executables_load_numba_without_its_scipy_blas_probe():
+    """
+    Numba imports scipy.linalg (~0.25 s of CPU) only to see whether np.correlate may use BLAS.
+
+    rbd_ros's executables skip that (rbd_ros.core.numba_target): without it the probe runs
+    whenever scipy is installed, which is what makes this test able to fail.
+    """
+    def run(how):
+        out = subprocess.run([sys.executable, '-c', BLAS_PROBE, how], capture_output=True,
+                             text=True, check=True, timeout=120).stdout
+        return json.loads(out.strip().splitlines()[-1])
+    plain, skipped = run('plain'), run('skip')
+    assert plain['probed'] == plain['blas'] == plain['scipy']
+    assert not skipped['probed'] and not skipped['blas']
+    assert skipped.get('importable', True)

@@ -298,3 +298,16 @@ def test_replayer_steps_in_named_parts():
     for value in (2.0, 5.0, 3.0):
         topic.take_error('max_position_error_m', value)
     assert topic.max_position_error_m == 5.0 and topic.max_orientation_error_rad is None
+
+
+def test_the_replay_executable_loads_its_kernels_without_numbas_scipy_probe(box_bag):
+    # Like the node, replay skips numba's probe for scipy's BLAS (~0.25 s of CPU a run; no
+    # kernel calls BLAS): rbd_ros.core.numba_target. The replay stepped, so numba's target is up.
+    proc = subprocess.run([sys.executable, '-X', 'importtime', '-m', 'rbd_ros.bag.replay',
+                           box_bag, '--no-progress'], capture_output=True, text=True, cwd=REPO,
+                          timeout=120)
+    assert proc.returncode == 0 and proc.stdout.strip().endswith('MATCH'), proc.stdout
+    imported = {line.rsplit('|', 1)[-1].strip() for line in proc.stderr.splitlines()
+                if line.startswith('import time:')}
+    assert 'numba.np.arraymath' in imported and 'rbd_ros.core.simulator' in imported
+    assert 'scipy.linalg' not in imported  # (the probe itself is listed: it is refused)

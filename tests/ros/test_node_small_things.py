@@ -173,3 +173,24 @@ def test_sigint_during_a_cold_compile_exits_at_once(tmp_path, monkeypatch):
         if node.process.poll() is None:
             os.kill(node.process.pid, signal.SIGKILL)
             node.process.wait()
+
+
+def imported_modules(stderr):
+    """Return the modules a ``python -X importtime`` process imported, read from its stderr."""
+    return {line.rsplit('|', 1)[-1].strip() for line in stderr.splitlines()
+            if line.startswith('import time:')}
+
+
+def test_a_node_loads_its_kernels_without_numbas_scipy_probe_and_coverage(tmp_path):
+    # A node start skips numba's probe for scipy's BLAS (~0.25 s of CPU a start; no kernel
+    # calls BLAS): rbd_ros.core.numba_target. The node ran its steps, so numba's target is up.
+    node = NodeProcess(tmp_path, params_file=REPO / 'msg_config' / 'default.yaml',
+                       extra_args=['-p', 'duration_s:=0.05'], namespace=True,
+                       command=[sys.executable, '-X', 'importtime', '-m', 'rbd_ros.node'])
+    assert node.wait(120) == 0, node.stderr
+    imported = imported_modules(node.stderr)
+    assert 'numba.np.arraymath' in imported and 'rbd_ros.core.contact.simulator' in imported
+    assert 'scipy.linalg' not in imported  # (the probe itself is listed: it is refused)
+    # Nor does numba import coverage.py (~0.05 s of CPU; listed too: refused), unless a
+    # measurement runs already.
+    assert 'coverage.control' not in imported or os.environ.get('COVERAGE_PROCESS_START')
