@@ -401,11 +401,19 @@ class RigidBodyNode(Node):
         self._pacer.anchor(self.session.time_ns)
 
     def seconds_to_next_step(self, longest_s=0.1):
-        """Wall seconds until the next physics step is due (0 at RTF 0, ``longest_s`` cap)."""
+        """
+        Wall seconds until the step that ends at the next sample is due (``longest_s`` cap).
+
+        The steps before it publish nothing, so the spin loop sleeps through them and
+        :meth:`tick` runs them when it wakes (an input wakes it earlier; ``process.spin_once``
+        then runs the steps due before the input's callback): one wake-up a sample, not one a
+        step, at the same sim times and the same bits. 0 at RTF 0.
+        """
         session = self.session
         if session.paused or self.done or self._compiling is not None:
             return longest_s
-        return self._pacer.seconds_to_next_step(session.time_ns, session.timestep_ns, longest_s)
+        return self._pacer.seconds_to_next_step(session.time_ns, session.timestep_ns, longest_s,
+                                                session.steps_to_next_output())
 
     def tick(self):
         """Run the steps due by the wall clock (at RTF 0: steps) for at most the tick budget."""
@@ -420,7 +428,9 @@ class RigidBodyNode(Node):
         if self._pacer.real_time_factor == 0:
             self._run(sys.maxsize, deadline_ns=deadline_ns)
             return
-        due, dropped = self._pacer.due_steps(session.time_ns, session.timestep_ns)
+        due, dropped = self._pacer.due_steps(
+            session.time_ns, session.timestep_ns,
+            (session.steps_to_next_output() - 1) * session.timestep_ns)
         if dropped:  # too far behind: the cap kept, the rest dropped
             self.get_logger().warning('falling behind the wall clock: dropping wall time',
                                       throttle_duration_sec=5.0)

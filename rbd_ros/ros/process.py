@@ -89,6 +89,9 @@ def _serve(executor, node):
     if timeout_s == 0:  # no waiting in it: what a wake-up costs
         node.note_wake_up(time.monotonic_ns() - start_ns)
     if handler is not None:
+        # The steps due by now first (the loop sleeps through a sample's steps): an input
+        # takes effect at the step due when it came, as with a wake-up every step.
+        node.tick()
         handler()
         handler.result()  # raises what the callback raised
     node.tick()

@@ -57,26 +57,33 @@ class Pacer:
         self.real_time_factor = float(real_time_factor)
         self.anchor(sim_time_ns)
 
-    def seconds_to_next_step(self, sim_time_ns, timestep_ns, longest_s=0.1):
-        """Wall seconds until the step after ``sim_time_ns`` is due (0 at RTF 0, capped)."""
+    def seconds_to_next_step(self, sim_time_ns, timestep_ns, longest_s=0.1, steps=1):
+        """
+        Wall seconds until the ``steps``-th step after ``sim_time_ns`` is due (0 at RTF 0).
+
+        At most ``longest_s``. The node asks for the step that ends at the next output sample:
+        the steps before it have nothing to show, so it wakes once a sample, not once a step.
+        """
         rtf = self.real_time_factor
         if rtf == 0:
             return 0.0
-        due_ns = self.wall_anchor_ns + (sim_time_ns + timestep_ns - self.sim_anchor_ns) / rtf
+        due_ns = self.wall_anchor_ns + (
+            sim_time_ns + steps * timestep_ns - self.sim_anchor_ns) / rtf
         return min(longest_s, max(0.0, (due_ns - self.clock()) * 1e-9))
 
-    def due_steps(self, sim_time_ns, timestep_ns):
+    def due_steps(self, sim_time_ns, timestep_ns, deferred_ns=0):
         """
         Return ``(steps due now, steps dropped)`` at ``sim_time_ns`` (RTF > 0).
 
         More than :data:`MAX_BACKLOG_STEPS` due: the cap is kept and the rest dropped (the
         anchor moves on by them and :attr:`dropped_ns` counts them; :attr:`dropped_wall_ns`
-        the wall time they stood for).
+        the wall time they stood for). ``deferred_ns``: sim time the caller leaves to step by
+        choice (the steps before its next sample), which is not lag.
         """
         elapsed_ns = self.clock() - self.wall_anchor_ns
         rtf = self.real_time_factor
         target_ns = self.sim_anchor_ns + (elapsed_ns if rtf == 1.0 else int(elapsed_ns * rtf))
-        self.lag_max_ns = max(self.lag_max_ns, target_ns - sim_time_ns)
+        self.lag_max_ns = max(self.lag_max_ns, target_ns - sim_time_ns - deferred_ns)
         due = (target_ns - sim_time_ns) // timestep_ns
         if due <= MAX_BACKLOG_STEPS:
             return due, 0

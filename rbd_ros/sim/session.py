@@ -386,10 +386,23 @@ class SimSession:
         self.commands.follow(t, self.config.timestep_ns, world)
         return applied, self.commands.following
 
-    def _steps_to_next_sample(self, time_ns):
+    def steps_to_next_sample(self, time_ns):
+        """Return how many steps from ``time_ns`` end at the next output sample (>= 1)."""
         period = self.config.publish_period_ns
         next_multiple = (time_ns // period + 1) * period
         return _ceil_div(next_multiple - time_ns, self.config.timestep_ns)
+
+    def steps_to_next_output(self):
+        """
+        Return how many steps from now end at the next sample or at ``duration_s`` (>= 1).
+
+        What the node's spin loop waits for: the steps before it have nothing to show.
+        """
+        steps = self.steps_to_next_sample(self.time_ns)
+        if self.config.duration_ns > self.time_ns:
+            steps = min(steps, _ceil_div(self.config.duration_ns - self.time_ns,
+                                         self.config.timestep_ns))
+        return steps
 
     def _run(self, max_steps, until_ns, ignore_duration=False):
         h = self.config.timestep_ns
@@ -416,7 +429,7 @@ class SimSession:
                 events.extend(dragged)
                 if self.on_applied is not None and (applied or dragged):
                     self.on_applied(list(applied) + list(dragged))
-            chunk = min(max_steps - done, self._steps_to_next_sample(t), self._chunk_max)
+            chunk = min(max_steps - done, self.steps_to_next_sample(t), self._chunk_max)
             if following:
                 chunk = 1  # a trajectory's reference is set at every step start
             for expiry in (self.inputs.next_expiry_ns(),

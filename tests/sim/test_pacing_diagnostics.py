@@ -57,6 +57,30 @@ def test_steps_become_due_at_the_real_time_factor():
     assert math.isclose(pacer.seconds_to_next_step(10 * MS, MS), 0.5e-3, rel_tol=1e-12)
 
 
+def test_the_node_wakes_at_its_samples_and_deferred_steps_are_not_lag():
+    # 100 Hz samples at 1 ms steps: the spin loop sleeps until the step that ends at the next
+    # sample is due (the nine before it publish nothing), or at duration_s if that comes first.
+    session = SimSession(NodeConfig.from_parameters({'duration_s': 0.015}))
+    assert session.steps_to_next_output() == 10  # t = 0 -> the sample at 10 ms
+    session.advance(3)
+    assert session.steps_to_next_output() == 7
+    session.advance(7)
+    assert session.time_ns == 10 * MS and session.steps_to_next_output() == 5  # the end, 15 ms
+    clock = HandClock()
+    pacer = pacing.Pacer(1.0, clock=clock)
+    pacer.anchor(10 * MS)
+    # the 5th step after 10 ms is due 5 ms of wall from the anchor
+    assert math.isclose(pacer.seconds_to_next_step(10 * MS, MS, steps=5), 5e-3, rel_tol=1e-12)
+    clock.now_ns += 5 * MS
+    # woken on time: 5 due, 4 of them left by choice; the lag is the one step a wake-up
+    # every step saw too, not 5
+    assert pacer.due_steps(10 * MS, MS, deferred_ns=4 * MS) == (5, 0)
+    assert pacer.take_lag_max() == 1 * MS
+    clock.now_ns += 20 * MS  # 20 ms late: lag
+    pacer.due_steps(10 * MS, MS, deferred_ns=4 * MS)
+    assert pacer.take_lag_max() == 21 * MS
+
+
 def test_a_backlog_over_the_cap_is_dropped_and_counted():
     clock = HandClock()
     pacer = pacing.Pacer(1.0, clock=clock)
