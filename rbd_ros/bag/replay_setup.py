@@ -84,6 +84,7 @@ def config_from_bag(bag: Bag, integrator: Optional[str] = None,
         params['timestep_s'] = float(timestep_s)
     params['record_path'] = ''
     params['start_paused'] = False
+    params.pop('threads', None)  # this machine's: the steps' bits do not depend on it
     _use_attached_meshes(bag, params)
     return NodeConfig.from_parameters(params)
 

@@ -90,7 +90,7 @@ def make_simulator(config):
                                      integrator=config.integrator,
                                      timestep_ns=config.timestep_ns, defer_projection=True)
     return WorldSimulator(bodies, states, config.static_world, integrator=config.integrator,
-                          timestep_ns=config.timestep_ns)
+                          timestep_ns=config.timestep_ns, threads=config.threads)
 
 
 def _quantities(state, model):

@@ -186,6 +186,11 @@ class NodeConfig:
         return self.parameters['per_body_topics']
 
     @property
+    def threads(self):
+        """Return the threads a world's contact step may use (``threads``)."""
+        return self.parameters['threads']
+
+    @property
     def contact(self):
         """Return True when a body can touch something: named bodies, a ground or an obstacle."""
         return self.static_world is not None or self.named

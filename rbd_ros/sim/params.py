@@ -38,6 +38,7 @@ import math
 import numpy as np
 
 from rbd_ros.core import ConfigError, DEFAULT_INTEGRATOR, INTEGRATORS, ModelError
+from rbd_ros.core.simulator import _cores
 
 # ROS parameter types, by the names rcl_interfaces/ParameterType uses (lower case).
 BOOL = 'bool'
@@ -56,6 +57,9 @@ MAIN_INPUT = 'wrench'
 #: Most bodies a world may have (``bodies``): start-up checks and the contact step are measured
 #: up to 1000 bodies; far more makes start-up take minutes.
 MAX_BODIES = 5000
+
+#: Most threads ``threads`` may ask for.
+MAX_THREADS = 1024
 
 #: Most items an array parameter may hold (10 x MAX_BODIES): more than any list a world needs
 #: (``body_names`` holds at most MAX_BODIES). A recording's configuration is read with the same
@@ -261,6 +265,10 @@ PARAMETERS = (
               "A world's per-body output topics (<body>/pose, twist, odom, contact_wrench); "
               'false leaves poses, /tf, markers and the inputs.',
               rule='true without body_names'),
+    ParamSpec('threads', INTEGER, _cores(), '',
+              "Threads a world's contact step may use (groups of bodies out of each other's "
+              'reach on threads, the same bits whatever the count); default: the CPUs this '
+              'process may use.', (1, MAX_THREADS), rule='>= 1'),
     ParamSpec('publish_clock', BOOL, False, '', 'Publish /clock (sim time).'),
     ParamSpec('publish_tf', BOOL, True, '',
               'Broadcast world -> body on /tf (only when tf2_msgs is importable).'),

@@ -47,7 +47,8 @@ class OursWorld:
     """Our :class:`WorldSimulator` behind the interface of ``contact_refs.MujocoWorld``."""
 
     name = 'ours'
-    notes = 'rbd_ros WorldSimulator, midpoint_cayley (kick-drift-kick), one thread'
+    notes = ('rbd_ros WorldSimulator, midpoint_cayley (kick-drift-kick), threads: the CPUs the '
+             'process may use (the default)')
 
     def __init__(self, scene):
         self.scene = scene

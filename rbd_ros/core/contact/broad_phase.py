@@ -52,7 +52,8 @@ def _sweep(order, lo, hi, pairs):
 
 
 @_jit
-def broad_phase(x, pos_c, bound_r, n_bodies, st_kind, st_params, st_lo, st_hi, margin, skip):
+def broad_phase(x, pos_c, bound_r, n_bodies, st_kind, st_params, st_lo, st_hi, margin, skip,
+                span):
     """
     Return the candidate pairs ``(P, 2)`` int64, in a fixed order.
 
@@ -63,7 +64,7 @@ def broad_phase(x, pos_c, bound_r, n_bodies, st_kind, st_params, st_lo, st_hi, m
 
     Each body's box holds its bounding ball at the current and the candidate pose, grown by
     ``margin``; bodies are sorted by the low x of their box and swept, so the cost is
-    O(N log N + pairs).
+    O(N log N + pairs).  ``span`` (N, 6) grows to hold each body's box (low then high corner).
     """
     n = n_bodies
     lo = np.empty((n, 3))
@@ -75,6 +76,8 @@ def broad_phase(x, pos_c, bound_r, n_bodies, st_kind, st_params, st_lo, st_hi, m
             b = pos_c[i, k]
             lo[i, k] = min(a, b) - r
             hi[i, k] = max(a, b) + r
+            span[i, k] = min(span[i, k], lo[i, k])
+            span[i, 3 + k] = max(span[i, 3 + k], hi[i, k])
     order = np.argsort(lo[:, 0], kind='mergesort')
     pairs = np.empty((4 * n + 16, 2), dtype=np.int64)
     count = _sweep(order, lo, hi, pairs)

@@ -217,9 +217,11 @@ Statics = namedtuple('Statics', ('kind', 'params', 'rot', 'pos', 'lo', 'hi'))
 #: rotation ``rot``, candidate position ``pos_c`` and rotation ``rot_c``, ``touched`` (a body
 #: with a patch this stage), the response cache ``responses`` (N, N_RESPONSE) and the warm
 #: start ``warm`` (3, N, W_SLOTS, W_FIELDS) with its counts ``warm_n`` (3, N), and the solve
-#: counters ``stats`` (3, N_SOLVE_STATS).
+#: counters ``stats`` (3, N_SOLVE_STATS), and ``span`` (N, 6): the low then high corner of
+#: the union of every broad-phase box of each body since it was last reset (by the caller):
+#: what the parallel step (``contact.parallel``) checks its groups against.
 Work = namedtuple('Work', ('vel', 'inv_mass', 'inv_inertia_w', 'rot', 'pos_c', 'rot_c',
-                           'touched', 'responses', 'warm', 'warm_n', 'stats'))
+                           'touched', 'responses', 'warm', 'warm_n', 'stats', 'span'))
 
 
 @_inl

@@ -38,19 +38,20 @@ from rbd_ros.core.contact import kernels as ck
 from rbd_ros.core.contact import limits as cl
 from rbd_ros.core.contact import motors as cm
 from rbd_ros.core.contact import rows as cs
+from rbd_ros.core.contact.parallel import ParallelStep
 from rbd_ros.core.contact.shapes import CollisionShape
 from rbd_ros.core.contact.step import world_step
 from rbd_ros.core.contact.world import (check_overlaps, DEFAULT_OVERLAP_TOLERANCE_M, Material,
                                         StaticWorld)
 from rbd_ros.core.errors import (ConfigError, ConvergenceError, finite_vector, ModelError,
-                                 NonFiniteError)
+                                 NonFiniteError, whole_number)
 from rbd_ros.core.integrators import DEFAULT_INTEGRATOR, integrator_info
 from rbd_ros.core.joints import kernels as jk
 from rbd_ros.core.joints import simulator as joints_simulator
 from rbd_ros.core.joints.model import Joint
 from rbd_ros.core.model import BodyModel
 from rbd_ros.core.rotations import quat_to_matrix
-from rbd_ros.core.simulator import BatchSimulator
+from rbd_ros.core.simulator import _cores, BatchSimulator
 from rbd_ros.core.state import BodyState
 
 __all__ = ['CONTACT_INTEGRATORS', 'Contacts', 'WorldBody', 'WorldSimulator']
@@ -285,6 +286,10 @@ class WorldSimulator(BatchSimulator):
         put them; the start's overlap check is taken on those states and again on the projected
         ones, and its errors, and the projection's, come from that first call. Either way the
         steps give the same bits.
+    :param threads: threads the step may use, >= 1 (default: the CPUs this process may run
+        on). With two or more, groups of bodies out of each other's reach are stepped on
+        threads, checked, and the step is the serial one's to the bit whatever the count
+        (:mod:`rbd_ros.core.contact.parallel`); a world with joints steps on one.
     :raises ModelError: a bad body, or bodies starting inside each other or the static world.
     :raises ConfigError: an integrator that cannot take contact; a bad or unsupported joint.
     :raises ConvergenceError: states that could not be projected onto the joints.
@@ -295,8 +300,10 @@ class WorldSimulator(BatchSimulator):
                  integrator: str = DEFAULT_INTEGRATOR, timestep_ns: int = 1_000_000,
                  overlap_tolerance_m: float = DEFAULT_OVERLAP_TOLERANCE_M,
                  joints: Sequence[Joint] = (), no_collision=(), no_static_collision=(),
-                 defer_projection: bool = False):
+                 defer_projection: bool = False, threads: Optional[int] = None):
         jitcache.configured()  # the kernel cache, before a first compile
+        threads = _cores() if threads is None else whole_number(
+            threads, 'threads', 'threads', positive=True, error=ConfigError)
         bodies = tuple(bodies)
         states = tuple(states)
         info = integrator_info(integrator)
@@ -360,8 +367,12 @@ class WorldSimulator(BatchSimulator):
             rot=np.zeros((n, 3, 3)), pos_c=np.zeros((n, 3)), rot_c=np.zeros((n, 3, 3)),
             touched=np.zeros(n, dtype=np.bool_), responses=np.full((n, cs.N_RESPONSE), -1.0),
             warm=np.zeros((3, n, cs.W_SLOTS, cs.W_FIELDS)),
-            warm_n=np.zeros((3, n), dtype=np.int64), stats=np.zeros((3, cs.N_SOLVE_STATS)))
+            warm_n=np.zeros((3, n), dtype=np.int64), stats=np.zeros((3, cs.N_SOLVE_STATS)),
+            span=np.zeros((n, 6)))
         self._contacts = np.zeros((0, cs.N_CONTACT))
+        self._world_threads = threads
+        self._parallel = (ParallelStep(self, threads) if threads > 1 and not self._joints
+                          else None)
 
     def _project_onto_joints(self, bodies, states, timestep_ns, defer):
         """
@@ -410,6 +421,11 @@ class WorldSimulator(BatchSimulator):
         for i, state in enumerate(states):
             self._x[:, i] = layout.pack_state(state)
         self._initial_states = tuple(states)
+
+    @property
+    def threads(self) -> int:
+        """Return the threads the step may use (``threads``; a world with joints uses one)."""
+        return self._world_threads
 
     @property
     def joints(self):
@@ -571,6 +587,8 @@ class WorldSimulator(BatchSimulator):
             stage.work.motor[:, jk.M_HOLD] = 0.0
             cl.free_all(stage)
             states = projected.states
+        if getattr(self, '_parallel', None) is not None:
+            self._parallel.settle()
         super().reset(states)
         if hasattr(self, '_wrench'):
             self._wrench[:] = 0.0
@@ -589,12 +607,16 @@ class WorldSimulator(BatchSimulator):
         if joints is not None:
             self._project_deferred()
             joints.stats[:] = 0.0
-        done, contacts = world_step(self._x, self._params, self._loads, self._t,
-                                    self._info.kernel_id, self._h, self._timestep_ns, n,
-                                    tuple(self._geo), tuple(self._statics), self._wrench,
-                                    tuple(self._ws), joints)  # plain tuples: see world_step
+        if self._parallel is not None:
+            done, contacts = self._parallel.step(n)
+        else:
+            done, contacts = world_step(self._x, self._params, self._loads, self._t,
+                                        self._info.kernel_id, self._h, self._timestep_ns, n,
+                                        tuple(self._geo), tuple(self._statics), self._wrench,
+                                        tuple(self._ws), joints)  # plain tuples: see world_step
         self._step_count += done
-        self._contacts = contacts
+        if contacts is not None:   # None: the parts hold them (ParallelStep.contacts)
+            self._contacts = contacts
         if joints is not None and joints.stats[cj.J_FAIL] != 0.0:
             raise ConvergenceError(
                 f'joints: the pre-stabilization did not reach {cj.PROJECTION_TOL} m or rad in '
@@ -616,7 +638,7 @@ class WorldSimulator(BatchSimulator):
         coupled stages solved, Gauss–Seidel sweeps run, warm-started stages solved again from
         zero, their patches.
         """
-        s = self._ws.stats
+        s = self._ws.stats if self._parallel is None else self._parallel.stats()
         return {name: tuple(float(v) for v in s[:, k]) for name, k in (
             ('stages', cs.ST_STAGES), ('sweeps', cs.ST_SWEEPS), ('cold', cs.ST_COLD),
             ('patches', cs.ST_PATCHES))}
@@ -629,7 +651,7 @@ class WorldSimulator(BatchSimulator):
     @property
     def contacts(self) -> Contacts:
         """Return the contact points of the last step (copies)."""
-        c = self._contacts
+        c = self._contacts if self._parallel is None else self._parallel.contacts()
         n = self.size
         b = c[:, cs.C_B].astype(np.int64)
         normal = c[:, cs.C_NORMAL:cs.C_NORMAL + 3].copy()

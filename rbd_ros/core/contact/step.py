@@ -150,7 +150,7 @@ def contact_stage(x, prm, shapes, statics, h, phase, stage, shock, wrench, work,
     n = x.shape[1]
     prepare_bodies(x, prm, vel, inv_mass, inv_inertia_w, rot, pos_c, rot_c, h, same_pose)
     pairs = broad_phase(x, pos_c, shapes.bound_r, n, statics.kind, statics.params, statics.lo,
-                        statics.hi, MARGIN_M, shapes.skip)
+                        statics.hi, MARGIN_M, shapes.skip, work.span)
     contacts, patches = narrow_phase(pairs, n, x, prm, work, statics, shapes, h, phase, stage)
     if patches.shape[0] == 0:
         if slot >= 0:

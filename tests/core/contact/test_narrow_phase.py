@@ -75,12 +75,12 @@ def contacts(sim, x, geo, stage):
                    responses=np.full((n, cs.N_RESPONSE), -1.0),
                    warm=np.zeros((3, n, cs.W_SLOTS, cs.W_FIELDS)),
                    warm_n=np.zeros((3, n), dtype=np.int64),
-                   stats=np.zeros((3, cs.N_SOLVE_STATS)))
+                   stats=np.zeros((3, cs.N_SOLVE_STATS)), span=np.zeros((n, 6)))
     h = 1e-3
     prepare_bodies(x, sim._params, work.vel, work.inv_mass, work.inv_inertia_w, work.rot,
                    work.pos_c, work.rot_c, h, False)
     pairs = broad_phase(x, work.pos_c, geo.bound_r, n, statics.kind, statics.params, statics.lo,
-                        statics.hi, cs.MARGIN_M, geo.skip)
+                        statics.hi, cs.MARGIN_M, geo.skip, work.span)
     return narrow_phase(pairs, n, x, sim._params, work, statics, geo, h, cs.PHASE_CONTACT, stage)
 
 
