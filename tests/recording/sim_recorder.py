@@ -87,7 +87,7 @@ def record_scripted_run(path, params, script, duration_ns, ended_by='duration_s'
 
 
 def rewrite_bag(src, dst, config_edit=None, drop=None, edit=None, extra=(), run_edit=None,
-                keep_run=True):
+                keep_run=True, run_drop=()):
     """
     Rewrite the bag ``src`` into ``dst`` message by message (a crafted copy for tests).
 
@@ -97,6 +97,7 @@ def rewrite_bag(src, dst, config_edit=None, drop=None, edit=None, extra=(), run_
     :param extra: ``(topic, cdr, log_time_ns)`` messages to append.
     :param run_edit: entries to change in the ``rbd_ros.run`` record (copied otherwise).
     :param keep_run: False leaves the ``rbd_ros.run`` record out (as after SIGKILL).
+    :param run_drop: keys to leave out of the ``rbd_ros.run`` record (an older node's record).
     """
     bag = open_bag(src)
     config = dict(bag.config)
@@ -115,5 +116,7 @@ def rewrite_bag(src, dst, config_edit=None, drop=None, edit=None, extra=(), run_
     run = None
     if keep_run and bag.run_metadata is not None:
         run = dict(bag.run_metadata, **(run_edit or {}))
+        for key in run_drop:
+            run.pop(key, None)
     writer.close(run_metadata=run)
     return dst
