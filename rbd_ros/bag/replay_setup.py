@@ -68,10 +68,17 @@ class ReplayError(RbdError):
 
 
 def config_from_bag(bag: Bag, integrator: Optional[str] = None,
-                    timestep_s: Optional[float] = None) -> NodeConfig:
+                    timestep_s: Optional[float] = None,
+                    accepted: Optional[List[str]] = None) -> NodeConfig:
     """
     Rebuild the :class:`NodeConfig` of a recording, optionally with another integrator/step.
 
+    Through the checks of a start, but for the robot link frame rules (two robots of one URDF
+    without ``frame_prefix``, a link name that is no TF frame id: refused at start since,
+    :func:`rbd_ros.sim.robots.check_link_frames`): they name TF frames only, the physics and
+    the recorded samples are the same, so a recording made before them still replays.
+
+    :param accepted: a list to receive each such refusal's line (for the replay's remarks).
     :raises ReplayError: the bag holds no rbd_ros configuration.
     :raises ConfigError, ModelError: the stored (or overridden) parameters are invalid.
     """
@@ -87,7 +94,8 @@ def config_from_bag(bag: Bag, integrator: Optional[str] = None,
     params['record_path'] = ''
     params['start_paused'] = False
     _use_attached_meshes(bag, params)
-    return NodeConfig.from_parameters(params)
+    return NodeConfig.from_parameters(params, accepted_frames=[] if accepted is None
+                                      else accepted)
 
 
 def _use_attached_meshes(bag, params):

@@ -97,7 +97,8 @@ class Replayer:
     def __init__(self, bag: Bag, *, tolerance: Optional[float] = None,
                  integrator: Optional[str] = None, timestep_s: Optional[float] = None):
         self.bag = bag
-        self.recorded = config_from_bag(bag)
+        accepted = []  # the link frame refusals of today's start-up, accepted
+        self.recorded = config_from_bag(bag, accepted=accepted)
         self.config = config_from_bag(bag, integrator, timestep_s)
         #: Another integrator or step: report how far the result moves, do not judge wrenches.
         self.study = integrator is not None or timestep_s is not None
@@ -126,6 +127,11 @@ class Replayer:
             recorded_integrator=self.recorded.integrator,
             recorded_timestep_ns=self.recorded.timestep_ns, tolerance=tolerance,
             topics={topic: TopicResult(topic, kind) for topic, kind in sorted(self.kinds.items())})
+        if accepted:
+            self.result.remarks.append(
+                f'replayed although a start today refuses its configuration ({len(accepted)} '
+                f'robot link frame refusal(s); the first: {accepted[0]}): TF frame ids only, '
+                'the physics is the same')
         #: The recorded non-finite steps by run (:meth:`recorded_messages` reads them).
         self.failures = RecordedFailures({}, [], complete=True)
         self.digest = AppliedDigest()  # over every wrench that took effect on replay, in order

@@ -34,7 +34,7 @@ from rclpy.serialization import serialize_message
 
 
 def record_scripted_run(path, params, script, duration_ns, ended_by='duration_s',
-                        exception=None, **writer_options):
+                        exception=None, before_frame_rules=False, **writer_options):
     """
     Run ``params`` for ``duration_ns`` of sim time, submitting ``script`` wrenches; record.
 
@@ -44,9 +44,13 @@ def record_scripted_run(path, params, script, duration_ns, ended_by='duration_s'
     :param ended_by: how the run record says the run ended.
     :param exception: ``(sim time ns, 'Type: message')`` of an exception to record as the
         node records one out of its loop, or None.
+    :param before_frame_rules: record what a node before the robot link frame rules started
+        (:func:`rbd_ros.sim.robots.check_link_frames`; e.g. two robots of one URDF, no
+        ``frame_prefix``).
     :returns: the closed :class:`RunRecorder`.
     """
-    config = NodeConfig.from_parameters(params)
+    config = NodeConfig.from_parameters(params, accepted_frames=[] if before_frame_rules
+                                        else None)
     session = SimSession(config)
     session.paused = False
     recorder = RunRecorder(config, serialize_message, path, **writer_options)
