@@ -18,7 +18,8 @@ The :class:`Replayer`: re-drive one recording through a fresh session, run by ru
 It steps a :class:`rbd_ros.sim.session.SimSession` to each recorded message's log time, submits
 each recorded input at the step it took effect at, compares each recorded output sample (the
 CDR bytes first, then field by field), checks that exactly the recorded inputs took effect,
-and starts the session again at each ``~/reset`` the recording holds (:meth:`Replayer.run`).
+and starts the session again at each ``~/reset`` the recording holds (:meth:`Replayer.run`),
+judging each run's failure on its own (:meth:`Replayer.replay_run`).
 
 Neighbours: :mod:`rbd_ros.bag.replay_setup` (the configuration and topics it replays),
 :mod:`rbd_ros.bag.replay_compare` (how a sample, a failure and the wrench digest are judged),
@@ -81,11 +82,12 @@ class Replayer:
     """
     Re-drive one recording through a fresh :class:`SimSession`: advance, check events, compare.
 
-    :meth:`recorded_messages` reads and vets what is to be replayed; :meth:`run` then steps to
-    each message, submits each recorded wrench (:meth:`replay_wrench`), compares each recorded
-    sample (:meth:`compare_sample`), checks after each advance that exactly the recorded
-    wrenches took effect (:meth:`check_events`), and judges a recorded failure and the wrench
-    digest at the end.  Everything found goes into :attr:`result`.
+    :meth:`recorded_messages` reads and vets what is to be replayed; :meth:`run` then replays
+    each run (:meth:`replay_run`): steps to each message, submits each recorded wrench
+    (:meth:`replay_wrench`), compares each recorded sample (:meth:`compare_sample`), checks
+    after each advance that exactly the recorded wrenches took effect (:meth:`check_events`)
+    and judges the run's recorded failure; the wrench digest is judged at the end.  Everything
+    found goes into :attr:`result`.
 
     :param bag: the opened recording.
     :param tolerance: None = bit-exact; else the largest accepted error (m, rad, m/s, rad/s).
