@@ -279,14 +279,15 @@ class RecordedFailures:
 
     ``by_run`` maps a run's index (0 = before any ``~/reset``) to its first failure
     ``(time_ns, message)``; ``later`` lists ``(run, time_ns)`` of failures after a run's first
-    (the run went on after ``~/pause``: not replayed). ``complete`` is False for the record of an
-    older node, which kept only the last failure (with no run): a failure replay finds in an
-    earlier run cannot be checked against it. ``remark`` says how such a failure was placed.
+    (the run went on after ``~/pause``: not replayed). ``unchecked`` counts the first runs whose
+    failures the record cannot tell: an older node kept only its last failure (with no run),
+    so a failure replay finds in a run before that one cannot be checked against it.
+    ``remark`` says in which run such a failure was placed.
     """
 
     by_run: Dict[int, Tuple[int, str]]
     later: List[Tuple[int, int]]
-    complete: bool
+    unchecked: int = 0
     remark: Optional[str] = None
 
 
@@ -328,7 +329,7 @@ def recorded_failures(bag: Bag, run_ends: List[int], gap_ns: int) -> RecordedFai
         raise ReplayError(f'{where} has failure_time_ns '
                           f'{run.get(run_record.RUN_FAILURE_TIME_NS, "")!r} but its failures '
                           f'end with {last or "none"!r}: not what the node writes')
-    return RecordedFailures(by_run, later, complete=True)
+    return RecordedFailures(by_run, later)
 
 
 def _check_failure_time(where, number, time_ns, run_ends, gap_ns):
@@ -350,8 +351,8 @@ def _legacy_failures(bag, run_ends, gap_ns):
     before it (a failing run records nothing after its failure).
     """
     failure = recorded_failure(bag)
-    if failure is None:
-        return RecordedFailures({}, [], complete=False)
+    if failure is None:  # no failure (or no record: not finalised)
+        return RecordedFailures({}, [])
     time_ns = failure[0]
     fits = [n for n, end in enumerate(run_ends) if end <= time_ns <= end + gap_ns]
     number = fits[-1] if fits else len(run_ends) - 1
@@ -362,4 +363,4 @@ def _legacy_failures(bag, run_ends, gap_ns):
         remark = ('the rbd_ros.run record (of an older node) keeps one failure and not its run: '
                   f"taken to be run {number + 1}'s, the last run whose recording ends within "
                   'one publish period + one step before it')
-    return RecordedFailures({number: failure}, [], complete=False, remark=remark)
+    return RecordedFailures({number: failure}, [], unchecked=number, remark=remark)

@@ -135,7 +135,7 @@ class Replayer:
                 f'robot link frame refusal(s); the first: {accepted[0]}): TF frame ids only, '
                 'the physics is the same')
         #: The recorded non-finite steps by run (:meth:`recorded_messages` reads them).
-        self.failures = RecordedFailures({}, [], complete=True)
+        self.failures = RecordedFailures({}, [])
         self.digest = AppliedDigest()  # over every wrench that took effect on replay, in order
         self._pending = []  # (time_ns, input_name) of submitted wrenches not yet taking effect
         self._applied = []  # AppliedEvent reported by the session, not yet checked
@@ -230,9 +230,9 @@ class Replayer:
         recorded = self.failures.by_run.get(number)
         samples = result.compared
         replayed = None
-        index = -1
+        taken = 0  # messages replayed
         try:
-            for index, raw in enumerate(messages):
+            for raw in messages:
                 if not self.advance_to(raw.log_time_ns):
                     result.problems.append(
                         f'{label}the recording goes on to {raw.log_time_ns} ns, past the end '
@@ -244,7 +244,8 @@ class Replayer:
                     self.replay_wrench(raw, self._decoders[raw.topic](raw.data))
                 elif not self.same_bytes(raw):
                     self.compare_sample(raw, self._decoders[raw.topic](raw.data))
-                bar.update(done + index + 1)
+                taken += 1
+                bar.update(done + taken)
             if recorded is not None and not self.study:
                 # The recorded failing step: it must fail again.
                 self.advance_to(recorded[0] + self.config.timestep_ns)
@@ -253,7 +254,7 @@ class Replayer:
             self.took_effect(getattr(exc, 'events', ()))
             self.check_events()
             replayed = (session.time_ns, str(exc))
-        left = len(messages) - index - 1 if replayed is not None else 0
+        left = len(messages) - taken if replayed is not None else 0
         if left:
             result.remarks.append(f'{label}{left} recorded messages after the failing step '
                                   'were not replayed')
@@ -265,7 +266,7 @@ class Replayer:
         result.runs.append({'samples': result.compared - samples,
                             'failure_ns': None if replayed is None else replayed[0],
                             'not_replayed': left})
-        if recorded is None and replayed is not None and not self.failures.complete:
+        if recorded is None and replayed is not None and number < self.failures.unchecked:
             result.remarks.append(
                 f'{label}the replay failed at t = {replayed[0]} ns ({replayed[1]}); the '
                 'rbd_ros.run record of an older node keeps only its last failure, so this one '

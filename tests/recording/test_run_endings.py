@@ -208,10 +208,15 @@ def test_runs_reset_after_their_failures_replay_every_run(ros, start_node, tmp_p
     result = replay_bag(legacy)
     assert result.match, result.problems
     assert "taken to be run 2's" in ' '.join(result.remarks), result.remarks
-    assert 'run 1 of 3: the replay failed at t = ' in ' '.join(result.remarks)
     assert result.failure_reproduced.startswith('run 2 of 3: ')
-    assert [run['failure_ns'] for run in result.runs] == [
-        failures[0]['time_ns'], failures[1]['time_ns'], None]
+    assert [run['failure_ns'] for run in result.runs][1:] == [failures[1]['time_ns'], None]
+    # Run 1 is not stepped to a failure that record does not hold: it fails on replay only if
+    # the torque's last message took effect in the failing step (DDS timing), and then a note
+    # says it cannot be checked.
+    first = result.runs[0]['failure_ns']
+    assert first in (None, failures[0]['time_ns'])
+    assert (first is not None) == ('run 1 of 3: the replay failed at t = '
+                                   in ' '.join(result.remarks)), result.remarks
 
 
 def _run_ns(path, index):
