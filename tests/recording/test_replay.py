@@ -274,33 +274,6 @@ def test_a_reset_within_the_first_publish_period_starts_a_new_run(tmp_path):
     assert result.wrenches == 1 and result.compared == 4 + 4 * 31  # 4 topics, 0 and 0-0.3 s
 
 
-def test_replayer_steps_in_named_parts():
-    """The Replayer's steps, driven one by one, replay a reference bag to the same MATCH."""
-    from rbd_ros.bag.replay import Replayer, TopicResult
-    bag = open_bag(str(REPO / 'bags' / 'box_pushed'))
-    replayer = Replayer(bag)
-    messages = replayer.recorded_messages()
-    wrenches = [m for m in messages if m.topic in replayer.inputs]
-    assert wrenches and [m.log_time_ns for m in messages] == sorted(
-        m.log_time_ns for m in messages)
-    # Stepping to the first wrench, submitting it and stepping one step: it took effect there.
-    first = wrenches[0]
-    assert replayer.advance_to(first.log_time_ns)
-    replayer.replay_wrench(first, bag.decoder(first.topic)(first.data))
-    assert replayer.advance_to(first.log_time_ns + replayer.config.timestep_ns)
-    replayer.check_events()
-    assert replayer.result.problems == [] and replayer.digest.count == 1
-    # The whole run, on a fresh replayer.
-    replayer = Replayer(bag)
-    result = replayer.run(replayer.recorded_messages())
-    assert result.match and result.compared > 0 and result.wrenches == len(wrenches)
-    # Errors are kept as maxima through the public method.
-    topic = TopicResult('/pose', 'pose')
-    for value in (2.0, 5.0, 3.0):
-        topic.take_error('max_position_error_m', value)
-    assert topic.max_position_error_m == 5.0 and topic.max_orientation_error_rad is None
-
-
 def test_a_recording_made_before_the_link_frame_rules_still_replays(tmp_path):
     """
     Two robots of one URDF without frame_prefix: refused at start since, yet replayable.
@@ -339,3 +312,30 @@ def test_a_recording_made_before_the_link_frame_rules_still_replays(tmp_path):
         return serialize_message(msg)
     result = replay_bag(rewrite_bag(path, str(tmp_path / 'nudged'), edit=nudge))
     assert not result.match and result.topics['/a/joint_states'].mismatches == 1
+
+
+def test_replayer_steps_in_named_parts():
+    """The Replayer's steps, driven one by one, replay a reference bag to the same MATCH."""
+    from rbd_ros.bag.replay import Replayer, TopicResult
+    bag = open_bag(str(REPO / 'bags' / 'box_pushed'))
+    replayer = Replayer(bag)
+    messages = replayer.recorded_messages()
+    wrenches = [m for m in messages if m.topic in replayer.inputs]
+    assert wrenches and [m.log_time_ns for m in messages] == sorted(
+        m.log_time_ns for m in messages)
+    # Stepping to the first wrench, submitting it and stepping one step: it took effect there.
+    first = wrenches[0]
+    assert replayer.advance_to(first.log_time_ns)
+    replayer.replay_wrench(first, bag.decoder(first.topic)(first.data))
+    assert replayer.advance_to(first.log_time_ns + replayer.config.timestep_ns)
+    replayer.check_events()
+    assert replayer.result.problems == [] and replayer.digest.count == 1
+    # The whole run, on a fresh replayer.
+    replayer = Replayer(bag)
+    result = replayer.run(replayer.recorded_messages())
+    assert result.match and result.compared > 0 and result.wrenches == len(wrenches)
+    # Errors are kept as maxima through the public method.
+    topic = TopicResult('/pose', 'pose')
+    for value in (2.0, 5.0, 3.0):
+        topic.take_error('max_position_error_m', value)
+    assert topic.max_position_error_m == 5.0 and topic.max_orientation_error_rad is None
