@@ -22,21 +22,26 @@ write each sample's CDR bytes, and close it with the ``rbd_ros.run`` record, who
 ``RUN_*`` constants below (replay reads them by the same names).
 """
 
+import json
+
 from rbd_ros.bag.recording import BagWriter
 from rbd_ros.core import RbdError
 from rbd_ros.sim import meshes
 from rbd_ros.sim.session import AppliedDigest
 
 # The keys of the rbd_ros.run record (every value is stored as a string).
-RUN_FAILURE_TIME_NS = 'failure_time_ns'  # sim time of a non-finite step ('' if none)
+RUN_FAILURE_TIME_NS = 'failure_time_ns'  # sim time of the last non-finite step ('' if none)
 RUN_FAILURE = 'failure'  # its message ('' if none)
+#: Every non-finite step, in order: a JSON list of {"run": runs before it, "time_ns", "message"}
+#: ('run' counts the ~/reset calls before it: 0 = the first run); absent in older recordings.
+RUN_FAILURES = 'failures'
 RUN_ENDED_BY = 'ended_by'  # how the run ended: one of ENDINGS
 RUN_ENDED_AT_NS = 'ended_at_ns'  # sim time at the end
 RUN_EXCEPTION_TIME_NS = 'exception_time_ns'  # sim time of an exception out of the loop
 RUN_EXCEPTION = 'exception'  # 'Type: message' of that exception ('' if none)
 RUN_WRENCHES_APPLIED = 'wrenches_applied'  # how many inputs took effect
 RUN_WRENCH_DIGEST = 'wrench_digest'  # their SHA-256 (rbd_ros.sim.session.AppliedDigest)
-RUN_KEYS = (RUN_FAILURE_TIME_NS, RUN_FAILURE, RUN_ENDED_BY, RUN_ENDED_AT_NS,
+RUN_KEYS = (RUN_FAILURE_TIME_NS, RUN_FAILURE, RUN_FAILURES, RUN_ENDED_BY, RUN_ENDED_AT_NS,
             RUN_EXCEPTION_TIME_NS, RUN_EXCEPTION, RUN_WRENCHES_APPLIED, RUN_WRENCH_DIGEST)
 #: The values of ``ended_by``: 'shutdown' is the ROS context shutting down, 'unknown' a close
 #: without a reason given.
@@ -77,7 +82,7 @@ class RunRecorder:
                                 config=recorded_configuration(config), **writer_options)
         self._serialize = serialize
         self.digest = AppliedDigest()  # what the run applied, for replay to compare
-        self.failure = None  # (sim time ns, message) of a non-finite step
+        self.failures = []  # (run, sim time ns, message) of each non-finite step (note_failure)
         self.exception = None  # (sim time ns, 'Type: message') of an exception out of the loop
         self.input_topics = {}  # input name -> the topic its messages are recorded on
 
@@ -131,11 +136,25 @@ class RunRecorder:
             self.write(self.input_topics[event.input_name],
                        event.tag if message_of is None else message_of(event), event.time_ns)
 
+    def note_failure(self, run, time_ns, message):
+        """
+        Note a non-finite step of run ``run`` (the ``~/reset`` calls before it) at ``time_ns``.
+
+        The same step failing again (``~/pause`` off or ``~/step`` with nothing changed) is
+        noted once: the first failure of a step is the one replay reproduces.
+        """
+        if self.failures and self.failures[-1][:2] == (run, time_ns):
+            return
+        self.failures.append((run, time_ns, message))
+
     def run_record(self, ended_by, ended_at_ns):
         """Return the ``rbd_ros.run`` record of a run that ended so (keys :data:`RUN_KEYS`)."""
-        failure_ns, failure = self.failure or ('', '')
+        _, failure_ns, failure = self.failures[-1] if self.failures else ('', '', '')
         crash_ns, crash = self.exception or ('', '')
+        failures = [{'run': run, 'time_ns': time_ns, 'message': message}
+                    for run, time_ns, message in self.failures]
         return {RUN_FAILURE_TIME_NS: failure_ns, RUN_FAILURE: failure,
+                RUN_FAILURES: json.dumps(failures),
                 RUN_ENDED_BY: ended_by or 'unknown', RUN_ENDED_AT_NS: ended_at_ns,
                 RUN_EXCEPTION_TIME_NS: crash_ns, RUN_EXCEPTION: crash,
                 RUN_WRENCHES_APPLIED: self.digest.count,

@@ -28,10 +28,12 @@ recorded message.
 
 The inputs are checked too: replay digests the wrenches that took effect
 (:class:`rbd_ros.sim.session.AppliedDigest`) and compares with the digest the node stored in the
-``rbd_ros.run`` record, bit for bit.  A run that hit a non-finite step must fail again at the
-same sim time with the same message (reproduced, a match).  Log times are checked against the
-recorded configuration before any stepping (:func:`rbd_ros.bag.replay_setup.check_times`), so a
-crafted bag cannot make replay step without bound.
+``rbd_ros.run`` record, bit for bit.  Each run between ``~/reset`` calls is replayed and
+judged on its own: one that hit a non-finite step must fail again at the same sim time with the
+same message (reproduced, a match), and the runs after its reset are compared all the same.
+Log times are checked against the recorded configuration before any stepping
+(:func:`rbd_ros.bag.replay_setup.check_times`), so a crafted bag cannot make replay step
+without bound.
 
 By default the comparison is bit-exact (every float identical to the last bit, stamps and frame
 ids equal).  ``--tolerance`` relaxes it to ``error <= tolerance`` for each of: position (m,

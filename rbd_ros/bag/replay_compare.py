@@ -137,27 +137,33 @@ def compare_fields(result: TopicResult, kind: str, t_ns: int, expected: Any, rec
 
 
 def judge_failure(result: ReplayResult, recorded: Optional[Tuple[int, str]],
-                  replayed: Optional[Tuple[int, str]], study: bool) -> None:
-    """Judge a non-finite step: reproduced (same sim time, same cause) or a mismatch."""
+                  replayed: Optional[Tuple[int, str]], study: bool, run: str = '') -> None:
+    """
+    Judge a run's non-finite step: reproduced (same sim time, same cause) or a mismatch.
+
+    :param run: the run it is, as the text says it (``'run 1 of 2: '``), or '' for the only one.
+    """
     if recorded is None and replayed is None:
         return
     if recorded is not None and replayed == recorded and not study:
-        result.failure_reproduced = (f'the recorded run failed at t = {recorded[0]} ns and the '
-                                     f'replay fails at the same step with the same cause: '
-                                     f'{recorded[1]}')
+        reproduced = (f'{run}the recorded run failed at t = {recorded[0]} ns and the replay '
+                      f'fails at the same step with the same cause: {recorded[1]}')
+        result.failure_reproduced = '; '.join(filter(None, (result.failure_reproduced,
+                                                            reproduced)))
     elif replayed is None:
-        what = (f'the recorded run failed at t = {recorded[0]} ns ({recorded[1]}) but the '
+        what = (f'{run}the recorded run failed at t = {recorded[0]} ns ({recorded[1]}) but the '
                 'replay did not')
         if study:
             result.remarks.append(what)
         else:
             result.problems.append(what)
     elif recorded is None:
-        result.problems.append(f'the replay diverged at t = {replayed[0]} ns but the recorded '
-                               f'run did not (or its bag was not finalised): {replayed[1]}')
+        result.problems.append(f'{run}the replay diverged at t = {replayed[0]} ns but the '
+                               f'recorded run did not (or its bag was not finalised): '
+                               f'{replayed[1]}')
     else:
         result.problems.append(
-            f'the recorded run failed at t = {recorded[0]} ns ({recorded[1]}); the replay '
+            f'{run}the recorded run failed at t = {recorded[0]} ns ({recorded[1]}); the replay '
             f'failed at t = {replayed[0]} ns ({replayed[1]})')
 
 

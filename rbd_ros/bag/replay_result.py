@@ -22,7 +22,7 @@ problem) decides the exit status.
 """
 
 import dataclasses
-from typing import Dict, List, Optional
+from typing import Any, Dict, List, Optional
 
 
 @dataclasses.dataclass
@@ -76,6 +76,10 @@ class ReplayResult:
     run_crashed: Optional[str] = None
     remarks: List[str] = dataclasses.field(default_factory=list)
     problems: List[str] = dataclasses.field(default_factory=list)
+    #: One entry per run (the first, then one per ``~/reset``): ``samples`` compared in it,
+    #: ``failure_ns`` the sim time its replay failed at (None: it did not), ``not_replayed``
+    #: its recorded messages after that failure.
+    runs: List[Dict[str, Any]] = dataclasses.field(default_factory=list)
 
     @property
     def run_failed(self) -> Optional[str]:
@@ -114,6 +118,7 @@ class ReplayResult:
             'run_failed': self.run_failed is not None,
             'remarks': list(self.remarks),
             'problems': list(self.problems),
+            'runs': [dict(run) for run in self.runs],
             'topics': {name: dataclasses.asdict(t) for name, t in self.topics.items()},
         }
 
@@ -140,6 +145,16 @@ def largest_errors(topic: TopicResult) -> str:
     return ', '.join(shown) or '-'
 
 
+def run_line(run: Dict[str, Any]) -> str:
+    """Return what one run of :attr:`ReplayResult.runs` did, in words."""
+    text = f'{run["samples"]} samples compared'
+    if run['failure_ns'] is not None:
+        text += f', failed at t = {run["failure_ns"]} ns'
+    if run['not_replayed']:
+        text += f', {run["not_replayed"]} recorded messages after that not replayed'
+    return text
+
+
 def format_summary(result: ReplayResult) -> str:
     """Return the human-readable per-topic summary as a string."""
     lines = []
@@ -159,6 +174,9 @@ def format_summary(result: ReplayResult) -> str:
                                  'of the node' if result.wrench_digest_checked else ''))
     if result.failure_reproduced:
         lines.append(f'  failure reproduced: {result.failure_reproduced}')
+    if len(result.runs) > 1:
+        lines.extend(f'  run {number} of {len(result.runs)}: {run_line(run)}'
+                     for number, run in enumerate(result.runs, 1))
     width = max([len('topic')] + [len(t.topic) for t in result.topics.values()])
     lines.append(f'  {"topic":<{width}} {"samples":>8} {"mismatch":>8}  largest errors')
     for t in result.topics.values():

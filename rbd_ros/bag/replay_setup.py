@@ -18,20 +18,22 @@ What a recording says before replay steps anything: its configuration, its topic
 :func:`config_from_bag` rebuilds the :class:`rbd_ros.sim.config.NodeConfig` stored in the
 recording (its meshes from the recording's own attachments; ``plot`` draws from it too); the
 topic helpers say which recorded topic is a compared output (by kind) and which an input (a
-wrench, a drag point, a robot command); :func:`check_times` and :func:`recorded_failure` vet
-the log times and the ``rbd_ros.run`` record, so a crafted bag cannot make replay step without
-bound.  Everything wrong here is a :class:`ReplayError`.
+wrench, a drag point, a robot command); :func:`check_times` and :func:`recorded_failures` vet
+the log times and the ``rbd_ros.run`` record (its non-finite steps, by run), so a crafted bag
+cannot make replay step without bound.  Everything wrong here is a :class:`ReplayError`.
 
 Neighbours: :mod:`rbd_ros.bag.replayer` drives the replay with these,
 :mod:`rbd_ros.bag.replay_compare` judges what it recomputes, :mod:`rbd_ros.bag.replay` is the
 ``replay`` command.
 """
 
+import dataclasses
 import hashlib
+import json
 import os
 from pathlib import Path
 import tempfile
-from typing import Collection, Dict, Iterable, Optional, Tuple, Union
+from typing import Collection, Dict, Iterable, List, Optional, Tuple, Union
 import warnings
 
 from rbd_ros.bag import recorder as run_record
@@ -66,10 +68,17 @@ class ReplayError(RbdError):
 
 
 def config_from_bag(bag: Bag, integrator: Optional[str] = None,
-                    timestep_s: Optional[float] = None) -> NodeConfig:
+                    timestep_s: Optional[float] = None,
+                    accepted: Optional[List[str]] = None) -> NodeConfig:
     """
     Rebuild the :class:`NodeConfig` of a recording, optionally with another integrator/step.
 
+    Through the checks of a start, but for the robot link frame rules (two robots of one URDF
+    without ``frame_prefix``, a link name that is no TF frame id: refused at start since,
+    :func:`rbd_ros.sim.robots.check_link_frames`): they name TF frames only, the physics and
+    the recorded samples are the same, so a recording made before them still replays.
+
+    :param accepted: a list to receive each such refusal's line (for the replay's remarks).
     :raises ReplayError: the bag holds no rbd_ros configuration.
     :raises ConfigError, ModelError: the stored (or overridden) parameters are invalid.
     """
@@ -86,7 +95,8 @@ def config_from_bag(bag: Bag, integrator: Optional[str] = None,
     params['start_paused'] = False
     params.pop('threads', None)  # this machine's: the steps' bits do not depend on it
     _use_attached_meshes(bag, params)
-    return NodeConfig.from_parameters(params)
+    return NodeConfig.from_parameters(params, accepted_frames=[] if accepted is None
+                                      else accepted)
 
 
 def _use_attached_meshes(bag, params):
@@ -251,7 +261,7 @@ def check_times(bag: Bag, config: NodeConfig, messages: Iterable[RawMessage],
 
 
 def recorded_failure(bag: Bag) -> Optional[Tuple[int, str]]:
-    """Return ``(time_ns, message)`` of the recorded run's non-finite step, or None."""
+    """Return ``(time_ns, message)`` of the recorded run's last non-finite step, or None."""
     run = bag.run_metadata or {}
     text = run.get(run_record.RUN_FAILURE_TIME_NS, '')
     if not text:
@@ -261,3 +271,97 @@ def recorded_failure(bag: Bag) -> Optional[Tuple[int, str]]:
     except ValueError:
         raise ReplayError(f'{bag.mcap_path}: the rbd_ros.run record has failure_time_ns '
                           f'{text!r}, not an integer (ns)') from None
+
+
+@dataclasses.dataclass
+class RecordedFailures:
+    """
+    The non-finite steps of a recording, by run: what replay must reproduce.
+
+    ``by_run`` maps a run's index (0 = before any ``~/reset``) to its first failure
+    ``(time_ns, message)``; ``later`` lists ``(run, time_ns)`` of failures after a run's first
+    (the run went on after ``~/pause``: not replayed). ``unchecked`` counts the first runs whose
+    failures the record cannot tell: an older node kept only its last failure (with no run),
+    so a failure replay finds in a run before that one cannot be checked against it.
+    ``remark`` says in which run such a failure was placed.
+    """
+
+    by_run: Dict[int, Tuple[int, str]]
+    later: List[Tuple[int, int]]
+    unchecked: int = 0
+    remark: Optional[str] = None
+
+
+def recorded_failures(bag: Bag, run_ends: List[int], gap_ns: int) -> RecordedFailures:
+    """
+    Return the recording's failures by run, each checked against its run's recorded messages.
+
+    :param run_ends: the last log time of each run (its messages on the replayed topics).
+    :param gap_ns: one publish period + one step: a failing run's last sample is at most that
+        before its failure, so replay steps no further than that past a run's recording.
+    :raises ReplayError: a malformed ``failures`` entry, a run the recording does not hold, a
+        failure more than ``gap_ns`` after its run's last message, or ``failure_time_ns``
+        other than the last of ``failures``.
+    """
+    run = bag.run_metadata or {}
+    where = f'{bag.mcap_path}: the rbd_ros.run record'
+    text = run.get(run_record.RUN_FAILURES)
+    if text is None:  # an older node's record: its last failure only, with no run
+        return _legacy_failures(bag, run_ends, gap_ns)
+    try:
+        entries = json.loads(text)
+        failures = [(e['run'], e['time_ns'], e['message']) for e in entries]
+    except (ValueError, TypeError, KeyError, RecursionError):
+        raise ReplayError(f'{where} has failures {text[:200]!r}, not a JSON list of '
+                          '{"run", "time_ns", "message"}') from None
+    by_run, later = {}, []
+    for number, time_ns, message in failures:
+        if not (type(number) is int and type(time_ns) is int  # not a bool, nor a float
+                and isinstance(message, str)) or number < 0 or time_ns < 0:
+            raise ReplayError(f'{where} has the failure entry {[number, time_ns, message]!r}: '
+                              'run and time_ns must be integers >= 0, message a string')
+        _check_failure_time(where, number, time_ns, run_ends, gap_ns)
+        if number in by_run:
+            later.append((number, time_ns))
+        else:
+            by_run[number] = (time_ns, message)
+    last = str(failures[-1][1]) if failures else ''
+    if run.get(run_record.RUN_FAILURE_TIME_NS, '') != last:
+        raise ReplayError(f'{where} has failure_time_ns '
+                          f'{run.get(run_record.RUN_FAILURE_TIME_NS, "")!r} but its failures '
+                          f'end with {last or "none"!r}: not what the node writes')
+    return RecordedFailures(by_run, later)
+
+
+def _check_failure_time(where, number, time_ns, run_ends, gap_ns):
+    if number >= len(run_ends):
+        raise ReplayError(f'{where} puts a failure in run {number + 1} but the recording holds '
+                          f'{len(run_ends)} run(s)')
+    if time_ns > run_ends[number] + gap_ns:
+        raise ReplayError(
+            f'{where} puts the failure at {time_ns} ns, more than one publish period + one '
+            f'step after the last recorded message at {run_ends[number]} ns'
+            + (f' of run {number + 1}' if len(run_ends) > 1 else ''))
+
+
+def _legacy_failures(bag, run_ends, gap_ns):
+    """
+    Place the one failure of an older node's record in a run.
+
+    That node kept its last failure: the last run whose recording ends at most ``gap_ns``
+    before it (a failing run records nothing after its failure).
+    """
+    failure = recorded_failure(bag)
+    if failure is None:  # no failure (or no record: not finalised)
+        return RecordedFailures({}, [])
+    time_ns = failure[0]
+    fits = [n for n, end in enumerate(run_ends) if end <= time_ns <= end + gap_ns]
+    number = fits[-1] if fits else len(run_ends) - 1
+    _check_failure_time(f'{bag.mcap_path}: the rbd_ros.run record', number, time_ns, run_ends,
+                        gap_ns)
+    remark = None
+    if len(run_ends) > 1:
+        remark = ('the rbd_ros.run record (of an older node) keeps one failure and not its run: '
+                  f"taken to be run {number + 1}'s, the last run whose recording ends within "
+                  'one publish period + one step before it')
+    return RecordedFailures({number: failure}, [], unchecked=number, remark=remark)

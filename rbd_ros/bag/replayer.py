@@ -18,7 +18,8 @@ The :class:`Replayer`: re-drive one recording through a fresh session, run by ru
 It steps a :class:`rbd_ros.sim.session.SimSession` to each recorded message's log time, submits
 each recorded input at the step it took effect at, compares each recorded output sample (the
 CDR bytes first, then field by field), checks that exactly the recorded inputs took effect,
-and starts the session again at each ``~/reset`` the recording holds (:meth:`Replayer.run`).
+and starts the session again at each ``~/reset`` the recording holds (:meth:`Replayer.run`),
+judging each run's failure on its own (:meth:`Replayer.replay_run`).
 
 Neighbours: :mod:`rbd_ros.bag.replay_setup` (the configuration and topics it replays),
 :mod:`rbd_ros.bag.replay_compare` (how a sample, a failure and the wrench digest are judged),
@@ -38,8 +39,8 @@ from rbd_ros.bag.replay_result import ReplayResult, TopicResult
 from rbd_ros.bag.replay_setup import (check_times, command_for_topic, command_payload,
                                       COMMAND_TYPES, compared_kinds, config_from_bag,
                                       drag_for_topic, input_for_topic, output_kind,
-                                      OUTPUT_KINDS, POINT_TYPE, recorded_failure, ReplayError,
-                                      WRENCH_TYPE)
+                                      OUTPUT_KINDS, POINT_TYPE, recorded_failures,
+                                      RecordedFailures, ReplayError, WRENCH_TYPE)
 from rbd_ros.core import NonFiniteError
 from rbd_ros.core.errors import InputError
 from rbd_ros.msgs import conversions
@@ -81,11 +82,12 @@ class Replayer:
     """
     Re-drive one recording through a fresh :class:`SimSession`: advance, check events, compare.
 
-    :meth:`recorded_messages` reads and vets what is to be replayed; :meth:`run` then steps to
-    each message, submits each recorded wrench (:meth:`replay_wrench`), compares each recorded
-    sample (:meth:`compare_sample`), checks after each advance that exactly the recorded
-    wrenches took effect (:meth:`check_events`), and judges a recorded failure and the wrench
-    digest at the end.  Everything found goes into :attr:`result`.
+    :meth:`recorded_messages` reads and vets what is to be replayed; :meth:`run` then replays
+    each run (:meth:`replay_run`): steps to each message, submits each recorded wrench
+    (:meth:`replay_wrench`), compares each recorded sample (:meth:`compare_sample`), checks
+    after each advance that exactly the recorded wrenches took effect (:meth:`check_events`)
+    and judges the run's recorded failure; the wrench digest is judged at the end.  Everything
+    found goes into :attr:`result`.
 
     :param bag: the opened recording.
     :param tolerance: None = bit-exact; else the largest accepted error (m, rad, m/s, rad/s).
@@ -97,7 +99,8 @@ class Replayer:
     def __init__(self, bag: Bag, *, tolerance: Optional[float] = None,
                  integrator: Optional[str] = None, timestep_s: Optional[float] = None):
         self.bag = bag
-        self.recorded = config_from_bag(bag)
+        accepted = []  # the link frame refusals of today's start-up, accepted
+        self.recorded = config_from_bag(bag, accepted=accepted)
         self.config = config_from_bag(bag, integrator, timestep_s)
         #: Another integrator or step: report how far the result moves, do not judge wrenches.
         self.study = integrator is not None or timestep_s is not None
@@ -126,7 +129,13 @@ class Replayer:
             recorded_integrator=self.recorded.integrator,
             recorded_timestep_ns=self.recorded.timestep_ns, tolerance=tolerance,
             topics={topic: TopicResult(topic, kind) for topic, kind in sorted(self.kinds.items())})
-        self.failure = recorded_failure(bag)
+        if accepted:
+            self.result.remarks.append(
+                f'replayed although a start today refuses its configuration ({len(accepted)} '
+                f'robot link frame refusal(s); the first: {accepted[0]}): TF frame ids only, '
+                'the physics is the same')
+        #: The recorded non-finite steps by run (:meth:`recorded_messages` reads them).
+        self.failures = RecordedFailures({}, [])
         self.digest = AppliedDigest()  # over every wrench that took effect on replay, in order
         self._pending = []  # (time_ns, input_name) of submitted wrenches not yet taking effect
         self._applied = []  # AppliedEvent reported by the session, not yet checked
@@ -167,56 +176,36 @@ class Replayer:
                                   'one was replayed from the initial state at t = 0')
         # after the time checks: they say more about a log time
         limits.check_steps(bag, sum(run[-1].log_time_ns for run in runs if run))
-        last = runs[-1][-1].log_time_ns if runs[-1] else 0
-        if self.failure is not None and self.failure[0] > (
-                last + self.recorded.timestep_ns + self.recorded.publish_period_ns):
-            raise ReplayError(
-                f'{bag.mcap_path}: the rbd_ros.run record puts the failure at '
-                f'{self.failure[0]} ns, more than one publish period + one step after the last '
-                f'recorded message at {last} ns')
+        self.failures = recorded_failures(
+            bag, [run[-1].log_time_ns if run else 0 for run in runs],
+            self.recorded.timestep_ns + self.recorded.publish_period_ns)
+        if self.failures.remark:
+            result.remarks.append(self.failures.remark)
         self._decoders = {topic: bag.decoder(topic) for topic in wanted}
         return messages
 
     def run(self, messages: List[RawMessage], progress: bool = False) -> ReplayResult:
-        """Replay ``messages`` (from :meth:`recorded_messages`); return :attr:`result`."""
-        session, result = self.session, self.result
+        """
+        Replay ``messages`` (from :meth:`recorded_messages`) run by run; return :attr:`result`.
+
+        Each run (the first, then one per ``~/reset``) is replayed from the initial state and
+        judged on its own (:meth:`replay_run`): a run that failed must fail again at its
+        recorded step, and the runs after it are replayed all the same.
+        """
+        result = self.result
         bar = _Progress(len(messages), progress)
-        replay_failure = None
-        index = -1
-        resets = set(self.resets)
+        bounds = [0] + list(self.resets) + [len(messages)]
+        count = len(bounds) - 1
         try:
-            for index, raw in enumerate(messages):
-                if index in resets:
-                    self.end_run()
-                    session.reset()
+            for number, (start, end) in enumerate(zip(bounds, bounds[1:])):
+                if number:
+                    self.session.reset()
+                    self.session.paused = False  # a failure paused it
                     self._expected_time_ns = None  # its samples were of the run before
-                if not self.advance_to(raw.log_time_ns):
-                    result.problems.append(
-                        f'the recording goes on to {raw.log_time_ns} ns, past the end of the '
-                        f'replayed run ({session.time_ns} ns; duration_s = '
-                        f'{self.config.duration_ns / 1e9:g} s)')
-                    break
-                self.check_events()
-                if raw.topic in self.inputs:
-                    self.replay_wrench(raw, self._decoders[raw.topic](raw.data))
-                elif not self.same_bytes(raw):
-                    self.compare_sample(raw, self._decoders[raw.topic](raw.data))
-                bar.update(index + 1)
-            if self.failure is not None and not self.study:
-                # The recorded failing step: it must fail again.
-                self.advance_to(self.failure[0] + self.config.timestep_ns)
-            self.end_run()
-        except NonFiniteError as exc:
-            self.took_effect(getattr(exc, 'events', ()))
-            self.check_events()
-            replay_failure = (session.time_ns, str(exc))
-            left = len(messages) - index - 1
-            if left:
-                result.remarks.append(f'{left} recorded messages after the failing step were '
-                                      'not replayed')
+                self.replay_run(number, messages[start:end], bar, start,
+                                f'run {number + 1} of {count}: ' if count > 1 else '')
         finally:
             bar.close()
-        judge_failure(result, self.failure, replay_failure, self.study)
         judge_digest(result, self.bag, self.digest, self.study)
         run = self.bag.run_metadata or {}
         if run.get(run_record.RUN_EXCEPTION):
@@ -225,12 +214,81 @@ class Replayer:
                                   f'{run[run_record.RUN_EXCEPTION]}')
         return result
 
+    def replay_run(self, number: int, messages: List[RawMessage], bar: _Progress, done: int,
+                   label: str) -> None:
+        """
+        Replay run ``number`` (its ``messages``) from the session's state; judge its failure.
+
+        The recorded failing step of the run is stepped after its last message, so it must fail
+        again there; a failure on replay ends the run (what the recording holds after it in the
+        same run, after ``~/pause``, is counted as not replayed).
+
+        :param done: messages replayed before this run (the progress bar's count).
+        :param label: how the texts name the run (``'run 2 of 3: '``; '' for the only run).
+        """
+        session, result = self.session, self.result
+        recorded = self.failures.by_run.get(number)
+        samples = result.compared
+        replayed = None
+        taken = 0  # messages replayed
+        try:
+            for raw in messages:
+                if not self.advance_to(raw.log_time_ns):
+                    result.problems.append(
+                        f'{label}the recording goes on to {raw.log_time_ns} ns, past the end '
+                        f'of the replayed run ({session.time_ns} ns; duration_s = '
+                        f'{self.config.duration_ns / 1e9:g} s)')
+                    break
+                self.check_events()
+                if raw.topic in self.inputs:
+                    self.replay_wrench(raw, self._decoders[raw.topic](raw.data))
+                elif not self.same_bytes(raw):
+                    self.compare_sample(raw, self._decoders[raw.topic](raw.data))
+                taken += 1
+                bar.update(done + taken)
+            if recorded is not None and not self.study:
+                # The recorded failing step: it must fail again.
+                self.advance_to(recorded[0] + self.config.timestep_ns)
+            self.end_run()
+        except NonFiniteError as exc:
+            self.took_effect(getattr(exc, 'events', ()))
+            self.check_events()
+            replayed = (session.time_ns, str(exc))
+        left = len(messages) - taken if replayed is not None else 0
+        if left:
+            result.remarks.append(f'{label}{left} recorded messages after the failing step '
+                                  'were not replayed')
+        self.drop_pending(label)
+        later = [t for n, t in self.failures.later if n == number]
+        if later:
+            result.remarks.append(f'{label}the run went on after its failure and failed again '
+                                  f'at t = {", ".join(map(str, later))} ns: not replayed')
+        result.runs.append({'samples': result.compared - samples,
+                            'failure_ns': None if replayed is None else replayed[0],
+                            'not_replayed': left})
+        if recorded is None and replayed is not None and number < self.failures.unchecked:
+            result.remarks.append(
+                f'{label}the replay failed at t = {replayed[0]} ns ({replayed[1]}); the '
+                'rbd_ros.run record of an older node keeps only its last failure, so this one '
+                'cannot be checked')
+            return
+        judge_failure(result, recorded, replayed, self.study, label)
+
     def end_run(self) -> None:
         """Confirm the wrenches recorded at the last time of a run (to its end or a reset)."""
         if self._pending and not self.session.finished:
             # The node records an input at the start of the step it acts in: that step ran.
             self.took_effect(self.session.advance(1).events)
         self.check_events()
+
+    def drop_pending(self, label: str = '') -> None:
+        """At a run's end: a wrench submitted but not applied (its step failed) did not act."""
+        for time_ns, name in self._pending:
+            if not self.study:
+                self._wrench_mismatch(f'{label}the wrench on input {name!r} recorded at '
+                                      f'{time_ns} ns did not take effect on replay')
+        self._pending.clear()
+        self._applied.clear()
 
     def took_effect(self, events: Iterable[AppliedEvent]) -> None:
         """Digest the wrenches the session reports as applied and keep them for checking."""

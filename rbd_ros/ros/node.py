@@ -175,7 +175,6 @@ class RigidBodyNode(Node):
         #: 'shutdown' (the ROS context shut down); '' while it runs.
         self.ended_by = ''
         self._crash = None  # (sim time ns, 'Type: message') of an exception out of the loop
-        self._failure = None  # (sim time ns, message) of a non-finite step
         self._pacer = pacing.Pacer(config.real_time_factor)
 
         self._recorder = None
@@ -474,8 +473,11 @@ class RigidBodyNode(Node):
             except NonFiniteError as exc:
                 self._warn_releases()
                 # The inputs of the failing step, the one that caused it included, are in the
-                # bag already (session.on_applied).
-                self._failure = (self.session.time_ns, str(exc))
+                # bag already (session.on_applied); the failure goes to the run record, with
+                # the run it ended (the ~/reset calls before it), for replay to judge each run.
+                if self._recorder is not None:
+                    self._recorder.note_failure(self.session.resets, self.session.time_ns,
+                                                str(exc))
                 if self.config.duration_ns and not manual:
                     # A run with an end: it cannot reach it, so it ends now, with status 1.
                     self.get_logger().error(f'{exc}; stopping (duration_s is set): exit 1')
@@ -707,7 +709,7 @@ class RigidBodyNode(Node):
         if recorder.failed is not None:  # already reported where it failed
             recorder.close()
             return
-        recorder.failure, recorder.exception = self._failure, self._crash
+        recorder.exception = self._crash
         try:
             recorder.close(self.ended_by, self.session.time_ns)
             self.get_logger().info(f'recording closed: {recorder.path}')

@@ -222,9 +222,13 @@ class NodeConfig:
     material = property(lambda self: self.body.material, doc="The only body's material.")
 
     @classmethod
-    def from_parameters(cls, params=None):
+    def from_parameters(cls, params=None, *, accepted_frames=None):
         """
         Validate ``params`` (name → value; missing names take their defaults) into a config.
+
+        :param accepted_frames: None (a start); a list: the robot link frame refusals
+            (:func:`rbd_ros.sim.robots.check_link_frames`) go there instead of being raised,
+            for replay of a recording made before those rules (TF frame ids only).
 
         :raises ConfigError: an unknown name, a wrong type, a value out of range, an unknown
             integrator or frame keyword, a step that is not a whole number of ns, ...
@@ -265,7 +269,7 @@ class NodeConfig:
                          "body's are both '<name>/...'; name them apart")
             _check_time_constants(robots, world_joints, time_settings['timestep_ns'])
             return cls(bodies=bodies, **time_settings,
-                       **_frame_settings(values, bodies, robots),
+                       **_frame_settings(values, bodies, robots, accepted_frames),
                        **_limits_and_recording(values), parameters=values,
                        static_world=static_world, robots=robots, command_groups=groups,
                        world_joints=world_joints)
@@ -732,12 +736,13 @@ def _time_settings(values):
             'wrench_timeout_ns': to_ns(p['wrench_timeout_s'], values['wrench_timeout_s'])}
 
 
-def _frame_settings(values, bodies=(), robots=()):
+def _frame_settings(values, bodies=(), robots=(), accepted_frames=None):
     """
     Check the frame ids and keywords; the optional outputs (``/clock``, ``/tf``).
 
     Every frame is the node's one: the world's, each body's, each robot link's
-    (:func:`rbd_ros.sim.robots.check_link_frames`, after the others).
+    (:func:`rbd_ros.sim.robots.check_link_frames`, after the others; ``accepted_frames``: see
+    :meth:`NodeConfig.from_parameters`).
     """
     p = PARAMETERS_BY_NAME
     seen = {values['world_frame']: 'world_frame'}
@@ -762,7 +767,7 @@ def _frame_settings(values, bodies=(), robots=()):
     for name in ('twist_frame', 'default_wrench_frame'):
         if values[name] not in FRAME_KEYWORDS:
             fail(p[name], values[name], "must be 'world' or 'body'")
-    robot_params.check_link_frames(values['world_frame'], seen, robots)
+    robot_params.check_link_frames(values['world_frame'], seen, robots, accepted_frames)
     return {name: values[name] for name in (
         'world_frame', 'twist_frame', 'default_wrench_frame', 'publish_clock', 'publish_tf',
         'publish_markers')}

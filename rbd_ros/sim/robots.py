@@ -57,7 +57,7 @@ motor, and no damping or friction but what the URDF or the parameters give.
 """
 
 from dataclasses import dataclass, replace
-from typing import Dict, Mapping, Tuple
+from typing import Dict, List, Mapping, Optional, Tuple
 
 from rbd_ros.core import ConfigError, RbdError
 from rbd_ros.core.contact.world import is_valid_name, NAME_RULE
@@ -355,7 +355,8 @@ def read_robots(params: Dict[str, object], gravity_w=(0.0, 0.0, 0.0)) -> Tuple[R
     return tuple(_read_robot(params, name, gravity_w) for name in names)
 
 
-def check_link_frames(world_frame: str, taken: Mapping[str, str], robots) -> None:
+def check_link_frames(world_frame: str, taken: Mapping[str, str], robots,
+                      accepted: Optional[List[str]] = None) -> None:
     """
     Refuse a robot link whose TF frame id is already another frame's, in one line.
 
@@ -364,8 +365,18 @@ def check_link_frames(world_frame: str, taken: Mapping[str, str], robots) -> Non
     :param robots: the :class:`RobotConfig` values; each link's frame is
         :meth:`RobotConfig.link_frame` (two robots from one URDF need their own
         ``frame_prefix``: ``/tf`` would otherwise carry two poses for one frame).
+    :param accepted: None at start; a list (replay of a recording made before these rules):
+        each refusal's line goes there instead (TF frame ids only: the physics is the same).
     :raises ConfigError: naming the robot's ``frame_prefix``, the link, the frame and its owner.
     """
+    def refuse(spec, value, problem):
+        try:
+            fail(spec, value, problem)
+        except ConfigError as exc:
+            if accepted is None:
+                raise
+            accepted.append(str(exc))
+
     seen = dict(taken)
     for robot in robots:
         spec = next(s for s in robot.specs if s.name.endswith('.frame_prefix'))
@@ -375,15 +386,15 @@ def check_link_frames(world_frame: str, taken: Mapping[str, str], robots) -> Non
                 continue  # the world link is the world frame itself
             problem = frame_id_problem(frame)  # the URDF's link name (the prefix is checked)
             if problem:
-                fail(spec, robot.frame_prefix,
-                     f'link {link.name!r} of robot {robot.name!r} would be TF frame '
-                     f'{frame!r}, which {problem}')
+                refuse(spec, robot.frame_prefix,
+                       f'link {link.name!r} of robot {robot.name!r} would be TF frame '
+                       f'{frame!r}, which {problem}')
             if frame in seen:
-                fail(spec, robot.frame_prefix,
-                     f'link {link.name!r} of robot {robot.name!r} would be TF frame '
-                     f'{frame!r}, already the frame of {seen[frame]} (a frame_prefix makes '
-                     f"the robot's frames its own, e.g. '{robot.name}/')")
-            seen[frame] = f'link {link.name!r} of robot {robot.name!r}'
+                refuse(spec, robot.frame_prefix,
+                       f'link {link.name!r} of robot {robot.name!r} would be TF frame '
+                       f'{frame!r}, already the frame of {seen[frame]} (a frame_prefix makes '
+                       f"the robot's frames its own, e.g. '{robot.name}/')")
+            seen.setdefault(frame, f'link {link.name!r} of robot {robot.name!r}')
 
 
 def list_names(params, spec, most):

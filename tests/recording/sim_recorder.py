@@ -34,7 +34,7 @@ from rclpy.serialization import serialize_message
 
 
 def record_scripted_run(path, params, script, duration_ns, ended_by='duration_s',
-                        exception=None, **writer_options):
+                        exception=None, before_frame_rules=False, **writer_options):
     """
     Run ``params`` for ``duration_ns`` of sim time, submitting ``script`` wrenches; record.
 
@@ -44,9 +44,13 @@ def record_scripted_run(path, params, script, duration_ns, ended_by='duration_s'
     :param ended_by: how the run record says the run ended.
     :param exception: ``(sim time ns, 'Type: message')`` of an exception to record as the
         node records one out of its loop, or None.
+    :param before_frame_rules: record what a node before the robot link frame rules started
+        (:func:`rbd_ros.sim.robots.check_link_frames`; e.g. two robots of one URDF, no
+        ``frame_prefix``).
     :returns: the closed :class:`RunRecorder`.
     """
-    config = NodeConfig.from_parameters(params)
+    config = NodeConfig.from_parameters(params, accepted_frames=[] if before_frame_rules
+                                        else None)
     session = SimSession(config)
     session.paused = False
     recorder = RunRecorder(config, serialize_message, path, **writer_options)
@@ -87,7 +91,7 @@ def record_scripted_run(path, params, script, duration_ns, ended_by='duration_s'
 
 
 def rewrite_bag(src, dst, config_edit=None, drop=None, edit=None, extra=(), run_edit=None,
-                keep_run=True):
+                keep_run=True, run_drop=()):
     """
     Rewrite the bag ``src`` into ``dst`` message by message (a crafted copy for tests).
 
@@ -97,6 +101,7 @@ def rewrite_bag(src, dst, config_edit=None, drop=None, edit=None, extra=(), run_
     :param extra: ``(topic, cdr, log_time_ns)`` messages to append.
     :param run_edit: entries to change in the ``rbd_ros.run`` record (copied otherwise).
     :param keep_run: False leaves the ``rbd_ros.run`` record out (as after SIGKILL).
+    :param run_drop: keys to leave out of the ``rbd_ros.run`` record (an older node's record).
     """
     bag = open_bag(src)
     config = dict(bag.config)
@@ -115,5 +120,7 @@ def rewrite_bag(src, dst, config_edit=None, drop=None, edit=None, extra=(), run_
     run = None
     if keep_run and bag.run_metadata is not None:
         run = dict(bag.run_metadata, **(run_edit or {}))
+        for key in run_drop:
+            run.pop(key, None)
     writer.close(run_metadata=run)
     return dst

@@ -15,6 +15,7 @@
 """Replay of recordings made through SimSession + BagWriter: bit-exact, detection, bad input."""
 
 import json
+import math
 import os
 from pathlib import Path
 import shutil
@@ -271,6 +272,46 @@ def test_a_reset_within_the_first_publish_period_starts_a_new_run(tmp_path):
     assert result.remarks == ['1 ~/reset during the run: each run after one was replayed '
                               'from the initial state at t = 0']
     assert result.wrenches == 1 and result.compared == 4 + 4 * 31  # 4 topics, 0 and 0-0.3 s
+
+
+def test_a_recording_made_before_the_link_frame_rules_still_replays(tmp_path):
+    """
+    Two robots of one URDF without frame_prefix: refused at start since, yet replayable.
+
+    Their link frames collide on /tf only (the rule came in after such recordings were made):
+    replay went through the start-up checks and refused the recording (exit 2); the physics is
+    the same, so it replays bit for bit and says what it accepted.
+    """
+    from rbd_ros.core import ConfigError
+    from rbd_ros.sim.config import NodeConfig
+    arm = str(REPO / 'msg_config' / 'urdf' / 'arm3.urdf')
+    params = {'robot_names': ['a', 'b'], 'robots.a.urdf_path': arm,
+              'robots.b.urdf_path': arm, 'robots.b.initial_position': [0.0, 1.0, 0.0],
+              'robots.a.initial_joint_positions': [0.3, -0.2, 0.1]}  # a swings
+    with pytest.raises(ConfigError, match="would be TF frame 'mount', already the frame"):
+        NodeConfig.from_parameters(params)  # a start today
+    path = record_scripted_run(str(tmp_path / 'two_arms'), params, [], 200 * MS,
+                               before_frame_rules=True).path
+    result = replay_bag(path)
+    assert result.match, result.problems
+    assert result.compared >= 2 * 21  # each arm's joint_states at 0, 10, ..., 200 ms at least
+    accepted = [r for r in result.remarks if r.startswith('replayed although a start today')]
+    assert len(accepted) == 1 and "link 'mount' of robot 'b' would be TF frame 'mount'" in \
+        accepted[0] and accepted[0].endswith('TF frame ids only, the physics is the same')
+    # The last joint_states of robot a altered in its last bit is a mismatch: really compared.
+    from rclpy.serialization import deserialize_message, serialize_message
+    from sensor_msgs.msg import JointState
+    last = max(i for i, raw in enumerate(open_bag(path).messages())
+               if raw.topic == '/a/joint_states')
+
+    def nudge(index, raw):
+        if index != last:
+            return None
+        msg = deserialize_message(raw.data, JointState)
+        msg.position[0] = math.nextafter(msg.position[0], math.inf)
+        return serialize_message(msg)
+    result = replay_bag(rewrite_bag(path, str(tmp_path / 'nudged'), edit=nudge))
+    assert not result.match and result.topics['/a/joint_states'].mismatches == 1
 
 
 def test_replayer_steps_in_named_parts():

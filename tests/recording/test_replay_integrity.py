@@ -140,10 +140,31 @@ def test_message_past_the_duration_is_refused(bag, tmp_path):
     assert_refused(crafted, 'past the recorded duration_s = 0.5 s')
 
 
-def test_failure_record_far_away_is_refused(bag, tmp_path):
-    crafted = rewrite_bag(bag, str(tmp_path / 'fail_far'),
-                          run_edit={'failure_time_ns': str(2 ** 62), 'failure': 'x'})
-    assert_refused(crafted, f'puts the failure at {2 ** 62} ns')
+FAR = 2 ** 62
+
+
+@pytest.mark.parametrize('run_edit, run_drop, needle', [
+    # the record of today's node: each failure with its run
+    ({'failure_time_ns': str(FAR), 'failure': 'x',
+      'failures': f'[{{"run": 0, "time_ns": {FAR}, "message": "x"}}]'}, (),
+     f'puts the failure at {FAR} ns'),
+    # an older node's record: its last failure only
+    ({'failure_time_ns': str(FAR), 'failure': 'x'}, ('failures',),
+     f'puts the failure at {FAR} ns'),
+    ({'failures': '[{"run": 1, "time_ns": 0, "message": "x"}]', 'failure_time_ns': '0'}, (),
+     'puts a failure in run 2 but the recording holds 1 run(s)'),
+    ({'failure_time_ns': str(FAR), 'failure': 'x'}, (),
+     f"has failure_time_ns '{FAR}' but its failures end with 'none'"),
+    ({'failures': '[' * 100_000}, (), 'not a JSON list of'),
+    ({'failures': '{"run": 0}'}, (), 'not a JSON list of'),
+    ({'failures': '[{"run": true, "time_ns": 0, "message": "x"}]'}, (),
+     'run and time_ns must be integers >= 0'),
+])
+def test_failure_record_that_cannot_be_of_this_run_is_refused(bag, tmp_path, run_edit,
+                                                              run_drop, needle):
+    crafted = rewrite_bag(bag, str(tmp_path / 'fail_far'), run_edit=run_edit,
+                          run_drop=run_drop)
+    assert_refused(crafted, needle)
 
 
 def _mcap_with_config(path, config_yaml):

@@ -25,15 +25,20 @@ replay matches, but the recorded run failed), never ``MATCH``. With ``duration_s
 node cannot reach its end: it stops with status 1 instead of pausing for ever.
 """
 
+import json
+import math
 from pathlib import Path
 import signal
 
 from conftest import wait_until
-from geometry_msgs.msg import WrenchStamped
+from geometry_msgs.msg import PoseStamped, WrenchStamped
+from rbd_ros.bag.reader import split_runs
 from rbd_ros.bag.recording import open_bag
-from rbd_ros.bag.replay import EXIT_RUN_FAILED, main
+from rbd_ros.bag.replay import EXIT_RUN_FAILED, main, replay_bag
+from rclpy.serialization import deserialize_message, serialize_message
 from ros_context import ros_fixture  # noqa: F401 (the ros fixture)
-from sim_recorder import record_scripted_run
+from sim_recorder import record_scripted_run, rewrite_bag
+from std_srvs.srv import SetBool, Trigger
 
 REPO = Path(__file__).resolve().parents[2]
 STACK = REPO / 'msg_config' / 'stack.yaml'
@@ -117,3 +122,108 @@ def test_replay_reports_a_run_that_ended_with_an_exception(tmp_path, capsys):
     assert 'run crashed: the node stopped on an exception at t = 100000000 ns: RuntimeError: ' \
         'publisher destroyed' in out, out
     assert out.splitlines()[-1].startswith('RUN FAILED'), out
+
+
+def _call(ros, client, request):
+    """Call ``client`` (waiting for it) and return the response."""
+    node, executor = ros
+    spin = lambda: executor.spin_once(timeout_sec=0.05)  # noqa: E731
+    wait_until(client.service_is_ready, 30.0, spin=spin, what=f'{client.srv_name} to be offered')
+    future = client.call_async(request)
+    wait_until(future.done, 30.0, spin=spin, what=f'{client.srv_name} to answer')
+    return future.result()
+
+
+def test_runs_reset_after_their_failures_replay_every_run(ros, start_node, tmp_path):
+    """
+    Runs that failed, each then ~/reset and run on: each run is replayed and judged on its own.
+
+    Replay judged the one failure the run record held (the last) against the last run only and
+    said MISMATCH ("the recorded run failed ... but the replay did not"); the record now lists
+    each failure with its run. Run 1 also retries its failing step once (~/pause off): the same
+    step failing again is one failure.
+    """
+    node, executor = ros
+    spin = lambda: executor.spin_once(timeout_sec=0.05)  # noqa: E731
+    bag_path = tmp_path / 'thrown_reset'
+    proc = start_node(params={'record_path': str(bag_path), 'real_time_factor': 1.0,
+                              **SLENDER}, params_file=STACK, namespace=True)
+    ns = proc.namespace
+    reset = node.create_client(Trigger, f'{ns}/rigid_body_node/reset')
+    pause = node.create_client(SetBool, f'{ns}/rigid_body_node/pause')
+
+    def paused(times):
+        return lambda: proc.stderr.count('paused (call ~/reset)') >= times
+    _blow_up(ros, ns, proc, paused(1))
+    assert _call(ros, pause, SetBool.Request(data=False)).success  # the same step fails again
+    wait_until(paused(2), 30.0, spin=spin, what='the failing step to fail again')
+    for run, blow_up in ((2, True), (3, False)):
+        assert _call(ros, reset, Trigger.Request()).success
+        assert _call(ros, pause, SetBool.Request(data=False)).success  # a failure paused it
+        if blow_up:
+            _blow_up(ros, ns, proc, paused(3))
+    # 0.3 s of run 3 (the stack at rest, nothing acting), seen in the closed chunks
+    wait_until(lambda: _run_ns(bag_path, 2) >= 300_000_000, 60.0, spin=spin,
+               what='0.3 s of run 3')
+    assert proc.stop(signal.SIGINT, timeout_s=30.0) == 0, proc.stderr
+
+    bag = open_bag(str(bag_path))
+    topic = f'{ns}/striker/pose'
+    runs = split_runs(bag.messages([topic]))
+    assert len(runs) == 3 and runs[2][-1].log_time_ns >= 300_000_000
+    failures = json.loads(bag.run_metadata['failures'])
+    assert [f['run'] for f in failures] == [0, 1], failures
+    assert failures[-1]['time_ns'] == int(bag.run_metadata['failure_time_ns'])
+    result = replay_bag(str(bag_path))
+    assert result.match, result.problems
+    assert result.failure_reproduced.count('the replay fails at the same step') == 2
+    assert 'run 1 of 3: ' in result.failure_reproduced
+    assert 'run 2 of 3: ' in result.failure_reproduced
+    assert [run['failure_ns'] for run in result.runs] == [
+        failures[0]['time_ns'], failures[1]['time_ns'], None]
+    # Every run compared: run 3's samples too (16 topics of 4 bodies at 100 Hz, >= 0.3 s).
+    assert all(run['samples'] > 0 for run in result.runs), result.runs
+    assert result.runs[2]['samples'] >= 30 * 16
+    assert sum(run['samples'] for run in result.runs) == result.compared
+
+    # The last pose of run 3 altered in its last bit is a mismatch: run 3 is really compared.
+    last = max(i for i, raw in enumerate(bag.messages()) if raw.topic == topic)
+
+    def nudge(index, raw):
+        if index != last:
+            return None
+        msg = deserialize_message(raw.data, PoseStamped)
+        msg.pose.position.x = math.nextafter(msg.pose.position.x, math.inf)
+        return serialize_message(msg)
+    tampered = rewrite_bag(str(bag_path), str(tmp_path / 'tampered'), edit=nudge)
+    result = replay_bag(tampered)
+    assert not result.match
+    assert result.topics[topic].mismatches == 1, result.topics[topic]
+    assert result.topics[topic].first_mismatch.startswith(f't = {runs[2][-1].log_time_ns} ns')
+    assert result.failure_reproduced.count('the replay fails at the same step') == 2
+
+    # The bag as an older node wrote it (its last failure only, no run: failure_time_ns is run
+    # 2's) still replays: the failure is placed in run 2, run 1's cannot be checked.
+    legacy = rewrite_bag(str(bag_path), str(tmp_path / 'legacy'), run_drop=('failures',))
+    result = replay_bag(legacy)
+    assert result.match, result.problems
+    assert "taken to be run 2's" in ' '.join(result.remarks), result.remarks
+    assert result.failure_reproduced.startswith('run 2 of 3: ')
+    assert [run['failure_ns'] for run in result.runs][1:] == [failures[1]['time_ns'], None]
+    # Run 1 is not stepped to a failure that record does not hold: it fails on replay only if
+    # the torque's last message took effect in the failing step (DDS timing), and then a note
+    # says it cannot be checked.
+    first = result.runs[0]['failure_ns']
+    assert first in (None, failures[0]['time_ns'])
+    assert (first is not None) == ('run 1 of 3: the replay failed at t = '
+                                   in ' '.join(result.remarks)), result.remarks
+
+
+def _run_ns(path, index):
+    """Return the sim time run ``index`` (0: the first) of the recording at ``path`` is at."""
+    try:
+        bag = open_bag(str(path))
+        runs = split_runs(bag.messages([t for t in bag.topics if t.endswith('striker/pose')]))
+    except Exception:  # noqa: B902 - the file may be mid-chunk
+        return 0
+    return runs[index][-1].log_time_ns if len(runs) > index and runs[index] else 0
