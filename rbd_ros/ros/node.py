@@ -485,7 +485,8 @@ class RigidBodyNode(Node):
                     self.exit_status = 1
                     self.done = True
                 else:
-                    self.get_logger().error(f'{exc}; paused (call ~/reset)')
+                    self.get_logger().error(
+                        f'{exc}; paused (call ~/reset, then ~/pause with data false to run on)')
                 return
             self._warn_releases()
             if deadline_ns is not None and report.steps:

@@ -90,7 +90,8 @@ def test_a_non_finite_run_is_in_the_bag_and_replay_reports_the_failure(
     bag_path = tmp_path / 'thrown'
     proc = start_node(params={'record_path': str(bag_path), 'real_time_factor': 1.0,
                               **SLENDER}, params_file=STACK, namespace=True)
-    _blow_up(ros, proc.namespace, proc, lambda: 'paused (call ~/reset)' in proc.stderr)
+    _blow_up(ros, proc.namespace, proc,
+             lambda: 'paused (call ~/reset, then ~/pause' in proc.stderr)
     assert 'would be non-finite' in proc.stderr
     # The torque was released first (the step failed with it acting), and said so.
     assert 'striker/wrench: released at t = ' in proc.stderr, proc.stderr
@@ -153,7 +154,7 @@ def test_runs_reset_after_their_failures_replay_every_run(ros, start_node, tmp_p
     pause = node.create_client(SetBool, f'{ns}/rigid_body_node/pause')
 
     def paused(times):
-        return lambda: proc.stderr.count('paused (call ~/reset)') >= times
+        return lambda: proc.stderr.count('paused (call ~/reset, then ~/pause') >= times
     _blow_up(ros, ns, proc, paused(1))
     assert _call(ros, pause, SetBool.Request(data=False)).success  # the same step fails again
     wait_until(paused(2), 30.0, spin=spin, what='the failing step to fail again')

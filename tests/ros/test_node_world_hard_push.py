@@ -144,7 +144,7 @@ def test_a_drag_that_would_make_the_step_non_finite_is_released_and_counted(
     assert _counter(values, 'drags_rejected_non_finite_step') == 1, values
     assert _counter(values, 'drags_rejected') == 1, values
     assert all(_finite(msg) for msg in striker.poses.values())
-    assert 'paused (call ~/reset)' not in node.stderr
+    assert 'paused (call ~/reset, then ~/pause' not in node.stderr
     assert node.stop() == 0, node.stderr
 
 
@@ -181,5 +181,5 @@ def test_a_flood_of_random_wrenches_never_stops_the_world(start_node, probe_for)
     # of the cycle is valid, so some are taken and not rejected.
     assert 0 < rejected < received <= sent, values
     assert by_reason == rejected, values
-    assert 'paused (call ~/reset)' not in node.stderr, node.stderr
+    assert 'paused (call ~/reset, then ~/pause' not in node.stderr, node.stderr
     assert node.stop() == 0, node.stderr
