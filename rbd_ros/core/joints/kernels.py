@@ -1762,121 +1762,124 @@ def step(model, x, work, h, n_steps, tol, max_iter):
         if model.jint[j, J_FRICROW] >= 0:
             n_friction += 1
     n_passes = 2 * model.jint.shape[0] + 2 + 2 * n_friction
-    for s in range(n_steps):
-        n_sub = substeps(model, x, h)
-        hs = h / n_sub   # h itself when not split
-        if n_sub > 1:
-            work.stats[S_SPLIT] += 1.0
-            work.stats[S_SUBSTEPS] = max(work.stats[S_SUBSTEPS], float(n_sub))
-        for sub in range(n_sub):
-            left = hs
-            for p in range(n_passes + 1):
-                _save_start(model, x, work)
-                if p == n_passes:
-                    # the event passes are used up (limits stopped and released in turn, as
-                    # a position target moving beyond a bound that gravity pulls the joint
-                    # off): the rest of the step is one sub-step, its crossings clamped at
-                    # its end
-                    it, j, speed = _clamped_rest(model, x, work, left, tol, max_iter)
-                    if it < 0:
-                        _restore(model, x, work)  # stays finite: back to the sub-step start
-                        work.stats[S_FAIL] = 1.0
-                        return s + 1
-                    if j >= 0:
-                        work.stats[S_STOPS] += 1.0
-                        work.stats[S_STOP_JOINT] = j
-                        work.stats[S_STOP_SPEED] = speed
-                        work.stats[S_STOP_TIME] = ((s + 1) * h if sub == n_sub - 1
-                                                     else s * h + (sub + 1) * hs)
-                    work.stats[S_CLAMPED] += 1.0
-                    work.stats[S_TIME] += left
-                    work.stats[S_TSTAGE] = work.stats[S_TIME]
-                    worst = max(worst, work.stats[S_ERR])
-                    worst_it = max(worst_it, it)
-                    break
-                it = _rk4(model, x, work, left, tol, max_iter)
+    s, sub, n_sub, hs = 0, 0, 1, h
+    while s < n_steps:   # step s, its sub-step sub of n_sub, each hs long
+        if sub == 0:
+            n_sub = substeps(model, x, h)
+            hs = h / n_sub   # h itself when not split
+            if n_sub > 1:
+                work.stats[S_SPLIT] += 1.0
+                work.stats[S_SUBSTEPS] = max(work.stats[S_SUBSTEPS], float(n_sub))
+        left = hs
+        for p in range(n_passes + 1):
+            _save_start(model, x, work)
+            if p == n_passes:
+                # the event passes are used up (limits stopped and released in turn, as a
+                # position target moving beyond a bound that gravity pulls the joint off):
+                # the rest of the step is one sub-step, its crossings clamped at its end
+                it, j, speed = _clamped_rest(model, x, work, left, tol, max_iter)
                 if it < 0:
                     _restore(model, x, work)  # stays finite: back to the sub-step start
                     work.stats[S_FAIL] = 1.0
                     return s + 1
-                j, side, excess = _crossing(model, x, work)
-                if j < 0:
-                    jf = _friction_event(model, work) if n_friction > 0 else -1
-                    if jf < 0:
-                        work.stats[S_TIME] += left
-                        worst = max(worst, work.stats[S_ERR])
-                        worst_it = max(worst_it, it)
-                        break
-                    # a sliding joint stopped inside the sub-step: locate when its rate
-                    # reached zero, g(τ) = -s q̇(τ): g(0) < 0 < g(left), stick it there, go on
-                    sign = work.fric[jf, F_SIGN0]
-                    tau, g = _locate(model, x, work, EVENT_STOP, jf, sign, 0.0,
-                                     -sign * work.fric[jf, F_RATE0], left,
-                                     -sign * work.fric[jf, F_RATE_END], hs, tol, max_iter)
-                    if tau < 0.0:   # the projection failed; x is back at the sub-step start
-                        work.stats[S_FAIL] = 1.0
-                        return s + 1
-                    if g < 0.0 and work.fric[jf, F_SIGN] == sign:
-                        # within STOP_RATE_TOL short of zero and still sliding: stick it now
-                        work.fric[jf, F_SIGN] = 0.0
-                        work.active[model.jint[jf, J_FRICROW]] = 1
-                        refresh_rows(model, work, jf)
-                        _end_of_step(model, x, work)
-                    work.stats[S_TIME] += tau
-                    work.stats[S_TSTAGE] = work.stats[S_TIME]
+                if j >= 0:
+                    work.stats[S_STOPS] += 1.0
+                    work.stats[S_STOP_JOINT] = j
+                    work.stats[S_STOP_SPEED] = speed
+                    work.stats[S_STOP_TIME] = ((s + 1) * h if sub == n_sub - 1
+                                                 else s * h + (sub + 1) * hs)
+                work.stats[S_CLAMPED] += 1.0
+                work.stats[S_TIME] += left
+                work.stats[S_TSTAGE] = work.stats[S_TIME]
+                worst = max(worst, work.stats[S_ERR])
+                worst_it = max(worst_it, it)
+                break
+            it = _rk4(model, x, work, left, tol, max_iter)
+            if it < 0:
+                _restore(model, x, work)  # stays finite: back to the sub-step start
+                work.stats[S_FAIL] = 1.0
+                return s + 1
+            j, side, excess = _crossing(model, x, work)
+            if j < 0:
+                jf = _friction_event(model, work) if n_friction > 0 else -1
+                if jf < 0:
+                    work.stats[S_TIME] += left
                     worst = max(worst, work.stats[S_ERR])
                     worst_it = max(worst_it, it)
-                    left -= tau
-                    if left <= 1e-12 * hs:
-                        work.stats[S_TIME] += left   # the clock takes the step whole
-                        break
-                    continue
-                bound = model.jlim[j, L_UPPER] if side > 0 else model.jlim[j, L_LOWER]
-                g_start = side * (limit_coordinate(model, work.x0, j) - bound)
-                if g_start >= 0.0:
-                    # the sub-step began at or (by less than CROSS_TOL) past the bound and
-                    # went on into it: the crossing is its start, no search (one would
-                    # extrapolate to τ < 0); stop there
-                    _restore(model, x, work)
-                    tau = 0.0
-                else:
-                    # g(τ) = side (q(τ) - bound): g(0) < 0 < g(left) = excess
-                    tau, _ = _locate(model, x, work, EVENT_LIMIT, j, side, bound, g_start, left,
-                                     excess, hs, tol, max_iter)
-                    if tau < 0.0:   # the projection failed; x is back at the sub-step start
-                        work.stats[S_FAIL] = 1.0
-                        return s + 1
-                # stop dead: hold the bound as an equality row, project positions onto it,
-                # then the velocity projection takes out the speed into the stop; every other
-                # free limit at its bound and moving into it is held in the same impact
-                speed = _joint_speed(model, x, work, j)
-                set_limit(model, work, j, side)
-                _hold_at_bounds(model, x, work)
-                body_derived(model, x, work)
-                joint_rows(model, x, work, True)
-                factor(model, work)
-                if _project_positions(model, x, work, tol, max_iter, 0) < 0:
-                    _restore(model, x, work)  # stays finite: back to the sub-step start
+                    break
+                # a sliding joint stopped inside the sub-step: locate when its rate reached
+                # zero, g(τ) = -s q̇(τ): g(0) < 0 < g(left), stick it there, go on
+                sign = work.fric[jf, F_SIGN0]
+                tau, g = _locate(model, x, work, EVENT_STOP, jf, sign, 0.0,
+                                 -sign * work.fric[jf, F_RATE0], left,
+                                 -sign * work.fric[jf, F_RATE_END], hs, tol, max_iter)
+                if tau < 0.0:   # the projection failed; x is back at the sub-step start
                     work.stats[S_FAIL] = 1.0
                     return s + 1
-                _end_of_step(model, x, work)
-                work.stats[S_STOPS] += 1.0
-                work.stats[S_STOP_JOINT] = j
-                work.stats[S_STOP_SPEED] = speed
-                work.stats[S_STOP_TIME] = s * h + sub * hs + (hs - left) + tau
+                if g < 0.0 and work.fric[jf, F_SIGN] == sign:
+                    # within STOP_RATE_TOL short of zero and still sliding: stick it now
+                    work.fric[jf, F_SIGN] = 0.0
+                    work.active[model.jint[jf, J_FRICROW]] = 1
+                    refresh_rows(model, work, jf)
+                    _end_of_step(model, x, work)
                 work.stats[S_TIME] += tau
                 work.stats[S_TSTAGE] = work.stats[S_TIME]
                 worst = max(worst, work.stats[S_ERR])
+                worst_it = max(worst_it, it)
                 left -= tau
                 if left <= 1e-12 * hs:
                     work.stats[S_TIME] += left   # the clock takes the step whole
                     break
-            for b in range(x.shape[0]):  # a step that is not finite is refused, not kept
-                for i in range(13):
-                    if not math.isfinite(x[b, i]):
-                        _restore(model, x, work)
-                        work.stats[S_FAIL] = 2.0
-                        return s + 1
+                continue
+            bound = model.jlim[j, L_UPPER] if side > 0 else model.jlim[j, L_LOWER]
+            g_start = side * (limit_coordinate(model, work.x0, j) - bound)
+            if g_start >= 0.0:
+                # the sub-step began at or (by less than CROSS_TOL) past the bound and went on
+                # into it: the crossing is its start, no search (one would extrapolate to
+                # τ < 0); stop there
+                _restore(model, x, work)
+                tau = 0.0
+            else:
+                # g(τ) = side (q(τ) - bound): g(0) < 0 < g(left) = excess
+                tau, _ = _locate(model, x, work, EVENT_LIMIT, j, side, bound, g_start, left,
+                                 excess, hs, tol, max_iter)
+                if tau < 0.0:   # the projection failed; x is back at the sub-step start
+                    work.stats[S_FAIL] = 1.0
+                    return s + 1
+            # stop dead: hold the bound as an equality row, project positions onto it,
+            # then the velocity projection takes out the speed into the stop; every other
+            # free limit at its bound and moving into it is held in the same impact
+            speed = _joint_speed(model, x, work, j)
+            set_limit(model, work, j, side)
+            _hold_at_bounds(model, x, work)
+            body_derived(model, x, work)
+            joint_rows(model, x, work, True)
+            factor(model, work)
+            if _project_positions(model, x, work, tol, max_iter, 0) < 0:
+                _restore(model, x, work)  # stays finite: back to the sub-step start
+                work.stats[S_FAIL] = 1.0
+                return s + 1
+            _end_of_step(model, x, work)
+            work.stats[S_STOPS] += 1.0
+            work.stats[S_STOP_JOINT] = j
+            work.stats[S_STOP_SPEED] = speed
+            work.stats[S_STOP_TIME] = s * h + sub * hs + (hs - left) + tau
+            work.stats[S_TIME] += tau
+            work.stats[S_TSTAGE] = work.stats[S_TIME]
+            worst = max(worst, work.stats[S_ERR])
+            left -= tau
+            if left <= 1e-12 * hs:
+                work.stats[S_TIME] += left   # the clock takes the step whole
+                break
+        for b in range(x.shape[0]):  # a step that is not finite is refused, not kept
+            for i in range(13):
+                if not math.isfinite(x[b, i]):
+                    _restore(model, x, work)
+                    work.stats[S_FAIL] = 2.0
+                    return s + 1
+        sub += 1
+        if sub == n_sub:
+            s, sub = s + 1, 0
     work.stats[S_ERR] = worst
     work.stats[S_ITER] = worst_it
     return 0
