@@ -1787,7 +1787,7 @@ def step(model, x, work, h, n_steps, tol, max_iter):
                     work.stats[S_STOP_JOINT] = j
                     work.stats[S_STOP_SPEED] = speed
                     work.stats[S_STOP_TIME] = ((s + 1) * h if sub == n_sub - 1
-                                                 else s * h + (sub + 1) * hs)
+                                               else s * h + (sub + 1) * hs)
                 work.stats[S_CLAMPED] += 1.0
                 work.stats[S_TIME] += left
                 work.stats[S_TSTAGE] = work.stats[S_TIME]
