@@ -98,6 +98,9 @@ class Diagnostics:
             joint_error = s.simulator.articulated.joint_error()  # None before the first step
             if joint_error is not None:
                 commands['joint_error_max_m'], commands['joint_error_max_rad'] = joint_error
+            split = getattr(s.simulator.articulated, 'split_steps_total', None)
+            if split is not None:   # the robots' RK4 step: its steps taken in sub-steps
+                commands['joint_steps_split'] = split
             loops = s.take_joint_loops()  # None: no joint-contact solve in this world
             if loops is not None:
                 commands['joint_contact_loops_max'], commands['joint_contact_left_max_m_s'] = loops

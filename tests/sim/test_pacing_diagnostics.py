@@ -198,3 +198,31 @@ def test_a_joint_contact_solve_that_does_not_converge_is_a_warning_naming_it():
         'warn', f'running; a joint-contact solve did not converge in {JOINT_LOOPS} joint '
         f'visits (slow steps; contacts left approaching at up to {left:.3g} m/s)')
     assert diagnostics.values()['joint_contact_loops_max'] == 0  # taken: since the last read
+
+
+def test_a_robots_steps_split_into_sub_steps_are_counted():
+    # The URDF pendulum (1.5 m rod, I about the pivot 0.75 kg m^2) at 20 ms, started at 8 rad/s
+    # from hanging: 0.16 rad a step, so its first steps are split (kernels.SUBSTEP_ROTATION
+    # = 0.1 rad) until gravity has slowed it to 5 rad/s (w^2 = 64 - 19.62 (1 - cos q): at
+    # q ~ 2.1 rad); at 1 ms from 0.5 rad at rest (3.7 rad/s at most) none is.
+    import os
+    urdf = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(
+        os.path.abspath(__file__)))), 'msg_config', 'urdf', 'pendulum.urdf')
+    for step_s, rate, split in ((0.02, 8.0, True), (0.001, 0.0, False)):
+        session = SimSession(NodeConfig.from_parameters({
+            'robot_names': ['pendulum'], 'robots.pendulum.urdf_path': urdf,
+            'robots.pendulum.initial_joint_positions': [0.0 if split else 0.5],
+            'robots.pendulum.initial_joint_velocities': [rate],
+            'gravity': [0.0, 0.0, -9.81], 'timestep_s': step_s}))
+        session.paused = False
+        diagnostics = Diagnostics(session, pacing.Pacer(1.0))
+        assert diagnostics.values()['joint_steps_split'] == 0
+        while session.steps_total < 5:   # an advance returns at a sample
+            session.advance(5 - session.steps_total)
+        values = diagnostics.values()
+        core = session.simulator.articulated
+        assert values['joint_steps_split'] == core.split_steps_total
+        # 5 steps at 20 ms turn it ~0.75 rad, still above 6 rad/s: every one split in 2
+        assert values['joint_steps_split'] == (5 if split else 0), values
+        assert core.split_steps[1] == (2 if split else 1)   # the last call's most sub-steps
+        assert status(session, values) == ('ok', 'running')

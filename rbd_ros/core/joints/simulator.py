@@ -18,10 +18,11 @@
 Every link is a body with its own :class:`~rbd_ros.core.state.BodyState`; a joint is a set of
 constraint rows between two bodies (or a body and the world), see :data:`ROWS`. A step is one
 classical RK4 step of the constrained equations of motion (multipliers from a direct solve,
-:mod:`rbd_ros.core.joints.kernels`), the quaternions renormalised, then a projection: positions
-by Newton with the mass-weighted minimal change until every row's error is at most
-:data:`PROJECTION_TOL`, then velocities onto the joints' allowed motions. The whole step is one
-compiled call that allocates nothing.
+:mod:`rbd_ros.core.joints.kernels`; a step that turns a body or a joint by more than 0.1 rad is
+taken as equal sub-steps that turn none by more), the quaternions renormalised, then a
+projection: positions by Newton with the mass-weighted minimal change until every row's error
+is at most :data:`PROJECTION_TOL`, then velocities onto the joints' allowed motions. The whole
+step is one compiled call that allocates nothing.
 """
 
 from collections import deque
@@ -203,7 +204,14 @@ class ArticulatedSimulator:
         Jacobian the mimic's axial row minus ``k`` times the leader's: equal and opposite
         generalized forces, ``λ`` on the mimic and ``-k λ`` on the leader), projected with
         the others; it couples two joints as a loop does, so the dense solver takes it.
-    :param timestep_ns: the fixed step ``h``, integer ns > 0.
+    :param timestep_ns: the fixed step ``h``, integer ns > 0. A step whose start turns a body
+        (``|ω|``) or a joint's child relative to its parent (``|ω_c - ω_p|``, any kind) by
+        more than :data:`~rbd_ros.core.joints.kernels.SUBSTEP_ROTATION` (0.1 rad) in ``h`` is
+        taken as the fewest equal sub-steps that turn none by more (at most
+        :data:`~rbd_ros.core.joints.kernels.SUBSTEPS_MAX`), each a step as below: RK4's
+        error grows as the fifth power of that angle (:attr:`split_steps` counts them). The
+        clock still advances by ``h`` a step; limits, frictions and motors act as in any
+        step, their readouts (efforts, wrenches) those of the step's end.
     :param solver: ``'auto'`` (the tree elimination when no loop closes, else dense) or
         ``'dense'`` (always the dense factorisation; the same answers, for checking).
     :param defer_projection: True: the initial projection waits for the first :meth:`step`
@@ -265,6 +273,7 @@ class ArticulatedSimulator:
                                          s.angular_velocity_b])
         self._time_ns = states[0].time_ns
         self._t_call = self._time_ns
+        self._split_total = 0
         self._projected = False
         if not defer_projection:
             self._project_initial()
@@ -433,6 +442,7 @@ class ArticulatedSimulator:
             motor=np.zeros((max(n_j, 1), jk.M_SIZE)), fric=np.zeros((max(n_j, 1), jk.F_SIZE)),
             axial=np.zeros((max(n_j, 1), 2)))
         work.fric[:, jk.F_SIGN] = 2.0   # each joint's friction state: decided at the start
+        work.stats[jk.S_SUBSTEPS] = 1.0   # no step taken, none split
         for j, joint in enumerate(joints):
             work.motor[j, jk.M_LIMIT] = (math.inf if joint.effort_limit is None
                                          else joint.effort_limit)
@@ -452,7 +462,8 @@ class ArticulatedSimulator:
         :raises NonFiniteError: a step would have made the state non-finite.
 
         Either way the state and time stay where the failing step began (after a limit stop
-        inside that step: where the sub-step after the stop began), finite.
+        inside that step, or in a step split into sub-steps: where the sub-step began),
+        finite.
         """
         n = whole_number(n_steps, 'n_steps', 'steps', error=ConfigError)
         if n == 0:
@@ -463,6 +474,7 @@ class ArticulatedSimulator:
         self._work.stats[jk.S_TIME] = self._work.stats[jk.S_TSTAGE] = self._time_ns * 1e-9
         failed = jk.step(self._model, self._x, self._work, h, n, PROJECTION_TOL,
                          PROJECTION_MAX_ITER)
+        self._split_total += int(self._work.stats[jk.S_SPLIT])
         if failed:  # the kernel left the state where the failing step (or sub-step) began
             self._time_ns += (failed - 1) * self._timestep_ns
             if self._work.stats[jk.S_FAIL] == 2.0:
@@ -656,6 +668,23 @@ class ArticulatedSimulator:
         time still whole). 0 in an ordinary run.
         """
         return int(self._work.stats[jk.S_CLAMPED])
+
+    @property
+    def split_steps(self):
+        """
+        Return ``(steps split, most sub-steps of one)`` of the last :meth:`step` call.
+
+        A step whose start turns a body or a joint by more than
+        :data:`~rbd_ros.core.joints.kernels.SUBSTEP_ROTATION` is taken in equal sub-steps
+        (see ``timestep_ns``); ``(0, 1)`` when none was.
+        """
+        stats = self._work.stats
+        return int(stats[jk.S_SPLIT]), int(stats[jk.S_SUBSTEPS])
+
+    @property
+    def split_steps_total(self) -> int:
+        """Return how many steps since construction were taken in sub-steps."""
+        return self._split_total
 
     @property
     def held_limits(self):
