@@ -36,8 +36,14 @@ from rbd_ros.core.rotations import quat_conjugate, quat_multiply, quat_normalize
 JOINT_KINDS = {'fixed': 0, 'revolute': 1, 'continuous': 1, 'prismatic': 1, 'spherical': 3,
                'universal': 2, 'planar': 3}
 _LIMITED = ('revolute', 'prismatic')
-#: Joint kinds with one coordinate: the only ones that take a motor, damping or friction.
+#: Joint kinds with one coordinate: the only ones that take damping, friction or a mimic.
 MOTOR_KINDS = ('revolute', 'continuous', 'prismatic')
+#: Each kind that takes motors, and the names of its motor coordinates: one motor a
+#: coordinate (``''`` the one coordinate of a one-coordinate joint). A planar joint's are its
+#: in-plane offsets along ``axis2_b`` and ``axis_b × axis2_b`` (m) and its angle about
+#: ``axis_b`` (rad), the coordinates of :func:`joint_position`.
+MOTOR_COORDINATES = {'revolute': ('',), 'continuous': ('',), 'prismatic': ('',),
+                     'planar': ('x', 'y', 'theta')}
 _TWO_AXES = ('universal', 'planar')
 
 
@@ -302,11 +308,25 @@ def unwrap_angle(previous_rad: float, reading_rad: float) -> float:
     return previous_rad + math.remainder(reading_rad - previous_rad, 2.0 * math.pi)
 
 
-def check_position_target(joint: Joint, value: float, error=ModelError) -> None:
+def coordinate_units(joint: Joint, coordinate: int = 0):
+    """
+    Return ``(position, velocity, effort)`` units of motor coordinate ``coordinate``.
+
+    Rotary (``rad``, ``rad/s``, ``N m``) for revolute and continuous joints and a planar
+    joint's theta (coordinate 2); linear (``m``, ``m/s``, ``N``) otherwise.
+    """
+    rotary = joint.kind in ('revolute', 'continuous') or (joint.kind == 'planar'
+                                                          and coordinate == 2)
+    return ('rad', 'rad/s', 'N m') if rotary else ('m', 'm/s', 'N')
+
+
+def check_position_target(joint: Joint, value: float, error=ModelError,
+                          coordinate: int = 0) -> None:
     """
     Refuse a position target the joint cannot hold: beyond a limit, or out of ``(-π, π]``.
 
-    A revolute angle must be in ``(-π, π]``; a continuous joint takes any angle.
+    A revolute angle must be in ``(-π, π]``, and so must a planar joint's theta (coordinate
+    2; its x and y take any value); a continuous joint takes any angle.
 
     The one rule of a position target:
     :meth:`~rbd_ros.core.joints.ArticulatedSimulator.set_motor` applies it, and
@@ -314,8 +334,13 @@ def check_position_target(joint: Joint, value: float, error=ModelError) -> None:
 
     :raises error: one line naming the joint, the value and its unit.
     """
-    unit = 'm' if joint.kind == 'prismatic' else 'rad'
+    unit = coordinate_units(joint, coordinate)[0]
     who = f'joint {joint.name!r}'
+    if joint.kind == 'planar':
+        if coordinate == 2 and not -math.pi < value <= math.pi:
+            raise error(f'{who}/theta.position: {value!r} rad must be in (-pi, pi] for a '
+                        "planar joint's theta")
+        return
     for bound, ok in (('lower', joint.lower is None or value >= joint.lower),
                       ('upper', joint.upper is None or value <= joint.upper)):
         if not ok:
