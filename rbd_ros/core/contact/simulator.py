@@ -460,10 +460,10 @@ class WorldSimulator(BatchSimulator):
         for joint_index, kwargs in targets:
             joint = self._joints[joint_index] if isinstance(joint_index, int) \
                 and 0 <= joint_index < len(self._joints) else None
-            if joint is not None and joint.kind == 'planar' and any(
+            if joint is not None and joint.kind in ('planar', 'universal') and any(
                     kwargs.get(field) is not None for field in ('effort', 'velocity', 'position')):
-                raise ConfigError(f'joint {joint.name!r}: a planar joint takes its motors in '
-                                  'the articulated step (ArticulatedSimulator) only, not yet '
+                raise ConfigError(f'joint {joint.name!r}: a {joint.kind} joint takes its motors '
+                                  'in the articulated step (ArticulatedSimulator) only, not yet '
                                   'in the contact step')
         self._project_deferred()
         articulated.set_motors(targets, refresh=False)

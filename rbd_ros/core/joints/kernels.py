@@ -67,7 +67,9 @@ ROW_LIMIT = 2
 #: A motor row: the joint rate held at a velocity target, or the critically damped
 #: acceleration toward a position target; absent from the position projection. A planar
 #: joint has three, one a coordinate: x and y (``e_k · d``, ``k`` 0 and 1: a force pair along
-#: the in-plane axis) and theta (the twist about ``axis_b``: a torque pair).
+#: the in-plane axis) and theta (the twist about ``axis_b``: a torque pair); a universal joint
+#: two: θ1 about ``axis_b`` (``k`` 2, as a revolute joint's) and θ2 about the child's cross
+#: axis (``k`` 0, a torque pair about ``R_c w1``).
 ROW_MOTOR = 3
 #: A friction row: the joint's rate held at zero while its Coulomb friction sticks it (a
 #: velocity row, ``q̈ = 0`` inside the step), its multiplier bounded by the friction; absent
@@ -132,7 +134,7 @@ J_KIND = 2
 J_ROW0 = 3
 J_NROWS = 4      # rows of the kind, plus one for a limit (the last; active or not)
 J_LIMROW = 5     # index of the limit row, or -1
-J_MOTROW = 6     # index of the motor row (1-dof kinds), or -1 (a planar joint's: model.mrows)
+J_MOTROW = 6     # index of the motor row (1-dof kinds), or -1 (planar, universal: mrows)
 J_FRICROW = 7    # index of the friction row (joints with friction), or -1
 J_MIMROW = 8     # index of the mimic row (a mimic joint), or -1
 J_INT_SIZE = 9
@@ -156,8 +158,9 @@ B_SIZE = 27
 
 #: The arrays that describe the system (constant after construction). ``mrows``: the motor
 #: row of each motor slot (a row of ``work.motor``), -1 for none: slot ``j`` is joint ``j``'s
-#: (a one-coordinate joint's, or a planar joint's x), the slots after the joints a planar
-#: joint's y and theta; a motor row's slot is ``rows[row, 3]``, its axis ``rows[row, 2]``.
+#: (a one-coordinate joint's, a planar joint's x, a universal joint's θ1), the slots after the
+#: joints the other coordinates'; a motor row's slot is ``rows[row, 3]``, its axis
+#: ``rows[row, 2]``.
 ArtModel = namedtuple('ArtModel', 'prm jint jprm jlim rows order node_par node_dim dense mrows')
 #: Preallocated work arrays (nothing is allocated inside a step).
 ArtWork = namedtuple('ArtWork', 'bd jac con bias D Hp W rhs y A mj drop k xs yb yj lam '
@@ -302,6 +305,17 @@ def body_derived(model, x, work):
 @_inl
 def _twist(model, x, j):
     """Return the angle of ``q_pc q_rest⁻¹`` about ``axis_b`` (rad, in (-pi, pi])."""
+    return _twist_on(model, x, j, J_BASIS_P + 6)
+
+
+@_inl
+def _twist_on(model, x, j, off):
+    """
+    Return ``2 atan2(e_v · u, e_w)``, ``e = q_pc q_rest⁻¹`` (``e_w >= 0``), ``u = jprm[j, off:]``.
+
+    ``u = u3 = axis_b``: a revolute angle; ``u = u1 = axis2_b`` of a universal joint: its second
+    angle (``e = q_a(θ1) q_b(θ2)`` with ``a ⊥ b``: ``e_w = c1 c2``, ``e_v · b = c1 s2``).
+    """
     jint, jprm = model.jint, model.jprm
     par, c = jint[j, J_PARENT], jint[j, J_CHILD]
     if par >= 0:
@@ -321,8 +335,7 @@ def _twist(model, x, j):
     ez = aw * rz + ax * ry - ay * rx + az * rw
     if ew < 0.0:
         ew, ex, ey, ez = -ew, -ex, -ey, -ez
-    u = (ex * jprm[j, J_BASIS_P + 6] + ey * jprm[j, J_BASIS_P + 7]
-         + ez * jprm[j, J_BASIS_P + 8])
+    u = ex * jprm[j, off] + ey * jprm[j, off + 1] + ez * jprm[j, off + 2]
     return 2.0 * math.atan2(u, ew)
 
 
@@ -534,6 +547,27 @@ def joint_rows(model, x, work, full):
                     coord_j = _cone_angle(model, x, j)
                     have_coord = True
                 coord = coord_j
+            elif axial and jint[j, J_KIND] == 5 and k == 0:
+                # a universal joint's second angle θ2, about the child's cross axis
+                # f = R_c w1 (held perpendicular to e = R_P axis_b by its alignment row):
+                # ω_rel = θ̇1 e + θ̇2 f, so θ̇2 = ω_rel · f exactly; J has ω_c: f, ω_P: -f
+                # (a torque pair), J̇ u = ω_rel · (ω_c × f)
+                if full:
+                    m0, m1, m2 = (jprm[j, J_BASIS_C], jprm[j, J_BASIS_C + 1],
+                                  jprm[j, J_BASIS_C + 2])
+                    f0 = c00 * m0 + c01 * m1 + c02 * m2
+                    f1 = c10 * m0 + c11 * m1 + c12 * m2
+                    f2 = c20 * m0 + c21 * m1 + c22 * m2
+                    for i in range(12):
+                        jac[row, i] = 0.0
+                    jac[row, 3], jac[row, 4], jac[row, 5] = -f0, -f1, -f2
+                    jac[row, 9], jac[row, 10], jac[row, 11] = f0, f1, f2
+                    s0, s1, s2 = _cross(wc0, wc1, wc2, f0, f1, f2)
+                    r0, r1, r2 = wc0 - wp0, wc1 - wp1, wc2 - wp2
+                    bias[row] = r0 * s0 + r1 * s1 + r2 * s2
+                    rate = r0 * f0 + r1 * f1 + r2 * f2
+                if need:
+                    coord = _twist_on(model, x, j, J_BASIS_P)
             elif axial and jint[j, J_KIND] != 3 and not in_plane:
                 # revolute / continuous (and a planar joint's theta): the relative rotation
                 # rate about e = R_P axis_b
@@ -596,7 +630,7 @@ def joint_rows(model, x, work, full):
             elif kind == ROW_MOTOR:
                 # not a position row: the projection leaves the motor's coordinate alone
                 con[row] = 0.0
-                m = rows[row, 3]   # the motor slot (j, but for a planar joint's y, theta)
+                m = rows[row, 3]   # the motor slot (j, or a later coordinate's, ArtModel)
                 if need:
                     work.axial[m, 0] = coord
                 if full:
@@ -1152,7 +1186,6 @@ def _project_velocities(model, x, work):
         for k in range(6):
             zero[b, k] = 0.0
     for r in range(rows.shape[0]):
-        j = rows[r, 0]
         # the side count as a constant in each branch, so that the loop unrolls (read from
         # the row, it cost a 7-link arm's step 4 %; a tree has no mimic row)
         if rows[r, 1] == ROW_MIMIC:

@@ -56,6 +56,8 @@ ROWS = {
     'universal': (('lin', 0), ('lin', 1), ('lin', 2), ('ang', 2, 0)),
     'planar': (('lin', 2), ('ang', 0, 2), ('ang', 1, 2)),
 }
+#: The axis ``k`` (:data:`ROWS`) of each motor coordinate's row, by kind with several.
+_MOTOR_AXES = {'planar': (0, 1, 2), 'universal': (2, 0)}
 #: Largest row error left by the projection after every step, m (position rows) or the
 #: cosine of the angle between two axes that must be perpendicular (alignment rows).
 PROJECTION_TOL = 1e-13
@@ -383,11 +385,12 @@ class ArticulatedSimulator:
                 mrows[j] = motor_row
                 spec = spec + (('motor', 2, j),)
             elif joint.kind in MOTOR_COORDINATES:
-                # planar: x and y along u1 and u2, theta about u3; J_MOTROW stays -1 (the
-                # one-row-a-joint paths, the contact step's, leave them alone)
-                for k, slot in enumerate(slots[j]):
+                # planar: x and y along u1 and u2, theta about u3; universal: θ1 about u3,
+                # θ2 about the child's w1; J_MOTROW stays -1 (the one-row-a-joint paths, the
+                # contact step's, leave them alone)
+                for axis, slot in zip(_MOTOR_AXES[joint.kind], slots[j]):
                     mrows[slot] = len(rows) + len(spec)
-                    spec = spec + (('motor', k, slot),)
+                    spec = spec + (('motor', axis, slot),)
             if joint.friction > 0.0:
                 friction_row = len(rows) + len(spec)
                 spec = spec + (('friction', 2),)
@@ -532,9 +535,11 @@ class ArticulatedSimulator:
 
         A planar joint has one motor a coordinate (``coordinate`` 0, 1, 2 or ``'x'``, ``'y'``,
         ``'theta'``: the in-plane offsets along ``axis2_b`` and ``axis_b × axis2_b``, m, N,
-        and the angle about ``axis_b``, rad, N m), each as a one-coordinate joint's, clipped
-        by the joint's one ``effort_limit`` (N for x and y, N m for theta); other joints have
-        coordinate 0 only.
+        and the angle about ``axis_b``, rad, N m), a universal joint two (0, 1 or
+        ``'theta1'``, ``'theta2'``: its angles about ``axis_b`` and about its child's
+        ``axis2_b``, rad, N m, each in ``(-π, π]``), each as a one-coordinate joint's,
+        clipped by the joint's one ``effort_limit`` (N for x and y, N m for the angles);
+        other joints have coordinate 0 only.
 
         One of: ``effort`` (N m or N along the joint coordinate, clipped by the joint's
         ``effort_limit``); ``velocity`` (rad/s or m/s: the joint rate is held at it, enforced
@@ -644,23 +649,24 @@ class ArticulatedSimulator:
         An effort motor: its clipped effort; a position or velocity motor: the force its row
         applies (the multiplier), or ``±effort_limit`` when saturated. A mimic joint: its
         mimic row's generalized force along its coordinate, ``λ`` (the leader takes ``-k λ``,
-        not included in the leader's effort).
+        not included in the leader's effort). A planar or universal joint: NaN, it has one
+        effort a coordinate (:meth:`coordinate_efforts`).
         """
         out = self._work.motor[:len(self._joints), jk.M_APPLIED].copy()
         for j in np.flatnonzero(self._model.jint[:, jk.J_MIMROW] >= 0):
             out[j] = self._work.lam[self._model.jint[j, jk.J_MIMROW]]
         for j, slots in enumerate(self._slots):
             if len(slots) > 1:
-                out[j] = math.nan   # no one effort: see coordinate_efforts
+                out[j] = math.nan   # planar, universal: no one effort (coordinate_efforts)
         return out
 
     def coordinate_efforts(self, joint_index: int) -> np.ndarray:
         """
         Return joint ``joint_index``'s applied motor effort per motor coordinate, now.
 
-        A planar joint: ``(x N, y N, theta N m)``, each as :meth:`joint_efforts` gives a
-        one-coordinate joint's (in which a planar joint reads NaN); a one-coordinate joint:
-        its one effort; others: empty.
+        A planar joint: ``(x N, y N, theta N m)``; a universal joint: ``(θ1, θ2)`` N m; each
+        as :meth:`joint_efforts` gives a one-coordinate joint's (in which these joints read
+        NaN); a one-coordinate joint: its one effort; others: empty.
         """
         joint = self._joints[joint_index]
         if joint.kind not in MOTOR_COORDINATES:
@@ -690,7 +696,8 @@ class ArticulatedSimulator:
         """
         Return per joint True when its position or velocity motor is at its effort limit.
 
-        A planar joint: when any of its coordinates' is (:meth:`coordinate_saturated`).
+        A planar or universal joint: when any of its coordinates' is
+        (:meth:`coordinate_saturated`).
         """
         return [any(self._work.motor[m, jk.M_SAT] != 0.0 for m in slots)
                 for slots in self._slots]

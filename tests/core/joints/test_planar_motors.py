@@ -28,10 +28,11 @@ import numpy as np
 import pytest
 
 from rbd_ros.core import BodyModel, BodyState, ConfigError
-from rbd_ros.core.contact.simulator import WorldBody, WorldSimulator
 from rbd_ros.core.contact import Material, primitive_shape
+from rbd_ros.core.contact.simulator import WorldBody, WorldSimulator
 from rbd_ros.core.joints import ArticulatedSimulator, Joint
 from tests.core.joints.closed_forms import G
+from tests.core.joints.stepping import follow_position_targets
 
 MASS = 2.0
 INERTIA = np.diag([0.05, 0.08, 0.03])   # about the centre; 0.08 about the normal (y)
@@ -49,38 +50,16 @@ def puck(step_ns=1_000_000, gravity=G, arm=ARM, effort_limit=None, solver='auto'
                                 timestep_ns=step_ns, solver=solver)
 
 
-def critically_damped(e0, omega, t):
-    """Return the error ``e(t) = e0 (1 + ω t) e^(-ω t)`` of the exact response from rest."""
-    return e0 * (1.0 + omega * t) * math.exp(-omega * t)
-
-
 @pytest.mark.parametrize('step_ns, tol', [(1_000_000, 2e-10), (10_000_000, 2e-5)])
 def test_position_targets_follow_the_critically_damped_closed_form(step_ns, tol):
     sim = puck(step_ns)
     targets, omega = (0.3, -0.4, 1.0), 10.0
-    for k, target in enumerate(targets):
-        sim.set_motor(0, position=target, time_constant_s=1.0 / omega, coordinate=k)
-    worst_follow = worst_joint = 0.0
-    for _ in range(3_000_000_000 // step_ns):
-        sim.step()
-        t = sim.time_ns * 1e-9
-        q = sim.joint_positions()[0]
-        for k, target in enumerate(targets):
-            worst_follow = max(worst_follow, abs(q[k] - target
-                                                 - critically_damped(-target, omega, t)))
-            # no overshoot: each error keeps the sign of its start (or is round-off)
-            assert (q[k] - target) * -target >= -1e-12, (k, q[k])
-        worst_joint = max(worst_joint, *sim.joint_error())
+    worst_follow, worst_joint = follow_position_targets(sim, 0, targets, omega,
+                                                        3_000_000_000 // step_ns)
     # each coordinate follows its own closed form to RK4's error: 9.7e-11 measured at 1 ms
     # (1-DOF arm: 7e-11), O(h^4) so 1e4 times that at 10 ms
     assert worst_follow <= tol, worst_follow
     assert worst_joint <= JOINT_TOL, worst_joint
-    # held under gravity: after 30 time constants the closed form's own error is
-    # e0 31 e^-30 <= 1.2e-12 (0.4 m), so what is left is RK4's and the projection's
-    t = sim.time_ns * 1e-9
-    for k, target in enumerate(targets):
-        assert abs(sim.joint_positions()[0][k] - target) <= (
-            abs(critically_damped(target, omega, t)) + 1e-12)
     # the motors carry gravity: y pushes -m g (gravity pulls +y), theta -m g r cos θ, x 0;
     # at rest the row multipliers are the static forces to round-off (the residual motion is
     # e^-30 small)
@@ -216,13 +195,14 @@ def test_a_one_coordinate_joint_has_coordinate_zero_only():
         sim.set_motor(0, effort=1.0, coordinate=1)
 
 
-def test_the_contact_step_refuses_planar_motors_in_one_line():
+@pytest.mark.parametrize('kind, coordinate', [('planar', 'x'), ('universal', 'theta2')])
+def test_the_contact_step_refuses_planar_and_universal_motors_in_one_line(kind, coordinate):
     shape = primitive_shape('box', [0.2, 0.2, 0.2])
     body = WorldBody('puck', BodyModel(MASS, shape.mass_properties(MASS).inertia_b), shape,
                      Material(0.5, 0.0))
-    joint = Joint('slide', 'planar', None, 0, axis_b=(0.0, 1.0, 0.0), axis2_b=(1.0, 0.0, 0.0))
+    joint = Joint('slide', kind, None, 0, axis_b=(0.0, 1.0, 0.0), axis2_b=(1.0, 0.0, 0.0))
     sim = WorldSimulator([body], [BodyState((0.0, 0.0, 1.0))], None, joints=[joint])
-    with pytest.raises(ConfigError, match="joint 'slide': a planar joint takes its motors in "
+    with pytest.raises(ConfigError, match=f"joint 'slide': a {kind} joint takes its motors in "
                                           'the articulated step'):
-        sim.set_motor(0, effort=1.0, coordinate='x')
-    sim.set_motor(0, coordinate='x')   # clearing one (nothing set) is fine
+        sim.set_motor(0, effort=1.0, coordinate=coordinate)
+    sim.set_motor(0, coordinate=coordinate)   # clearing one (nothing set) is fine
