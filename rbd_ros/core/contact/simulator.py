@@ -473,6 +473,14 @@ class WorldSimulator(BatchSimulator):
         """Set several motors at once, as :meth:`set_motor` each; a bad one sets none."""
         articulated = self._articulated_or_refuse()
         targets = list(targets)
+        for joint_index, kwargs in targets:
+            joint = self._joints[joint_index] if isinstance(joint_index, int) \
+                and 0 <= joint_index < len(self._joints) else None
+            if joint is not None and joint.kind in ('planar', 'universal') and any(
+                    kwargs.get(field) is not None for field in ('effort', 'velocity', 'position')):
+                raise ConfigError(f'joint {joint.name!r}: a {joint.kind} joint takes its motors '
+                                  'in the articulated step (ArticulatedSimulator) only, not yet '
+                                  'in the contact step')
         self._project_deferred()
         articulated.set_motors(targets, refresh=False)
         drive, motor = self._joint_stage.drive, self._joint_stage.work.motor

@@ -65,7 +65,11 @@ ROW_ANG = 1
 #: or a spherical joint's angle off ``axis_b``, bounded by its cone; :func:`limit_coordinate`).
 ROW_LIMIT = 2
 #: A motor row: the joint rate held at a velocity target, or the critically damped
-#: acceleration toward a position target; absent from the position projection.
+#: acceleration toward a position target; absent from the position projection. A planar
+#: joint has three, one a coordinate: x and y (``e_k · d``, ``k`` 0 and 1: a force pair along
+#: the in-plane axis) and theta (the twist about ``axis_b``: a torque pair); a universal joint
+#: two: θ1 about ``axis_b`` (``k`` 2, as a revolute joint's) and θ2 about the child's cross
+#: axis (``k`` 0, a torque pair about ``R_c w1``).
 ROW_MOTOR = 3
 #: A friction row: the joint's rate held at zero while its Coulomb friction sticks it (a
 #: velocity row, ``q̈ = 0`` inside the step), its multiplier bounded by the friction; absent
@@ -130,7 +134,7 @@ J_KIND = 2
 J_ROW0 = 3
 J_NROWS = 4      # rows of the kind, plus one for a limit (the last; active or not)
 J_LIMROW = 5     # index of the limit row, or -1
-J_MOTROW = 6     # index of the motor row (1-dof kinds), or -1
+J_MOTROW = 6     # index of the motor row (1-dof kinds), or -1 (planar, universal: mrows)
 J_FRICROW = 7    # index of the friction row (joints with friction), or -1
 J_MIMROW = 8     # index of the mimic row (a mimic joint), or -1
 J_INT_SIZE = 9
@@ -152,8 +156,12 @@ B_FORCE = 18
 B_OMEGA_W = 24
 B_SIZE = 27
 
-#: The arrays that describe the system (constant after construction).
-ArtModel = namedtuple('ArtModel', 'prm jint jprm jlim rows order node_par node_dim dense')
+#: The arrays that describe the system (constant after construction). ``mrows``: the motor
+#: row of each motor slot (a row of ``work.motor``), -1 for none: slot ``j`` is joint ``j``'s
+#: (a one-coordinate joint's, a planar joint's x, a universal joint's θ1), the slots after the
+#: joints the other coordinates'; a motor row's slot is ``rows[row, 3]``, its axis
+#: ``rows[row, 2]``.
+ArtModel = namedtuple('ArtModel', 'prm jint jprm jlim rows order node_par node_dim dense mrows')
 #: Preallocated work arrays (nothing is allocated inside a step).
 ArtWork = namedtuple('ArtWork', 'bd jac con bias D Hp W rhs y A mj drop k xs yb yj lam '
                      'wrench angle stats nrow dim active lim_state lim0 x0 k0 jrows motor fric '
@@ -310,6 +318,17 @@ def body_derived(model, x, work):
 @_inl
 def _twist(model, x, j):
     """Return the angle of ``q_pc q_rest⁻¹`` about ``axis_b`` (rad, in (-pi, pi])."""
+    return _twist_on(model, x, j, J_BASIS_P + 6)
+
+
+@_inl
+def _twist_on(model, x, j, off):
+    """
+    Return ``2 atan2(e_v · u, e_w)``, ``e = q_pc q_rest⁻¹`` (``e_w >= 0``), ``u = jprm[j, off:]``.
+
+    ``u = u3 = axis_b``: a revolute angle; ``u = u1 = axis2_b`` of a universal joint: its second
+    angle (``e = q_a(θ1) q_b(θ2)`` with ``a ⊥ b``: ``e_w = c1 c2``, ``e_v · b = c1 s2``).
+    """
     jint, jprm = model.jint, model.jprm
     par, c = jint[j, J_PARENT], jint[j, J_CHILD]
     if par >= 0:
@@ -329,8 +348,7 @@ def _twist(model, x, j):
     ez = aw * rz + ax * ry - ay * rx + az * rw
     if ew < 0.0:
         ew, ex, ey, ez = -ew, -ex, -ey, -ez
-    u = (ex * jprm[j, J_BASIS_P + 6] + ey * jprm[j, J_BASIS_P + 7]
-         + ez * jprm[j, J_BASIS_P + 8])
+    u = ex * jprm[j, off] + ey * jprm[j, off + 1] + ez * jprm[j, off + 2]
     return 2.0 * math.atan2(u, ew)
 
 
@@ -498,6 +516,8 @@ def joint_rows(model, x, work, full):
             axial = kind == ROW_LIMIT or kind == ROW_MOTOR or kind == ROW_FRICTION
             need = work.active[row] != 0 and kind != ROW_FRICTION or (
                 kind == ROW_MOTOR and keep_axial)
+            # a planar joint's x and y motor rows are position rows along u1, u2
+            in_plane = jint[j, J_KIND] == 6 and k != 2
             if axial and jint[j, J_KIND] == 4:
                 # a spherical joint's cone limit, C = θ - cone, θ the angle between e = R_P u3
                 # and f = R_c w3: θ̇ = ω_rel · n, n = p / |p|, p = e × f (the swing axis), so
@@ -540,8 +560,30 @@ def joint_rows(model, x, work, full):
                     coord_j = _cone_angle(model, x, j)
                     have_coord = True
                 coord = coord_j
-            elif axial and jint[j, J_KIND] != 3:
-                # revolute / continuous: the relative rotation rate about e = R_P axis_b
+            elif axial and jint[j, J_KIND] == 5 and k == 0:
+                # a universal joint's second angle θ2, about the child's cross axis
+                # f = R_c w1 (held perpendicular to e = R_P axis_b by its alignment row):
+                # ω_rel = θ̇1 e + θ̇2 f, so θ̇2 = ω_rel · f exactly; J has ω_c: f, ω_P: -f
+                # (a torque pair), J̇ u = ω_rel · (ω_c × f)
+                if full:
+                    m0, m1, m2 = (jprm[j, J_BASIS_C], jprm[j, J_BASIS_C + 1],
+                                  jprm[j, J_BASIS_C + 2])
+                    f0 = c00 * m0 + c01 * m1 + c02 * m2
+                    f1 = c10 * m0 + c11 * m1 + c12 * m2
+                    f2 = c20 * m0 + c21 * m1 + c22 * m2
+                    for i in range(12):
+                        jac[row, i] = 0.0
+                    jac[row, 3], jac[row, 4], jac[row, 5] = -f0, -f1, -f2
+                    jac[row, 9], jac[row, 10], jac[row, 11] = f0, f1, f2
+                    s0, s1, s2 = _cross(wc0, wc1, wc2, f0, f1, f2)
+                    r0, r1, r2 = wc0 - wp0, wc1 - wp1, wc2 - wp2
+                    bias[row] = r0 * s0 + r1 * s1 + r2 * s2
+                    rate = r0 * f0 + r1 * f1 + r2 * f2
+                if need:
+                    coord = _twist_on(model, x, j, J_BASIS_P)
+            elif axial and jint[j, J_KIND] != 3 and not in_plane:
+                # revolute / continuous (and a planar joint's theta): the relative rotation
+                # rate about e = R_P axis_b
                 if full:
                     for i in range(12):
                         jac[row, i] = 0.0
@@ -601,17 +643,18 @@ def joint_rows(model, x, work, full):
             elif kind == ROW_MOTOR:
                 # not a position row: the projection leaves the motor's coordinate alone
                 con[row] = 0.0
+                m = rows[row, 3]   # the motor slot (j, or a later coordinate's, ArtModel)
                 if need:
-                    work.axial[j, 0] = coord
+                    work.axial[m, 0] = coord
                 if full:
-                    work.axial[j, 1] = bias[row]
-                if full and work.motor[j, M_MODE] == MOTOR_POSITION:
+                    work.axial[m, 1] = bias[row]
+                if full and work.motor[m, M_MODE] == MOTOR_POSITION:
                     # e'' = -2 w e' - w^2 e, e = q - q*(t): the exact critically damped
                     # response about the (moving) target
-                    w = work.motor[j, M_OMEGA]
-                    vr, ar = work.motor[j, M_VREF], work.motor[j, M_AREF]
-                    ds = work.stats[S_TSTAGE] - work.motor[j, M_TREF]
-                    qr = work.motor[j, M_POSITION] + (vr + 0.5 * ar * ds) * ds
+                    w = work.motor[m, M_OMEGA]
+                    vr, ar = work.motor[m, M_VREF], work.motor[m, M_AREF]
+                    ds = work.stats[S_TSTAGE] - work.motor[m, M_TREF]
+                    qr = work.motor[m, M_POSITION] + (vr + 0.5 * ar * ds) * ds
                     bias[row] += 2.0 * w * (rate - vr - ar * ds) + w * w * (coord - qr) - ar
             elif kind == ROW_FRICTION:
                 con[row] = 0.0   # a velocity row: the projection leaves the coordinate alone
@@ -996,18 +1039,19 @@ def _motor_forces(model, x, work):
     skipped, so its arithmetic is that of a joint without damping and friction.
     """
     jint, jprm, motor, jac, bd = model.jint, model.jprm, work.motor, work.jac, work.bd
-    for j in range(jint.shape[0]):
-        row = jint[j, J_MOTROW]
+    for m in range(model.mrows.shape[0]):   # motor slots: slot j is joint j's (see ArtModel)
+        row = model.mrows[m]
         if row < 0:
             continue
-        mode = motor[j, M_MODE]
+        j = model.rows[row, 0]
+        mode = motor[m, M_MODE]
         tau = 0.0
         push = False
         if mode == MOTOR_EFFORT:
-            tau = min(max(motor[j, M_EFFORT], -motor[j, M_LIMIT]), motor[j, M_LIMIT])
+            tau = min(max(motor[m, M_EFFORT], -motor[m, M_LIMIT]), motor[m, M_LIMIT])
             push = True
-        elif mode != MOTOR_OFF and motor[j, M_SAT] != 0.0 and work.lim_state[j] == 0:
-            tau = motor[j, M_SAT] * motor[j, M_LIMIT]
+        elif mode != MOTOR_OFF and motor[m, M_SAT] != 0.0 and work.lim_state[j] == 0:
+            tau = motor[m, M_SAT] * motor[m, M_LIMIT]
             push = True
         damping = jprm[j, J_DAMPING]
         if damping != 0.0:
@@ -1155,7 +1199,6 @@ def _project_velocities(model, x, work):
         for k in range(6):
             zero[b, k] = 0.0
     for r in range(rows.shape[0]):
-        j = rows[r, 0]
         # the side count as a constant in each branch, so that the loop unrolls (read from
         # the row, it cost a 7-link arm's step 4 %; a tree has no mimic row)
         if rows[r, 1] == ROW_MIMIC:
@@ -1167,11 +1210,12 @@ def _project_velocities(model, x, work):
             # a velocity target is a velocity row, J u = v*; a position target's row is an
             # acceleration row only, so the projection leaves that rate alone (unless the
             # contact step holds it at its exact response's rate, M_HOLD)
-            mode = work.motor[j, M_MODE]
+            m = rows[r, 3]   # the motor slot
+            mode = work.motor[m, M_MODE]
             if mode == MOTOR_VELOCITY:
-                work.bias[r] = work.motor[j, M_VELOCITY] - s
-            elif mode == MOTOR_POSITION and work.motor[j, M_HOLD] != 0.0:
-                work.bias[r] = work.motor[j, M_HOLD_RATE] - s
+                work.bias[r] = work.motor[m, M_VELOCITY] - s
+            elif mode == MOTOR_POSITION and work.motor[m, M_HOLD] != 0.0:
+                work.bias[r] = work.motor[m, M_HOLD_RATE] - s
             else:
                 work.bias[r] = 0.0
     solve(model, work, zero, work.bias, work.yb, work.yj)
@@ -1248,16 +1292,16 @@ def _saturate(model, work):
 
     A saturated motor pushes with ``±effort_limit`` instead (see :func:`_motor_forces`).
     """
-    jint, lam, motor = model.jint, work.lam, work.motor
+    lam, motor = work.lam, work.motor
     changed = 0
-    for j in range(jint.shape[0]):
-        row = jint[j, J_MOTROW]
+    for m in range(model.mrows.shape[0]):
+        row = model.mrows[m]
         if row < 0 or work.active[row] == 0:
             continue
-        if abs(lam[row]) > motor[j, M_LIMIT]:
-            motor[j, M_SAT] = 1.0 if lam[row] > 0.0 else -1.0
+        if abs(lam[row]) > motor[m, M_LIMIT]:
+            motor[m, M_SAT] = 1.0 if lam[row] > 0.0 else -1.0
             work.active[row] = 0
-            refresh_rows(model, work, j)
+            refresh_rows(model, work, model.rows[row, 0])
             changed += 1
     return changed
 
@@ -1275,37 +1319,38 @@ def _set_active(model, work, j, row, want):
 @_jit
 def _motor_rows_on(model, work):
     """Turn on the row of every position / velocity motor not paused by a held limit."""
-    jint, motor = model.jint, work.motor
+    motor = work.motor
     changed = 0
-    for j in range(jint.shape[0]):
-        row = jint[j, J_MOTROW]
+    for m in range(model.mrows.shape[0]):
+        row = model.mrows[m]
         if row < 0:
             continue
-        mode = motor[j, M_MODE]
+        j = model.rows[row, 0]
+        mode = motor[m, M_MODE]
         want = 1 if ((mode == MOTOR_VELOCITY or mode == MOTOR_POSITION)
                      and work.lim_state[j] == 0) else 0
-        motor[j, M_SAT] = 0.0
+        motor[m, M_SAT] = 0.0
         changed += _set_active(model, work, j, row, want)
     return changed
 
 
 @_jit
 def _applied_efforts(model, work):
-    jint, motor = model.jint, work.motor
-    for j in range(jint.shape[0]):
-        row = jint[j, J_MOTROW]
+    motor = work.motor
+    for m in range(model.mrows.shape[0]):
+        row = model.mrows[m]
         if row < 0:
             continue
-        mode = motor[j, M_MODE]
+        mode = motor[m, M_MODE]
         if mode == MOTOR_EFFORT:
-            motor[j, M_APPLIED] = min(max(motor[j, M_EFFORT], -motor[j, M_LIMIT]),
-                                      motor[j, M_LIMIT])
+            motor[m, M_APPLIED] = min(max(motor[m, M_EFFORT], -motor[m, M_LIMIT]),
+                                      motor[m, M_LIMIT])
         elif work.active[row] != 0:
-            motor[j, M_APPLIED] = work.lam[row]
-        elif mode != MOTOR_OFF and motor[j, M_SAT] != 0.0:
-            motor[j, M_APPLIED] = motor[j, M_SAT] * motor[j, M_LIMIT]
+            motor[m, M_APPLIED] = work.lam[row]
+        elif mode != MOTOR_OFF and motor[m, M_SAT] != 0.0:
+            motor[m, M_APPLIED] = motor[m, M_SAT] * motor[m, M_LIMIT]
         else:
-            motor[j, M_APPLIED] = 0.0
+            motor[m, M_APPLIED] = 0.0
 
 
 @_jit

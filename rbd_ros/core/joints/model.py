@@ -36,8 +36,15 @@ from rbd_ros.core.rotations import quat_conjugate, quat_multiply, quat_normalize
 JOINT_KINDS = {'fixed': 0, 'revolute': 1, 'continuous': 1, 'prismatic': 1, 'spherical': 3,
                'universal': 2, 'planar': 3}
 _LIMITED = ('revolute', 'prismatic')
-#: Joint kinds with one coordinate: the only ones that take a motor, damping or friction.
+#: Joint kinds with one coordinate: the only ones that take damping, friction or a mimic.
 MOTOR_KINDS = ('revolute', 'continuous', 'prismatic')
+#: Each kind that takes motors, and the names of its motor coordinates: one motor a
+#: coordinate (``''`` the one coordinate of a one-coordinate joint). A planar joint's are its
+#: in-plane offsets along ``axis2_b`` and ``axis_b × axis2_b`` (m) and its angle about
+#: ``axis_b`` (rad); a universal joint's its angles about ``axis_b`` and about ``axis2_b``
+#: (rad): the coordinates of :func:`joint_position`.
+MOTOR_COORDINATES = {'revolute': ('',), 'continuous': ('',), 'prismatic': ('',),
+                     'planar': ('x', 'y', 'theta'), 'universal': ('theta1', 'theta2')}
 _TWO_AXES = ('universal', 'planar')
 
 
@@ -266,9 +273,10 @@ def joint_velocity(joint: Joint, pos_p_w, q_wp, vel_p_w, omega_p_w, pos_c_w, q_w
     """
     Return the joint coordinate rates (rad/s, m/s) from world-frame body velocities.
 
-    Revolute, continuous, prismatic and planar: the coordinate rates; spherical: the relative
-    angular velocity in parent coordinates (rad/s); universal: that angular velocity on each
-    axis (exact for the second axis at theta1 = 0). A world parent passes ``None`` poses.
+    Revolute, continuous, prismatic, planar and universal: the coordinate rates (a universal
+    joint's second, the relative angular velocity on the child's cross axis: exact, the two
+    axes being perpendicular); spherical: the relative angular velocity in parent coordinates
+    (rad/s). A world parent passes ``None`` poses.
     """
     if q_wp is None:
         q_wp, pos_p_w = np.array([1.0, 0.0, 0.0, 0.0]), np.zeros(3)
@@ -289,7 +297,9 @@ def joint_velocity(joint: Joint, pos_p_w, q_wp, vel_p_w, omega_p_w, pos_c_w, q_w
     if joint.kind == 'spherical':
         return omega_rel_p
     if joint.kind == 'universal':
-        return np.array([float(omega_rel_p @ axis), float(omega_rel_p @ joint.axis2_b)])
+        # the child's cross axis in parent coordinates: R_pc R_rest^T axis2_b
+        cross_p = rot_wp.T @ rot_wc @ quat_to_matrix(joint.q_rest).T @ joint.axis2_b
+        return np.array([float(omega_rel_p @ axis), float(omega_rel_p @ cross_p)])
     if joint.kind == 'planar':
         ex = joint.axis2_b
         return np.array([float(vel_rel_p @ ex), float(vel_rel_p @ np.cross(axis, ex)),
@@ -302,11 +312,26 @@ def unwrap_angle(previous_rad: float, reading_rad: float) -> float:
     return previous_rad + math.remainder(reading_rad - previous_rad, 2.0 * math.pi)
 
 
-def check_position_target(joint: Joint, value: float, error=ModelError) -> None:
+def coordinate_units(joint: Joint, coordinate: int = 0):
+    """
+    Return ``(position, velocity, effort)`` units of motor coordinate ``coordinate``.
+
+    Rotary (``rad``, ``rad/s``, ``N m``) for revolute, continuous and universal joints and a
+    planar joint's theta (coordinate 2); linear (``m``, ``m/s``, ``N``) otherwise.
+    """
+    rotary = joint.kind in ('revolute', 'continuous', 'universal') or (
+        joint.kind == 'planar' and coordinate == 2)
+    return ('rad', 'rad/s', 'N m') if rotary else ('m', 'm/s', 'N')
+
+
+def check_position_target(joint: Joint, value: float, error=ModelError,
+                          coordinate: int = 0) -> None:
     """
     Refuse a position target the joint cannot hold: beyond a limit, or out of ``(-π, π]``.
 
-    A revolute angle must be in ``(-π, π]``; a continuous joint takes any angle.
+    A revolute angle must be in ``(-π, π]``, and so must a planar joint's theta (coordinate
+    2; its x and y take any value) and both angles of a universal joint; a continuous joint
+    takes any angle.
 
     The one rule of a position target:
     :meth:`~rbd_ros.core.joints.ArticulatedSimulator.set_motor` applies it, and
@@ -314,8 +339,14 @@ def check_position_target(joint: Joint, value: float, error=ModelError) -> None:
 
     :raises error: one line naming the joint, the value and its unit.
     """
-    unit = 'm' if joint.kind == 'prismatic' else 'rad'
+    unit = coordinate_units(joint, coordinate)[0]
     who = f'joint {joint.name!r}'
+    if joint.kind in ('planar', 'universal'):
+        name = MOTOR_COORDINATES[joint.kind][coordinate]
+        if (joint.kind == 'universal' or coordinate == 2) and not -math.pi < value <= math.pi:
+            raise error(f'{who}/{name}.position: {value!r} rad must be in (-pi, pi] for a '
+                        f"{joint.kind} joint's {name}")
+        return
     for bound, ok in (('lower', joint.lower is None or value >= joint.lower),
                       ('upper', joint.upper is None or value <= joint.upper)):
         if not ok:

@@ -35,8 +35,9 @@ from rbd_ros.core import jitcache
 from rbd_ros.core.errors import (ConfigError, ConvergenceError, finite_scalar, finite_vector,
                                  NonFiniteError, whole_number)
 from rbd_ros.core.joints import kernels as jk
-from rbd_ros.core.joints.model import (check_position_target, Joint, joint_position,
-                                       joint_velocity, MOTOR_KINDS)
+from rbd_ros.core.joints.model import (check_position_target, coordinate_units, Joint,
+                                       joint_position, joint_velocity, MOTOR_COORDINATES,
+                                       MOTOR_KINDS)
 from rbd_ros.core.joints.readout import JointReadout
 from rbd_ros.core.model import BodyModel
 from rbd_ros.core.rotations import quat_to_matrix
@@ -56,6 +57,8 @@ ROWS = {
     'universal': (('lin', 0), ('lin', 1), ('lin', 2), ('ang', 2, 0)),
     'planar': (('lin', 2), ('ang', 0, 2), ('ang', 1, 2)),
 }
+#: The axis ``k`` (:data:`ROWS`) of each motor coordinate's row, by kind with several.
+_MOTOR_AXES = {'planar': (0, 1, 2), 'universal': (2, 0)}
 #: Largest row error left by the projection after every step, m (position rows) or the
 #: cosine of the angle between two axes that must be perpendicular (alignment rows).
 PROJECTION_TOL = 1e-13
@@ -266,7 +269,7 @@ class ArticulatedSimulator:
         self._models = tuple(models)
         self._joints = tuple(joints)
         self._readout = JointReadout(joints)
-        self._model, self._work = self._arrays(models, joints, solver == 'dense')
+        self._model, self._work, self._slots = self._arrays(models, joints, solver == 'dense')
         self._x = np.zeros((n_b, 13))
         for b, s in enumerate(states):
             self._x[b] = np.concatenate([s.position_w, s.orientation_wb, s.linear_velocity_w,
@@ -369,6 +372,15 @@ class ArticulatedSimulator:
         jprm = np.zeros((n_j, jk.J_PRM_SIZE))
         jlim = np.zeros((n_j, 4))
         rows = []
+        # motor slots (rows of work.motor): joint j's first coordinate in slot j, a planar
+        # joint's y and theta after the joints
+        slots = [[j] for j in range(n_j)]
+        for j, joint in enumerate(joints):
+            extra = len(MOTOR_COORDINATES.get(joint.kind, ())) - 1
+            if extra > 0:
+                start = n_j + sum(len(s) - 1 for s in slots)
+                slots[j] += list(range(start, start + extra))
+        mrows = -np.ones(max(n_j + sum(len(s) - 1 for s in slots), 1), dtype=np.int64)
         for j, joint in enumerate(joints):
             spec = ROWS[joint.kind]
             limited = (joint.lower is not None or joint.upper is not None
@@ -379,7 +391,15 @@ class ArticulatedSimulator:
                 spec = spec + (('limit', 2),)
             if joint.kind in MOTOR_KINDS:
                 motor_row = len(rows) + len(spec)
-                spec = spec + (('motor', 2),)
+                mrows[j] = motor_row
+                spec = spec + (('motor', 2, j),)
+            elif joint.kind in MOTOR_COORDINATES:
+                # planar: x and y along u1 and u2, theta about u3; universal: θ1 about u3,
+                # θ2 about the child's w1; J_MOTROW stays -1 (the one-row-a-joint paths, the
+                # contact step's, leave them alone)
+                for axis, slot in zip(_MOTOR_AXES[joint.kind], slots[j]):
+                    mrows[slot] = len(rows) + len(spec)
+                    spec = spec + (('motor', axis, slot),)
             if joint.friction > 0.0:
                 friction_row = len(rows) + len(spec)
                 spec = spec + (('friction', 2),)
@@ -419,10 +439,12 @@ class ArticulatedSimulator:
         active = np.ones(n_r, dtype=np.int64)
         for column in (jk.J_LIMROW, jk.J_MOTROW, jk.J_FRICROW):
             active[jint[:, column][jint[:, column] >= 0]] = 0
+        active[mrows[mrows >= 0]] = 0
         if dense:
             order = np.zeros(0, dtype=np.int64)
             par = -np.ones(n_nodes, dtype=np.int64)
-        model = jk.ArtModel(prm, jint, jprm, jlim, rows, order, par, dim.copy(), bool(dense))
+        model = jk.ArtModel(prm, jint, jprm, jlim, rows, order, par, dim.copy(), bool(dense),
+                            mrows)
         dn = n_r if dense else 1
         nd = 1 if dense else n_nodes
         # a row's Jacobian: 6 columns a body side, 2 sides (4 for a mimic row: its leader's)
@@ -439,15 +461,15 @@ class ArticulatedSimulator:
             lim_state=np.zeros(max(n_j, 1), dtype=np.int64),
             lim0=np.zeros(max(n_j, 1), dtype=np.int64), x0=np.zeros((n_b, 13)),
             k0=np.zeros((n_b, 13)), jrows=np.zeros((max(n_j, 1), 9), dtype=np.int64),
-            motor=np.zeros((max(n_j, 1), jk.M_SIZE)), fric=np.zeros((max(n_j, 1), jk.F_SIZE)),
-            axial=np.zeros((max(n_j, 1), 2)))
+            motor=np.zeros((mrows.shape[0], jk.M_SIZE)),
+            fric=np.zeros((max(n_j, 1), jk.F_SIZE)), axial=np.zeros((mrows.shape[0], 2)))
         work.fric[:, jk.F_SIGN] = 2.0   # each joint's friction state: decided at the start
         work.stats[jk.S_SUBSTEPS] = 1.0   # no step taken, none split
         for j, joint in enumerate(joints):
-            work.motor[j, jk.M_LIMIT] = (math.inf if joint.effort_limit is None
-                                         else joint.effort_limit)
+            work.motor[slots[j], jk.M_LIMIT] = (math.inf if joint.effort_limit is None
+                                                else joint.effort_limit)
             jk.refresh_rows(model, work, j)
-        return model, work
+        return model, work, slots
 
     def _check_finite(self, where):
         if not np.isfinite(self._x).all():
@@ -518,9 +540,18 @@ class ArticulatedSimulator:
         return float(self._work.stats[0]), int(self._work.stats[1])
 
     def set_motor(self, joint_index: int, *, effort=None, velocity=None, position=None,
-                  time_constant_s=None, reference_rates=None, refresh=True) -> None:
+                  time_constant_s=None, reference_rates=None, refresh=True,
+                  coordinate=0) -> None:
         """
         Set (or, with no target, clear) joint ``joint_index``'s motor; held until changed.
+
+        A planar joint has one motor a coordinate (``coordinate`` 0, 1, 2 or ``'x'``, ``'y'``,
+        ``'theta'``: the in-plane offsets along ``axis2_b`` and ``axis_b × axis2_b``, m, N,
+        and the angle about ``axis_b``, rad, N m), a universal joint two (0, 1 or
+        ``'theta1'``, ``'theta2'``: its angles about ``axis_b`` and about its child's
+        ``axis2_b``, rad, N m, each in ``(-π, π]``), each as a one-coordinate joint's,
+        clipped by the joint's one ``effort_limit`` (N for x and y, N m for the angles);
+        other joints have coordinate 0 only.
 
         One of: ``effort`` (N m or N along the joint coordinate, clipped by the joint's
         ``effort_limit``); ``velocity`` (rad/s or m/s: the joint rate is held at it, enforced
@@ -546,19 +577,29 @@ class ArticulatedSimulator:
         who = f'joint {joint.name!r}'
         given = [(name, value) for name, value in (('effort', effort), ('velocity', velocity),
                                                    ('position', position)) if value is not None]
-        if given and joint.kind not in MOTOR_KINDS:
+        if given and joint.kind not in MOTOR_COORDINATES:
             raise ConfigError(f'{who}: a {joint.kind} joint takes no motor (only '
-                              f'{", ".join(MOTOR_KINDS)})')
+                              f'{", ".join(MOTOR_COORDINATES)})')
+        names = MOTOR_COORDINATES.get(joint.kind, ('',))
+        k = names.index(coordinate) if isinstance(coordinate, str) and coordinate \
+            and coordinate in names else coordinate
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) \
+                or not 0 <= k < len(names):
+            raise ConfigError(f'{who}.coordinate: {coordinate!r} is not a motor coordinate '
+                              f'of a {joint.kind} joint (' + (
+                                  ', '.join(f'{i} or {n!r}' for i, n in enumerate(names))
+                                  if len(names) > 1 else '0 only') + ')')
+        if len(names) > 1:
+            who = f'{who}/{names[k]}'
         if given and joint.mimic is not None:
             raise ConfigError(f'{who}: a mimic joint (of {joint.mimic!r}) takes no motor; '
                               f'command {joint.mimic!r}')
         if len(given) > 1:
             raise ConfigError(f'{who}: give one of effort, velocity, position, not '
                               f'{" and ".join(name for name, _ in given)}')
-        linear = joint.kind == 'prismatic'
-        units = {'effort': 'N' if linear else 'N m', 'velocity': 'm/s' if linear else 'rad/s',
-                 'position': 'm' if linear else 'rad'}
-        row = self._work.motor[joint_index]
+        position_unit, velocity_unit, effort_unit = coordinate_units(joint, k)
+        units = {'effort': effort_unit, 'velocity': velocity_unit, 'position': position_unit}
+        row = self._work.motor[self._slots[joint_index][k]]
         mode, value = (given[0] if given else ('off', 0.0))
         if given:
             value = finite_scalar(value, f'{who}.{mode}', units[mode], error=ConfigError)
@@ -570,7 +611,7 @@ class ArticulatedSimulator:
                                 error=ConfigError)
             if not tau > 0.0:
                 raise ConfigError(f'{who}.time_constant_s: {tau!r} s must be > 0')
-            check_position_target(joint, value, ConfigError)
+            check_position_target(joint, value, ConfigError, k)
             row[jk.M_OMEGA] = 1.0 / tau
         elif time_constant_s is not None:
             raise ConfigError(f'{who}.time_constant_s: {time_constant_s!r}; only a position '
@@ -620,12 +661,38 @@ class ArticulatedSimulator:
         An effort motor: its clipped effort; a position or velocity motor: the force its row
         applies (the multiplier), or ``±effort_limit`` when saturated. A mimic joint: its
         mimic row's generalized force along its coordinate, ``λ`` (the leader takes ``-k λ``,
-        not included in the leader's effort).
+        not included in the leader's effort). A planar or universal joint: NaN, it has one
+        effort a coordinate (:meth:`coordinate_efforts`).
         """
         out = self._work.motor[:len(self._joints), jk.M_APPLIED].copy()
         for j in np.flatnonzero(self._model.jint[:, jk.J_MIMROW] >= 0):
             out[j] = self._work.lam[self._model.jint[j, jk.J_MIMROW]]
+        for j, slots in enumerate(self._slots):
+            if len(slots) > 1:
+                out[j] = math.nan   # planar, universal: no one effort (coordinate_efforts)
         return out
+
+    def coordinate_efforts(self, joint_index: int) -> np.ndarray:
+        """
+        Return joint ``joint_index``'s applied motor effort per motor coordinate, now.
+
+        A planar joint: ``(x N, y N, theta N m)``; a universal joint: ``(θ1, θ2)`` N m; each
+        as :meth:`joint_efforts` gives a one-coordinate joint's (in which these joints read
+        NaN); a one-coordinate joint: its one effort; others: empty.
+        """
+        joint = self._joints[joint_index]
+        if joint.kind not in MOTOR_COORDINATES:
+            return np.zeros(0)
+        if len(self._slots[joint_index]) == 1:
+            return self.joint_efforts()[joint_index:joint_index + 1]
+        return self._work.motor[self._slots[joint_index], jk.M_APPLIED].copy()
+
+    def coordinate_saturated(self, joint_index: int):
+        """Return per motor coordinate of the joint True when that motor is saturated."""
+        joint = self._joints[joint_index]
+        if joint.kind not in MOTOR_COORDINATES:
+            return []
+        return [bool(self._work.motor[m, jk.M_SAT] != 0.0) for m in self._slots[joint_index]]
 
     def joint_friction_efforts(self) -> np.ndarray:
         """
@@ -638,8 +705,14 @@ class ArticulatedSimulator:
         return np.array([self._work.fric[j, jk.F_APPLIED] for j in range(len(self._joints))])
 
     def motor_saturated(self):
-        """Return per joint True when its position or velocity motor is at its effort limit."""
-        return [bool(self._work.motor[j, jk.M_SAT] != 0.0) for j in range(len(self._joints))]
+        """
+        Return per joint True when its position or velocity motor is at its effort limit.
+
+        A planar or universal joint: when any of its coordinates' is
+        (:meth:`coordinate_saturated`).
+        """
+        return [any(self._work.motor[m, jk.M_SAT] != 0.0 for m in slots)
+                for slots in self._slots]
 
     @property
     def last_stop(self):

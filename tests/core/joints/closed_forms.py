@@ -283,6 +283,16 @@ def cradle_rise_height(length_m, theta0_rad):
 #: ``t_final_s`` (``q_ref_rad``, ``qd_ref_rad_s``, ``qdd_ref_rad_s2``; the spread of the four
 #: published runs ``q_spread_rad``) and ``energy_ref_j`` (zero: it starts horizontal at rest),
 #: and ``source``.
+def critically_damped(e0, omega, t_s):
+    """
+    Return a position motor's error ``e(t) = e0 (1 + ω t) e^(-ω t)`` from rest.
+
+    The exact critically damped response ``ë = -2ω ė - ω² e`` (``ω = 1/time_constant_s``)
+    started at ``e0`` with ``ė = 0``: it never changes sign (no overshoot).
+    """
+    return e0 * (1.0 + omega * t_s) * math.exp(-omega * t_s)
+
+
 def damped_rotor(rate0, damping, inertia, t_s):
     """
     Rate and travel of one joint under its viscous damping alone: ``(q̇(t), q(t) - q(0))``.

@@ -16,6 +16,8 @@
 
 import numpy as np
 
+from tests.core.joints.closed_forms import critically_damped
+
 #: The joints' error allowed after every step (m, rad): the issue's bound (the step's own is
 #: ``PROJECTION_TOL = 1e-13`` per row; a distance over three rows is up to √3 of it).
 JOINT_TOL = 1e-12
@@ -42,3 +44,30 @@ def momentum(sim):
         lin += p
         ang += np.cross(s.position_w, p) + s.angular_momentum_w(body.model)
     return lin, ang
+
+
+def follow_position_targets(sim, joint, targets, omega, n_steps):
+    """
+    Drive each motor coordinate of ``joint`` from rest to ``targets``; check every step.
+
+    Each coordinate's error must keep its sign (no overshoot, within 1e-12 of round-off), and
+    end within 1e-12 of the closed form's own error then (held: after 30 time constants that
+    is ``e0 31 e^-30``, 1.5e-12 at 0.5; what is left is RK4's and the projection's
+    round-off). Return ``(worst |q - closed form|, worst joint error)`` over the ``n_steps``
+    steps, the closed form :func:`~closed_forms.critically_damped` per coordinate.
+    """
+    for k, target in enumerate(targets):
+        sim.set_motor(joint, position=target, time_constant_s=1.0 / omega, coordinate=k)
+    worst_follow = worst_joint = 0.0
+    for _ in range(n_steps):
+        sim.step()
+        t = sim.time_ns * 1e-9
+        q = sim.joint_positions()[joint]
+        for k, target in enumerate(targets):
+            worst_follow = max(worst_follow, abs(q[k] - target
+                                                 - critically_damped(-target, omega, t)))
+            assert (q[k] - target) * -target >= -1e-12, (k, q[k])
+        worst_joint = max(worst_joint, *sim.joint_error())
+    for k, target in enumerate(targets):
+        assert abs(q[k] - target) <= abs(critically_damped(target, omega, t)) + 1e-12, (k, q[k])
+    return worst_follow, worst_joint
