@@ -71,3 +71,19 @@ def follow_position_targets(sim, joint, targets, omega, n_steps):
     for k, target in enumerate(targets):
         assert abs(q[k] - target) <= abs(critically_damped(target, omega, t)) + 1e-12, (k, q[k])
     return worst_follow, worst_joint
+
+
+def motors_on_both_solvers(make, motors, n_steps=500):
+    """
+    Step ``make(solver=...)`` with joint 0's ``motors`` (``set_motor`` keywords) on both solvers.
+
+    Return ``[(solver, joint positions of joint 0, its coordinate efforts)]``, tree then dense.
+    """
+    runs = []
+    for solver in ('auto', 'dense'):
+        sim = make(solver=solver)
+        for motor in motors:
+            sim.set_motor(0, **motor)
+        sim.step(n_steps)
+        runs.append((sim.solver, np.array(sim.joint_positions()[0]), sim.coordinate_efforts(0)))
+    return runs

@@ -32,7 +32,7 @@ from rbd_ros.core.contact import Material, primitive_shape
 from rbd_ros.core.contact.simulator import WorldBody, WorldSimulator
 from rbd_ros.core.joints import ArticulatedSimulator, Joint
 from tests.core.joints.closed_forms import G
-from tests.core.joints.stepping import follow_position_targets
+from tests.core.joints.stepping import follow_position_targets, motors_on_both_solvers
 
 MASS = 2.0
 INERTIA = np.diag([0.05, 0.08, 0.03])   # about the centre; 0.08 about the normal (y)
@@ -72,14 +72,9 @@ def test_position_targets_follow_the_critically_damped_closed_form(step_ns, tol)
 
 
 def test_tree_and_dense_solvers_agree_on_the_motors():
-    runs = []
-    for solver in ('auto', 'dense'):
-        sim = puck(solver=solver)
-        sim.set_motor(0, position=0.2, time_constant_s=0.1, coordinate='x')
-        sim.set_motor(0, velocity=0.5, coordinate='y')
-        sim.set_motor(0, effort=0.3, coordinate='theta')
-        sim.step(500)
-        runs.append((sim.solver, np.array(sim.joint_positions()[0]), sim.coordinate_efforts(0)))
+    runs = motors_on_both_solvers(puck, [
+        {'position': 0.2, 'time_constant_s': 0.1, 'coordinate': 'x'},
+        {'velocity': 0.5, 'coordinate': 'y'}, {'effort': 0.3, 'coordinate': 'theta'}])
     assert [r[0] for r in runs] == ['tree', 'dense']
     # two direct factorisations of the same system: round-off apart
     assert np.abs(runs[0][1] - runs[1][1]).max() <= 1e-13

@@ -29,7 +29,7 @@ from rbd_ros.core import BodyModel, BodyState, ConfigError
 from rbd_ros.core.joints import ArticulatedSimulator, Joint
 from rbd_ros.core.rotations import quat_to_matrix
 from tests.core.joints.closed_forms import G
-from tests.core.joints.stepping import follow_position_targets
+from tests.core.joints.stepping import follow_position_targets, motors_on_both_solvers
 
 MASS, LENGTH = 1.0, 1.0
 # The projection leaves every row within PROJECTION_TOL = 1e-13; the bound is 1e-12.
@@ -73,13 +73,9 @@ def test_position_targets_follow_the_critically_damped_closed_form(step_ns, tol)
 
 
 def test_tree_and_dense_solvers_agree_on_the_motors():
-    runs = []
-    for solver in ('auto', 'dense'):
-        sim = rod(solver=solver)
-        sim.set_motor(0, position=0.4, time_constant_s=0.1, coordinate='theta1')
-        sim.set_motor(0, velocity=0.5, coordinate='theta2')
-        sim.step(500)
-        runs.append((sim.solver, np.array(sim.joint_positions()[0]), sim.coordinate_efforts(0)))
+    runs = motors_on_both_solvers(rod, [
+        {'position': 0.4, 'time_constant_s': 0.1, 'coordinate': 'theta1'},
+        {'velocity': 0.5, 'coordinate': 'theta2'}])
     assert [r[0] for r in runs] == ['tree', 'dense']
     assert np.abs(runs[0][1] - runs[1][1]).max() <= 1e-13   # two direct solves: round-off
     assert np.abs(runs[0][2] - runs[1][2]).max() <= 1e-9
