@@ -50,7 +50,8 @@ PARALLEL_MIN_BODIES = 2048
 THREADS_RECHECK_S = 1.0
 
 
-def _cores():
+def usable_cores() -> int:
+    """Return the CPUs this process may run on (``threads``' default, the pools' size)."""
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:   # not on Linux
@@ -65,7 +66,7 @@ def free_cores() -> int:
     of the others (the load less the one runnable thread of this process, when it is stepping),
     rounded to the nearest whole core.
     """
-    cores = _cores()
+    cores = usable_cores()
     try:
         others = max(0.0, os.getloadavg()[0] - 1.0)
     except OSError:
@@ -155,7 +156,7 @@ class BatchSimulator:
         self._threads_prepare = self._kernel is kernels.advance_parallel
         # Automatic threads: wall seconds per step of the last call on each candidate count.
         most = min(numba.config.NUMBA_NUM_THREADS, len(states) // PARALLEL_MIN_BODIES,
-                   _cores())
+                   usable_cores())
         self._cost_s = {}
         if self._threads_auto:
             self._set_threads(choose_threads(len(states)))

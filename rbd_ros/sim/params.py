@@ -38,7 +38,7 @@ import math
 import numpy as np
 
 from rbd_ros.core import ConfigError, DEFAULT_INTEGRATOR, INTEGRATORS, ModelError
-from rbd_ros.core.simulator import _cores
+from rbd_ros.core.simulator import usable_cores
 
 # ROS parameter types, by the names rcl_interfaces/ParameterType uses (lower case).
 BOOL = 'bool'
@@ -265,7 +265,7 @@ PARAMETERS = (
               "A world's per-body output topics (<body>/pose, twist, odom, contact_wrench); "
               'false leaves poses, /tf, markers and the inputs.',
               rule='true without body_names'),
-    ParamSpec('threads', INTEGER, _cores(), '',
+    ParamSpec('threads', INTEGER, usable_cores(), '',
               "Threads a world's contact step may use (groups of bodies out of each other's "
               'reach on threads, the same bits whatever the count); default: the CPUs this '
               'process may use.', (1, MAX_THREADS), rule='>= 1'),

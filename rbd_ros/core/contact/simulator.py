@@ -51,7 +51,7 @@ from rbd_ros.core.joints import simulator as joints_simulator
 from rbd_ros.core.joints.model import Joint
 from rbd_ros.core.model import BodyModel
 from rbd_ros.core.rotations import quat_to_matrix
-from rbd_ros.core.simulator import _cores, BatchSimulator
+from rbd_ros.core.simulator import BatchSimulator, usable_cores
 from rbd_ros.core.state import BodyState
 
 __all__ = ['CONTACT_INTEGRATORS', 'Contacts', 'WorldBody', 'WorldSimulator']
@@ -302,7 +302,7 @@ class WorldSimulator(BatchSimulator):
                  joints: Sequence[Joint] = (), no_collision=(), no_static_collision=(),
                  defer_projection: bool = False, threads: Optional[int] = None):
         jitcache.configured()  # the kernel cache, before a first compile
-        threads = _cores() if threads is None else whole_number(
+        threads = usable_cores() if threads is None else whole_number(
             threads, 'threads', 'threads', positive=True, error=ConfigError)
         bodies = tuple(bodies)
         states = tuple(states)
