@@ -55,6 +55,10 @@ def message_fields(kind: str, msg) -> Tuple[int, tuple, Dict[str, Any]]:
     if kind == 'contact_wrench':
         return stamp, (msg.header.frame_id,), {
             'force': vec(msg.wrench.force), 'torque': vec(msg.wrench.torque)}
+    if kind == 'poses':  # every body's pose, one row each (geometry_msgs/PoseArray)
+        return stamp, (msg.header.frame_id, len(msg.poses)), {
+            'position': tuple(vec(p.position) for p in msg.poses),
+            'orientation': tuple(quat(p.orientation) for p in msg.poses)}
     if kind == 'joint_states':
         return stamp, (msg.header.frame_id, tuple(msg.name)), {
             'joint_position': tuple(msg.position), 'joint_velocity': tuple(msg.velocity),
@@ -75,7 +79,8 @@ def expected_message(kind, state, config, contact_wrench=None):
 
 
 #: The compared fields of each output kind (see :func:`message_fields`).
-KIND_FIELDS = {'pose': ('position', 'orientation'), 'twist': ('linear', 'angular'),
+KIND_FIELDS = {'pose': ('position', 'orientation'), 'poses': ('position', 'orientation'),
+               'twist': ('linear', 'angular'),
                'odom': ('position', 'orientation', 'linear', 'angular'),
                'contact_wrench': ('force', 'torque'), 'clock': (),
                'joint_states': ('joint_position', 'joint_velocity', 'joint_effort'),
@@ -116,8 +121,12 @@ def compare_fields(result: TopicResult, kind: str, t_ns: int, expected: Any, rec
             error = 0.0
         elif np.shape(e_value) != np.shape(r_value):
             error = math.inf  # another number of joints
-        elif name == 'orientation':
-            error = float(quat_angle_between(np.array(e_value), np.array(r_value)))
+        elif name == 'orientation':  # poses: the largest of its bodies' angles
+            error = float(np.max(quat_angle_between(np.array(e_value), np.array(r_value)),
+                                 initial=0.0))
+        elif np.ndim(e_value) == 2:  # poses: the largest of its bodies' distances
+            error = float(np.max(np.linalg.norm(np.subtract(e_value, r_value), axis=-1),
+                                 initial=0.0))
         else:
             error = float(np.linalg.norm(np.subtract(e_value, r_value)))
         if not math.isfinite(error):

@@ -141,12 +141,15 @@ def compared_kinds(config: NodeConfig, builder: outputs.SampleBuilder) -> Dict[s
     Return ``{kind: type name}`` of the compared outputs: each body's, and ``clock``.
 
     The ``clock`` of named bodies is not compared (their per-body samples are); ``poses`` and
-    ``tf`` repeat the poses.
+    ``tf`` repeat the poses, so ``poses`` is compared only when there are no per-body topics
+    (``per_body_topics: false``): every body's pose, its only record of them.
     """
     kinds = [kind for kind in builder.kinds if builder.body_index(kind) is not None]
     if 'clock' in builder.kinds and not config.named and not config.robots:
         kinds.append('clock')
     compared = {kind: outputs.TYPE_NAMES[kind.rsplit('/', 1)[-1]] for kind in kinds}
+    if 'poses' in builder.kinds and not builder.per_body:
+        compared['poses'] = types.POSE_ARRAY
     for robot in builder.robots:
         compared[robot.kind] = types.JOINT_STATE
         compared[robot.wrench_kind] = types.MULTI_DOF_JOINT_STATE

@@ -28,7 +28,7 @@ the command).
 """
 
 import sys
-from typing import Iterable, List, Optional
+from typing import Dict, Iterable, List, Optional
 
 from rbd_ros.bag import recorder as run_record
 from rbd_ros.bag.reader import split_runs
@@ -373,20 +373,25 @@ class Replayer:
         t = raw.log_time_ns
         if self.session.time_ns != t:
             return False
-        if self._expected_time_ns != t:
-            robots = self.session.simulator if self.config.robots or self.config.world_joints \
-                else None
-            self._expected = dict(self._builder.serialize(
-                t, self.session.columns, self.session.contact_wrenches_w, robots))
-            self._expected_time_ns = t
         kind = self.kinds[raw.topic]
-        if self._expected.get(kind) != raw.data:
+        if self.expected_bytes().get(kind) != raw.data:
             return False
         result = self.result.topics[raw.topic]
         result.samples += 1
         for name in KIND_FIELDS[kind.rsplit('/', 1)[-1]]:
             result.take_error(ERROR_FIELDS[name], 0.0)
         return True
+
+    def expected_bytes(self) -> Dict[str, bytes]:
+        """Return ``{kind: CDR bytes}`` the node would record at the session's time (cached)."""
+        t = self.session.time_ns
+        if self._expected_time_ns != t:
+            robots = self.session.simulator if self.config.robots or self.config.world_joints \
+                else None
+            self._expected = dict(self._builder.serialize(
+                t, self.session.columns, self.session.contact_wrenches_w, robots))
+            self._expected_time_ns = t
+        return self._expected
 
     def compare_sample(self, raw: RawMessage, msg) -> bool:
         """Compare the recorded output sample ``msg`` with the one recomputed now."""
@@ -398,6 +403,12 @@ class Replayer:
                 expected.header.stamp = conversions.time_to_msg(t)
             return compare_fields(self.result.topics[raw.topic], kind.rsplit('/', 1)[-1], t,
                                   expected, msg, self.tolerance)
+        if kind == 'poses':  # every body's pose: the node's bytes now, decoded as recorded
+            expected = self._decoders[raw.topic](self.expected_bytes()['poses'])
+            if self.session.time_ns != t:
+                expected = restamp(kind, expected, t)
+            return compare_fields(self.result.topics[raw.topic], kind, t, expected, msg,
+                                  self.tolerance)
         index = self._builder.body_index(kind) or 0  # clock: body 0's time
         wrenches = self.session.contact_wrenches_w
         wrench = None if wrenches is None else (wrenches[index][:3].tolist(),
