@@ -39,8 +39,8 @@ import numpy as np
 
 from rbd_ros.core import cachedir, jitcache
 from rbd_ros.core.contact import kernels as k
-from rbd_ros.core.contact.shapes import (_frozen, _params, _spacing, CollisionShape,
-                                         primitive_shape)
+from rbd_ros.core.contact.shapes import (CollisionShape, frozen_array, point_spacing,
+                                         primitive_shape, shape_params)
 from rbd_ros.core.errors import field_error, ModelError
 from rbd_ros.core.inertia import triangle_mesh
 from rbd_ros.core.rotations import quat_to_matrix
@@ -235,15 +235,16 @@ def _mesh_from_trimesh(mesh, where, where_field, field, spacing_m, sdf_cells, ce
     faces = np.ascontiguousarray(faces)
     low = vertices.min(axis=0)
     high = vertices.max(axis=0)
-    s = _spacing(spacing_m, float((high - low).max()), field)
+    s = point_spacing(spacing_m, float((high - low).max()), field)
     origin, h, values = _sdf_grid(vertices, faces, cells, cache_dir)
     return CollisionShape(
-        shape='mesh', kind=k.KIND_MESH, params=_frozen(_params(*origin, h)),
-        dimensions_m=_frozen(np.zeros(0)), spacing_m=s,
-        points_b=_frozen(_mesh_points(vertices, faces, s)),
+        shape='mesh', kind=k.KIND_MESH, params=frozen_array(shape_params(*origin, h)),
+        dimensions_m=frozen_array(np.zeros(0)), spacing_m=s,
+        points_b=frozen_array(_mesh_points(vertices, faces, s)),
         bounding_radius_m=float(np.linalg.norm(vertices, axis=1).max()),
-        aabb_min_b=_frozen(low), aabb_max_b=_frozen(high), vertices_b=_frozen(vertices),
-        faces=_frozen(faces, np.int64), grid=_frozen(values), mesh_offset_m=_frozen(offset))
+        aabb_min_b=frozen_array(low), aabb_max_b=frozen_array(high),
+        vertices_b=frozen_array(vertices), faces=frozen_array(faces, np.int64),
+        grid=frozen_array(values), mesh_offset_m=frozen_array(offset))
 
 
 def _trimesh():
@@ -449,12 +450,12 @@ def compound_shape(parts, surfaces, sdf_cells=DEFAULT_SDF_CELLS, field=''):
     faces = np.asarray(index).reshape(-1)[:tris.shape[0]]
     radius = max(float(np.linalg.norm(pos)) + s.bounding_radius_m for s, _, pos in posed)
     return CollisionShape(
-        shape='compound', kind=k.KIND_MESH, params=_frozen(_params(*origin, h)),
-        dimensions_m=_frozen(np.zeros(0)), spacing_m=min(s.spacing_m for s, _, _ in posed),
-        points_b=_frozen(points), bounding_radius_m=radius, aabb_min_b=_frozen(low),
-        aabb_max_b=_frozen(high), vertices_b=_frozen(vertices),
-        faces=_frozen(faces.reshape(-1, 3), np.int64), grid=_frozen(values),
-        mesh_offset_m=_frozen(np.zeros(3)))
+        shape='compound', kind=k.KIND_MESH, params=frozen_array(shape_params(*origin, h)),
+        dimensions_m=frozen_array(np.zeros(0)), spacing_m=min(s.spacing_m for s, _, _ in posed),
+        points_b=frozen_array(points), bounding_radius_m=radius, aabb_min_b=frozen_array(low),
+        aabb_max_b=frozen_array(high), vertices_b=frozen_array(vertices),
+        faces=frozen_array(faces.reshape(-1, 3), np.int64), grid=frozen_array(values),
+        mesh_offset_m=frozen_array(np.zeros(3)))
 
 
 def collision_shape(shape, dimensions_m=None, mesh_path=None, mesh_scale=(1.0, 1.0, 1.0),

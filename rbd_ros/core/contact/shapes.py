@@ -73,7 +73,8 @@ def _empty_grid():
     return np.zeros((1, 1, 1))
 
 
-def _frozen(array, dtype=np.float64):
+def frozen_array(array, dtype=np.float64):
+    """Return ``array`` as a contiguous read-only array of ``dtype`` (a shape's fields)."""
     out = np.ascontiguousarray(np.array(array, dtype=dtype))
     out.flags.writeable = False
     return out
@@ -176,13 +177,14 @@ class CollisionShape:
         return from_shape(self.shape, self.dimensions_m, mass_kg)
 
 
-def _params(*values):
+def shape_params(*values):
+    """Return the (``N_SHAPE_PARAM``,) kernel parameters of a shape: ``values``, then zeros."""
     out = np.zeros(k.N_SHAPE_PARAM)
     out[:len(values)] = values
     return out
 
 
-def _spacing(spacing_m, extent, field):
+def point_spacing(spacing_m, extent, field):
     """Return the surface point spacing: ``spacing_m`` checked, or ``extent / 8``."""
     if spacing_m is None:
         return extent / 8.0
@@ -299,16 +301,16 @@ def primitive_shape(shape, dimensions_m, spacing_m=None, field=''):
     kind = _KINDS[shape]
     if kind == k.KIND_BOX:
         half = 0.5 * dims
-        params = _params(*half)
+        params = shape_params(*half)
         high = half
         radius = float(np.linalg.norm(half))
     elif kind == k.KIND_SPHERE:
-        params = _params(dims[0])
+        params = shape_params(dims[0])
         high = np.full(3, dims[0])
         radius = float(dims[0])
     elif kind in (k.KIND_CYLINDER, k.KIND_CAPSULE):
         r, hl = float(dims[0]), 0.5 * float(dims[1])
-        params = _params(r, hl)
+        params = shape_params(r, hl)
         if kind == k.KIND_CYLINDER:
             high = np.array([r, r, hl])
             radius = math.hypot(r, hl)
@@ -316,10 +318,10 @@ def primitive_shape(shape, dimensions_m, spacing_m=None, field=''):
             high = np.array([r, r, hl + r])
             radius = hl + r
     else:
-        params = _params(*dims)
+        params = shape_params(*dims)
         high = dims.copy()
         radius = float(dims.max())
-    s = _spacing(spacing_m, 2.0 * float(high.max()), field)
+    s = point_spacing(spacing_m, 2.0 * float(high.max()), field)
     if kind == k.KIND_BOX:
         points = _box_points(high, s)
     elif kind == k.KIND_SPHERE:
@@ -331,11 +333,11 @@ def primitive_shape(shape, dimensions_m, spacing_m=None, field=''):
     else:
         points = _ellipsoid_points(dims, s)
     return CollisionShape(
-        shape=shape, kind=kind, params=_frozen(params), dimensions_m=_frozen(dims),
-        spacing_m=s, points_b=_frozen(points), bounding_radius_m=radius,
-        aabb_min_b=_frozen(-high), aabb_max_b=_frozen(high),
-        vertices_b=_frozen(np.zeros((0, 3))), faces=_frozen(np.zeros((0, 3)), np.int64),
-        grid=_frozen(_empty_grid()), mesh_offset_m=_frozen(np.zeros(3)))
+        shape=shape, kind=kind, params=frozen_array(params), dimensions_m=frozen_array(dims),
+        spacing_m=s, points_b=frozen_array(points), bounding_radius_m=radius,
+        aabb_min_b=frozen_array(-high), aabb_max_b=frozen_array(high),
+        vertices_b=frozen_array(np.zeros((0, 3))), faces=frozen_array(np.zeros((0, 3)), np.int64),
+        grid=frozen_array(_empty_grid()), mesh_offset_m=frozen_array(np.zeros(3)))
 
 
 def plane_shape(normal, offset_m, field=''):
@@ -361,9 +363,9 @@ def plane_shape(normal, offset_m, field=''):
     n = n / norm
     inf = np.full(3, np.inf)
     return CollisionShape(
-        shape='plane', kind=k.KIND_PLANE, params=_frozen(_params(*n, float(offset_m))),
-        dimensions_m=_frozen(np.zeros(0)), spacing_m=math.inf,
-        points_b=_frozen(np.zeros((0, 3))), bounding_radius_m=math.inf,
-        aabb_min_b=_frozen(-inf), aabb_max_b=_frozen(inf),
-        vertices_b=_frozen(np.zeros((0, 3))), faces=_frozen(np.zeros((0, 3)), np.int64),
-        grid=_frozen(_empty_grid()), mesh_offset_m=_frozen(np.zeros(3)))
+        shape='plane', kind=k.KIND_PLANE, params=frozen_array(shape_params(*n, float(offset_m))),
+        dimensions_m=frozen_array(np.zeros(0)), spacing_m=math.inf,
+        points_b=frozen_array(np.zeros((0, 3))), bounding_radius_m=math.inf,
+        aabb_min_b=frozen_array(-inf), aabb_max_b=frozen_array(inf),
+        vertices_b=frozen_array(np.zeros((0, 3))), faces=frozen_array(np.zeros((0, 3)), np.int64),
+        grid=frozen_array(_empty_grid()), mesh_offset_m=frozen_array(np.zeros(3)))
