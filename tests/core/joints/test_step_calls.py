@@ -12,8 +12,14 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The simulator calls its kernels' machine code directly: the bits of a dispatcher's call."""
+"""The simulator's cheap calls (kernels' machine code, plain-float rates): the same bits."""
 
+import math
+
+import numpy as np
+import pytest
+
+from rbd_ros.core import ConfigError
 from rbd_ros.core.joints import ArticulatedSimulator
 from rbd_ros.core.joints import kernels as jk
 from rbd_ros.core.joints.simulator import PROJECTION_MAX_ITER, PROJECTION_TOL
@@ -56,3 +62,28 @@ def test_steps_and_motors_give_the_bits_of_numbas_dispatcher(monkeypatch):
     ours.step(3)
     ours.set_motor(1, velocity=0.2)
     assert ours.time_ns == (sum(CHUNKS) + 3) * STEP_NS
+
+
+def test_reference_rates_as_plain_floats_or_any_sequence_give_the_same_bits():
+    # a trajectory's rates, set at every step, are taken as floats without numpy; any other
+    # sequence goes through the one vector rule: the same numbers either way
+    runs = []
+    for rates in ((0.7, -1.25), np.array([0.7, -1.25]), [np.float64(0.7), -1.25]):
+        sim = _arm()
+        for _ in range(5):
+            sim.set_motor(0, position=0.2, time_constant_s=0.05, reference_rates=rates)
+            sim.step(1)
+        runs.append(sim.state_rows())
+    assert runs[0] == runs[1] == runs[2]
+
+
+@pytest.mark.parametrize('rates, message', [
+    ((math.nan, 0.0), r"joint 'j0'.reference_rates: \[nan, 0.0\] rad/s and rad/s² must be "
+                      'finite'),
+    ((1.0,), "joint 'j0'.reference_rates: expected 2 numbers in rad/s and rad/s²"),
+    (('fast', 0.0), "joint 'j0'.reference_rates: expected 2 numbers in rad/s and rad/s²"),
+])
+def test_bad_reference_rates_are_refused_naming_the_field(rates, message):
+    sim = _arm()
+    with pytest.raises(ConfigError, match=message):
+        sim.set_motor(0, position=0.2, time_constant_s=0.05, reference_rates=rates)
