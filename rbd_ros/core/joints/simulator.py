@@ -187,27 +187,31 @@ def compiled(dispatcher, args):
     return dispatcher.compile(tuple(dispatcher.typeof_pyval(a) for a in args))
 
 
-def joint_error(model, work, x):
+def joint_error(model, work, x, rows_kernel=None):
     """
     Return ``(max anchor distance m, max axis angle rad)`` over all joints at ``x`` (N, 13).
 
     A mimic joint's ``|q - k q_leader - c|`` counts as an angle (rad) when the mimic is
     revolute or continuous, as a distance (m) when prismatic. ``model``, ``work``: the arrays
-    of :mod:`rbd_ros.core.joints.kernels`; ``work.con`` is overwritten.
+    of :mod:`rbd_ros.core.joints.kernels`; ``work.con`` is overwritten. ``rows_kernel``:
+    :func:`compiled` of ``joint_rows`` for these arrays (None: through its dispatcher).
+    Plain floats: the arrays are read as lists once (numpy's per-element reads cost ~60 µs
+    for a 7-link arm, more than its step).
     """
-    jk.joint_rows(model, x, work, False)
-    con, rows = work.con, model.rows
+    (jk.joint_rows if rows_kernel is None else rows_kernel)(model, x, work, False)
+    con, kinds = work.con.tolist(), model.rows[:, 1].tolist()
+    prismatic = jk.KIND_CODES['prismatic']
     dist, ang = 0.0, 0.0
-    for j in range(model.jint.shape[0]):
-        r0, n = model.jint[j, jk.J_ROW0], model.jint[j, jk.J_NROWS]
-        lin = [con[r] for r in range(r0, r0 + n) if rows[r, 1] == jk.ROW_LIN]
-        angs = [abs(con[r]) for r in range(r0, r0 + n) if rows[r, 1] == jk.ROW_ANG]
+    for joint in model.jint.tolist():
+        r0, n = joint[jk.J_ROW0], joint[jk.J_NROWS]
+        lin = [con[r] for r in range(r0, r0 + n) if kinds[r] == jk.ROW_LIN]
+        angs = [abs(con[r]) for r in range(r0, r0 + n) if kinds[r] == jk.ROW_ANG]
         dist = max(dist, math.sqrt(sum(v * v for v in lin)))
         if angs:
             ang = max(ang, math.asin(min(1.0, max(angs))))
-        mimic = model.jint[j, jk.J_MIMROW]
+        mimic = joint[jk.J_MIMROW]
         if mimic >= 0:
-            if model.jint[j, jk.J_KIND] == jk.KIND_CODES['prismatic']:
+            if joint[jk.J_KIND] == prismatic:
                 dist = max(dist, abs(con[mimic]))
             else:
                 ang = max(ang, abs(con[mimic]))
@@ -311,7 +315,8 @@ class ArticulatedSimulator:
         self._t_call = self._time_ns
         self._split_total = 0
         self._projected = False
-        self._step_kernel = self._refresh_kernel = None   # compiled(), at their first call
+        # compiled(), at their first call
+        self._step_kernel = self._refresh_kernel = self._rows_kernel = None
         if not defer_projection:
             self._project_initial()
 
@@ -924,7 +929,9 @@ class ArticulatedSimulator:
         """
         if not self._projected:
             return None
-        return joint_error(self._model, self._work, self._x)
+        if self._rows_kernel is None:
+            self._rows_kernel = compiled(jk.joint_rows, (self._model, self._x, self._work, False))
+        return joint_error(self._model, self._work, self._x, self._rows_kernel)
 
     def kernel_arrays(self):
         """

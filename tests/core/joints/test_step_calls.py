@@ -22,7 +22,7 @@ import pytest
 from rbd_ros.core import ConfigError
 from rbd_ros.core.joints import ArticulatedSimulator
 from rbd_ros.core.joints import kernels as jk
-from rbd_ros.core.joints.simulator import PROJECTION_MAX_ITER, PROJECTION_TOL
+from rbd_ros.core.joints.simulator import joint_error, PROJECTION_MAX_ITER, PROJECTION_TOL
 from tests.core.joints.test_articulated import hanging_arm
 
 STEP_NS = 1_000_000
@@ -87,3 +87,14 @@ def test_bad_reference_rates_are_refused_naming_the_field(rates, message):
     sim = _arm()
     with pytest.raises(ConfigError, match=message):
         sim.set_motor(0, position=0.2, time_constant_s=0.05, reference_rates=rates)
+
+
+def test_joint_error_through_the_machine_code_is_the_dispatchers():
+    sim = _arm()
+    sim.set_motor(1, velocity=3.0)
+    sim.step(20)
+    model, work = sim.kernel_arrays()
+    ours = sim.joint_error()
+    assert ours == joint_error(model, work, sim._x)   # rows through numba's dispatcher
+    # plain floats, within the bound (1e-12 m and rad after every step)
+    assert all(type(v) is float for v in ours) and max(ours) <= 1e-12
