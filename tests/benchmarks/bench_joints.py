@@ -180,11 +180,12 @@ def print_case(case, cols, quick):
         if case.startswith('cost'):
             ref = [c for (title, _), c in zip(cols, cells) if title.startswith(COST_REFERENCE)
                    and not title.startswith(COST_REFERENCE + ' RK4')]
-            base = ref[0].get('us_per_step') if ref and isinstance(ref[0], dict) else None
-            row = ['', f'ratio_to_{COST_REFERENCE}', '-', '1']
-            row += [fmt(c['us_per_step'] / base) if base and isinstance(c, dict) else '-'
-                    for c in cells]
-            print('  ' + ''.join(v.ljust(w) for v, w in zip(row, widths)).rstrip())
+            for key, name in (('us_per_step', 'ratio'), ('cpu_us_per_step', 'cpu_ratio')):
+                base = ref[0].get(key) if ref and isinstance(ref[0], dict) else None
+                row = ['', f'{name}_to_{COST_REFERENCE}', '-', '1']
+                row += [fmt(c[key] / base) if base and isinstance(c, dict) else '-'
+                        for c in cells]
+                print('  ' + ''.join(v.ljust(w) for v, w in zip(row, widths)).rstrip())
         print(f'  ({time.perf_counter() - t:.1f} s)', flush=True)
 
 

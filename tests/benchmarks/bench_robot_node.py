@@ -24,17 +24,21 @@ world, written to a temporary URDF) released from a bent pose under gravity, h =
 temporary MCAP file, so every sample's ``joint_states``, ``joint_wrenches`` and ``/tf`` are built,
 published and written). The wall time of a long run minus that of a short one (start-up, kernel
 loading and shut-down cancel) gives the as-fast factor (sim s per wall s); target >= 50.
-Also prints the core's µs per step for the same robot (no node, ``bench_world_node``'s timer).
-Prints medians over ``--runs`` runs and the machine's load average.
+Also prints the core's µs per step for the same robot (no node), and the same figures by CPU
+time (the node process's, every thread; the core's thread), which a loaded machine inflates
+less: on a quiet one the two agree. Prints medians over ``--runs`` runs and the machine's load
+average.
 """
 
 import argparse
 import os
+import resource
 import statistics
 import sys
 import tempfile
+import time
 
-from bench_world_node import core_step_us, node_wall_s  # noqa: I100 (source tree on sys.path)
+from bench_world_node import node_wall_s  # noqa: I100 (source tree on sys.path)
 import yaml  # noqa: I201 (after the sys.path import)
 
 TARGET = 50.0
@@ -57,6 +61,32 @@ def arm_urdf(links):
                 '</inertial></link>']
         parent = f'l{k}'
     return '\n'.join(out + ['</robot>', ''])
+
+
+def node_times(params_file, sim_s, extra=()):
+    """
+    Run the node as fast as possible for ``sim_s``; return its ``(wall s, CPU s)``.
+
+    The CPU time is the node process's, every thread, user and system (``RUSAGE_CHILDREN``
+    across its run: the node is this process's only child then). On a loaded machine it
+    grows less than the wall time, which also counts the time the node waits for a core.
+    """
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    wall = node_wall_s(params_file, sim_s, extra)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
+
+
+def core_step_times(params, steps):
+    """Return the core's ``(wall µs, thread CPU µs)`` a step for ``params`` (no node)."""
+    from rbd_ros.sim.build import make_simulator
+    from rbd_ros.sim.config import NodeConfig
+    sim = make_simulator(NodeConfig.from_parameters(params))
+    sim.step(10)
+    start, cpu = time.perf_counter(), time.thread_time()
+    sim.step(steps)
+    return ((time.perf_counter() - start) / steps * 1e6,
+            (time.thread_time() - cpu) / steps * 1e6)
 
 
 def robot_params(urdf_path, links):
@@ -91,19 +121,24 @@ def main(argv=None):
         with open(params_file, 'w') as f:
             yaml.safe_dump({'/**': {'ros__parameters': params}}, f)
         factors, node_us, core_us = [], [], []
+        cpu_factors, node_cpu_us, core_cpu_us = [], [], []
         sim = args.long_s - args.short_s
         for run in range(args.runs):
             record = [[f'record_path:={os.path.join(tmp, f"run{run}_{length}")}']
                       if args.record else [] for length in ('short', 'long')]
-            short = node_wall_s(params_file, args.short_s, record[0])
-            long = node_wall_s(params_file, args.long_s, record[1])
-            core_us.append(core_step_us(params, 2000))
+            short, short_cpu = node_times(params_file, args.short_s, record[0])
+            long, long_cpu = node_times(params_file, args.long_s, record[1])
+            core_wall, core_cpu = core_step_times(params, 2000)
+            core_us.append(core_wall)
+            core_cpu_us.append(core_cpu)
             if long - short < 0.25 * long:  # start-up noise as large as the run: no figure
                 print(f'run {run}: long {long:.2f} s - short {short:.2f} s is within start-up '
                       'noise; left out (raise --long-s)')
                 continue
             factors.append(sim / (long - short))
             node_us.append((long - short) / (sim * 1000) * 1e6)
+            cpu_factors.append(sim / max(long_cpu - short_cpu, 1e-9))
+            node_cpu_us.append((long_cpu - short_cpu) / (sim * 1000) * 1e6)
     if not factors:
         print('no run gave a figure above start-up noise; raise --long-s')
         return 1
@@ -111,6 +146,11 @@ def main(argv=None):
     verdict = 'PASS' if factor >= TARGET else 'SHORT'
     print(f'as-fast factor {factor:.1f} (target >= {TARGET:.0f}: {verdict}); node '
           f'{node:.1f} µs/step, core {core:.1f} µs/step; runs {[round(f, 1) for f in factors]}')
+    cpu_factor, node_cpu, core_cpu = (statistics.median(v)
+                                      for v in (cpu_factors, node_cpu_us, core_cpu_us))
+    print(f'by CPU time: factor {cpu_factor:.1f} (sim s per CPU s of the node, all threads); '
+          f'node {node_cpu:.1f} CPU µs/step, core {core_cpu:.1f} thread CPU µs/step; runs '
+          f'{[round(f, 1) for f in cpu_factors]}')
     print(f'load average {os.getloadavg()}')
     return 0
 

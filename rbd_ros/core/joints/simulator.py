@@ -64,6 +64,25 @@ _MOTOR_AXES = {'planar': (0, 1, 2), 'universal': (2, 0)}
 PROJECTION_TOL = 1e-13
 #: Newton iterations allowed per projection before the step is refused.
 PROJECTION_MAX_ITER = 50
+#: The kernels' code of each motor mode of :meth:`ArticulatedSimulator.set_motor`.
+_MOTOR_CODES = {'off': jk.MOTOR_OFF, 'effort': jk.MOTOR_EFFORT, 'velocity': jk.MOTOR_VELOCITY,
+                'position': jk.MOTOR_POSITION}
+
+
+def _finite_floats(value, size):
+    """
+    Return ``value`` as a tuple of ``size`` floats if it is a tuple or list of finite floats.
+
+    Else None (the caller then applies :func:`~rbd_ros.core.errors.finite_vector`, which
+    takes any sequence and says what is wrong): the same numbers without a numpy array, for
+    a trajectory's reference rates set at every step (~4 µs a joint through numpy).
+    """
+    if type(value) not in (tuple, list) or len(value) != size:
+        return None
+    for v in value:
+        if not isinstance(v, float) or not math.isfinite(v):
+            return None
+    return tuple(value)
 
 
 def _perpendicular(axis):
@@ -154,27 +173,45 @@ def _check_mimics(joints):
             seen.add(chain.name)
 
 
-def joint_error(model, work, x):
+def compiled(dispatcher, args):
+    """
+    Return ``dispatcher``'s machine code for the types of ``args``, a function of the same args.
+
+    A call through a numba dispatcher first types every argument, ~0.15 µs an array: the
+    articulated step's ``model`` and ``work`` (about 45 arrays in two named tuples) cost ~6 µs
+    a call that way, a sixth of a 7-link arm's step. ``Dispatcher.compile`` (numba's, what a
+    call runs after the typing; from the disk cache, or compiled now) returns the function
+    that unboxes the arguments by those types and runs the same machine code, so a caller
+    whose arguments keep their types (a simulator's own arrays) types them once.
+    """
+    return dispatcher.compile(tuple(dispatcher.typeof_pyval(a) for a in args))
+
+
+def joint_error(model, work, x, rows_kernel=None):
     """
     Return ``(max anchor distance m, max axis angle rad)`` over all joints at ``x`` (N, 13).
 
     A mimic joint's ``|q - k q_leader - c|`` counts as an angle (rad) when the mimic is
     revolute or continuous, as a distance (m) when prismatic. ``model``, ``work``: the arrays
-    of :mod:`rbd_ros.core.joints.kernels`; ``work.con`` is overwritten.
+    of :mod:`rbd_ros.core.joints.kernels`; ``work.con`` is overwritten. ``rows_kernel``:
+    :func:`compiled` of ``joint_rows`` for these arrays (None: through its dispatcher).
+    Plain floats: the arrays are read as lists once (numpy's per-element reads cost ~60 µs
+    for a 7-link arm, more than its step).
     """
-    jk.joint_rows(model, x, work, False)
-    con, rows = work.con, model.rows
+    (jk.joint_rows if rows_kernel is None else rows_kernel)(model, x, work, False)
+    con, kinds = work.con.tolist(), model.rows[:, 1].tolist()
+    prismatic = jk.KIND_CODES['prismatic']
     dist, ang = 0.0, 0.0
-    for j in range(model.jint.shape[0]):
-        r0, n = model.jint[j, jk.J_ROW0], model.jint[j, jk.J_NROWS]
-        lin = [con[r] for r in range(r0, r0 + n) if rows[r, 1] == jk.ROW_LIN]
-        angs = [abs(con[r]) for r in range(r0, r0 + n) if rows[r, 1] == jk.ROW_ANG]
+    for joint in model.jint.tolist():
+        r0, n = joint[jk.J_ROW0], joint[jk.J_NROWS]
+        lin = [con[r] for r in range(r0, r0 + n) if kinds[r] == jk.ROW_LIN]
+        angs = [abs(con[r]) for r in range(r0, r0 + n) if kinds[r] == jk.ROW_ANG]
         dist = max(dist, math.sqrt(sum(v * v for v in lin)))
         if angs:
             ang = max(ang, math.asin(min(1.0, max(angs))))
-        mimic = model.jint[j, jk.J_MIMROW]
+        mimic = joint[jk.J_MIMROW]
         if mimic >= 0:
-            if model.jint[j, jk.J_KIND] == jk.KIND_CODES['prismatic']:
+            if joint[jk.J_KIND] == prismatic:
                 dist = max(dist, abs(con[mimic]))
             else:
                 ang = max(ang, abs(con[mimic]))
@@ -278,6 +315,8 @@ class ArticulatedSimulator:
         self._t_call = self._time_ns
         self._split_total = 0
         self._projected = False
+        # compiled(), at their first call
+        self._step_kernel = self._refresh_kernel = self._rows_kernel = None
         if not defer_projection:
             self._project_initial()
 
@@ -494,8 +533,10 @@ class ArticulatedSimulator:
         h = self._timestep_ns * 1e-9
         self._t_call = self._time_ns
         self._work.stats[jk.S_TIME] = self._work.stats[jk.S_TSTAGE] = self._time_ns * 1e-9
-        failed = jk.step(self._model, self._x, self._work, h, n, PROJECTION_TOL,
-                         PROJECTION_MAX_ITER)
+        args = (self._model, self._x, self._work, h, n, PROJECTION_TOL, PROJECTION_MAX_ITER)
+        if self._step_kernel is None:
+            self._step_kernel = compiled(jk.step, args)
+        failed = self._step_kernel(*args)
         self._split_total += int(self._work.stats[jk.S_SPLIT])
         if failed:  # the kernel left the state where the failing step (or sub-step) began
             self._time_ns += (failed - 1) * self._timestep_ns
@@ -506,8 +547,9 @@ class ArticulatedSimulator:
             raise ConvergenceError(
                 f'joints: the position projection did not converge at step {failed} '
                 f'(error {self._work.stats[0]:.3g} m or rad) at t = {self._time_ns} ns')
+        # finite: the kernel checks the state after every step (and sub-step) and refuses a
+        # non-finite one (S_FAIL 2, above)
         self._time_ns += n * self._timestep_ns
-        self._check_finite('a step')
 
     @property
     def timestep_ns(self) -> int:
@@ -621,18 +663,26 @@ class ArticulatedSimulator:
             if mode != 'position':
                 raise ConfigError(f'{who}.reference_rates: {reference_rates!r}; only a '
                                   'position target takes reference rates')
-            rates = finite_vector(reference_rates, f'{who}.reference_rates',
-                                  f'{units[mode]}/s and {units[mode]}/s²', 2, error=ConfigError)
-        codes = {'off': jk.MOTOR_OFF, 'effort': jk.MOTOR_EFFORT,
-                 'velocity': jk.MOTOR_VELOCITY, 'position': jk.MOTOR_POSITION}
-        row[jk.M_MODE] = codes[mode]
+            rates = _finite_floats(reference_rates, 2)
+            if rates is None:   # not two finite floats: the one vector rule, its message
+                rates = finite_vector(reference_rates, f'{who}.reference_rates',
+                                      f'{units[mode]}/s and {units[mode]}/s²', 2,
+                                      error=ConfigError)
+        row[jk.M_MODE] = _MOTOR_CODES[mode]
         row[jk.M_EFFORT] = value if mode == 'effort' else 0.0
         row[jk.M_VELOCITY] = value if mode == 'velocity' else 0.0
         row[jk.M_POSITION] = value if mode == 'position' else 0.0
         row[jk.M_VREF], row[jk.M_AREF] = rates
         row[jk.M_TREF] = self._work.stats[jk.S_TSTAGE] = self._time_ns * 1e-9
         if refresh:
-            jk.refresh_dynamics(self._model, self._x, self._work)
+            self._refresh_dynamics()
+
+    def _refresh_dynamics(self):
+        """``ẋ``, ``λ``, wrenches and efforts at the state now (after a change of motors)."""
+        args = (self._model, self._x, self._work)
+        if self._refresh_kernel is None:
+            self._refresh_kernel = compiled(jk.refresh_dynamics, args)
+        self._refresh_kernel(*args)
 
     def set_motors(self, targets, refresh=True) -> None:
         """
@@ -652,7 +702,7 @@ class ArticulatedSimulator:
             self._work.motor[:] = saved
             raise
         if refresh:
-            jk.refresh_dynamics(self._model, self._x, self._work)
+            self._refresh_dynamics()
 
     def joint_efforts(self) -> np.ndarray:
         """
@@ -879,7 +929,9 @@ class ArticulatedSimulator:
         """
         if not self._projected:
             return None
-        return joint_error(self._model, self._work, self._x)
+        if self._rows_kernel is None:
+            self._rows_kernel = compiled(jk.joint_rows, (self._model, self._x, self._work, False))
+        return joint_error(self._model, self._work, self._x, self._rows_kernel)
 
     def kernel_arrays(self):
         """
