@@ -45,8 +45,9 @@ The parameters (these names exactly; a list parameter is never the prefix of its
   (N·m or N, >= 0): the joint's viscous damping and Coulomb friction (see
   :class:`rbd_ros.core.joints.Joint`); default the URDF's ``<dynamics damping friction>``, else
   0. A recording stores the values used, so replay does not depend on these defaults. A planar
-  joint has ``position_time_constant_s`` only (for its three coordinates; the core takes no
-  damping or friction on it).
+  joint's ``position_time_constant_s`` is its three coordinates'; its ``.damping`` and
+  ``.friction`` must be 0 (the core takes none on a planar joint; its ``<dynamics>`` is kept as
+  data only).
 - ``command_group_names`` (string[]) with ``command_groups.<g>.robot``, ``.joints`` (string[],
   the group's joints in its order, no mimic joint; ``[]`` = every moving joint of the robot
   but the mimics) and
@@ -204,17 +205,17 @@ def joint_parameter_specs(robot: str, joint: str, damping: float = 0.0,
     Return the :class:`ParamSpec` of moving joint ``joint`` of ``robot``.
 
     ``damping`` and ``friction`` are the defaults of its ``.damping`` and ``.friction``: the
-    URDF's ``<dynamics>`` values (0 without). A ``planar`` joint: its time constant only.
+    URDF's ``<dynamics>`` values (0 without; a ``planar`` joint's 0 whatever the URDF says:
+    the core takes none on it).
     """
     prefix = f'robots.{robot}.joints.{joint}.'
     who = f'Robot {robot!r}, joint {joint!r}'
-    constant = ParamSpec(prefix + 'position_time_constant_s', DOUBLE,
-                         DEFAULT_POSITION_TIME_CONSTANT_S, 's',
-                         f'{who}: time constant of its position commands (critically damped).',
-                         (0.0, 1e6), rule='> 0, >= timestep_s')
     if planar:
-        return (constant,)
-    return (constant,
+        damping = friction = 0.0
+    return (ParamSpec(prefix + 'position_time_constant_s', DOUBLE,
+                      DEFAULT_POSITION_TIME_CONSTANT_S, 's',
+                      f'{who}: time constant of its position commands (critically damped).',
+                      (0.0, 1e6), rule='> 0, >= timestep_s'),
             ParamSpec(prefix + 'damping', DOUBLE, float(damping), 'N·m·s/rad or N·s/m',
                       f'{who}: viscous damping, the force -damping·q̇ along the joint; default '
                       "the URDF's <dynamics damping>, else 0.", (0.0, MAX_JOINT_DYNAMICS),
@@ -294,7 +295,6 @@ class RobotConfig:
         return coordinate_units(joint, coordinate or 0)   # reads the kind only
 
 
-
 def param_value(params, spec):
     """Return the coerced value of ``spec`` in ``params`` (its default when absent)."""
     value = params.get(spec.name, spec.default)
@@ -349,9 +349,15 @@ def _read_robot(params, name, gravity_w):
     joints = list(placement.joints)
     for joint in robot.state_joints:
         core, base = robot.joint(joint).core, f'{prefix}joints.{joint}.'
-        if base + 'damping' in given:
-            joints[core] = replace(joints[core], damping=given[base + 'damping'],
-                                   friction=given[base + 'friction'])
+        if robot.joint(joint).kind == 'planar':   # the core takes none: 0 only
+            for field in ('damping', 'friction'):
+                if given[base + field] != 0.0:
+                    spec = next(s for s in joint_specs if s.name == base + field)
+                    fail(spec, given[base + field], f'a planar joint takes no {field} (only '
+                         'revolute, continuous and prismatic joints do); leave it 0')
+            continue
+        joints[core] = replace(joints[core], damping=given[base + 'damping'],
+                               friction=given[base + 'friction'])
     constants = tuple(given[f'{prefix}joints.{joint}.position_time_constant_s']
                       for joint in robot.state_joints)
     return RobotConfig(name, robot, replace(placement, joints=tuple(joints)), constants,
