@@ -65,10 +65,9 @@ from typing import Optional, Tuple
 import numpy as np
 from rbd_ros.core import kernels, RbdError
 from rbd_ros.core.contact.simulator import WorldSimulator
-from rbd_ros.core.joints.model import Joint
+from rbd_ros.core.joints.model import Joint, MOTOR_COORDINATES, plane_x
 from rbd_ros.core.joints.readout import cross, JointReadout, rotate
 from rbd_ros.core.rotations import quat_conjugate, quat_multiply, quat_to_matrix
-from rbd_ros.core.joints.model import MOTOR_COORDINATES, plane_x
 from rbd_ros.sim.joint_commands import (CommandInput, coordinate_entries, JointSpec,
                                         motor_settings, release, RobotInputs)
 from rbd_ros.sim.params import (coerce, DOUBLE, DOUBLE_ARRAY, fail, fmt, MAX_BODIES,

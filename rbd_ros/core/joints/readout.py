@@ -107,8 +107,10 @@ class JointReadout:
         c = rows[child]
         if kind == 'prismatic':
             return self._prismatic(rows, parent, c, a0, a1, a2, op, oc)
-        if (kind in KINDS) != (coordinate is None) or kind not in READ_KINDS or (
-                coordinate is not None and not 0 <= coordinate < (3 if kind == 'planar' else 2)):
+        if coordinate is None and kind not in KINDS:
+            raise ValueError(f'joint {j}: a {kind} joint has no single coordinate')
+        if coordinate is not None and (kind not in READ_KINDS[len(KINDS):] or not (
+                0 <= coordinate < (3 if kind == 'planar' else 2))):
             raise ValueError(f'joint {j}: a {kind} joint has no coordinate {coordinate!r}')
         if kind == 'planar' and coordinate < 2:
             d, u = self._offset(rows, parent, c, op, oc)
