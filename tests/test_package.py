@@ -36,7 +36,7 @@ from xml.etree import ElementTree
 
 from conftest import FIRST_START_S
 import pytest
-from rbd_ros.core.contact.shapes import load_mesh
+from rbd_ros.core.contact.mesh_shapes import load_mesh
 from rbd_ros.core.errors import ModelError
 from rbd_ros.msgs import outputs
 from rbd_ros.ros import endpoints

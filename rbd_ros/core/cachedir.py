@@ -23,7 +23,7 @@ group or others is refused (something may already have been put there): what a c
 trusted when it is read (numba loads its cache with :mod:`pickle`; the SDF cache and the meshes
 attached to bags are read back as physics), so whoever could write the folder could run code or
 change results. The users: the numba kernel cache (:mod:`rbd_ros.core.jitcache`), the SDF cache
-(:mod:`rbd_ros.core.contact.shapes`) and replay's copies of a bag's meshes
+(:mod:`rbd_ros.core.contact.mesh_shapes`) and replay's copies of a bag's meshes
 (:mod:`rbd_ros.bag.replay_setup`). Nothing here runs at import.
 """
 

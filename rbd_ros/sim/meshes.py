@@ -36,7 +36,7 @@ import sys
 
 import numpy as np
 from rbd_ros.core import ModelError
-from rbd_ros.core.contact.shapes import load_mesh
+from rbd_ros.core.contact.mesh_shapes import load_mesh
 from rbd_ros.sim.limits import MAX_MESH_TRIANGLES
 from rbd_ros.sim.params import (fail, MAX_MESH_FILE_BYTES, MAX_POSITION_M, MAX_SIZE,
                                 MIN_SIZE)

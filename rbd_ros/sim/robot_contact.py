@@ -33,7 +33,7 @@ each where the URDF puts it, in the body frame (the COM with the link's axes):
 - one mesh (with ``scale``) at any pose is that mesh with its vertices moved into the body
   frame (its SDF sampled there);
 - anything else (several elements, or a primitive away from the COM or turned) is their
-  :func:`rbd_ros.core.contact.shapes.compound_shape`: the least of the elements' exact
+  :func:`rbd_ros.core.contact.mesh_shapes.compound_shape`: the least of the elements' exact
   signed distances sampled on a grid, the elements' surface points, and as the points tried
   against a plane their corners (a box element rests on a plane exactly) and surface points.
 
@@ -72,7 +72,7 @@ import re
 import numpy as np
 
 from rbd_ros.core import ModelError, RbdError
-from rbd_ros.core.contact.shapes import compound_shape, mesh_shape
+from rbd_ros.core.contact.mesh_shapes import compound_shape, mesh_shape
 from rbd_ros.core.contact.simulator import WorldBody
 from rbd_ros.core.contact.world import StaticObject, StaticWorld, validate_material
 from rbd_ros.core.rotations import quat_multiply, quat_to_matrix

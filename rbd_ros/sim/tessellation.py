@@ -29,7 +29,7 @@ along body z):
 * sphere, ellipsoid, cylinder, capsule: surfaces of revolution about z, ``segments`` points
   per ring starting on +x (as the collision rings), rings every ``π / rings`` of polar angle
   on the round parts; the ellipsoid is the unit sphere's tessellation scaled by its semi-axes.
-* mesh: its own faces; compound (:func:`rbd_ros.core.contact.shapes.compound_shape`): its
+* mesh: its own faces; compound (:func:`rbd_ros.core.contact.mesh_shapes.compound_shape`): its
   parts' surfaces, as it was given them.
 * plane: a square of side ``plane_size_m`` on the plane, centred at the point of the plane
   nearest the body origin (a plane is infinite; this is the part drawn).

@@ -76,7 +76,8 @@ import warnings
 
 from lxml import etree
 import numpy as np
-from rbd_ros.core.contact.shapes import CollisionShape, load_mesh, primitive_shape
+from rbd_ros.core.contact.mesh_shapes import load_mesh
+from rbd_ros.core.contact.shapes import CollisionShape, primitive_shape
 from rbd_ros.core.errors import ConfigError, ModelError, RbdError
 from rbd_ros.core.inertia import validate_inertia, validate_mass
 from rbd_ros.core.rotations import matrix_to_quat

@@ -26,7 +26,7 @@ import stat
 
 import pytest
 from rbd_ros.core import cachedir, jitcache
-from rbd_ros.core.contact import shapes
+from rbd_ros.core.contact import mesh_shapes
 
 
 def _mode(path):
@@ -88,5 +88,5 @@ def test_numba_and_the_sdf_cache_sit_in_the_same_folder_by_the_same_rule(tmp_pat
     environ = {'XDG_CACHE_HOME': str(tmp_path)}
     assert jitcache.default_dir(environ) == os.path.join(cachedir.base_dir(environ), 'numba')
     monkeypatch.setenv('XDG_CACHE_HOME', str(tmp_path))
-    assert str(shapes.sdf_cache_dir()) == os.path.join(cachedir.base_dir(), 'sdf')
+    assert str(mesh_shapes.sdf_cache_dir()) == os.path.join(cachedir.base_dir(), 'sdf')
     assert jitcache.unsafe_reason is cachedir.unsafe_reason

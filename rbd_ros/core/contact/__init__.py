@@ -15,13 +15,14 @@
 """
 Collision geometry and the static world: the data the contact stages read.
 
-Shapes (:mod:`~rbd_ros.core.contact.shapes`) are surface points plus a signed distance φ,
+Shapes (:mod:`~rbd_ros.core.contact.shapes`, meshes and compounds in
+:mod:`~rbd_ros.core.contact.mesh_shapes`) are surface points plus a signed distance φ,
 evaluated by compiled kernels (:mod:`~rbd_ros.core.contact.kernels`); materials, the static
 world and the start-up overlap check are in :mod:`~rbd_ros.core.contact.world`.
 """
 
-from rbd_ros.core.contact.shapes import (collision_shape, CollisionShape, load_mesh, mesh_shape,
-                                         plane_shape, primitive_shape, PRIMITIVES)
+from rbd_ros.core.contact.mesh_shapes import collision_shape, load_mesh, mesh_shape
+from rbd_ros.core.contact.shapes import CollisionShape, plane_shape, primitive_shape, PRIMITIVES
 from rbd_ros.core.contact.world import (check_overlaps, ground_plane, Material, obstacle,
                                         penetration_depth, StaticObject, StaticWorld,
                                         validate_material)

@@ -37,8 +37,9 @@ import numpy as np
 
 from rbd_ros.core import jitcache
 from rbd_ros.core.contact import kernels as k
+from rbd_ros.core.contact.mesh_shapes import collision_shape
 from rbd_ros.core.contact.rows import pair_material
-from rbd_ros.core.contact.shapes import collision_shape, CollisionShape, plane_shape
+from rbd_ros.core.contact.shapes import CollisionShape, plane_shape
 from rbd_ros.core.errors import field_error, InputError, ModelError
 from rbd_ros.core.rotations import quat_normalize, quat_to_matrix
 

@@ -30,7 +30,7 @@ import pytest
 
 from rbd_ros.core.contact import kernels
 from rbd_ros.core.contact import load_mesh, mesh_shape, primitive_shape
-from rbd_ros.core.contact.shapes import sdf_cache_dir
+from rbd_ros.core.contact.mesh_shapes import sdf_cache_dir
 from rbd_ros.core.errors import ModelError
 from rbd_ros.core.inertia import box as box_inertia
 import trimesh
@@ -326,7 +326,7 @@ def test_a_compound_of_two_crossing_boxes_is_their_union():
     # lifted 0.05 m, crossing it: φ is the least of the two boxes' exact distances (the
     # union's exact distance outside, a lower bound of its depth inside) to the grid's
     # interpolation bound, at 2000 random points of the grid box.
-    from rbd_ros.core.contact.shapes import compound_shape
+    from rbd_ros.core.contact.mesh_shapes import compound_shape
     from rbd_ros.sim.tessellation import shape_triangles
     bar = primitive_shape('box', [0.4, 0.1, 0.1])
     turn = (math.cos(math.pi / 4), 0.0, 0.0, math.sin(math.pi / 4))
@@ -361,7 +361,7 @@ def test_a_compound_with_a_mesh_part_takes_its_exact_distance():
     # A URDF link's mesh element at an offset beside a sphere: the mesh part's φ at the nodes
     # is its exact distance (build_sdf on the moved vertices), so at random points φ is within
     # the grid's bound of min(box, sphere) computed in closed form (the mesh is a box).
-    from rbd_ros.core.contact.shapes import compound_shape
+    from rbd_ros.core.contact.mesh_shapes import compound_shape
     from rbd_ros.sim.tessellation import shape_triangles
     cube = trimesh.creation.box(extents=(0.2, 0.2, 0.2))
     mesh = mesh_shape(cube.vertices, cube.faces, centre=False, cache_dir=False)
