@@ -231,7 +231,7 @@ class RobotWorld:
     def _coordinates_of(self, r):
         """Return robot ``r``'s entries' ``(positions, rates)``, plain floats."""
         coordinates = self._coordinates[r]
-        if not any(k is not None for k in coordinates):   # one-coordinate joints only
+        if coordinates.count(None) == len(coordinates):   # one-coordinate joints only
             return self._sim.joint_coordinates(self._moving[r])
         return self._sim.joint_coordinates(self._moving[r], coordinates=coordinates)
 
