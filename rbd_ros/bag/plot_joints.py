@@ -34,10 +34,10 @@ from rbd_ros.bag.plot_common import (agg_pyplot, check_samples, finish_figure, l
                                      note_panel, panel_summaries)
 from rbd_ros.bag.recording import Bag
 from rbd_ros.core import RbdError
+from rbd_ros.core.joints.model import coordinate_units
 from rbd_ros.msgs import type_names as types
 from rbd_ros.msgs.conversions import vector_from_msg as _vec
 from rbd_ros.sim.params import NS_PER_S
-from rbd_ros.sim.robots import joint_units
 
 
 class JointGroup(NamedTuple):
@@ -66,9 +66,10 @@ def _joint_groups(config) -> List[JointGroup]:
                          [joint.name for joint in robot.robot.joints])
               for robot in config.robots]
     if config.world_joints:
-        moving = [j for j in config.world_joints if j.moving]
-        groups.append(JointGroup('/', '', [j.name for j in moving],
-                                 [joint_units(j.joint.kind) for j in moving],
+        entries = [(entry, coordinate_units(j.joint, k or 0)) for j in config.world_joints
+                   for entry, k in j.entries]
+        groups.append(JointGroup('/', '', [entry for entry, _ in entries],
+                                 [units for _, units in entries],
                                  [j.name for j in config.world_joints]))
     return groups
 

@@ -297,7 +297,7 @@ class SampleBuilder:
         if joints:  # the world's joints: joint_states and joint_wrenches, no prefix; their
             # readouts' index after the robots' (RobotContactWorld's, 0 without robots)
             self.robots += (JointOutputs('', len(self.robots),
-                                         [j.name for j in joints if j.moving],
+                                         [e for j in joints for e, _ in j.entries],
                                          [j.name for j in joints]),)
         self.per_body = getattr(config, 'per_body_topics', True) or not config.named
         self.kinds = tuple(prefix + kind for prefix, body in zip(self.prefixes, self.bodies)

@@ -39,6 +39,15 @@ is clipped by the motor.
 
 A target takes effect at the start of the next step and is held until replaced, as a wrench is;
 with ``wrench_timeout_s > 0`` it expires as a wrench does and leaves the joint free.
+
+**Joints of several coordinates.** A planar joint is three entries of ``joint_states`` and of
+the commands, ``<joint>/x``, ``<joint>/y`` and ``<joint>/theta``, and a universal joint two,
+``<joint>/theta1`` and ``<joint>/theta2`` (:func:`coordinate_entries`: MoveIt's names of a
+planar joint's variables, ``<joint>/<variable>``), each commanded, limited and held as a
+one-coordinate joint (the core's motor of that coordinate,
+:meth:`rbd_ros.core.joints.ArticulatedSimulator.set_motor`'s ``coordinate``): x and y as a
+prismatic joint's (m, m/s, N), theta and the universal angles as a revolute joint's (rad in
+``(-π, π]``, rad/s, N m). The joint's one velocity limit and effort limit cap each.
 """
 
 from dataclasses import dataclass
@@ -46,7 +55,7 @@ import math
 from typing import Optional, Sequence, Tuple
 
 from rbd_ros.core import RbdError
-from rbd_ros.core.joints.model import check_position_target
+from rbd_ros.core.joints.model import check_position_target, coordinate_units, MOTOR_COORDINATES
 from rbd_ros.sim.inputs import WrenchRejected
 from rbd_ros.sim.trajectory import parse_trajectory
 
@@ -72,6 +81,21 @@ MAX_ACCELERATION = 1e5
 MAX_TRAJECTORY_POINTS = 1000
 
 
+def coordinate_entries(name: str, kind: str) -> Tuple[Tuple[str, Optional[int]], ...]:
+    """
+    Return the ``joint_states`` entries of joint ``name`` of ``kind``: ``(entry, coordinate)``.
+
+    A one-coordinate joint (revolute, continuous, prismatic) is one entry, its name, coordinate
+    None; a planar joint three, ``<name>/x``, ``<name>/y``, ``<name>/theta``, and a universal
+    joint two, ``<name>/theta1``, ``<name>/theta2``, coordinates 0, 1, (2) (the core's motor
+    coordinates, :data:`rbd_ros.core.joints.model.MOTOR_COORDINATES`); other kinds none.
+    """
+    names = MOTOR_COORDINATES.get(kind, ())
+    if len(names) == 1:
+        return ((name, None),)
+    return tuple((f'{name}/{coordinate}', k) for k, coordinate in enumerate(names))
+
+
 class CommandRejected(WrenchRejected):
     """A command was rejected whole; :attr:`reason` is one of :data:`REJECT_REASONS`."""
 
@@ -94,17 +118,28 @@ class JointTarget:
 
 @dataclass(frozen=True)
 class JointSpec:
-    """What a command needs to know of a moving joint: its core joint and velocity limit."""
+    """
+    What a command needs to know of a ``joint_states`` entry: its core joint and velocity limit.
+
+    ``coordinate``: None for a one-coordinate joint; a planar or universal joint's coordinate
+    (:func:`coordinate_entries`).
+    """
 
     name: str
     core: object  # rbd_ros.core.joints.Joint
     velocity_limit: Optional[float]
+    coordinate: Optional[int] = None
+
+    @property
+    def units(self) -> Tuple[str, str, str]:
+        """Return its ``(position, velocity, effort)`` units."""
+        return coordinate_units(self.core, self.coordinate or 0)
 
 
 def _target(topic, where, spec, index, mode, value):
     if mode == 'position':
         try:
-            check_position_target(spec.core, value)
+            check_position_target(spec.core, value, coordinate=spec.coordinate or 0)
         except RbdError as exc:
             raise CommandRejected('limit', f'{topic}: {where}: {exc}') from None
     elif mode == 'velocity' and spec.velocity_limit is not None:
@@ -116,24 +151,26 @@ def _target(topic, where, spec, index, mode, value):
 def _bounded(topic, where, spec, value, bound, mode):
     """Refuse ``value`` beyond ``±bound`` (``limit``), naming it with its unit."""
     if not abs(value) <= bound:
-        linear = spec.core.kind == 'prismatic'
-        unit = {'position': 'm' if linear else 'rad', 'velocity': 'm/s' if linear else 'rad/s',
-                'effort': 'N' if linear else 'N m',
-                'acceleration': 'm/s²' if linear else 'rad/s²'}[mode]
+        position, velocity, effort = spec.units
+        unit = {'position': position, 'velocity': velocity, 'effort': effort,
+                'acceleration': f'{position}/s²'}[mode]
         raise CommandRejected('limit', f'{topic}: {where}: {value!r} {unit} is beyond the '
                               f'largest {mode} a joint takes, {bound:g} {unit}')
 
 
-def in_range(joint, value):
+def in_range(joint, value, coordinate=None):
     """
     Return ``value`` moved into the position targets ``joint`` can hold.
 
-    Those are its limits and a revolute joint's ``(-π, π]``: where a followed trajectory's
-    spline overshoots a limit between points that are within it, its reference rests at the
-    limit (the core refuses a target beyond).
+    Those are its limits and a revolute joint's ``(-π, π]`` (a planar joint's theta and a
+    universal joint's angles too, ``coordinate``): where a followed trajectory's spline
+    overshoots a limit between points that are within it, its reference rests at the limit
+    (the core refuses a target beyond).
     """
     lower, upper = joint.lower, joint.upper
-    if joint.kind == 'revolute':
+    angle = joint.kind in ('planar', 'universal') and \
+        coordinate_units(joint, coordinate or 0)[0] == 'rad'
+    if joint.kind == 'revolute' or angle:
         least = math.nextafter(-math.pi, 0.0)
         lower = least if lower is None else max(lower, least)
         upper = math.pi if upper is None else min(upper, math.pi)
@@ -266,25 +303,36 @@ def command_inputs(robots, groups) -> Tuple[CommandInput, ...]:
     return tuple(inputs)
 
 
-def motor_settings(targets, core_joints, time_constants_s):
+def motor_settings(targets, core_joints, time_constants_s, coordinates=()):
     """
     Return ``[(core joint index, set_motor keywords)]`` for held ``targets``.
 
-    ``targets``: ``(joint, mode, value, rates or None)``, ``joint`` indexing the moving joints
-    (``joint_states`` order) that ``core_joints`` maps to the core's; a position target takes
-    that joint's ``time_constants_s`` (s) and, when given, ``rates`` (a followed trajectory's
+    ``targets``: ``(joint, mode, value, rates or None)``, ``joint`` indexing the ``joint_states``
+    entries that ``core_joints`` maps to the core's joints and ``coordinates`` (when given) to
+    their motor coordinates (None: a one-coordinate joint's); a position target takes that
+    entry's ``time_constants_s`` (s) and, when given, ``rates`` (a followed trajectory's
     reference rate and acceleration). What a robot's and a world's ``set_targets`` hand to the
     core's ``set_motors``.
     """
     motors = []
     for joint, mode, value, rates in targets:
         kwargs = {mode: value}
+        if coordinates and coordinates[joint] is not None:
+            kwargs['coordinate'] = coordinates[joint]
         if mode == 'position':
             kwargs['time_constant_s'] = time_constants_s[joint]
             if rates is not None:
                 kwargs['reference_rates'] = rates
         motors.append((core_joints[joint], kwargs))
     return motors
+
+
+def release(sim, joint, coordinate=None):
+    """Turn the core motor of ``joint`` (its ``coordinate``'s, when not None) off."""
+    if coordinate is None:
+        sim.set_motor(joint)
+    else:
+        sim.set_motor(joint, coordinate=coordinate)
 
 
 class RobotInputs:
@@ -430,7 +478,7 @@ class RobotInputs:
             specs = self._specs[event.robot]
             targets = []
             for k, j in enumerate(group):
-                held = in_range(specs[j].core, float(q[k]))
+                held = in_range(specs[j].core, float(q[k]), specs[j].coordinate)
                 rates = (float(qd[k]), float(qdd[k]))
                 if held != q[k] or not (abs(rates[0]) <= MAX_TARGET['velocity']
                                         and abs(rates[1]) <= MAX_ACCELERATION):

@@ -77,9 +77,10 @@ from rbd_ros.core.contact.simulator import WorldBody
 from rbd_ros.core.contact.world import StaticObject, StaticWorld, validate_material
 from rbd_ros.core.rotations import quat_multiply, quat_to_matrix
 from rbd_ros.sim.config import overlap_error
+from rbd_ros.sim.joint_commands import release
 from rbd_ros.sim.robot_world import RobotWorld
 from rbd_ros.sim.tessellation import shape_triangles
-from rbd_ros.sim.world_joints import JointedWorldSimulator, WorldJoint
+from rbd_ros.sim.world_joints import JointedWorldSimulator, state_entries, WorldJoint
 
 # A primitive's frame is the body frame when its offset is within these (m, rad; else it is
 # a compound of one part): far above
@@ -244,9 +245,11 @@ class RobotContactWorld(RobotWorld):
         self._world_joints = len(world_joints)
         self._assemble(robots, timestep_ns, len(free), len(world_joints))
         if world_joints:  # their group, after the robots': joint_states order, time constants
-            self._moving.append(tuple(k for k, j in enumerate(world_joints) if j.moving))
-            self._time_constants_s.append(tuple(j.time_constant_s for j in world_joints
-                                                if j.moving))
+            entries = state_entries(world_joints)
+            self._moving.append(tuple(k for _, k, _ in entries))
+            self._coordinates.append(tuple(c for _, _, c in entries))
+            self._time_constants_s.append(tuple(world_joints[k].time_constant_s
+                                                for _, k, _ in entries))
         links, labels = _link_bodies(self.robots)
         fixed, fixed_labels, skips = _world_links(self.robots)
         labels.update(fixed_labels)
@@ -326,9 +329,9 @@ class RobotContactWorld(RobotWorld):
     def reset(self) -> None:
         """Back to every body's and robot's placement at time 0, every motor off."""
         self._sim.reset()
-        for moving in self._moving:
-            for j in moving:
-                self._sim.set_motor(j)
+        for moving, coordinates in zip(self._moving, self._coordinates):
+            for j, k in zip(moving, coordinates):
+                release(self._sim, j, k)
 
     @property
     def arrays(self):

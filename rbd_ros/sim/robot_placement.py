@@ -32,6 +32,7 @@ import numpy as np
 from rbd_ros.core import BodyModel, BodyState
 from rbd_ros.core.errors import ConfigError, finite_vector
 from rbd_ros.core.joints import Joint
+from rbd_ros.core.joints.model import coordinate_units, plane_x
 from rbd_ros.core.rotations import matrix_to_quat, quat_to_matrix
 from rbd_ros.sim.params import MAX_JOINT_POSITION, MAX_JOINT_RATE
 from rbd_ros.sim.urdf import frozen_pose, MOVING_TYPES, refuse, Robot
@@ -69,16 +70,9 @@ def _mimic_values(source, robot, q_values, qd_values, given):
                 values[k] = value
         return float(q_values[k]), float(qd_values[k])
 
-    for name in robot.moving_joints:
-        follow(name)
-
-
-def _perpendicular(axis):
-    """Return a unit vector perpendicular to ``axis`` (crossed with its least aligned axis)."""
-    other = np.zeros(3)
-    other[int(np.argmin(np.abs(axis)))] = 1.0
-    out = np.cross(axis, other)
-    return out / np.linalg.norm(out)
+    for name, (_, coordinate) in zip(robot.moving_joints, robot.coordinates):
+        if coordinate is None:   # a planar joint's entries have no mimic
+            follow(name)
 
 
 def _values(source, robot, values, name, unit):
@@ -112,8 +106,12 @@ def place_robot(robot: Robot, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0
     at ``joint_positions`` (rad or m) and ``joint_velocities`` (rad/s or m/s), one value each
     per :attr:`Robot.moving_joints` (None: zeros). A link's velocity is its parent's rigid
     motion plus the joint rate: ``ω_c = ω_p + q̇ a_w`` (rotary), ``v_c = v_p + ω_p × r
-    + q̇ a_w`` (prismatic) at the link origin. ``link_poses_w`` maps each link name to its
-    frame's ``(position_w, q_wl)``.
+    + q̇ a_w`` (prismatic) at the link origin; a planar joint's child link frame is the joint
+    frame moved by ``x e_x + y e_y`` and turned by theta about the normal ``a``
+    (:func:`rbd_ros.core.joints.model.plane_x` gives ``e_x``, ``e_y = a × e_x``),
+    ``ω_c = ω_p + θ̇ a_w``, ``v_c = v_p + ω_p × r + ẋ e_x + ẏ e_y`` (world frame, ``r`` to
+    the link origin).
+    ``link_poses_w`` maps each link name to its frame's ``(position_w, q_wl)``.
 
     :raises ConfigError: a wrong number of values, a non-finite one, one beyond a limit, a
         position beyond ±:data:`~rbd_ros.sim.params.MAX_JOINT_POSITION` or a velocity beyond
@@ -136,10 +134,12 @@ def place_robot(robot: Robot, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0
     root_pose[:3, 3] = position
     _mimic_values(source, robot, q_values, qd_values,
                   (joint_positions is not None, joint_velocities is not None))
-    coordinate = dict(zip(robot.moving_joints, zip(q_values, qd_values)))
+    coordinate = {}   # joint name -> its entries' (q, q̇), coordinate order
+    for (joint_name, _), q, qd in zip(robot.coordinates, q_values, qd_values):
+        coordinate.setdefault(joint_name, []).append((float(q), float(qd)))
     for k, name in enumerate(robot.moving_joints):
-        joint = robot.joint(name)
-        units = ('m', 'm/s') if joint.kind == 'prismatic' else ('rad', 'rad/s')
+        joint, entry = robot.entry(name)
+        units = coordinate_units(joint, entry or 0)[:2]   # reads the kind only
         for field, values, unit, bound, bound_name in (
                 ('initial_joint_positions', q_values, units[0], MAX_JOINT_POSITION,
                  'MAX_JOINT_POSITION'),
@@ -151,6 +151,10 @@ def place_robot(robot: Robot, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0
                        f'{name!r} is beyond ±{bound:g} {unit} (rbd_ros.sim.params.'
                        f'{bound_name})', value, unit)
         value = float(q_values[k])
+        if joint.kind == 'planar' and entry == 2 and not -math.pi < value <= math.pi:
+            refuse(ConfigError, source, f'initial_joint_positions[{k}]',
+                   f"{value!r} rad for {name!r} must be in (-pi, pi] (a planar joint's theta)",
+                   value, 'rad')
         if (joint.lower is not None and value < joint.lower) or \
                 (joint.upper is not None and value > joint.upper):
             unit = 'rad' if joint.kind == 'revolute' else 'm'
@@ -166,10 +170,20 @@ def place_robot(robot: Robot, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0
         pose_p, vel_p, omega_p = frames[joint.parent]
         frame_j = pose_p @ joint.origin
         axis_w = frame_j[:3, :3] @ joint.axis
-        q, qd = coordinate.get(joint.name, (0.0, 0.0))
+        q, qd = coordinate.get(joint.name, [(0.0, 0.0)])[0]
         motion = np.eye(4)
         omega, vel = omega_p.copy(), vel_p + np.cross(omega_p, frame_j[:3, 3] - pose_p[:3, 3])
-        if joint.kind in ('revolute', 'continuous'):
+        if joint.kind == 'planar':
+            (x, xd), (y, yd), (theta, thetad) = coordinate[joint.name]
+            e_x = plane_x(joint.axis)
+            e_y = np.cross(joint.axis, e_x)
+            motion[:3, :3] = quat_to_matrix(np.concatenate(
+                ([math.cos(0.5 * theta)], math.sin(0.5 * theta) * joint.axis)))
+            motion[:3, 3] = x * e_x + y * e_y
+            offset_w = frame_j[:3, :3] @ motion[:3, 3]
+            vel = vel + frame_j[:3, :3] @ (xd * e_x + yd * e_y) + np.cross(omega_p, offset_w)
+            omega = omega + thetad * axis_w
+        elif joint.kind in ('revolute', 'continuous'):
             motion[:3, :3] = quat_to_matrix(np.concatenate(
                 ([math.cos(0.5 * q)], math.sin(0.5 * q) * joint.axis)))
             omega = omega + qd * axis_w
@@ -214,7 +228,7 @@ def place_robot(robot: Robot, position_w=(0.0, 0.0, 0.0), orientation_wb=(1.0, 0
                 extra.update(mimic=joint.mimic[0], mimic_multiplier=joint.mimic[1],
                              mimic_offset=joint.mimic[2])
         if kind == 'planar':
-            extra['axis2_b'] = rot @ _perpendicular(joint.axis)
+            extra.update(axis2_b=rot @ plane_x(joint.axis), effort_limit=joint.effort)
         joints.append(Joint(joint.name, kind, parent.body, child.body,
                             origin_parent_b=frame_j[:3, 3], origin_child_b=-child.com_m,
                             axis_b=rot @ joint.axis, q_rest=matrix_to_quat(rot), **extra))

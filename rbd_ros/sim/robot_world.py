@@ -56,7 +56,7 @@ import numpy as np
 from rbd_ros.core import layout
 from rbd_ros.core.joints import ArticulatedSimulator
 from rbd_ros.core.joints.readout import multiply, rotate as _rotate
-from rbd_ros.sim.joint_commands import motor_settings
+from rbd_ros.sim.joint_commands import motor_settings, release
 
 
 def rotate(q, v):
@@ -134,9 +134,10 @@ class RobotWorld:
         self._timestep_ns = timestep_ns
         # Per joint group (each robot, then a contact world's own joints): the position time
         # constant of each moving joint, joint_states order.
-        self._time_constants_s = [robot.time_constants_s for robot in self.robots]
+        self._time_constants_s = [robot.entry_time_constants_s for robot in self.robots]
         models, states, joints = [], [], []
-        self._moving = []   # per robot: the core joint index of each moving joint
+        self._moving = []   # per robot: the core joint index of each joint_states entry
+        self._coordinates = []   # per robot: each entry's coordinate (None: a 1-coordinate joint)
         self._bodies = []   # per robot: (first body index, number of bodies)
         self._joint_offsets = []  # per robot: its first core joint index
         for robot in self.robots:
@@ -151,7 +152,8 @@ class RobotWorld:
                     parent=None if joint.parent is None else joint.parent + b0,
                     mimic=None if joint.mimic is None else f'{robot.name}/{joint.mimic}'))
             self._moving.append(tuple(j0 + robot.robot.joint(name).core
-                                      for name in robot.joint_names))
+                                      for name, _ in robot.robot.coordinates))
+            self._coordinates.append(tuple(k for _, k in robot.robot.coordinates))
             self._bodies.append((b0, len(placement.models)))
         self._args = (models, states, joints)
         self._no_bodies = (np.zeros((layout.N_STATE, 0)), np.zeros(0, dtype=np.int64))
@@ -223,24 +225,37 @@ class RobotWorld:
         :meth:`ArticulatedSimulator.joint_coordinates` (plain scalar arithmetic: the same
         bits on every machine).
         """
-        moving = self._moving[r]
-        q, qd = self._sim.joint_coordinates(moving)
+        q, qd = self._coordinates_of(r)
         return q, qd, self.joint_efforts(r).tolist()
 
+    def _coordinates_of(self, r):
+        """Return robot ``r``'s entries' ``(positions, rates)``, plain floats."""
+        coordinates = self._coordinates[r]
+        if coordinates.count(None) == len(coordinates):   # one-coordinate joints only
+            return self._sim.joint_coordinates(self._moving[r])
+        return self._sim.joint_coordinates(self._moving[r], coordinates=coordinates)
+
     def joint_positions(self, r: int) -> np.ndarray:
-        """Return robot ``r``'s moving joint positions (rad or m), ``joint_states`` order."""
-        return np.array(self._sim.joint_coordinates(self._moving[r])[0])
+        """Return robot ``r``'s ``joint_states`` positions (rad or m), in order."""
+        return np.array(self._coordinates_of(r)[0])
 
     def joint_velocities(self, r: int) -> np.ndarray:
-        """Return robot ``r``'s moving joint velocities (rad/s or m/s)."""
-        return np.array(self._sim.joint_coordinates(self._moving[r])[1])
+        """Return robot ``r``'s ``joint_states`` velocities (rad/s or m/s)."""
+        return np.array(self._coordinates_of(r)[1])
 
     def joint_efforts(self, r: int) -> np.ndarray:
-        """Return robot ``r``'s motor efforts applied over the last step (N m or N)."""
+        """
+        Return robot ``r``'s motor efforts applied over the last step (N m or N).
+
+        One per ``joint_states`` entry: a planar or universal joint's per coordinate (the
+        core's ``coordinate_efforts``).
+        """
         if not self._moving[r]:  # a floating robot without joints: the step may have none
             return np.zeros(0)
         efforts = self._sim.joint_efforts()
-        return np.array([float(efforts[j]) for j in self._moving[r]])
+        return np.array([float(efforts[j]) if k is None
+                         else float(self._sim.coordinate_efforts(j)[k])
+                         for j, k in zip(self._moving[r], self._coordinates[r])])
 
     def set_target(self, r: int, joint: int, mode: str, value: float,
                    reference_rates=None) -> None:
@@ -255,11 +270,11 @@ class RobotWorld:
         position target's reference rate and acceleration (a followed trajectory).
         """
         self._sim.set_motors(motor_settings(targets, self._moving[r],
-                                            self._time_constants_s[r]))
+                                            self._time_constants_s[r], self._coordinates[r]))
 
     def release(self, r: int, joint: int) -> None:
-        """Turn the motor of moving joint ``joint`` of robot ``r`` off (the joint is free)."""
-        self._sim.set_motor(self._moving[r][joint])
+        """Turn the motor of ``joint_states`` entry ``joint`` of robot ``r`` off (free)."""
+        release(self._sim, self._moving[r][joint], self._coordinates[r][joint])
 
     def link_poses(self, r: int):
         """

@@ -25,8 +25,9 @@ The parameters (these names exactly; a list parameter is never the prefix of its
 - ``robots.<name>.initial_position`` (m) and ``.initial_orientation`` ([x, y, z, w]): the root
   link's frame in the world frame (the ``world`` link's, for a robot fixed to the world).
 - ``robots.<name>.initial_joint_positions`` (rad or m) and ``.initial_joint_velocities`` (rad/s
-  or m/s): one value per moving joint in ``joint_states`` order (the URDF's revolute,
-  continuous and prismatic joints, in document order), or ``[]`` for zeros.
+  or m/s): one value per ``joint_states`` entry, in its order (the URDF's revolute,
+  continuous and prismatic joints one each, a planar joint three, ``<joint>/x``, ``/y``,
+  ``/theta``, in document order), or ``[]`` for zeros.
 - ``robots.<name>.friction`` and ``.restitution``: its links' contact material (as a body's
   ``friction`` and ``restitution``), in a world with contact (:mod:`rbd_ros.sim.robot_contact`);
   ``.self_collision`` (default true): its links that are not parent and child of one joint
@@ -43,7 +44,10 @@ The parameters (these names exactly; a list parameter is never the prefix of its
 - ``robots.<name>.joints.<joint>.damping`` (N·m·s/rad or N·s/m, >= 0) and ``.friction``
   (N·m or N, >= 0): the joint's viscous damping and Coulomb friction (see
   :class:`rbd_ros.core.joints.Joint`); default the URDF's ``<dynamics damping friction>``, else
-  0. A recording stores the values used, so replay does not depend on these defaults.
+  0. A recording stores the values used, so replay does not depend on these defaults. A planar
+  joint's ``position_time_constant_s`` is its three coordinates'; its ``.damping`` and
+  ``.friction`` must be 0 (the core takes none on a planar joint; its ``<dynamics>`` is kept as
+  data only).
 - ``command_group_names`` (string[]) with ``command_groups.<g>.robot``, ``.joints`` (string[],
   the group's joints in its order, no mimic joint; ``[]`` = every moving joint of the robot
   but the mimics) and
@@ -61,6 +65,7 @@ from typing import Dict, List, Mapping, Optional, Tuple
 
 from rbd_ros.core import ConfigError, RbdError
 from rbd_ros.core.contact.world import is_valid_name, NAME_RULE
+from rbd_ros.core.joints.model import coordinate_units
 from rbd_ros.sim.joint_commands import INTERFACES, JointSpec
 from rbd_ros.sim.params import (BOOL, check_range, coerce, DOUBLE, DOUBLE_ARRAY, fail,
                                 frame_id_problem,
@@ -88,9 +93,10 @@ def group_parameter_specs(name: str) -> Tuple[ParamSpec, ...]:
         ParamSpec(prefix + 'robot', STRING, '', '', f'Group {name!r}: its robot.',
                   rule='one of robot_names'),
         ParamSpec(prefix + 'joints', STRING_ARRAY, (), '',
-                  f'Group {name!r}: its joints in command order; [] = every moving joint '
-                  'but the mimics.',
-                  rule="moving joints of the group's robot, each once, no mimic"),
+                  f'Group {name!r}: its joints in command order (joint_states names: a '
+                  "planar joint's <joint>/x, /y, /theta); [] = every moving joint but the "
+                  'mimics.',
+                  rule="joint_states names of the group's robot, each once, no mimic"),
         ParamSpec(prefix + 'interface', STRING, 'position', '',
                   f"Group {name!r}: what <group>/commands values are: 'position', "
                   "'velocity' or 'effort'.", rule='one of position, velocity, effort'),
@@ -139,7 +145,7 @@ def read_command_groups(params, robots) -> Tuple[CommandGroup, ...]:
             if joint not in robot.joint_names:
                 fail(joints_spec, list(joints), f'{joint!r} is not a moving joint of robot '
                      f'{robot_name!r} ({", ".join(robot.joint_names)})')
-            leader = robot.robot.joint(joint).mimic
+            leader = robot.robot.entry(joint)[0].mimic
             if leader is not None:
                 fail(joints_spec, list(joints), f'{joint!r} is a mimic joint (of '
                      f'{leader[0]!r}) and takes no command; list {leader[0]!r}')
@@ -169,11 +175,12 @@ def robot_parameter_specs(name: str) -> Tuple[ParamSpec, ...]:
                   f"Robot {name!r}: its root link's orientation [x, y, z, w], world frame.",
                   rule='4 finite values, norm within 1e-3 of 1 (then normalised)'),
         ParamSpec(prefix + 'initial_joint_positions', DOUBLE_ARRAY, (), 'rad or m',
-                  f'Robot {name!r}: one position per moving joint (joint_states order); '
-                  '[] = zeros.', rule='one value per moving joint, within its limits and ±1e7'),
+                  f'Robot {name!r}: one position per joint_states entry, in its order (a '
+                  'planar joint: x, y, theta); [] = zeros.',
+                  rule='one value per entry, within its limits and ±1e7'),
         ParamSpec(prefix + 'initial_joint_velocities', DOUBLE_ARRAY, (), 'rad/s or m/s',
-                  f'Robot {name!r}: one velocity per moving joint (joint_states order); '
-                  '[] = zeros.', rule='one value per moving joint, within ±1e7'),
+                  f'Robot {name!r}: one velocity per joint_states entry, in its order; '
+                  '[] = zeros.', rule='one value per entry, within ±1e7'),
         ParamSpec(prefix + 'friction', DOUBLE, 0.5, '',
                   f'Robot {name!r}: Coulomb friction coefficient μ of its links (a pair: '
                   'sqrt(μ_a μ_b)); in a world with contact.', (0.0, MAX_JOINT_DYNAMICS),
@@ -193,15 +200,18 @@ def robot_parameter_specs(name: str) -> Tuple[ParamSpec, ...]:
 
 
 def joint_parameter_specs(robot: str, joint: str, damping: float = 0.0,
-                          friction: float = 0.0) -> Tuple[ParamSpec, ...]:
+                          friction: float = 0.0, planar: bool = False) -> Tuple[ParamSpec, ...]:
     """
     Return the :class:`ParamSpec` of moving joint ``joint`` of ``robot``.
 
     ``damping`` and ``friction`` are the defaults of its ``.damping`` and ``.friction``: the
-    URDF's ``<dynamics>`` values (0 without).
+    URDF's ``<dynamics>`` values (0 without; a ``planar`` joint's 0 whatever the URDF says:
+    the core takes none on it).
     """
     prefix = f'robots.{robot}.joints.{joint}.'
     who = f'Robot {robot!r}, joint {joint!r}'
+    if planar:
+        damping = friction = 0.0
     return (ParamSpec(prefix + 'position_time_constant_s', DOUBLE,
                       DEFAULT_POSITION_TIME_CONSTANT_S, 's',
                       f'{who}: time constant of its position commands (critically damped).',
@@ -226,8 +236,8 @@ class RobotConfig:
         ``<name>/robot_description`` publishes).
     :ivar placement: the :class:`rbd_ros.sim.robot_placement.Placement` at time 0 (bodies,
         states, joints).
-    :ivar time_constants_s: per moving joint (``joint_states`` order), its position time
-        constant, s.
+    :ivar time_constants_s: per joint with ``joint_states`` entries (``robot.state_joints``
+        order: a planar joint once), its position time constant, s.
     :ivar specs: every parameter of this robot, its joints' included.
     :ivar friction, restitution: its links' contact material (a world with contact).
     :ivar self_collision: its non-adjacent links collide with each other (a world with contact).
@@ -255,30 +265,34 @@ class RobotConfig:
 
     @property
     def joint_names(self) -> Tuple[str, ...]:
-        """Return the moving joints, in ``joint_states`` order."""
+        """Return the ``joint_states`` entries, in order (a planar joint's three)."""
         return self.robot.moving_joints
 
     @property
     def command_joints(self) -> Tuple[str, ...]:
-        """Return the moving joints that take commands: all but the mimics, in order."""
+        """Return the entries that take commands: all but the mimics', in order."""
         return tuple(name for name in self.robot.moving_joints
-                     if self.robot.joint(name).mimic is None)
+                     if self.robot.entry(name)[0].mimic is None)
+
+    @property
+    def entry_time_constants_s(self) -> Tuple[float, ...]:
+        """Return per ``joint_states`` entry its joint's position time constant, s."""
+        by_joint = dict(zip(self.robot.state_joints, self.time_constants_s))
+        return tuple(by_joint[joint] for joint, _ in self.robot.coordinates)
 
     def joint_specs(self) -> Tuple[JointSpec, ...]:
-        """Return each moving joint's :class:`~rbd_ros.sim.joint_commands.JointSpec`."""
+        """Return each entry's :class:`~rbd_ros.sim.joint_commands.JointSpec`."""
         joints = self.placement.joints
-        return tuple(JointSpec(name, joints[self.robot.joint(name).core],
-                               self.robot.joint(name).velocity)
-                     for name in self.robot.moving_joints)
+        out = []
+        for name in self.robot.moving_joints:
+            joint, coordinate = self.robot.entry(name)
+            out.append(JointSpec(name, joints[joint.core], joint.velocity, coordinate))
+        return tuple(out)
 
     def units(self, joint: str) -> Tuple[str, str, str]:
-        """Return ``(position, velocity, effort)`` units of a moving joint."""
-        return joint_units(self.robot.joint(joint).kind)
-
-
-def joint_units(kind: str) -> Tuple[str, str, str]:
-    """Return ``(position, velocity, effort)`` units of a moving joint of ``kind``."""
-    return ('m', 'm/s', 'N') if kind == 'prismatic' else ('rad', 'rad/s', 'N m')
+        """Return ``(position, velocity, effort)`` units of a ``joint_states`` entry."""
+        joint, coordinate = self.robot.entry(joint)
+        return coordinate_units(joint, coordinate or 0)   # reads the kind only
 
 
 def param_value(params, spec):
@@ -327,17 +341,25 @@ def _read_robot(params, name, gravity_w):
             gravity_w=gravity_w)
     except RbdError as exc:
         raise _renamed(prefix, exc) from None
-    joint_specs = tuple(s for joint in robot.moving_joints
+    joint_specs = tuple(s for joint in robot.state_joints
                         for s in joint_parameter_specs(name, joint, robot.joint(joint).damping,
-                                                       robot.joint(joint).friction))
+                                                       robot.joint(joint).friction,
+                                                       robot.joint(joint).kind == 'planar'))
     given = {spec.name: param_value(params, spec) for spec in joint_specs}
     joints = list(placement.joints)
-    for joint in robot.moving_joints:
+    for joint in robot.state_joints:
         core, base = robot.joint(joint).core, f'{prefix}joints.{joint}.'
+        if robot.joint(joint).kind == 'planar':   # the core takes none: 0 only
+            for field in ('damping', 'friction'):
+                if given[base + field] != 0.0:
+                    spec = next(s for s in joint_specs if s.name == base + field)
+                    fail(spec, given[base + field], f'a planar joint takes no {field} (only '
+                         'revolute, continuous and prismatic joints do); leave it 0')
+            continue
         joints[core] = replace(joints[core], damping=given[base + 'damping'],
                                friction=given[base + 'friction'])
     constants = tuple(given[f'{prefix}joints.{joint}.position_time_constant_s']
-                      for joint in robot.moving_joints)
+                      for joint in robot.state_joints)
     return RobotConfig(name, robot, replace(placement, joints=tuple(joints)), constants,
                        specs + joint_specs, values['friction'], values['restitution'],
                        values['self_collision'], values['frame_prefix'])

@@ -31,13 +31,20 @@ The XML is parsed strictly by lxml (a malformed file is refused, not recovered) 
 * **Joints.** revolute, continuous, prismatic, planar and fixed become
   :class:`rbd_ros.core.joints.Joint` values (the child's joint frame at zero is the child link
   frame, so ``q_rest`` is the joint origin's rotation in the parent body); ``floating`` joins
-  nothing: its child is a free body starting at the joint origin. Planar normal = ``<axis>``.
+  nothing: its child is a free body starting at the joint origin. Planar normal = ``<axis>``;
+  its x direction the joint frame's x axis in the plane (its y axis when ``<axis>`` is within
+  30° of x), its y direction ``axis × x``: for the usual ``<axis xyz="0 0 1"/>`` the joint
+  frame's own x and y (:func:`rbd_ros.core.joints.model.plane_x`). ``<limit effort>`` caps
+  each of a planar joint's motors (N for x and y, N m for theta), ``<limit velocity>`` each
+  velocity target.
   A revolute or prismatic joint without ``<limit>`` is refused (the URDF spec requires it, and
   urdfdom refuses it; a joint without limits is continuous).
-* **Joint order.** :attr:`Robot.moving_joints` are the revolute, continuous and prismatic
-  joints in the order of the URDF's joint elements: the ``joint_states`` order and the order of
-  ``joint_positions``. Planar and floating joints start at zero and are not listed (as
-  robot_state_publisher, which treats them as fixed).
+* **Joint order.** :attr:`Robot.moving_joints` are the ``joint_states`` entries: the revolute,
+  continuous and prismatic joints, one entry each (the joint's name), and the planar joints,
+  three entries each, ``<joint>/x``, ``<joint>/y``, ``<joint>/theta`` (MoveIt's names of a
+  planar joint's variables; :func:`rbd_ros.sim.joint_commands.coordinate_entries`), in the
+  order of the URDF's joint elements: the order of ``joint_positions`` too. Floating joints
+  start at zero and are not listed.
 * **Dynamics.** ``<dynamics damping friction>`` of a revolute, continuous or prismatic joint
   become its core joint's ``damping`` (N m s/rad or N s/m) and ``friction`` (N m or N), each
   >= 0 (the robot's ``robots.<name>.joints.<joint>.damping`` and ``.friction`` parameters
@@ -74,14 +81,17 @@ from rbd_ros.core.contact.shapes import CollisionShape, primitive_shape
 from rbd_ros.core.errors import ConfigError, ModelError, RbdError
 from rbd_ros.core.inertia import validate_inertia, validate_mass
 from rbd_ros.core.rotations import matrix_to_quat
+from rbd_ros.sim.joint_commands import coordinate_entries
 from rbd_ros.sim.meshes import resolve_mesh_path
 from rbd_ros.sim.params import MAX_MESH_FILE_BYTES, MAX_POSITION_M, PARAMETERS_BY_NAME
 import yourdfpy
 
 #: Every URDF joint type.
 URDF_JOINT_TYPES = ('revolute', 'continuous', 'prismatic', 'fixed', 'floating', 'planar')
-#: The joint types with one coordinate: the entries of ``joint_states``.
+#: The joint types with one coordinate (one entry of ``joint_states`` each).
 MOVING_TYPES = ('revolute', 'continuous', 'prismatic')
+#: The joint types in ``joint_states``: one entry a coordinate (a planar joint's three).
+STATE_TYPES = MOVING_TYPES + ('planar',)
 #: The joint types whose ``<limit>`` the URDF spec requires.
 LIMITED_TYPES = ('revolute', 'prismatic')
 #: The source name of a URDF given as XML text (the ROS parameter's name).
@@ -165,7 +175,9 @@ class Robot:
 
     :param urdf: the XML as loaded (after xacro): what ``robot_description`` publishes.
     :param body_links: the link of each body, in body order (URDF link order).
-    :param moving_joints: the joint_states order (see the module docstring).
+    :param moving_joints: the joint_states entries, in order (see the module docstring).
+    :param coordinates: per entry of ``moving_joints``, ``(its joint's name, its coordinate)``:
+        None for a one-coordinate joint, 0, 1, 2 for a planar joint's x, y, theta.
     :param fixed_to_world: the root link is ``world``.
     """
 
@@ -178,6 +190,17 @@ class Robot:
     moving_joints: Tuple[str, ...]
     fixed_to_world: bool
     root: str
+    coordinates: Tuple[Tuple[str, Optional[int]], ...] = ()
+
+    @property
+    def state_joints(self) -> Tuple[str, ...]:
+        """Return the joints with entries in ``joint_states``, in order, each once."""
+        return tuple(dict.fromkeys(joint for joint, _ in self.coordinates))
+
+    def entry(self, name: str) -> Tuple[RobotJoint, Optional[int]]:
+        """Return the joint and coordinate of ``joint_states`` entry ``name``."""
+        joint, coordinate = self.coordinates[self.moving_joints.index(name)]
+        return self.joint(joint), coordinate
 
     def link(self, name: str) -> RobotLink:
         """Return the link called ``name``."""
@@ -592,9 +615,16 @@ def load_urdf(path=None, *, xml=None) -> Robot:
         joints.append(RobotJoint(joint.name, joint.type, joint.parent, joint.child, origin,
                                  values[7], *values[:7], index))
     _check_mimics(source, joints)
-    moving = tuple(j.name for j in joints if j.kind in MOVING_TYPES)
+    entries = [(entry, joint.name, k) for joint in joints if joint.kind in STATE_TYPES
+               for entry, k in coordinate_entries(joint.name, joint.kind)]
+    names = {joint.name for joint in joints}
+    for entry, joint, _ in entries:
+        if entry != joint and entry in names:
+            refuse(ModelError, source, f'joint {entry!r}', f'has the name of planar joint '
+                   f"{joint!r}'s joint_states entry {entry!r}; rename one", entry)
     return Robot(parsed.name, source, data.decode(), tuple(links), tuple(joints),
-                 tuple(link_order), moving, fixed_to_world, root)
+                 tuple(link_order), tuple(e[0] for e in entries), fixed_to_world, root,
+                 tuple((joint, k) for _, joint, k in entries))
 
 
 def _check_mimics(source, joints):

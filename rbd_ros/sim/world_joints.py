@@ -26,6 +26,13 @@ The parameters (these names exactly; the list is not the prefix of its items, so
 - ``joints.<name>.position`` (m) and ``.axis`` (unit vector, normalised here): the joint point
   and axis in the world frame, at the bodies' initial poses. The joint coordinate is 0 there:
   the child's rest pose relative to the parent (``q_rest``) is the initial one.
+- ``joints.<name>.axis2`` (unit vector, world frame, at the initial poses; planar and universal
+  joints only, ``[0, 0, 0]`` the default): the core's ``axis2_b``, perpendicular to ``.axis``
+  (to 1e-9 once both are normalised). A universal joint's second axis (the child's side of the
+  cross; ``theta1`` turns about ``.axis``, ``theta2`` about it), a planar joint's x direction
+  (``.axis`` its normal, y = axis × axis2). Default: the world x axis in the plane across
+  ``.axis`` (the y axis when ``.axis`` is within 30° of x;
+  :func:`rbd_ros.core.joints.model.plane_x`), as a URDF planar joint's.
 - ``joints.<name>.lower`` and ``.upper`` (rad or m): revolute and prismatic limits; both 0 (the
   defaults) for none. ``.cone_rad`` (rad, in (0, π]): a spherical joint's cone limit, the
   angle of its axis in the child off the axis in the parent (both ``.axis`` at the initial
@@ -58,10 +65,11 @@ from typing import Optional, Tuple
 import numpy as np
 from rbd_ros.core import kernels, RbdError
 from rbd_ros.core.contact.simulator import WorldSimulator
-from rbd_ros.core.joints.model import Joint
-from rbd_ros.core.joints.readout import cross, JointReadout, KINDS as MOVING_KINDS, rotate
+from rbd_ros.core.joints.model import Joint, MOTOR_COORDINATES, plane_x
+from rbd_ros.core.joints.readout import cross, JointReadout, rotate
 from rbd_ros.core.rotations import quat_conjugate, quat_multiply, quat_to_matrix
-from rbd_ros.sim.joint_commands import CommandInput, JointSpec, motor_settings, RobotInputs
+from rbd_ros.sim.joint_commands import (CommandInput, coordinate_entries, JointSpec,
+                                        motor_settings, release, RobotInputs)
 from rbd_ros.sim.params import (coerce, DOUBLE, DOUBLE_ARRAY, fail, fmt, MAX_BODIES,
                                 PARAMETERS_BY_NAME, ParamSpec, position3, STRING)
 from rbd_ros.sim.robots import (DEFAULT_POSITION_TIME_CONSTANT_S, list_names,
@@ -69,13 +77,16 @@ from rbd_ros.sim.robots import (DEFAULT_POSITION_TIME_CONSTANT_S, list_names,
 
 JOINT_NAMES = 'joint_names'
 JOINT_NAMES_SPEC = PARAMETERS_BY_NAME[JOINT_NAMES]
-#: The joint kinds a world's joint may have (the core's, but those that need a second axis).
-KINDS = ('fixed', 'revolute', 'continuous', 'prismatic', 'spherical')
+#: The joint kinds a world's joint may have (the core's).
+KINDS = ('fixed', 'revolute', 'continuous', 'prismatic', 'spherical', 'universal', 'planar')
+#: The kinds with a second axis (``.axis2``).
+_TWO_AXES = ('universal', 'planar')
 #: The parent that is the world frame (not a body).
 WORLD = 'world'
 _MAX = 1e12  # the bound advertised for a quantity with no natural limit (as params')
 # The core Joint's fields -> the parameter that gives them.
 _CORE_FIELDS = {'kind': 'type', 'parent': 'parent', 'child': 'child', 'axis_b': 'axis',
+                'axis2_b': 'axis2',
                 'origin_parent_b': 'position', 'origin_child_b': 'position',
                 'lower': 'lower', 'upper': 'upper', 'cone_rad': 'cone_rad',
                 'effort_limit': 'effort_limit',
@@ -102,6 +113,11 @@ def joint_parameter_specs(name: str) -> Tuple[ParamSpec, ...]:
         ParamSpec(prefix + 'axis', DOUBLE_ARRAY, (0.0, 0.0, 1.0), '',
                   f'{who}: the joint axis, world frame, at the initial poses (normalised).',
                   rule='3 finite values, not all 0'),
+        ParamSpec(prefix + 'axis2', DOUBLE_ARRAY, (0.0, 0.0, 0.0), '',
+                  f"{who}: a universal joint's second axis (theta2's), a planar joint's x "
+                  'direction; world frame, at the initial poses (normalised); [0, 0, 0] = the '
+                  'world x axis in the plane across .axis (y when .axis is within 30° of x).',
+                  rule='3 finite values, perpendicular to .axis; planar and universal only'),
         ParamSpec(prefix + 'lower', DOUBLE, 0.0, 'rad or m',
                   f'{who}: lower limit of a revolute or prismatic joint (0 at the initial '
                   'poses); lower = upper = 0: no limits.', (-_MAX, _MAX), rule='<= upper'),
@@ -151,8 +167,25 @@ class WorldJoint:
 
     @property
     def moving(self) -> bool:
-        """Return whether it has one coordinate (it is in ``joint_states``)."""
-        return self.joint.kind in MOVING_KINDS
+        """Return whether it is in ``joint_states`` (one entry a coordinate)."""
+        return self.joint.kind in MOTOR_COORDINATES
+
+    @property
+    def entries(self) -> Tuple[Tuple[str, Optional[int]], ...]:
+        """Return its ``joint_states`` entries: ``(name, coordinate)`` (see coordinate_entries)."""
+        return coordinate_entries(self.name, self.joint.kind)
+
+
+def state_entries(world_joints):
+    """
+    Return the ``joint_states`` entries of ``world_joints``: ``(name, joint index, coordinate)``.
+
+    In ``joint_names`` order, a planar joint's three (``<joint>/x``, ``/y``, ``/theta``) and a
+    universal joint's two (``<joint>/theta1``, ``/theta2``) together; fixed and spherical joints
+    have none.
+    """
+    return tuple((entry, k, coordinate) for k, joint in enumerate(world_joints)
+                 for entry, coordinate in joint.entries)
 
 
 def _vector(spec, value):
@@ -214,6 +247,26 @@ def _read_joint(params, name, bodies, robots):
         axis_p = rot_pw @ axis
         origin_p = rot_pw @ (position - p_p)
     limited = v['lower'] != 0.0 or v['upper'] != 0.0
+    axis2 = _vector(by['axis2'], v['axis2'])
+    extra = {}
+    if any(axis2) and v['type'] not in _TWO_AXES:
+        fail(by['axis2'], list(axis2), f'a {v["type"]} joint has no second axis (planar and '
+             'universal joints have); leave it [0, 0, 0]')
+    if v['type'] in _TWO_AXES:
+        if sum(a * a for a in axis2) == math.inf:
+            axis2 = tuple(a / max(abs(b) for b in axis2) for a in axis2)
+        norm = math.sqrt(sum(a * a for a in axis2))
+        unit_axis = np.asarray(axis) / math.sqrt(sum(a * a for a in axis))
+        if not any(axis2):
+            axis2 = tuple(plane_x(unit_axis))
+        elif not norm > 1e-12:
+            fail(by['axis2'], list(axis2), 'has zero length: a second axis needs a direction')
+        else:
+            axis2 = tuple(np.asarray(axis2) / norm)
+            if abs(float(np.dot(axis2, unit_axis))) > 1e-9:
+                fail(by['axis2'], list(axis2), f'must be perpendicular to .axis '
+                     f'{unit_axis.tolist()} (their dot product within 1e-9)')
+        extra['axis2_b'] = tuple(axis2) if parent is None else tuple(rot_pw @ axis2)
     try:
         order = list(bodies)
         joint = Joint(name, v['type'], None if parent is None else order.index(v['parent']),
@@ -224,7 +277,7 @@ def _read_joint(params, name, bodies, robots):
                       upper=v['upper'] if limited else None,
                       cone_rad=v['cone_rad'] or None,
                       effort_limit=v['effort_limit'] or None, damping=v['damping'],
-                      friction=v['friction'])
+                      friction=v['friction'], **extra)
     except RbdError as exc:
         raise parameter_error(exc, {name: v}) from None
     return WorldJoint(name, joint, v['velocity_limit'] or None,
@@ -364,7 +417,9 @@ class JointedWorldSimulator(WorldSimulator):
                      for j in self.world_joints}
             raise parameter_error(exc, given) from None
         self._readout = JointReadout(joints)
-        self._moving = tuple(k for k, j in enumerate(self.world_joints) if j.moving)
+        entries = state_entries(self.world_joints)
+        self._moving = tuple(k for _, k, _ in entries)
+        self._coordinates = tuple(c for _, _, c in entries)
         self._continuous = frozenset(k for k, j in enumerate(joints) if j.kind == 'continuous')
         self._time_constants_s = tuple(self.world_joints[k].time_constant_s for k in self._moving)
         self._tree = _tree_order(joints)
@@ -399,23 +454,35 @@ class JointedWorldSimulator(WorldSimulator):
         super().reset(states)
         self._before, self._wrenches = None, (None, self._nan)
 
-    def joint_coordinates(self, indices):
-        """Return ``(positions, rates)`` of the joints ``indices``, plain floats."""
+    def joint_coordinates(self, indices, coordinates=None):
+        """
+        Return ``(positions, rates)`` of the joints ``indices``, plain floats.
+
+        ``coordinates``: one per index, None for a one-coordinate joint, a planar or universal
+        joint's coordinate (:meth:`~rbd_ros.core.joints.ArticulatedSimulator.joint_coordinates`).
+        """
         rows = self._x.T.tolist()
         read = self._readout.read
         running = self.running_angles()
         positions, rates = [], []
-        for j in indices:
-            q, qd = read(rows, j)
+        for n, j in enumerate(indices):
+            q, qd = read(rows, j, None if coordinates is None else coordinates[n])
             positions.append(running[j] if j in self._continuous else q)
             rates.append(qd)
         return positions, rates
 
     def joint_states(self, index=0):
-        """Return ``(positions, rates, efforts)`` of the one-coordinate joints, plain floats."""
-        positions, rates = self.joint_coordinates(self._moving)
+        """
+        Return ``(positions, rates, efforts)`` of the ``joint_states`` entries, plain floats.
+
+        One a one-coordinate joint, one a coordinate of a planar or universal joint
+        (:func:`state_entries`); a coordinate's effort its motor's (``coordinate_efforts``).
+        """
+        positions, rates = self.joint_coordinates(self._moving, self._coordinates)
         efforts = self.joint_efforts()
-        return positions, rates, [float(efforts[k]) for k in self._moving]
+        return positions, rates, [float(efforts[k]) if c is None
+                                  else float(self.coordinate_efforts(k)[c])
+                                  for k, c in zip(self._moving, self._coordinates)]
 
     def joint_wrenches(self, index=0):
         """
@@ -518,17 +585,18 @@ class JointedWorldSimulator(WorldSimulator):
 
     def set_targets(self, index, targets) -> None:
         """
-        Hold motor targets on moving joints: ``(joint, mode, value, rates or None)``.
+        Hold motor targets on joints: ``(entry, mode, value, rates or None)``.
 
-        ``joint`` indexes the one-coordinate joints (``joint_states`` order); a position
+        ``entry`` indexes the ``joint_states`` entries (:func:`state_entries`); a position
         target takes the joint's ``position_time_constant_s``. What
         :class:`rbd_ros.sim.joint_commands.RobotInputs` asks of a robot's world.
         """
-        self.set_motors(motor_settings(targets, self._moving, self._time_constants_s))
+        self.set_motors(motor_settings(targets, self._moving, self._time_constants_s,
+                                       self._coordinates))
 
     def release(self, index, joint) -> None:
-        """Turn the motor of moving joint ``joint`` off (the joint is free)."""
-        self.set_motor(self._moving[joint])
+        """Turn the motor of ``joint_states`` entry ``joint`` off (the coordinate is free)."""
+        release(self, self._moving[joint], self._coordinates[joint])
 
 
 class WorldJointInputs(RobotInputs):
@@ -554,8 +622,8 @@ class WorldJointInputs(RobotInputs):
                             owner="the world's joint_names")
         self.inputs[spec.name] = spec
         self.received[spec.name] = 0
-        self._specs.append(tuple(JointSpec(j.name, j.joint, j.velocity_limit)
-                                 for j in world_joints if j.moving))
+        self._specs.append(tuple(JointSpec(entry, j.joint, j.velocity_limit, coordinate)
+                                 for j in world_joints for entry, coordinate in j.entries))
 
 
 def take_parameters(values, params):

@@ -200,7 +200,8 @@ KINDS_URDF = (
 
 def test_every_joint_type_maps_to_the_core(tmp_path):
     robot = load_urdf(write(tmp_path, KINDS_URDF))
-    assert robot.moving_joints == ('slide', 'spin')       # planar, floating, fixed skipped
+    # a planar joint: three entries (MoveIt's variable names); floating and fixed skipped
+    assert robot.moving_joints == ('slide', 'spin', 'plane/x', 'plane/y', 'plane/theta')
     assert robot.body_links == ('base', 'carriage', 'wheel', 'puck', 'ball', 'weight')
     # <inertial> rpy about z by 90 deg swaps the x and y moments into link axes
     assert np.allclose(robot.link('carriage').inertia_b, np.diag([0.03, 0.02, 0.04]),
@@ -208,8 +209,9 @@ def test_every_joint_type_maps_to_the_core(tmp_path):
     spin = robot.joint('spin')
     assert spin.mimic == ('slide', 2.0, 0.1) and spin.damping == 0.2 and spin.effort == 3.0
     assert robot.joint('loose').core is None
-    # spin mimics slide: q_spin = 2 q_slide + 0.1, q̇_spin = 2 q̇_slide
-    q, qd = np.array([0.3, 0.7]), np.array([0.2, 0.4])
+    # spin mimics slide: q_spin = 2 q_slide + 0.1, q̇_spin = 2 q̇_slide; the planar puck at
+    # (x, y, theta) = (0.1, -0.2, 0.4) moving at (0.05, 0.1, -0.3)
+    q, qd = np.array([0.3, 0.7, 0.1, -0.2, 0.4]), np.array([0.2, 0.4, 0.05, 0.1, -0.3])
     placed = place_robot(robot, position_w=(0.0, 0.0, 1.0), joint_positions=q,
                          joint_velocities=qd, gravity_w=(0.0, 0.0, 0.0))
     assert [j.kind for j in placed.joints] == ['prismatic', 'continuous', 'planar', 'fixed']
@@ -218,7 +220,7 @@ def test_every_joint_type_maps_to_the_core(tmp_path):
     # a value for the mimic that disagrees with its leader is refused, naming both
     with pytest.raises(ConfigError, match=r'initial_joint_velocities\[1\]: -1.0 for joint '
                                           r"'spin', a mimic of 'slide', must be 0.4 "):
-        place_robot(robot, joint_positions=q, joint_velocities=[0.2, -1.0])
+        place_robot(robot, joint_positions=q, joint_velocities=[0.2, -1.0, 0.0, 0.0, 0.0])
     # none given: the mimic follows its leader from zeros, q_spin = offset
     assert place_robot(robot).joints[1].mimic == 'slide'
     assert placed.joints[0].lower == -1.0 and placed.joints[1].effort_limit == 3.0
@@ -230,11 +232,13 @@ def test_every_joint_type_maps_to_the_core(tmp_path):
     sim = ArticulatedSimulator(placed.models, placed.states, placed.joints)
     assert max(sim.joint_error()) <= JOINT_TOL
     readback = sim.joint_positions()
-    assert np.allclose([readback[0][0], readback[1][0]], q, atol=TOL, rtol=0)
-    assert np.allclose(readback[2], 0.0, atol=TOL) and len(readback[3]) == 0
+    assert np.allclose([readback[0][0], readback[1][0]], q[:2], atol=TOL, rtol=0)
+    # the planar joint's x along the joint frame's x (its <axis> is z), y along its y
+    assert placed.joints[2].axis2_b.tolist() == [1.0, 0.0, 0.0]
+    assert np.allclose(readback[2], q[2:], atol=TOL) and len(readback[3]) == 0
     rates = sim.joint_velocities()
-    assert np.allclose([rates[0][0], rates[1][0]], qd, atol=TOL, rtol=0)
-    assert np.allclose(rates[2], 0.0, atol=TOL)  # the planar child moves with its parent
+    assert np.allclose([rates[0][0], rates[1][0]], qd[:2], atol=TOL, rtol=0)
+    assert np.allclose(rates[2], qd[2:], atol=TOL)
     # the weld's child keeps the joint origin's rotation (0.4 rad about y) in the base
     weight = quat_to_matrix(placed.states[5].orientation_wb)
     assert np.allclose(weight @ [0.0, 1.0, 0.0], [0.0, 1.0, 0.0], atol=TOL)

@@ -16,7 +16,14 @@
 Joint motors in the contact step, driven by impulses.
 
 A motor acts through its joint's motor row of :mod:`rbd_ros.core.joints.kernels`
-(``ROW_MOTOR``, its Jacobian the joint's axial rate).
+(``ROW_MOTOR``, its Jacobian the joint's axial rate). Motors are kept by *slot* (a row of
+``work.motor`` and of ``drive``; ``model.mrows`` the motor row of each): slot ``j`` is joint
+``j``'s (a one-coordinate joint's, a planar joint's x, a universal joint's θ1), the slots
+after the joints a planar joint's y and theta and a universal joint's θ2, so a planar or
+universal joint's coordinates are driven one a slot, each exactly as a one-coordinate joint
+(a planar joint's x and y as a prismatic joint's, its theta and a universal joint's angles as
+a revolute joint's). Friction, damping and limits are per joint (one-coordinate joints only,
+whose slot is the joint's index).
 
 The commands are :class:`~rbd_ros.core.joints.ArticulatedSimulator`'s (``work.motor``, set by
 its ``set_motor``); what each does over one step of :func:`rbd_ros.core.contact.step.
@@ -73,14 +80,15 @@ import math
 from rbd_ros.core.contact.rows import _inl, _jit
 from rbd_ros.core.joints import kernels as jk
 
-#: ``drive`` columns, one row a joint: the motor row's generalized impulse over the step so far
-#: (N m s or N s, on the child along q), the coordinate a position motor's drift lands on
-#: (rad or m), the rate its exact response has at the step's end (rad/s or m/s), 1 when that
-#: rate of the last step is the joint's rate now (0: start from the state's), the time since
-#: the target was set (s), the rate the step started from (rad/s or m/s), and the limit
-#: row's generalized impulse since it was held (:mod:`rbd_ros.core.contact.limits`), the
-#: friction row's generalized impulse over the step (N m s or N s, on the child along q) and
-#: the coordinate a stuck joint stays at (rad or m: the step's start).
+#: ``drive`` columns, one row a motor slot (slot ``j`` is joint ``j``'s): the motor row's
+#: generalized impulse over the step so far (N m s or N s, on the child along q), the
+#: coordinate a position motor's drift lands on (rad or m), the rate its exact response has at
+#: the step's end (rad/s or m/s), 1 when that rate of the last step is the joint's rate now (0:
+#: start from the state's), the time since the target was set (s), the rate the step started
+#: from (rad/s or m/s), and, per joint (its slot), the limit row's generalized impulse since it
+#: was held (:mod:`rbd_ros.core.contact.limits`), the friction row's generalized impulse over
+#: the step (N m s or N s, on the child along q) and the coordinate a stuck joint stays at (rad
+#: or m: the step's start).
 D_IMPULSE = 0
 D_GOAL = 1
 D_RATE_END = 2
@@ -135,15 +143,17 @@ def start(joints, attempt, h):
     """
     model, work, drive, jx = joints.model, joints.work, joints.drive, joints.jx
     motor, jint = work.motor, model.jint
+    mrows = model.mrows
     if attempt == 0:
         jk._motor_rows_on(model, work)
     driven = False
     rubbing = False
-    for j in range(jint.shape[0]):
-        drive[j, D_IMPULSE] = 0.0
-        row = jint[j, jk.J_MOTROW]
+    for m in range(mrows.shape[0]):
+        drive[m, D_IMPULSE] = 0.0
+        row = mrows[m]
         if row >= 0 and work.active[row] != 0:
             driven = True
+    for j in range(jint.shape[0]):
         if jint[j, jk.J_FRICROW] >= 0:
             drive[j, D_FRICTION] = 0.0
             rubbing = True
@@ -166,30 +176,30 @@ def start(joints, attempt, h):
             friction_row(joints, j)
     if not driven:
         return
-    for j in range(jint.shape[0]):
-        row = jint[j, jk.J_MOTROW]
+    for m in range(mrows.shape[0]):   # motor slots (see the module docstring)
+        row = mrows[m]
         if row < 0 or work.active[row] == 0:
             continue
-        if motor[j, jk.M_MODE] == jk.MOTOR_VELOCITY:
-            drive[j, D_GOAL] = work.axial[j, 0] + motor[j, jk.M_VELOCITY] * h
+        if motor[m, jk.M_MODE] == jk.MOTOR_VELOCITY:
+            drive[m, D_GOAL] = work.axial[m, 0] + motor[m, jk.M_VELOCITY] * h
             continue
-        w = motor[j, jk.M_OMEGA]
-        vr, ar = motor[j, jk.M_VREF], motor[j, jk.M_AREF]
-        s = drive[j, D_TIME]
+        w = motor[m, jk.M_OMEGA]
+        vr, ar = motor[m, jk.M_VREF], motor[m, jk.M_AREF]
+        s = drive[m, D_TIME]
         if attempt == 0:
-            drive[j, D_RATE0] = drive[j, D_RATE_END] if drive[j, D_HELD] != 0.0 \
+            drive[m, D_RATE0] = drive[m, D_RATE_END] if drive[m, D_HELD] != 0.0 \
                 else jk._row_rate(model, jx, work, row, 2)
-        rate = drive[j, D_RATE0]
-        e0 = work.axial[j, 0] - (motor[j, jk.M_POSITION] + (vr + 0.5 * ar * s) * s)
+        rate = drive[m, D_RATE0]
+        e0 = work.axial[m, 0] - (motor[m, jk.M_POSITION] + (vr + 0.5 * ar * s) * s)
         ed0 = rate - (vr + ar * s)
         decay = math.exp(-w * h)
         c = ed0 + w * e0
         s1 = s + h
-        drive[j, D_GOAL] = (motor[j, jk.M_POSITION] + (vr + 0.5 * ar * s1) * s1
+        drive[m, D_GOAL] = (motor[m, jk.M_POSITION] + (vr + 0.5 * ar * s1) * s1
                             + (e0 + c * h) * decay)
-        drive[j, D_RATE_END] = vr + ar * s1 + (ed0 - w * c * h) * decay
-        motor[j, jk.M_HOLD] = 1.0
-        motor[j, jk.M_HOLD_RATE] = rate
+        drive[m, D_RATE_END] = vr + ar * s1 + (ed0 - w * c * h) * decay
+        motor[m, jk.M_HOLD] = 1.0
+        motor[m, jk.M_HOLD_RATE] = rate
 
 
 @_jit
@@ -204,30 +214,38 @@ def motor_rows(joints):
     :data:`D_REST`: a stuck joint does not move over the step.
     """
     model, work, drive = joints.model, joints.work, joints.drive
-    for j in range(model.jint.shape[0]):
-        row = model.jint[j, jk.J_MOTROW]
+    for m in range(model.mrows.shape[0]):
+        row = model.mrows[m]
         if row >= 0 and work.active[row] != 0:
-            work.con[row] = _turn(model, j, work.axial[j, 0] - drive[j, D_GOAL])
+            work.con[row] = _turn(model, model.rows[row, 0], row,
+                                  work.axial[m, 0] - drive[m, D_GOAL])
+    for j in range(model.jint.shape[0]):
         row = model.jint[j, jk.J_FRICROW]
         if row >= 0 and work.active[row] != 0:   # a stuck joint stays where it started
-            work.con[row] = _turn(model, j, work.axial[j, 0] - drive[j, D_REST])
+            work.con[row] = _turn(model, j, row, work.axial[j, 0] - drive[j, D_REST])
 
 
-#: A revolute joint's kind code (its angle is measured in (−π, π]).
+#: The kind codes of the joints whose angles are measured in (−π, π]: a revolute joint's,
+#: a universal joint's two and a planar joint's theta (its row about ``u3``, axis 2).
 _REVOLUTE = jk.KIND_CODES['revolute']
+_UNIVERSAL = jk.KIND_CODES['universal']
+_PLANAR = jk.KIND_CODES['planar']
 
 
 @_inl
-def _turn(model, j, d):
+def _turn(model, j, row, d):
     """
-    Return a coordinate difference ``d``; a revolute joint's beyond ±π as the nearest turn.
+    Return joint ``j``'s coordinate difference ``d`` on ``row``; an angle's beyond ±π: the turn.
 
     A revolute joint's angle is measured in (−π, π] (a continuous joint's is its running angle),
     so a joint turning through ±π over the step lands 2π away from a goal set before it: a
-    velocity motor's ``q + v* h`` was missed by ~2π and the world paused. Within ±π, ``d`` as
-    it is (the same bits).
+    velocity motor's ``q + v* h`` was missed by ~2π and the world paused. So are a universal
+    joint's angles and a planar joint's theta. Within ±π, ``d`` as it is (the same bits).
     """
-    if model.jint[j, jk.J_KIND] == _REVOLUTE and abs(d) > math.pi:
+    kind = model.jint[j, jk.J_KIND]
+    angle = kind == _REVOLUTE or kind == _UNIVERSAL or (
+        kind == _PLANAR and model.rows[row, 2] == 2)
+    if angle and abs(d) > math.pi:
         return d - 2.0 * math.pi * math.floor(d / (2.0 * math.pi) + 0.5)
     return d
 
@@ -236,10 +254,11 @@ def _turn(model, j, d):
 def tally(joints):
     """Add the last solve's motor and friction multipliers (``−yj``: along q on the child)."""
     model, work, drive = joints.model, joints.work, joints.drive
-    for j in range(model.jint.shape[0]):
-        row = model.jint[j, jk.J_MOTROW]
+    for m in range(model.mrows.shape[0]):
+        row = model.mrows[m]
         if row >= 0 and work.active[row] != 0:
-            drive[j, D_IMPULSE] -= work.yj[row]
+            drive[m, D_IMPULSE] -= work.yj[row]
+    for j in range(model.jint.shape[0]):
         row = model.jint[j, jk.J_FRICROW]
         if row >= 0 and work.active[row] != 0:
             drive[j, D_FRICTION] -= work.yj[row]
@@ -268,32 +287,34 @@ def kick(joints, dt, end):
     post-stabilization then holds a position motor at its end rate).
     """
     model, work, drive, jx = joints.model, joints.work, joints.drive, joints.jx
-    motor, jint = work.motor, model.jint
+    motor, mrows = work.motor, model.mrows
     pushed = False
-    for j in range(jint.shape[0]):
-        row = jint[j, jk.J_MOTROW]
+    for m in range(mrows.shape[0]):   # motor slots; friction is a one-coordinate joint's (m = j)
+        row = mrows[m]
         if row < 0:
             continue
-        mode = motor[j, jk.M_MODE]
-        if mode == jk.MOTOR_EFFORT or (mode != jk.MOTOR_OFF and motor[j, jk.M_SAT] != 0.0):
+        j = model.rows[row, 0]
+        mode = motor[m, jk.M_MODE]
+        if mode == jk.MOTOR_EFFORT or (mode != jk.MOTOR_OFF and motor[m, jk.M_SAT] != 0.0):
             pushed = True
         if _rubs(model, work, j) != 0.0:
             pushed = True
         if end and mode == jk.MOTOR_POSITION and work.active[row] != 0:
-            motor[j, jk.M_HOLD_RATE] = drive[j, D_RATE_END]
+            motor[m, jk.M_HOLD_RATE] = drive[m, D_RATE_END]
     if not pushed:
         return False
     jk.body_derived(model, jx, work)
     jk.joint_rows(model, jx, work, True)
-    for j in range(jint.shape[0]):
-        row = jint[j, jk.J_MOTROW]
+    for m in range(mrows.shape[0]):
+        row = mrows[m]
         if row < 0:
             continue
-        mode = motor[j, jk.M_MODE]
+        j = model.rows[row, 0]
+        mode = motor[m, jk.M_MODE]
         if mode == jk.MOTOR_EFFORT:
-            tau = min(max(motor[j, jk.M_EFFORT], -motor[j, jk.M_LIMIT]), motor[j, jk.M_LIMIT])
-        elif mode != jk.MOTOR_OFF and motor[j, jk.M_SAT] != 0.0:
-            tau = motor[j, jk.M_SAT] * motor[j, jk.M_LIMIT]
+            tau = min(max(motor[m, jk.M_EFFORT], -motor[m, jk.M_LIMIT]), motor[m, jk.M_LIMIT])
+        elif mode != jk.MOTOR_OFF and motor[m, jk.M_SAT] != 0.0:
+            tau = motor[m, jk.M_SAT] * motor[m, jk.M_LIMIT]
         elif _rubs(model, work, j) == 0.0:
             continue
         else:
@@ -347,15 +368,16 @@ def saturate(joints, h):
             work.active[row] = 0
             jk.refresh_rows(model, work, j)
             changed = True
-        row = model.jint[j, jk.J_MOTROW]
+    for m in range(model.mrows.shape[0]):
+        row = model.mrows[m]
         if row < 0 or work.active[row] == 0:
             continue
-        if abs(drive[j, D_IMPULSE]) > motor[j, jk.M_LIMIT] * h:
-            motor[j, jk.M_SAT] = 1.0 if drive[j, D_IMPULSE] > 0.0 else -1.0
-            motor[j, jk.M_HOLD] = 0.0
-            drive[j, D_HELD] = 0.0
+        if abs(drive[m, D_IMPULSE]) > motor[m, jk.M_LIMIT] * h:
+            motor[m, jk.M_SAT] = 1.0 if drive[m, D_IMPULSE] > 0.0 else -1.0
+            motor[m, jk.M_HOLD] = 0.0
+            drive[m, D_HELD] = 0.0
             work.active[row] = 0
-            jk.refresh_rows(model, work, j)
+            jk.refresh_rows(model, work, model.rows[row, 0])
             changed = True
     return changed
 
@@ -373,23 +395,24 @@ def finish(joints, h):
     """
     model, work, drive = joints.model, joints.work, joints.drive
     motor = work.motor
-    for j in range(model.jint.shape[0]):
-        row = model.jint[j, jk.J_MOTROW]
+    for m in range(model.mrows.shape[0]):
+        row = model.mrows[m]
         if row < 0:
             continue
-        mode = motor[j, jk.M_MODE]
-        drive[j, D_TIME] += h
+        mode = motor[m, jk.M_MODE]
+        drive[m, D_TIME] += h
         # the exact response goes on from this step's end while its row held the joint
-        drive[j, D_HELD] = 1.0 if mode == jk.MOTOR_POSITION and work.active[row] != 0 else 0.0
+        drive[m, D_HELD] = 1.0 if mode == jk.MOTOR_POSITION and work.active[row] != 0 else 0.0
         if mode == jk.MOTOR_EFFORT:
-            motor[j, jk.M_APPLIED] = min(max(motor[j, jk.M_EFFORT], -motor[j, jk.M_LIMIT]),
-                                         motor[j, jk.M_LIMIT])
+            motor[m, jk.M_APPLIED] = min(max(motor[m, jk.M_EFFORT], -motor[m, jk.M_LIMIT]),
+                                         motor[m, jk.M_LIMIT])
         elif work.active[row] != 0:
-            motor[j, jk.M_APPLIED] = drive[j, D_IMPULSE] / h
-        elif mode != jk.MOTOR_OFF and motor[j, jk.M_SAT] != 0.0:
-            motor[j, jk.M_APPLIED] = motor[j, jk.M_SAT] * motor[j, jk.M_LIMIT]
+            motor[m, jk.M_APPLIED] = drive[m, D_IMPULSE] / h
+        elif mode != jk.MOTOR_OFF and motor[m, jk.M_SAT] != 0.0:
+            motor[m, jk.M_APPLIED] = motor[m, jk.M_SAT] * motor[m, jk.M_LIMIT]
         else:
-            motor[j, jk.M_APPLIED] = 0.0
+            motor[m, jk.M_APPLIED] = 0.0
+    for j in range(model.jint.shape[0]):
         if model.jint[j, jk.J_FRICROW] >= 0:
             fric_row = model.jint[j, jk.J_FRICROW]
             work.fric[j, jk.F_APPLIED] = (drive[j, D_FRICTION] / h if work.active[fric_row] != 0
@@ -428,8 +451,11 @@ def damp(joints, dt):
     jint, jprm, active = model.jint, model.jprm, work.active
     for r in range(active.shape[0]):
         saved[r] = active[r]
+    for m in range(model.mrows.shape[0]):   # every motor row (a planar joint's three)
+        if model.mrows[m] >= 0:
+            active[model.mrows[m]] = 0
     for j in range(jint.shape[0]):
-        for column in (jk.J_LIMROW, jk.J_MOTROW, jk.J_FRICROW):
+        for column in (jk.J_LIMROW, jk.J_FRICROW):
             row = jint[j, column]
             if row >= 0:
                 active[row] = 0

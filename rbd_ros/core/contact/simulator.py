@@ -48,7 +48,7 @@ from rbd_ros.core.errors import (ConfigError, ConvergenceError, finite_vector, M
 from rbd_ros.core.integrators import DEFAULT_INTEGRATOR, integrator_info
 from rbd_ros.core.joints import kernels as jk
 from rbd_ros.core.joints import simulator as joints_simulator
-from rbd_ros.core.joints.model import Joint
+from rbd_ros.core.joints.model import Joint, MOTOR_COORDINATES
 from rbd_ros.core.model import BodyModel
 from rbd_ros.core.rotations import quat_to_matrix
 from rbd_ros.core.simulator import BatchSimulator, usable_cores
@@ -396,7 +396,7 @@ class WorldSimulator(BatchSimulator):
         self._articulated = articulated   # checks and sets the motors' commands
         self._joint_stage = cj.JointStage(model, work, np.zeros((n, 13)), np.zeros((n, 13)),
                                           jointed, np.zeros(cj.J_STATS),
-                                          np.zeros((len(self._joints), cm.D_SIZE)),
+                                          np.zeros((work.motor.shape[0], cm.D_SIZE)),
                                           np.zeros(model.rows.shape[0], dtype=np.int64))
         return articulated.states
 
@@ -473,21 +473,17 @@ class WorldSimulator(BatchSimulator):
         """Set several motors at once, as :meth:`set_motor` each; a bad one sets none."""
         articulated = self._articulated_or_refuse()
         targets = list(targets)
-        for joint_index, kwargs in targets:
-            joint = self._joints[joint_index] if isinstance(joint_index, int) \
-                and 0 <= joint_index < len(self._joints) else None
-            if joint is not None and joint.kind in ('planar', 'universal') and any(
-                    kwargs.get(field) is not None for field in ('effort', 'velocity', 'position')):
-                raise ConfigError(f'joint {joint.name!r}: a {joint.kind} joint takes its motors '
-                                  'in the articulated step (ArticulatedSimulator) only, not yet '
-                                  'in the contact step')
         self._project_deferred()
         articulated.set_motors(targets, refresh=False)
         drive, motor = self._joint_stage.drive, self._joint_stage.work.motor
-        for joint_index, _ in targets:
-            drive[joint_index, :] = 0.0   # its time from now, its rate from the state's
-            motor[joint_index, jk.M_HOLD] = 0.0
-            motor[joint_index, jk.M_SAT] = 0.0
+        for joint_index, kwargs in targets:
+            names = MOTOR_COORDINATES.get(self._joints[joint_index].kind, ('',))
+            coordinate = kwargs.get('coordinate', 0)
+            k = names.index(coordinate) if isinstance(coordinate, str) else int(coordinate)
+            slot = articulated.motor_slots[joint_index][k]
+            drive[slot, :] = 0.0   # its time from now, its rate from the state's
+            motor[slot, jk.M_HOLD] = 0.0
+            motor[slot, jk.M_SAT] = 0.0
 
     def joint_efforts(self) -> np.ndarray:
         """
@@ -495,10 +491,33 @@ class WorldSimulator(BatchSimulator):
 
         An effort motor: its clipped effort; a position or velocity motor: its row's impulses
         over the step divided by ``h`` (the step's average force along the joint coordinate
-        on the child), or ``±effort_limit`` when saturated.
+        on the child), or ``±effort_limit`` when saturated. A planar or universal joint: NaN,
+        it has one effort a coordinate (:meth:`coordinate_efforts`).
         """
-        self._articulated_or_refuse()
-        return self._joint_stage.work.motor[:len(self._joints), jk.M_APPLIED].copy()
+        articulated = self._articulated_or_refuse()
+        out = self._joint_stage.work.motor[:len(self._joints), jk.M_APPLIED].copy()
+        for j, slots in enumerate(articulated.motor_slots):
+            if len(slots) > 1:
+                out[j] = math.nan
+        return out
+
+    def coordinate_efforts(self, joint_index: int) -> np.ndarray:
+        """
+        Return joint ``joint_index``'s motor effort over the last step per motor coordinate.
+
+        A planar joint: ``(x N, y N, theta N m)``; a universal joint: ``(θ1, θ2)`` N m; a
+        one-coordinate joint: its one effort; others: empty. Each as :meth:`joint_efforts`
+        gives a one-coordinate joint's.
+        """
+        articulated = self._articulated_or_refuse()
+        if self._joints[joint_index].kind not in MOTOR_COORDINATES:
+            return np.zeros(0)
+        slots = list(articulated.motor_slots[joint_index])
+        return self._joint_stage.work.motor[slots, jk.M_APPLIED].copy()
+
+    def coordinate_saturated(self, joint_index: int):
+        """Return per motor coordinate of the joint True when that motor is saturated."""
+        return self._articulated_or_refuse().coordinate_saturated(joint_index)
 
     def running_angles(self):
         """

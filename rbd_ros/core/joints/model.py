@@ -59,6 +59,24 @@ def _unit_axis(value, name: str) -> np.ndarray:
     return axis
 
 
+def plane_x(axis) -> np.ndarray:
+    """
+    Return a planar joint's x direction for its normal ``axis`` (unit, joint frame).
+
+    The joint frame's x axis projected into the plane, normalised; its y axis when ``axis`` is
+    within 30° of x (``|x · axis| > cos 30°``; then ``|y · axis| <= sin 30°``, as the squares of
+    the two sum to at most 1). For ``axis = z`` it is x, so the planar joint's x and y are the
+    joint frame's.
+    """
+    axis = np.asarray(axis, dtype=np.float64)
+    for candidate in (np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])):
+        inplane = candidate - float(candidate @ axis) * axis
+        norm = float(np.linalg.norm(inplane))
+        if norm >= 0.5:
+            return inplane / norm
+    raise AssertionError('unreachable: x or y is at least 45° off a unit axis')
+
+
 @dataclass(frozen=True)
 class Joint:
     """

@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-The one-coordinate joints' position and rate from the body states, in plain float arithmetic.
+The joints' coordinates and rates from the body states, in plain float arithmetic.
 
 What a robot publishes every sample (``joint_states``), so it must be cheap and the same bits on
 every machine: plain Python floats in a fixed order (no numpy, no BLAS, no compiled kernel to
@@ -27,14 +27,23 @@ joint_velocity`) took ~0.5 ms. The same definitions as those, equal to them to r
 - prismatic: ``q = R_wpᵀ (A_c − A_p) · a`` (the anchors ``A = p + R o``), ``q̇ = R_wpᵀ (v_c +
   ω_c × (A_c − p_c) − v_p − ω_p × (A_c − p_p)) · a`` (world-frame ``ω``);
 
+- planar: ``x = d · e_x``, ``y = d · e_y`` (``d`` the prismatic offset vector above, in parent
+  coordinates, ``e_x = axis2_b``, ``e_y = a × e_x``), their rates likewise, ``theta`` and its
+  rate as a revolute joint's;
+- universal: ``θ1 = 2 atan2(e_v · a, e_w)``, ``θ2 = 2 atan2(e_v · b, e_w)`` (``b = axis2_b``),
+  ``θ̇1 = ω_rel · a``, ``θ̇2 = ω_rel · R_pc R_restᵀ b`` (the child's cross axis);
+
 with ``a`` the joint axis in parent coordinates and a world parent the identity at the origin.
 A row is a body's packed state ``(p, q_wb, v_w, ω_b)``, 13 floats.
 """
 
 import math
 
-#: The joint kinds read here (one coordinate each).
+#: The joint kinds with one coordinate.
 KINDS = ('revolute', 'continuous', 'prismatic')
+#: The kinds read here: those, and the planar (x, y, theta) and universal (θ1, θ2) joints' each
+#: coordinate.
+READ_KINDS = KINDS + ('planar', 'universal')
 
 
 def multiply(a, b):
@@ -64,13 +73,14 @@ def rotate(w, x, y, z, vx, vy, vz):
 
 class JointReadout:
     """
-    Read the one-coordinate joints of a list of :class:`~rbd_ros.core.joints.model.Joint`.
+    Read the joints of a list of :class:`~rbd_ros.core.joints.model.Joint`.
 
-    :param joints: the joints (any kinds; only those of :data:`KINDS` can be read).
+    :param joints: the joints (any kinds; only those of :data:`READ_KINDS` can be read).
     """
 
     def __init__(self, joints):
         self._specs = []
+        self._second = []   # per joint: (axis2_b, a × axis2_b, R_restᵀ axis2_b), plain floats
         for joint in joints:
             qr = [float(v) for v in joint.q_rest]
             self._specs.append((
@@ -79,20 +89,34 @@ class JointReadout:
                 tuple(float(v) for v in joint.origin_parent_b),
                 tuple(float(v) for v in joint.origin_child_b),
                 (qr[0], -qr[1], -qr[2], -qr[3])))
+            b = tuple(float(v) for v in joint.axis2_b)
+            self._second.append((b, cross(self._specs[-1][3], b),
+                                 rotate(qr[0], -qr[1], -qr[2], -qr[3], *b)))
 
-    def read(self, rows, j):
+    def read(self, rows, j, coordinate=None):
         """
         Return joint ``j``'s ``(position, rate)``, plain floats, from the bodies' ``rows``.
 
         :param rows: every body's packed state, 13 floats each (a list of lists).
-        :raises ValueError: joint ``j`` is not of a kind in :data:`KINDS`.
+        :param coordinate: a planar joint's (0 x, 1 y, 2 theta) or a universal joint's (0 θ1,
+            1 θ2); None for a one-coordinate joint.
+        :raises ValueError: joint ``j`` is not of a kind in :data:`READ_KINDS`, or a
+            coordinate it does not have.
         """
         kind, parent, child, (a0, a1, a2), op, oc, q_rest_inv = self._specs[j]
         c = rows[child]
         if kind == 'prismatic':
             return self._prismatic(rows, parent, c, a0, a1, a2, op, oc)
-        if kind not in KINDS:
+        if coordinate is None and kind not in KINDS:
             raise ValueError(f'joint {j}: a {kind} joint has no single coordinate')
+        if coordinate is not None and (kind not in READ_KINDS[len(KINDS):] or not (
+                0 <= coordinate < (3 if kind == 'planar' else 2))):
+            raise ValueError(f'joint {j}: a {kind} joint has no coordinate {coordinate!r}')
+        if kind == 'planar' and coordinate < 2:
+            d, u = self._offset(rows, parent, c, op, oc)
+            e = self._second[j][coordinate]
+            return (d[0] * e[0] + d[1] * e[1] + d[2] * e[2],
+                    u[0] * e[0] + u[1] * e[1] + u[2] * e[2])
         qc = (c[3], c[4], c[5], c[6])
         if parent is None:
             q_pc = qc
@@ -104,14 +128,25 @@ class JointReadout:
         ew, ex, ey, ez = multiply(q_pc, q_rest_inv)
         if ew < 0.0:
             ew, ex, ey, ez = -ew, -ex, -ey, -ez
-        position = 2.0 * math.atan2(ex * a0 + ey * a1 + ez * a2, ew)
         wx, wy, wz = rotate(*q_pc, c[10], c[11], c[12])
+        if kind == 'universal' and coordinate == 1:
+            b0, b1, b2 = self._second[j][0]
+            f0, f1, f2 = rotate(*q_pc, *self._second[j][2])   # the child's cross axis, parent
+            return (2.0 * math.atan2(ex * b0 + ey * b1 + ez * b2, ew),
+                    (wx - wpx) * f0 + (wy - wpy) * f1 + (wz - wpz) * f2)
+        position = 2.0 * math.atan2(ex * a0 + ey * a1 + ez * a2, ew)
         rate = (wx - wpx) * a0 + (wy - wpy) * a1 + (wz - wpz) * a2
         return position, rate
 
     @staticmethod
     def _prismatic(rows, parent, c, a0, a1, a2, op, oc):
         """Return a prismatic joint's offset along its axis and its rate (see the module)."""
+        (dx, dy, dz), (ux, uy, uz) = JointReadout._offset(rows, parent, c, op, oc)
+        return dx * a0 + dy * a1 + dz * a2, ux * a0 + uy * a1 + uz * a2
+
+    @staticmethod
+    def _offset(rows, parent, c, op, oc):
+        """Return the anchors' offset ``d`` and its rate ``u``, parent coordinates."""
         if parent is None:
             pw, px, py, pz = 1.0, 0.0, 0.0, 0.0
             ppx = ppy = ppz = vpx = vpy = vpz = wpx = wpy = wpz = 0.0
@@ -130,5 +165,4 @@ class JointReadout:
         ux = c[7] + (wcy * rcz - wcz * rcy) - vpx - (wpy * sz - wpz * sy)
         uy = c[8] + (wcz * rcx - wcx * rcz) - vpy - (wpz * sx - wpx * sz)
         uz = c[9] + (wcx * rcy - wcy * rcx) - vpz - (wpx * sy - wpy * sx)
-        ux, uy, uz = rotate(pw, -px, -py, -pz, ux, uy, uz)
-        return dx * a0 + dy * a1 + dz * a2, ux * a0 + uy * a1 + uz * a2
+        return (dx, dy, dz), rotate(pw, -px, -py, -pz, ux, uy, uz)

@@ -866,24 +866,27 @@ class ArticulatedSimulator:
         """
         return self._x.tolist()
 
-    def joint_coordinates(self, indices, rows=None):
+    def joint_coordinates(self, indices, rows=None, coordinates=None):
         """
-        Return ``(positions, rates)`` of the one-coordinate joints ``indices``, plain floats.
+        Return ``(positions, rates)`` of the joints ``indices``, plain floats.
 
-        Revolute, continuous and prismatic joints only (rad or m, rad/s or m/s): the values of
-        :meth:`joint_positions` and :meth:`joint_velocities` to round-off, computed in plain
-        scalar arithmetic (:mod:`rbd_ros.core.joints.readout`), a few µs a joint and the same
-        bits on every machine. A continuous joint's position is its running angle, as there.
+        Revolute, continuous and prismatic joints (rad or m, rad/s or m/s), and with
+        ``coordinates`` (one per index: None for those, a planar joint's 0, 1, 2 for x, y,
+        theta, a universal joint's 0, 1 for θ1, θ2) planar and universal joints' coordinates:
+        the values of :meth:`joint_positions` and :meth:`joint_velocities` to round-off,
+        computed in plain scalar arithmetic (:mod:`rbd_ros.core.joints.readout`), a few µs a
+        joint and the same bits on every machine. A continuous joint's position is its running
+        angle, as there.
 
         :param rows: :meth:`state_rows` if the caller has them already (None: taken now).
-        :raises ValueError: a joint of another kind.
+        :raises ValueError: a joint of another kind, or a coordinate it does not have.
         """
         rows = self._x.tolist() if rows is None else rows
         read = self._readout.read
         angle = self._work.angle
         positions, rates = [], []
-        for j in indices:
-            q, qd = read(rows, j)
+        for n, j in enumerate(indices):
+            q, qd = read(rows, j, None if coordinates is None else coordinates[n])
             if self._projected and self._joints[j].kind == 'continuous':
                 q = float(angle[j])
             positions.append(q)
@@ -932,6 +935,16 @@ class ArticulatedSimulator:
         if self._rows_kernel is None:
             self._rows_kernel = compiled(jk.joint_rows, (self._model, self._x, self._work, False))
         return joint_error(self._model, self._work, self._x, self._rows_kernel)
+
+    @property
+    def motor_slots(self):
+        """
+        Return per joint its motor slots (rows of ``work.motor``), one a motor coordinate.
+
+        Slot ``j`` is joint ``j``'s (a planar joint's x, a universal joint's θ1); a planar
+        joint's y and theta and a universal joint's θ2 are slots after the joints.
+        """
+        return tuple(tuple(slots) for slots in self._slots)
 
     def kernel_arrays(self):
         """

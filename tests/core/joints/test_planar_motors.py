@@ -28,8 +28,6 @@ import numpy as np
 import pytest
 
 from rbd_ros.core import BodyModel, BodyState, ConfigError
-from rbd_ros.core.contact import Material, primitive_shape
-from rbd_ros.core.contact.simulator import WorldBody, WorldSimulator
 from rbd_ros.core.joints import ArticulatedSimulator, Joint
 from tests.core.joints.closed_forms import G
 from tests.core.joints.stepping import follow_position_targets, motors_on_both_solvers
@@ -188,16 +186,3 @@ def test_a_one_coordinate_joint_has_coordinate_zero_only():
     with pytest.raises(ConfigError, match=r"joint 'a'.coordinate: 1 is not a motor "
                                           r'coordinate of a revolute joint \(0 only\)'):
         sim.set_motor(0, effort=1.0, coordinate=1)
-
-
-@pytest.mark.parametrize('kind, coordinate', [('planar', 'x'), ('universal', 'theta2')])
-def test_the_contact_step_refuses_planar_and_universal_motors_in_one_line(kind, coordinate):
-    shape = primitive_shape('box', [0.2, 0.2, 0.2])
-    body = WorldBody('puck', BodyModel(MASS, shape.mass_properties(MASS).inertia_b), shape,
-                     Material(0.5, 0.0))
-    joint = Joint('slide', kind, None, 0, axis_b=(0.0, 1.0, 0.0), axis2_b=(1.0, 0.0, 0.0))
-    sim = WorldSimulator([body], [BodyState((0.0, 0.0, 1.0))], None, joints=[joint])
-    with pytest.raises(ConfigError, match=f"joint 'slide': a {kind} joint takes its motors in "
-                                          'the articulated step'):
-        sim.set_motor(0, effort=1.0, coordinate=coordinate)
-    sim.set_motor(0, coordinate=coordinate)   # clearing one (nothing set) is fine
