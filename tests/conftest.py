@@ -298,19 +298,39 @@ def _tier(item):
 
 def _start_warm_up():
     _WARM_UP['process'] = subprocess.Popen(
-        [sys.executable, '-m', 'rbd_ros.core.warmup', '--batch'], cwd=REPO,
+        [sys.executable, '-u', '-m', 'rbd_ros.core.warmup', '--batch'], cwd=REPO,
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     _WARM_UP['started'] = time.monotonic()
 
 
 def _finish_warm_up(process):
-    """Wait for the warm-up (killed after FIRST_START_S); return ``(exit status, output)``."""
-    try:
-        out, _ = process.communicate(timeout=FIRST_START_S)
-    except subprocess.TimeoutExpired:
-        process.kill()
-        out, _ = process.communicate()
-    return process.returncode, out
+    """
+    Wait for the warm-up; return ``(exit status, output)``.
+
+    It is killed once FIRST_START_S pass without a line from it (it writes one as each kind is
+    ready), not FIRST_START_S after its start: on a loaded machine (load 7-9, one core to a few
+    processes) a whole warm-up took longer, was killed while compiling the contact step with
+    joints, and every test of the later tiers then compiled that kind and the batch kernel
+    itself, several processes at a time.
+    """
+    lines = []
+
+    def read():
+        for line in process.stdout:
+            lines.append(line)
+    reader = threading.Thread(target=read, name='warm-up output', daemon=True)
+    reader.start()
+    seen, deadline = 0, time.monotonic() + FIRST_START_S
+    while process.poll() is None:
+        if len(lines) > seen:
+            seen, deadline = len(lines), time.monotonic() + FIRST_START_S
+        elif time.monotonic() > deadline:
+            process.kill()
+            break
+        time.sleep(0.2)
+    process.wait()
+    reader.join()
+    return process.returncode, ''.join(lines)
 
 
 def _report_warm_up(status, out):
