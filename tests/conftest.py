@@ -224,35 +224,46 @@ NO_KERNEL_FILES = ('test_lint.py', 'test_docs.py', 'test_import_boundaries.py',
                    'core/test_rotations.py', 'core/test_inertia.py', 'core/test_layout.py',
                    'core/test_validators.py')
 #: Single tests (file::name) that compile no physics kernel: the clean-venv install (~1 min of
-#: pip) and the package metadata checks.
+#: pip), the package metadata checks, the colcon-installed launch file, the RViz config and the
+#: mesh loader's one-line error (each run with an empty kernel cache: nothing compiled). Under
+#: pytest-xdist a file runs on one worker in one go, so a file's tests of a later tier make
+#: that worker wait for the warm-up there: test_package.py's only test that needs a kernel is the
+#: installed node's start (the contact step).
 NO_KERNEL_TESTS = tuple(
     f'test_package.py::{name}' for name in (
         'test_pip_install_in_a_clean_venv_imports_checks_and_plots',
         'test_every_third_party_import_is_declared_for_pip_and_rosdep',
         'test_install_requires_lower_bounds_are_the_tested_pins',
         'test_one_version_in_package_xml_read_by_setup_py_and_rbd_ros',
-        'test_colcon_files_are_right'))
+        'test_colcon_files_are_right',
+        'test_launch_file_declares_its_arguments_and_points_at_installed_files',
+        'test_rviz_config_shows_what_the_node_publishes',
+        'test_random_bytes_stl_is_a_one_line_error_naming_mesh_path'))
 #: Test files that need the free-body step only (run once the warm-up compiled it): the core's
 #: tests outside contact/, joints/ and the batch kernel, and these (no contact, no timing that a
 #: compile on the other core would disturb). Not ros/test_sim_session.py: its drag tests run
 #: msg_config/stack.yaml, a contact world (in this tier it compiled the contact step beside the
-#: warm-up's own compile of it: 111 s of a cold run).
+#: warm-up's own compile of it: 111 s of a cold run). Nor recording/test_replay.py: it replays
+#: two robots (the joints step, compiled in-process beside the warm-up's own compile of it).
 FREE_KERNEL_DIR = 'core/'
 FREE_KERNEL_FILES = ('ros/test_node_physics.py',
                      'ros/test_node_inputs.py', 'ros/test_node_outputs.py',
                      'ros/test_node_across_hosts.py',
                      'recording/test_recording.py', 'recording/test_public_api.py',
-                     'recording/test_replay.py', 'recording/test_replay_integrity.py',
-                     'recording/test_bag_limits.py')
+                     'recording/test_replay_integrity.py', 'recording/test_bag_limits.py')
 #: Below FREE_KERNEL_DIR, what needs more than the free-body step.
 NOT_FREE_DIRS = ('core/contact/', 'core/joints/')
 #: Test files that step worlds with joints (their own specialisation of the contact step:
 #: a world's joints, or URDF robots among bodies), replay bags of them, or start a node on every
 #: file of msg_config/ (``pendulum_world.yaml``, ``door_world.yaml`` and ``arm_table.yaml``
-#: have joints).
+#: have joints). A file missing here compiles that specialisation beside the warm-up's own
+#: compile of it (~90 s of CPU more, per process that does): cone limits in contact, the
+#: threaded world's jointed case, robots on the ground.
 WORLD_JOINTS_FILES = ('core/joints/test_joints_contact.py', 'core/joints/test_motors_contact.py',
                       'core/joints/test_joint_friction_contact.py',
+                      'core/joints/test_cone_limit_contact.py', 'core/contact/test_parallel.py',
                       'sim/test_world_joints.py', 'sim/test_robot_contact.py',
+                      'sim/test_pacing_diagnostics.py', 'ros/test_node_robot_outputs.py',
                       'ros/test_node_world_joints.py', 'ros/test_node_world_joints_robots.py',
                       'ros/test_node_robot_contact.py',
                       'ros/test_node_world_start_refusals.py', 'ros/test_node_lifecycle.py',
@@ -287,19 +298,39 @@ def _tier(item):
 
 def _start_warm_up():
     _WARM_UP['process'] = subprocess.Popen(
-        [sys.executable, '-m', 'rbd_ros.core.warmup', '--batch'], cwd=REPO,
+        [sys.executable, '-u', '-m', 'rbd_ros.core.warmup', '--batch'], cwd=REPO,
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     _WARM_UP['started'] = time.monotonic()
 
 
 def _finish_warm_up(process):
-    """Wait for the warm-up (killed after FIRST_START_S); return ``(exit status, output)``."""
-    try:
-        out, _ = process.communicate(timeout=FIRST_START_S)
-    except subprocess.TimeoutExpired:
-        process.kill()
-        out, _ = process.communicate()
-    return process.returncode, out
+    """
+    Wait for the warm-up; return ``(exit status, output)``.
+
+    It is killed once FIRST_START_S pass without a line from it (it writes one as each kind is
+    ready), not FIRST_START_S after its start: on a loaded machine (load 7-9, one core to a few
+    processes) a whole warm-up took longer, was killed while compiling the contact step with
+    joints, and every test of the later tiers then compiled that kind and the batch kernel
+    itself, several processes at a time.
+    """
+    lines = []
+
+    def read():
+        for line in process.stdout:
+            lines.append(line)
+    reader = threading.Thread(target=read, name='warm-up output', daemon=True)
+    reader.start()
+    seen, deadline = 0, time.monotonic() + FIRST_START_S
+    while process.poll() is None:
+        if len(lines) > seen:
+            seen, deadline = len(lines), time.monotonic() + FIRST_START_S
+        elif time.monotonic() > deadline:
+            process.kill()
+            break
+        time.sleep(0.2)
+    process.wait()
+    reader.join()
+    return process.returncode, ''.join(lines)
 
 
 def _report_warm_up(status, out):
