@@ -220,7 +220,7 @@ def module_tmp(tmp_path_factory):
 # kernels themselves, as they would without it. With a warm cache the process ends in ~2 s.
 
 #: Test files that compile no physics kernel (run first, beside the warm-up).
-NO_KERNEL_FILES = ('test_lint.py', 'test_docs.py', 'test_import_boundaries.py',
+NO_KERNEL_FILES = ('test_lint.py', 'test_docs.py', 'test_import_boundaries.py', 'test_warm_up.py',
                    'core/test_rotations.py', 'core/test_inertia.py', 'core/test_layout.py',
                    'core/test_validators.py')
 #: Single tests (file::name) that compile no physics kernel: the clean-venv install (~1 min of
@@ -296,14 +296,84 @@ def _tier(item):
     return _tier_of(item.path.relative_to(REPO / 'tests').as_posix(), item.name)
 
 
+class AdoptedWarmUp:
+    """
+    The warm-up ``.ci/setup`` started beside pip (``RBD_TEST_ADOPT_WARM_UP``), followed as a child.
+
+    It is not this process's child: it is alive while ``/proc/<pid>`` shows it running (not a
+    zombie, which no one may reap), its output is read from its log as it grows, and its exit
+    status from the status file it writes at its end (none: killed).  The few methods of
+    :class:`subprocess.Popen` the warm-up code calls.
+    """
+
+    def __init__(self, stem):
+        self.pid = int(pathlib.Path(stem + '.pid').read_text())
+        self.log, self.status = pathlib.Path(stem + '.log'), pathlib.Path(stem + '.status')
+        self.returncode = None
+        self.stdout = self._lines()
+
+    @classmethod
+    def adopt(cls):
+        """Return the running warm-up the environment names, else None."""
+        stem = os.environ.get('RBD_TEST_ADOPT_WARM_UP')
+        try:
+            adopted = cls(stem) if stem else None
+        except (OSError, ValueError):
+            return None
+        if adopted is None or not adopted._alive() and not adopted.status.exists():
+            return None
+        return adopted
+
+    def _alive(self):
+        try:
+            cmdline = pathlib.Path(f'/proc/{self.pid}/cmdline').read_bytes()
+            state = pathlib.Path(f'/proc/{self.pid}/stat').read_text().rsplit(')', 1)[1].split()
+        except (OSError, IndexError):
+            return False
+        return b'rbd_ros.core.warmup' in cmdline and state[0] != 'Z'
+
+    def _lines(self):
+        with open(self.log) as log:
+            while True:
+                line = log.readline()
+                if line:
+                    yield line
+                elif self.poll() is not None:
+                    yield from log  # what it wrote before it ended
+                    return
+                else:
+                    time.sleep(0.2)
+
+    def poll(self):
+        if self.returncode is None and not self._alive():
+            try:
+                self.returncode = int(self.status.read_text())
+            except (OSError, ValueError):
+                self.returncode = -signal.SIGKILL
+        return self.returncode
+
+    def kill(self):
+        if self._alive():
+            os.kill(self.pid, signal.SIGKILL)
+
+    def wait(self):
+        while self.poll() is None:
+            time.sleep(0.2)
+        return self.returncode
+
+    def communicate(self):
+        self.wait()
+        return ''.join(self.stdout), None
+
+
 def _start_warm_up():
-    _WARM_UP['process'] = subprocess.Popen(
+    _WARM_UP['process'] = AdoptedWarmUp.adopt() or subprocess.Popen(
         [sys.executable, '-u', '-m', 'rbd_ros.core.warmup', '--batch'], cwd=REPO,
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     _WARM_UP['started'] = time.monotonic()
 
 
-def _finish_warm_up(process):
+def finish_warm_up(process):
     """
     Wait for the warm-up; return ``(exit status, output)``.
 
@@ -373,7 +443,7 @@ def _nodeid_tier(root, nodeid):
 
 
 def _warm_up_for_workers(process, shared):
-    status, out = _finish_warm_up(process)
+    status, out = finish_warm_up(process)
     (shared / 'ended.part').write_text(f'{status}\n{out}')
     (shared / 'ended.part').replace(shared / 'ended')
 
@@ -432,7 +502,7 @@ def _wait_for_warm_up(tier):
     if tier in TIER_KINDS:
         _wait_for_kinds(tier, lambda: process.poll() is not None)
         return
-    status, out = _finish_warm_up(process)
+    status, out = finish_warm_up(process)
     _WARM_UP['ended'] = time.monotonic()
     _report_warm_up(status, out)
 
@@ -448,6 +518,8 @@ def _kernels_warmed_up(request):
 def pytest_sessionfinish(session, exitstatus):
     """Never leave the warm-up running after the session (nor xdist's shared directory)."""
     process = _WARM_UP.get('process')
+    if process is None and worker_index() is None:
+        process = AdoptedWarmUp.adopt()  # set-up's, not needed by the tests run: ended too
     if process is not None and process.poll() is None:
         process.kill()
         if 'thread' not in _WARM_UP:

@@ -122,10 +122,20 @@ def main(argv=None):
     parser.add_argument('--batch', action='store_true', help='also the threaded batch kernel')
     parser.add_argument('--only', choices=KINDS, action='append',
                         help='compile only this kind (repeatable)')
+    parser.add_argument('--status-file', metavar='PATH',
+                        help='write the exit status there at the end (for a process that '
+                             'follows this one without being its parent: .ci/setup, the tests)')
     args = parser.parse_args(argv)
-    numba_target.skip_blas_probe()
-    compile_kernels(args.only or (KINDS if args.batch else KINDS[:-1]))
-    return 0
+    status = 1
+    try:
+        numba_target.skip_blas_probe()
+        compile_kernels(args.only or (KINDS if args.batch else KINDS[:-1]))
+        status = 0
+    finally:
+        if args.status_file:
+            with open(args.status_file, 'w') as out:
+                out.write(f'{status}\n')
+    return status
 
 
 if __name__ == '__main__':
