@@ -71,6 +71,10 @@ from visualization_msgs.msg import MarkerArray
 #: to that many wake-ups' worth, up to MAX_TICK_BUDGET_NS (the latency of an input then).
 SPIN_SHARE = 0.1
 MAX_TICK_BUDGET_NS = 100_000_000
+#: The outputs' subscribers are looked at no more often than this (wall ns), and so that the
+#: looks take at most LOOK_SHARE of the wall time (see RigidBodyNode.look_at_subscribers).
+LOOK_PERIOD_NS = 5_000_000
+LOOK_SHARE = 0.01
 #: Set once the node has loaded its meshes and run its first step (see RigidBodyNode).
 PAST_SLOW_START_UP = threading.Event()
 
@@ -194,6 +198,7 @@ class RigidBodyNode(Node):
         if self._compiling is not None:
             # A subscriber that comes during the compile gets t = 0 (_poll_compile).
             self._unpublished = {kind for kind, count in self._subscribed if not count()}
+            self._unpublished_of = None
             self._compiling.start()
 
     def _create_outputs(self):
@@ -231,7 +236,11 @@ class RigidBodyNode(Node):
                              for kind in self._builder.kinds}
         self._subscribed = [(kind, self._pubs[kind].handle.get_subscription_count)
                             for kind in self._builder.kinds]
+        self._counted = self._subscribed + ([
+            ('markers', self._pubs['markers'].handle.get_subscription_count)]
+            if self._markers is not None else [])
         self._unpublished = set()  # kinds whose latest sample was not built (nobody listened)
+        self.look_at_subscribers(force=True)
         self._robots = self.session.simulator if config.robots or config.world_joints else None
         # Each robot's URDF as loaded (after xacro), once, transient local: RViz's RobotModel
         # and every late subscriber get it.
@@ -504,21 +513,47 @@ class RigidBodyNode(Node):
                 return
             n_steps -= report.steps
 
+    def look_at_subscribers(self, force=False):
+        """
+        Note which outputs have subscribers now; at a wake-up of the spin loop.
+
+        Not at every sample: a ``get_subscription_count`` call costs ~0.5 µs, and a world of
+        100 bodies has 400 per-body topics, which at every sample cost as much as 20 % of the
+        physics. The look is taken at a wake-up at least :data:`LOOK_PERIOD_NS` after the
+        last one, and later if the looks would take more than :data:`LOOK_SHARE` of the wall
+        time (100 times the last look's wall time: ~20-50 ms for 400 topics, more for
+        thousands); ``force``: now. A subscriber that appears gets the samples from the next
+        look on.
+        """
+        start_ns = time.monotonic_ns()
+        if start_ns < self._next_look_ns and not force:
+            return
+        listened = {kind for kind, count in self._counted if count()}
+        if listened != self._listened:  # the same set object while nothing changes
+            self._listened = listened
+        now_ns = time.monotonic_ns()
+        self._next_look_ns = start_ns + max(LOOK_PERIOD_NS,
+                                            int((now_ns - start_ns) / LOOK_SHARE))
+
+    _next_look_ns = 0
+
+    _listened = frozenset()
+    _unpublished_of = None  # the set of wanted kinds _unpublished was computed from
+
     def _publish_sample(self):
         """
         Publish the current sample; record the same CDR bytes.
 
-        Not recording, a kind nobody subscribes to is neither built nor published (one
-        ``get_subscription_count`` call, 0.3 µs, where building and publishing cost 2-5 µs):
-        a subscriber that appears gets the next sample, or while paused the current one
+        Not recording, a kind nobody subscribed to at the last wake-up
+        (:meth:`look_at_subscribers`) is neither built nor published: a subscriber that
+        appears gets the sample after the next wake-up, or while paused the current one
         (:meth:`_publish_late`).
         """
         t = self.session.time_ns
         recording = self._recorder is not None
         # Paused (a ~/step, a ~/reset) every kind is built: a transient-local subscriber that
         # comes later must get this sample, not an older one still held by the publisher.
-        wanted = None if recording or self.session.paused else {
-            kind for kind, count in self._subscribed if count()}
+        wanted = None if recording or self.session.paused else self._listened
         samples = self._builder.serialize(t, self._columns, self.session.contact_wrenches_w,
                                           self._robots, wanted)
         pubs = self._sample_pubs
@@ -527,9 +562,11 @@ class RigidBodyNode(Node):
             publish(data)
             if recording:
                 self._record(topic, data, t)
-        self._unpublished = set() if wanted is None else set(pubs).difference(wanted)
-        if self._markers is not None and (
-                recording or self._pubs['markers'].get_subscription_count()):
+        if wanted is None:
+            self._unpublished, self._unpublished_of = set(), None
+        elif wanted is not self._unpublished_of:
+            self._unpublished, self._unpublished_of = set(pubs).difference(wanted), wanted
+        if self._markers is not None and (recording or 'markers' in self._listened):
             self._publish('markers', self._marker_array(t), t)
 
     def _publish_late(self):
@@ -537,6 +574,7 @@ class RigidBodyNode(Node):
         late = {kind for kind in self._unpublished if self._pubs[kind].get_subscription_count()}
         if late:
             self._unpublished -= late
+            self._unpublished_of = None
             t = self.session.time_ns
             for kind, data in self._builder.serialize(
                     t, self._columns, self.session.contact_wrenches_w, self._robots, late):
