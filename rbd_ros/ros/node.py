@@ -239,6 +239,8 @@ class RigidBodyNode(Node):
         self._counted = self._subscribed + ([
             ('markers', self._pubs['markers'].handle.get_subscription_count)]
             if self._markers is not None else [])
+        if self._markers is not None:
+            self._markers_publish = self._pubs['markers'].handle.publish_raw
         self._unpublished = set()  # kinds whose latest sample was not built (nobody listened)
         self.look_at_subscribers(force=True)
         self._robots = self.session.simulator if config.robots or config.world_joints else None
@@ -544,30 +546,35 @@ class RigidBodyNode(Node):
         """
         Publish the current sample; record the same CDR bytes.
 
-        Not recording, a kind nobody subscribed to at the last wake-up
-        (:meth:`look_at_subscribers`) is neither built nor published: a subscriber that
-        appears gets the sample after the next wake-up, or while paused the current one
-        (:meth:`_publish_late`).
+        A kind nobody subscribed to at the last look (:meth:`look_at_subscribers`) is not
+        published, and not recording, not even built: a subscriber that appears gets the
+        samples from the next look on, or while paused the current one
+        (:meth:`_publish_late`). Paused (a ~/step, a ~/reset) every kind is published: a
+        transient-local subscriber that comes later must get this sample, not an older one
+        still held by the publisher.
         """
         t = self.session.time_ns
         recording = self._recorder is not None
-        # Paused (a ~/step, a ~/reset) every kind is built: a transient-local subscriber that
-        # comes later must get this sample, not an older one still held by the publisher.
-        wanted = None if recording or self.session.paused else self._listened
+        published = None if self.session.paused else self._listened
         samples = self._builder.serialize(t, self._columns, self.session.contact_wrenches_w,
-                                          self._robots, wanted)
+                                          self._robots, None if recording else published)
         pubs = self._sample_pubs
         for kind, data in samples:
-            publish, topic = pubs[kind]
-            publish(data)
-            if recording:
-                self._record(topic, data, t)
-        if wanted is None:
+            if published is None or kind in published:
+                pubs[kind][0](data)
+        if recording:
+            self._guarded(self._recorder.write_sample,
+                          [(pubs[kind][1], data) for kind, data in samples], t)
+        if published is None:
             self._unpublished, self._unpublished_of = set(), None
-        elif wanted is not self._unpublished_of:
-            self._unpublished, self._unpublished_of = set(pubs).difference(wanted), wanted
+        elif published is not self._unpublished_of:
+            self._unpublished, self._unpublished_of = set(pubs).difference(published), published
         if self._markers is not None and (recording or 'markers' in self._listened):
-            self._publish('markers', self._marker_array(t), t)
+            # Serialised once: the subscribers and the recording get the same bytes.
+            data = serialize_message(self._marker_array(t))
+            if 'markers' in self._listened:
+                self._markers_publish(data)
+            self._record(self._pubs['markers'].topic_name, data, t)
 
     def _publish_late(self):
         """While paused: give a subscriber that appeared the sample its topic skipped."""
