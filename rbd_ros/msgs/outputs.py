@@ -433,6 +433,22 @@ class SampleBuilder:
                     tf += (sec, nanosec, len(world), world, len(frame), frame, px, py, pz, qx,
                            qy, qz, qw)
 
+    def poses_wxyz(self, columns):
+        """
+        Return every body's ``(positions (N, 3), quaternions (N, 4) w first)`` as ``poses``.
+
+        The values the pose topics carry (:meth:`BodyOutputs.list_values`), for all bodies at
+        once: a quaternion not unit to round-off goes through its body's values.
+        """
+        positions = np.ascontiguousarray(columns[_POS].T)
+        quats = np.ascontiguousarray(columns[_QUAT].T)
+        qw, qx, qy, qz = columns[_QUAT]
+        off = np.abs(((qw * qw + qx * qx) + qy * qy) + qz * qz - 1.0) > _UNIT_NORM_SQ_TOL
+        for i in np.flatnonzero(off):
+            p, q = self.bodies[i].column_values(columns[:, i])[:2]
+            positions[i], quats[i] = p, q
+        return positions, quats
+
     def robot_message(self, kind, time_ns, robots):
         """
         Return a new message of a robot kind now (``<robot>/joint_states``, ``odom``, ...).

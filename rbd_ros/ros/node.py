@@ -36,12 +36,12 @@ import threading
 import time
 
 from geometry_msgs.msg import PointStamped
-import numpy as np
 from rbd_ros.core import ConfigError, jitcache, NonFiniteError, RbdError, RecordingError
 from rbd_ros.msgs import conversions as conv
 from rbd_ros.msgs import markers
 from rbd_ros.msgs import outputs
 from rbd_ros.msgs import type_names as types
+from rbd_ros.msgs.marker_bytes import MarkerArrayBytes
 from rbd_ros.ros import endpoints
 from rbd_ros.ros import parameters
 from rbd_ros.ros import ros_args
@@ -222,6 +222,9 @@ class RigidBodyNode(Node):
             self._markers = _world_markers(config)
             self._link_markers = markers.LinkMarkers(config.robots, config.world_frame,
                                                      len(config.bodies))
+            self._markers_cdr = MarkerArrayBytes(
+                self._markers.markers + self._link_markers.stamped(0),
+                len(self._markers.markers))
             self._pubs['markers'] = self._publisher(MarkerArray, 'markers', 10)
             self._pubs['static_markers'] = self._publisher(MarkerArray, 'static_markers',
                                                            endpoints.STATE_QOS)
@@ -571,7 +574,7 @@ class RigidBodyNode(Node):
             self._unpublished, self._unpublished_of = set(pubs).difference(published), published
         if self._markers is not None and (recording or 'markers' in self._listened):
             # Serialised once: the subscribers and the recording get the same bytes.
-            data = serialize_message(self._marker_array(t))
+            data = self._marker_bytes(t)
             if 'markers' in self._listened:
                 self._markers_publish(data)
             self._record(self._pubs['markers'].topic_name, data, t)
@@ -587,25 +590,20 @@ class RigidBodyNode(Node):
                     t, self._columns, self.session.contact_wrenches_w, self._robots, late):
                 self._sample_pubs[kind][0](data)
 
-    def _marker_array(self, t):
-        """Every body at its pose, the robots' links in their frames, the last contacts."""
-        # The poses exactly as the pose topics carry them (the sample builders' values).
-        x = self._columns
-        values = [b.column_values(x[:, i]) for i, b in enumerate(self._builder.bodies)]
-        # (N, 3) and (N, 4) also for N = 0 (robots over a ground, no free bodies)
-        bodies = self._markers.array(np.reshape([v[0] for v in values], (len(values), 3)),
-                                     np.reshape([v[1] for v in values], (len(values), 4)), t,
-                                     normalise=False)
+    def _marker_bytes(self, t):
+        """Return the ``markers`` CDR bytes: the bodies at their poses, the links, the contacts."""
+        # The poses exactly as the pose topics carry them (the sample builder's values).
+        positions, quats = self._builder.poses_wxyz(self._columns)
         contacts = self.session.simulator.contacts
         if len(contacts):
             last = contacts.stage == contacts.stage.max()
             contacts = type(contacts)(*(getattr(contacts, f.name)[last]
                                         for f in dataclasses.fields(contacts)))
         # Lines of 1 cm per N: the last stage's impulse over the step.
-        shown = markers.contact_markers(contacts, self.config.world_frame, t,
-                                        0.01 / (self.config.timestep_ns * 1e-9))
-        return MarkerArray(markers=list(bodies.markers) + self._link_markers.stamped(t)
-                           + list(shown.markers))
+        shown, points = markers.contact_markers_and_points(
+            contacts, self.config.world_frame, t, 0.01 / (self.config.timestep_ns * 1e-9))
+        return self._markers_cdr.serialize(
+            t, self._markers.poses(positions, quats, normalise=False), shown, points)
 
     def _publish_diagnostics(self):
         s = self.session

@@ -194,7 +194,9 @@ def breakdown_main(args):
     timed(session, 'advance', 'session')
     timed(node, '_publish_sample', 'publish')
     timed(node._builder, 'serialize', 'sample bytes')
-    timed(node, '_marker_array', 'markers built')
+    timed(node, '_marker_bytes', 'markers built')
+    if node._recorder is not None:
+        timed(node._recorder, 'write_sample', 'recording write')
     timed(look, 'anything_ready', 'wake-ups: quick look')
     timed(executor, 'wait_for_ready_callbacks', "wake-ups: rclpy's executor")
     timed(node, 'look_at_subscribers', 'subscriber counts')
@@ -208,7 +210,8 @@ def breakdown_main(args):
     steps = (session.time_ns - t0) // session.timestep_ns
     out = {label: ns / steps / 1000 for label, ns in parts.items()}
     out['session'] -= out['core step']
-    out['publish'] -= out['sample bytes'] + out.get('markers built', 0.0)
+    out['publish'] -= out['sample bytes'] + out.get('markers built', 0.0) \
+        + out.get('recording write', 0.0)
     out['rest of the loop'] = cpu / steps / 1000 - sum(out.values())
     out['main thread total'] = cpu / steps / 1000
     out['steps a wake-up'] = steps / max(1, wake_ups)
