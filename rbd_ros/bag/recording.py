@@ -340,15 +340,8 @@ class BagWriter:
         """
         if self._failed is not None or self._closed:
             self._check_open()
-        entry = self._topics.get(topic)
-        if entry is None:
-            raise RecordingError(f'topic {topic!r} was not added with add_topic() before write()')
-        if self._chunk_messages and (
-                log_time_ns - self._chunk_start_ns >= self._chunk_ns
-                or self._chunk_bytes >= self._chunk_bytes_max):
-            self._end_chunk()
-        if not self._chunk_messages:
-            self._chunk_start_ns = log_time_ns
+        entry = self._topic(topic)
+        self._chunk_for(log_time_ns)
         self._mcap.add_message(
             entry.channel_id, log_time_ns, data,
             log_time_ns if publish_time_ns is None else publish_time_ns, 0)
@@ -380,21 +373,10 @@ class BagWriter:
             for topic, data in messages:
                 self.write(topic, data, log_time_ns)
             return
-        entries = []
-        for topic, data in messages:
-            entry = self._topics.get(topic)
-            if entry is None:
-                raise RecordingError(
-                    f'topic {topic!r} was not added with add_topic() before write()')
-            entries.append((entry, data))
+        entries = [(self._topic(topic), data) for topic, data in messages]
         start = 0
         while start < len(entries):
-            if self._chunk_messages and (
-                    log_time_ns - self._chunk_start_ns >= self._chunk_ns
-                    or self._chunk_bytes >= self._chunk_bytes_max):
-                self._end_chunk()
-            if not self._chunk_messages:
-                self._chunk_start_ns = log_time_ns
+            self._chunk_for(log_time_ns)
             # As many as write() would put in this chunk: up to the first message before
             # which the chunk holds chunk_bytes (write() ends the chunk there).
             end, size = start, self._chunk_bytes
@@ -404,6 +386,21 @@ class BagWriter:
             self._add_block(internals, entries[start:end], log_time_ns)
             self._chunk_bytes = size
             start = end
+
+    def _topic(self, topic):
+        entry = self._topics.get(topic)
+        if entry is None:
+            raise RecordingError(f'topic {topic!r} was not added with add_topic() before write()')
+        return entry
+
+    def _chunk_for(self, log_time_ns):
+        """End the open chunk if a message at ``log_time_ns`` may not go in it; note a start."""
+        if self._chunk_messages and (
+                log_time_ns - self._chunk_start_ns >= self._chunk_ns
+                or self._chunk_bytes >= self._chunk_bytes_max):
+            self._end_chunk()
+        if not self._chunk_messages:
+            self._chunk_start_ns = log_time_ns
 
     def _add_block(self, internals, entries, time_ns):
         """Add Message records to the open chunk as mcap's ``Writer.add_message`` does."""

@@ -15,10 +15,11 @@
 """
 Every body's sample values and per-body messages at once, with numpy (a part of SampleBuilder).
 
-:class:`BodiesBytes` computes the values of :func:`rbd_ros.msgs.outputs._values` for all bodies
-as arrays, by the same operations in the same order (IEEE-754 double arithmetic, each
-operation rounded once, as Python's floats do; numpy fuses none of them), so every bit is the
-scalar path's. A body whose quaternion is not unit to round-off takes the scalar path
+:func:`twists` is the sample's arithmetic, on one body's floats (the scalar path,
+:func:`rbd_ros.msgs.outputs._values`) or on arrays of every body (:class:`BodiesBytes`): the
+same operations in the same order (IEEE-754 double arithmetic, each operation rounded once,
+as Python's floats do; numpy fuses none of them), so every bit is the scalar path's. A body
+whose quaternion is not unit to round-off takes the scalar path
 (:meth:`rbd_ros.msgs.outputs.BodyOutputs.list_values`), as there. The per-body messages
 (``pose``, ``twist``, ``odom``, ``contact_wrench``) keep their layout from sample to sample
 (their frame strings are fixed), so they are written once as a template of every body's
@@ -54,18 +55,18 @@ def _argument_offsets(fmt):
     return offsets
 
 
-def values(columns, twist_world):
+def twists(q, v, omega_b, twist_world, sqrt):
     """
-    Return ``p (N, 3), q (N, 4) w first, twist (N, 6), twist_b (N, 6)`` of packed states.
+    Return ``(twist, twist_b)``, 6 components each, of ``q = (w, x, y, z)``, ``v_w``, ``ω_b``.
 
-    :func:`rbd_ros.msgs.outputs._values` of every column, and the mask of the columns whose
-    quaternion is not unit to round-off (those rows are to be taken from the scalar path).
+    The sample's arithmetic (:mod:`rbd_ros.msgs.outputs`' docstring: why each sum so), on
+    floats (``sqrt`` :func:`math.sqrt`) or on arrays of every body (``sqrt`` :func:`np.sqrt`);
+    ``twist`` is in the world frame with ``twist_world``, else it is ``twist_b``.
     """
-    p, (qw, qx, qy, qz) = columns[layout.POS], columns[layout.QUAT]
-    (v0, v1, v2), omega = columns[layout.VEL], columns[layout.OMEGA]
-    norm_sq = ((qw * qw + qx * qx) + qy * qy) + qz * qz
-    norm = np.sqrt(norm_sq)
+    qw, qx, qy, qz = q
+    norm = sqrt(((qw * qw + qx * qx) + qy * qy) + qz * qz)
     s = 2.0 / (norm * norm)
+    # R = quat_to_matrix(q): xx = s x x, xy = s x y, ...
     sx, sy, sz, sw = s * qx, s * qy, s * qz, s * qw
     xx, yy, zz = sx * qx, sy * qy, sz * qz
     xy, xz, yz = sx * qy, sx * qz, sy * qz
@@ -73,17 +74,32 @@ def values(columns, twist_world):
     r00, r01, r02 = 1.0 - (yy + zz), xy - wz, xz + wy
     r10, r11, r12 = xy + wz, 1.0 - (xx + zz), yz - wx
     r20, r21, r22 = xz - wy, yz + wx, 1.0 - (xx + yy)
-    twist_b = np.stack([r00 * v0 + r10 * v1 + r20 * v2, r01 * v0 + r11 * v1 + r21 * v2,
-                        r02 * v0 + r12 * v1 + r22 * v2, *omega], axis=1)
-    if twist_world:
-        o0, o1, o2 = omega
-        t0, t1, t2 = s * (qy * o2 - qz * o1), s * (qz * o0 - qx * o2), s * (qx * o1 - qy * o0)
-        twist = np.stack([v0, v1, v2, (o0 + qw * t0) + (qy * t2 - qz * t1),
-                          (o1 + qw * t1) + (qz * t0 - qx * t2),
-                          (o2 + qw * t2) + (qx * t1 - qy * t0)], axis=1)
-    else:
-        twist = twist_b
-    return p.T.copy(), columns[layout.QUAT].T.copy(), twist, twist_b, norm_sq
+    v0, v1, v2 = v
+    twist_b = (r00 * v0 + r10 * v1 + r20 * v2, r01 * v0 + r11 * v1 + r21 * v2,
+               r02 * v0 + r12 * v1 + r22 * v2, *omega_b)
+    if not twist_world:
+        return twist_b, twist_b
+    # ω_w = quat_rotate(q, ω_b) = ω + w t + u × t with t = s (u × ω), u = (x, y, z).
+    o0, o1, o2 = omega_b
+    t0, t1, t2 = s * (qy * o2 - qz * o1), s * (qz * o0 - qx * o2), s * (qx * o1 - qy * o0)
+    omega_w = ((o0 + qw * t0) + (qy * t2 - qz * t1), (o1 + qw * t1) + (qz * t0 - qx * t2),
+               (o2 + qw * t2) + (qx * t1 - qy * t0))
+    return (v0, v1, v2, *omega_w), twist_b
+
+
+def values(columns, twist_world):
+    """
+    Return ``p (N, 3), q (N, 4) w first, twist (N, 6), twist_b (N, 6), |q|² (N,)``.
+
+    :func:`twists` of packed states, every column at once; ``|q|²`` summed as the scalar
+    path's unit check sums it.
+    """
+    q = columns[layout.QUAT]
+    qw, qx, qy, qz = q
+    twist, twist_b = (np.stack(t, axis=1) for t in twists(
+        q, columns[layout.VEL], columns[layout.OMEGA], twist_world, np.sqrt))
+    return (columns[layout.POS].T.copy(), q.T.copy(), twist, twist_b,
+            ((qw * qw + qx * qx) + qy * qy) + qz * qz)
 
 
 class BodiesBytes:

@@ -65,7 +65,7 @@ import numpy as np
 from rbd_ros.core import BodyState, layout
 from rbd_ros.msgs import conversions as conv
 from rbd_ros.msgs import type_names as types
-from rbd_ros.msgs.body_bytes import BodiesBytes
+from rbd_ros.msgs.body_bytes import BodiesBytes, twists
 from rbd_ros.msgs.cdr import cdr_string as _cdr_string, layout as _layout
 from rbd_ros.msgs.robot_outputs import JointOutputs, RobotOutputs
 from rbd_ros.sim.params import NS_PER_S
@@ -519,25 +519,5 @@ def _twist(twist, values):
 
 def _values(p, q, v, omega_b, twist_world):
     """Compute the sample's values by the scalar path (module docstring: why each sum so)."""
-    qw, qx, qy, qz = q
-    norm = math.sqrt(((qw * qw + qx * qx) + qy * qy) + qz * qz)
-    s = 2.0 / (norm * norm)
-    # R = quat_to_matrix(q): xx = s x x, xy = s x y, ...
-    sx, sy, sz, sw = s * qx, s * qy, s * qz, s * qw
-    xx, yy, zz = sx * qx, sy * qy, sz * qz
-    xy, xz, yz = sx * qy, sx * qz, sy * qz
-    wx, wy, wz = sw * qx, sw * qy, sw * qz
-    r00, r01, r02 = 1.0 - (yy + zz), xy - wz, xz + wy
-    r10, r11, r12 = xy + wz, 1.0 - (xx + zz), yz - wx
-    r20, r21, r22 = xz - wy, yz + wx, 1.0 - (xx + yy)
-    v0, v1, v2 = v
-    twist_b = (r00 * v0 + r10 * v1 + r20 * v2, r01 * v0 + r11 * v1 + r21 * v2,
-               r02 * v0 + r12 * v1 + r22 * v2, *omega_b)
-    if not twist_world:
-        return p, q, twist_b, twist_b
-    # ω_w = quat_rotate(q, ω_b) = ω + w t + u × t with t = s (u × ω), u = (x, y, z).
-    o0, o1, o2 = omega_b
-    t0, t1, t2 = s * (qy * o2 - qz * o1), s * (qz * o0 - qx * o2), s * (qx * o1 - qy * o0)
-    omega_w = ((o0 + qw * t0) + (qy * t2 - qz * t1), (o1 + qw * t1) + (qz * t0 - qx * t2),
-               (o2 + qw * t2) + (qx * t1 - qy * t0))
-    return p, q, (v0, v1, v2, *omega_w), twist_b
+    twist, twist_b = twists(q, v, omega_b, twist_world, math.sqrt)
+    return p, q, twist, twist_b

@@ -23,12 +23,9 @@ compared through what they decode to, as :mod:`rbd_ros.msgs.outputs`' are).
 
 from geometry_msgs.msg import Point
 import numpy as np
-from rbd_ros.core.contact import (ground_plane, Material, mesh_shape, primitive_shape,
-                                  StaticWorld)
-from rbd_ros.core.contact.simulator import Contacts, WorldBody, WorldSimulator
-from rbd_ros.core.model import BodyModel
+from rbd_ros.core.contact import mesh_shape, primitive_shape
+from rbd_ros.core.contact.simulator import Contacts
 from rbd_ros.core.rotations import quat_from_axis_angle
-from rbd_ros.core.state import BodyState
 from rbd_ros.msgs import markers
 from rbd_ros.msgs.conversions import time_to_msg
 from rbd_ros.msgs.marker_bytes import MarkerArrayBytes
@@ -38,16 +35,14 @@ import trimesh
 from visualization_msgs.msg import Marker, MarkerArray, UVCoordinate
 
 
-def resting_box_contacts():
-    """Settle a 2 kg box on the ground for 20 steps of 1 ms; return its last step's contacts."""
-    geometry = primitive_shape('box', [0.4, 0.3, 0.2])
-    model = BodyModel(2.0, geometry.mass_properties(2.0).inertia_b, gravity_w=(0, 0, -9.81))
-    world = StaticWorld(ground_plane((0.0, 0.0, 1.0), 0.0, Material(0.5, 0.0)))
-    sim = WorldSimulator([WorldBody('box', model, geometry, Material(0.5, 0.0))],
-                         [BodyState(position_w=(0.0, 0.0, 0.1))], world,
-                         timestep_ns=1_000_000)
-    sim.step(20)
-    return sim.contacts
+def random_contacts(seed, count):
+    """Return ``count`` contact rows of random points, unit normals and impulses."""
+    rng = np.random.default_rng(seed)
+    normal = rng.normal(size=(count, 3))
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    return Contacts(np.zeros(count, dtype=np.int64), np.full(count, -1, dtype=np.int64),
+                    rng.normal(size=(count, 3)), normal, rng.normal(size=(count, 3)) * 1e-3,
+                    np.ones(count, dtype=np.int64))
 
 
 def every_field_marker():
@@ -84,7 +79,7 @@ def test_marker_bytes_decode_to_the_marker_array_of_the_message_objects(tmp_path
                                  [None, None, (path.as_uri(), (1.0, 2.0, 0.5)), None])
     extra = every_field_marker()
     cdr = MarkerArrayBytes(bodies.markers + [extra], len(bodies.markers))
-    contacts = resting_box_contacts()
+    contacts = random_contacts(1, 37)
     empty = Contacts(*(np.zeros((0,) + s) for s in ((), (), (3,), (3,), (3,), ())))
     for k, shown in enumerate((contacts, empty, contacts)):
         stamp_ns = 1_000_000_000 * k + 123_456_789
@@ -110,7 +105,7 @@ def test_marker_bytes_decode_to_the_marker_array_of_the_message_objects(tmp_path
 
 def test_no_fixed_markers_and_no_posed_ones():
     cdr = MarkerArrayBytes([], 0)
-    clear, points = markers.contact_markers_and_points(resting_box_contacts(), 'w', 5, 1.0)
+    clear, points = markers.contact_markers_and_points(random_contacts(2, 5), 'w', 5, 1.0)
     data = cdr.serialize(5, np.zeros((0, 7)), clear, points)
     assert deserialize_message(data, MarkerArray) == markers.contact_markers(
-        resting_box_contacts(), 'w', 5, 1.0)
+        random_contacts(2, 5), 'w', 5, 1.0)
