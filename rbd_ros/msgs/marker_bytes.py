@@ -21,7 +21,8 @@ points on its two contact markers) took ~12 ms a sample, and building the points
 ten times the physics of the 10 steps between samples. :class:`MarkerArrayBytes` writes the
 markers that keep their layout from sample to sample (the bodies', their caps', the robots'
 links') once, as a template, and at each sample writes the stamp and the poses into a copy of
-it at their offsets, then the contact markers with their points from numpy arrays. The bytes
+it at their offsets, then the contact markers (templates too) with their points from numpy
+arrays. The bytes
 are what rclpy deserialises into the same ``MarkerArray`` (a test checks it, and the length
 rclpy's serialiser gives it); padding bytes are zeros.
 
@@ -34,6 +35,7 @@ import struct
 import numpy as np
 
 _ENCAPSULATION = b'\x00\x01\x00\x00'
+_U8 = np.uint8
 _STAMP = struct.Struct('<iI')
 _POSE_BYTES = 7 * 8
 
@@ -72,7 +74,9 @@ class _Writer:
 
     def marker(self, m, points=None):
         """
-        Write a ``visualization_msgs/Marker``; return the offsets of its stamp and its pose.
+        Write a ``visualization_msgs/Marker``; return where its stamp, pose, points start.
+
+        The three are offsets in ``buf``: the stamp's, the pose's and the points' count's.
 
         :param points: an (n, 3) float64 array written as ``points`` (``m.points`` is then
             not read), or None to write ``m.points``.
@@ -91,6 +95,8 @@ class _Writer:
         if points is None:
             points = np.array([(v.x, v.y, v.z) for v in m.points], dtype=np.float64)
         points = np.ascontiguousarray(points, dtype='<f8').reshape(-1, 3)
+        self.align(4)
+        count = len(self.buf)
         self.pack('I', 4, len(points))
         if len(points):
             self.align(8)
@@ -110,19 +116,22 @@ class _Writer:
         self.string(m.mesh_file.filename)
         self.octets(m.mesh_file.data)
         self.pack('?', 1, m.mesh_use_embedded_materials)
-        return stamp, pose
+        return stamp, pose, count
 
 
 class MarkerArrayBytes:
     """
-    The CDR bytes of a ``MarkerArray``: fixed markers first, then each sample's own.
+    The CDR bytes of a ``MarkerArray``: fixed markers first, then some of the tail's.
 
     :param fixed: the markers whose fields other than the header stamp and the pose do not
         change (written once, as a template; the objects are not kept).
     :param posed: how many of the first ``fixed`` markers :meth:`serialize` poses.
+    :param tail: markers that follow, of which each sample sends the first few with points of
+        its own and its stamp (the contact markers, :func:`rbd_ros.msgs.markers.
+        contact_prototypes`): written once without points, their points put in each sample.
     """
 
-    def __init__(self, fixed, posed):
+    def __init__(self, fixed, posed, tail=()):
         writer = _Writer()
         writer.pack('I', 4, len(fixed))
         offsets = [writer.marker(m) for m in fixed]
@@ -130,31 +139,46 @@ class MarkerArrayBytes:
         self._count = len(fixed)
         self._posed = int(posed)
         # Byte indexes of every stamp (n, 8) and of the posed markers' poses (posed, 56).
-        self._stamps = np.array([s for s, _ in offsets], dtype=np.int64).reshape(-1, 1) \
+        self._stamps = np.array([s for s, _, _ in offsets], dtype=np.int64).reshape(-1, 1) \
             + np.arange(_STAMP.size)
-        self._poses = np.array([p for _, p in offsets[:posed]], dtype=np.int64).reshape(-1, 1) \
-            + np.arange(_POSE_BYTES)
+        self._poses = np.array([p for _, p, _ in offsets[:posed]],
+                               dtype=np.int64).reshape(-1, 1) + np.arange(_POSE_BYTES)
+        # Each tail marker as (bytes up to and with its points' count, the rest, offset of its
+        # stamp). Points are 24 bytes each and start 8-aligned, so a marker's points move
+        # nothing after them off their alignment.
+        self._tail = []
+        for m in tail:
+            start = len(writer.buf)
+            stamp, _, count = writer.marker(m, np.zeros((0, 3)))
+            if (count + 4 - 4) % 8:
+                raise ValueError('a tail marker whose points would not start 8-aligned')
+            piece = bytes(writer.buf[start:])
+            self._tail.append((piece[:count + 4 - start], piece[count + 4 - start:],
+                               stamp - start))
 
-    def serialize(self, stamp_ns, poses, markers=(), points=()):
+    def serialize(self, stamp_ns, poses, points=()):
         """
-        Return the bytes at ``stamp_ns`` (int ns): the fixed markers, then ``markers``.
+        Return the bytes at ``stamp_ns`` (int ns): the fixed markers, then the tail's first.
 
         :param poses: (posed, 7) float64, each posed marker's ``x, y, z, qx, qy, qz, qw``.
-        :param markers: more markers, written as they are (their own stamps);
-        :param points: for each of them, its points as an (n, 3) float64 array.
+        :param points: for each of the first tail markers sent, its points, (n, 3) float64.
         """
         buf = bytearray(self._template)
-        view = np.frombuffer(buf, dtype=np.uint8)
+        view = np.frombuffer(buf, dtype=_U8)
+        stamp = _STAMP.pack(*divmod(int(stamp_ns), 1_000_000_000))
         if len(self._stamps):
-            view[self._stamps] = np.frombuffer(_STAMP.pack(*divmod(int(stamp_ns),
-                                                                   1_000_000_000)),
-                                               dtype=np.uint8)
+            view[self._stamps] = np.frombuffer(stamp, dtype=_U8)
         if self._posed:
-            view[self._poses] = np.ascontiguousarray(poses, dtype='<f8').view(np.uint8) \
+            view[self._poses] = np.ascontiguousarray(poses, dtype='<f8').view(_U8) \
                 .reshape(self._posed, _POSE_BYTES)
         del view  # the buffer grows below
-        struct.pack_into('<I', buf, 4, self._count + len(markers))
-        writer = _Writer(buf)
-        for marker, array in zip(markers, points):
-            writer.marker(marker, array)
-        return bytes(writer.buf)
+        struct.pack_into('<I', buf, 4, self._count + len(points))
+        for (head, rest, at), array in zip(self._tail, points):
+            array = np.ascontiguousarray(array, dtype='<f8')
+            start = len(buf)
+            buf += head
+            buf[start + at:start + at + _STAMP.size] = stamp
+            struct.pack_into('<I', buf, len(buf) - 4, len(array))
+            buf += array.tobytes()
+            buf += rest
+        return bytes(buf)

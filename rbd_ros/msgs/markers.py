@@ -73,7 +73,7 @@ __all__ = [
     'BODIES_NS', 'BODY_CAPS_NS', 'BodyMarkers', 'CONTACT_NORMALS_ID', 'CONTACT_POINTS_ID',
     'CONTACTS_NS', 'DEFAULT_ARROW_SCALE_M_PER_N_S', 'GROUND_NS', 'GROUND_THICKNESS_M',
     'LINKS_NS', 'LinkMarkers', 'OBSTACLES_NS', 'body_color', 'body_markers', 'contact_markers',
-    'contact_markers_and_points', 'mesh_uri', 'shape_marker', 'static_markers',
+    'contact_points', 'contact_prototypes', 'mesh_uri', 'shape_marker', 'static_markers',
 ]
 
 GROUND_NS = 'ground'
@@ -526,40 +526,24 @@ def contact_markers(contacts: 'Contacts', frame_id: str, stamp_ns: int,
         To draw forces instead, pass ``k / h`` for ``k`` m per N at the step ``h`` in s.
     :raises InputError: naming ``arrow_scale_m_per_n_s`` and its value.
     """
-    markers, points = contact_markers_and_points(contacts, frame_id, stamp_ns,
-                                                 arrow_scale_m_per_n_s)
+    points = contact_points(contacts, arrow_scale_m_per_n_s)
+    markers = contact_prototypes(frame_id, stamp_ns)[:len(points)]
     for marker, array in zip(markers, points):
         marker.points = _points(array)
     return MarkerArray(markers=markers)
 
 
-def contact_markers_and_points(contacts: 'Contacts', frame_id: str, stamp_ns: int,
-                               arrow_scale_m_per_n_s: float = DEFAULT_ARROW_SCALE_M_PER_N_S
-                               ) -> Tuple[List[Marker], List[np.ndarray]]:
+def contact_prototypes(frame_id: str, stamp_ns: int) -> List[Marker]:
     """
-    Return :func:`contact_markers`' markers without their points, and each one's points.
+    Return :func:`contact_markers`' three markers (DELETEALL, points, lines) without points.
 
-    The points as ``(n, 3)`` float64 arrays (what :mod:`rbd_ros.msgs.marker_bytes` writes
-    without building a ``Point`` each); arguments and errors as :func:`contact_markers`.
+    :func:`contact_points` gives their points (the first one's, or all three's).
     """
-    scale = float(arrow_scale_m_per_n_s)
-    if not (math.isfinite(scale) and scale >= 0.0):
-        raise InputError(
-            f'arrow_scale_m_per_n_s: {arrow_scale_m_per_n_s!r} m/(N·s) must be finite and >= 0')
     clear = Marker()
     _header(clear, frame_id, stamp_ns)
     clear.ns = CONTACTS_NS
     clear.id = 0
     clear.action = Marker.DELETEALL
-    count = len(contacts)
-    if count == 0:
-        return [clear], [np.zeros((0, 3))]
-    point_w = np.asarray(contacts.point_w, dtype=np.float64).reshape(count, 3)
-    normal_w = np.asarray(contacts.normal_w, dtype=np.float64).reshape(count, 3)
-    impulse_w = np.asarray(contacts.impulse_w, dtype=np.float64).reshape(count, 3)
-    normal_impulse = np.einsum('ij,ij->i', impulse_w, normal_w)
-    ends = point_w + (scale * normal_impulse)[:, None] * normal_w
-
     points = _contact_list(frame_id, stamp_ns, CONTACT_POINTS_ID, Marker.SPHERE_LIST,
                            CONTACT_POINT_COLOR, [])
     points.scale.x = points.scale.y = points.scale.z = CONTACT_POINT_DIAMETER_M
@@ -567,8 +551,31 @@ def contact_markers_and_points(contacts: 'Contacts', frame_id: str, stamp_ns: in
     lines = _contact_list(frame_id, stamp_ns, CONTACT_NORMALS_ID, Marker.LINE_LIST,
                           CONTACT_NORMAL_COLOR, [])
     lines.scale.x = CONTACT_LINE_WIDTH_M
-    return [clear, points, lines], [np.zeros((0, 3)), point_w,
-                                    np.stack([point_w, ends], axis=1).reshape(-1, 3)]
+    return [clear, points, lines]
+
+
+def contact_points(contacts: 'Contacts',
+                   arrow_scale_m_per_n_s: float = DEFAULT_ARROW_SCALE_M_PER_N_S
+                   ) -> List[np.ndarray]:
+    """
+    Return the points of :func:`contact_markers`' markers, (n, 3) float64 arrays.
+
+    One (empty, the DELETEALL's) without contacts; three with: none, the contact points and
+    the normals' ends two by two. Errors as :func:`contact_markers`.
+    """
+    scale = float(arrow_scale_m_per_n_s)
+    if not (math.isfinite(scale) and scale >= 0.0):
+        raise InputError(
+            f'arrow_scale_m_per_n_s: {arrow_scale_m_per_n_s!r} m/(N·s) must be finite and >= 0')
+    count = len(contacts)
+    if count == 0:
+        return [np.zeros((0, 3))]
+    point_w = np.asarray(contacts.point_w, dtype=np.float64).reshape(count, 3)
+    normal_w = np.asarray(contacts.normal_w, dtype=np.float64).reshape(count, 3)
+    impulse_w = np.asarray(contacts.impulse_w, dtype=np.float64).reshape(count, 3)
+    normal_impulse = np.einsum('ij,ij->i', impulse_w, normal_w)
+    ends = point_w + (scale * normal_impulse)[:, None] * normal_w
+    return [np.zeros((0, 3)), point_w, np.stack([point_w, ends], axis=1).reshape(-1, 3)]
 
 
 def _link_marker(collision, index, frame, position, orientation, color):

@@ -224,7 +224,7 @@ class RigidBodyNode(Node):
                                                      len(config.bodies))
             self._markers_cdr = MarkerArrayBytes(
                 self._markers.markers + self._link_markers.stamped(0),
-                len(self._markers.markers))
+                len(self._markers.markers), markers.contact_prototypes(config.world_frame, 0))
             self._pubs['markers'] = self._publisher(MarkerArray, 'markers', 10)
             self._pubs['static_markers'] = self._publisher(MarkerArray, 'static_markers',
                                                            endpoints.STATE_QOS)
@@ -600,10 +600,9 @@ class RigidBodyNode(Node):
             contacts = type(contacts)(*(getattr(contacts, f.name)[last]
                                         for f in dataclasses.fields(contacts)))
         # Lines of 1 cm per N: the last stage's impulse over the step.
-        shown, points = markers.contact_markers_and_points(
-            contacts, self.config.world_frame, t, 0.01 / (self.config.timestep_ns * 1e-9))
         return self._markers_cdr.serialize(
-            t, self._markers.poses(positions, quats, normalise=False), shown, points)
+            t, self._markers.poses(positions, quats, normalise=False), markers.contact_points(
+                contacts, 0.01 / (self.config.timestep_ns * 1e-9)))
 
     def _publish_diagnostics(self):
         s = self.session

@@ -78,7 +78,8 @@ def test_marker_bytes_decode_to_the_marker_array_of_the_message_objects(tmp_path
     bodies = markers.BodyMarkers(names, shapes, 'world_frame',
                                  [None, None, (path.as_uri(), (1.0, 2.0, 0.5)), None])
     extra = every_field_marker()
-    cdr = MarkerArrayBytes(bodies.markers + [extra], len(bodies.markers))
+    cdr = MarkerArrayBytes(bodies.markers + [extra], len(bodies.markers),
+                           markers.contact_prototypes('world_frame', 0))
     contacts = random_contacts(1, 37)
     empty = Contacts(*(np.zeros((0,) + s) for s in ((), (), (3,), (3,), (3,), ())))
     for k, shown in enumerate((contacts, empty, contacts)):
@@ -87,10 +88,8 @@ def test_marker_bytes_decode_to_the_marker_array_of_the_message_objects(tmp_path
                               [2.0, 1.0, 0.5]])
         quats = np.array([quat_from_axis_angle([1.0, 2.0, 3.0], 0.4 * k + 0.1 * i)
                           for i in range(4)])
-        contact_list, points = markers.contact_markers_and_points(
-            shown, 'world_frame', stamp_ns, 7.5)
-        data = cdr.serialize(stamp_ns, bodies.poses(positions, quats, normalise=False),
-                             contact_list, points)
+        points = markers.contact_points(shown, 7.5)
+        data = cdr.serialize(stamp_ns, bodies.poses(positions, quats, normalise=False), points)
         extra.header.stamp = time_to_msg(stamp_ns)
         expected = MarkerArray(markers=list(
             bodies.array(positions, quats, stamp_ns, normalise=False).markers) + [extra]
@@ -100,12 +99,11 @@ def test_marker_bytes_decode_to_the_marker_array_of_the_message_objects(tmp_path
         assert len(data) == len(serialize_message(expected))
         # Zero padding: the same sample gives the same bytes.
         assert data == cdr.serialize(stamp_ns, bodies.poses(positions, quats, normalise=False),
-                                     contact_list, points)
+                                     points)
 
 
 def test_no_fixed_markers_and_no_posed_ones():
-    cdr = MarkerArrayBytes([], 0)
-    clear, points = markers.contact_markers_and_points(random_contacts(2, 5), 'w', 5, 1.0)
-    data = cdr.serialize(5, np.zeros((0, 7)), clear, points)
+    cdr = MarkerArrayBytes([], 0, markers.contact_prototypes('w', 0))
+    data = cdr.serialize(5, np.zeros((0, 7)), markers.contact_points(random_contacts(2, 5), 1.0))
     assert deserialize_message(data, MarkerArray) == markers.contact_markers(
         random_contacts(2, 5), 'w', 5, 1.0)
