@@ -66,11 +66,10 @@ from std_srvs.srv import SetBool, Trigger
 from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
-#: At most this share of the wall time goes to the spin loop's wake-ups as fast as possible:
-#: one costs ~0.6 µs per subscription (rbd_ros.ros.wakeups; a world of 1,000 bodies: ~2.5 ms,
-#: an input then taken within ~80 ms), so the tick budget grows to that many wake-ups' worth,
-#: up to MAX_TICK_BUDGET_NS (the latency of an input then).
-SPIN_SHARE = 0.03
+#: At most this share of the wall time goes to the executor's wake-ups as fast as possible:
+#: one costs ~4 µs per subscription (a world of 1,000 bodies: 8 ms), so the tick budget grows
+#: to that many wake-ups' worth, up to MAX_TICK_BUDGET_NS (the latency of an input then).
+SPIN_SHARE = 0.1
 MAX_TICK_BUDGET_NS = 100_000_000
 #: The outputs' subscribers are looked at no more often than this (wall ns), and so that the
 #: looks take at most LOOK_SHARE of the wall time (see RigidBodyNode.look_at_subscribers).
