@@ -219,6 +219,9 @@ def breakdown_main(args):
         session.paused = False
         node._anchor()
         parts.clear()
+        matched = sum(1 for _, count in node._subscribed if count())
+        if matched < len(node._subscribed):
+            raise SystemExit(f'{matched} of {len(node._subscribed)} outputs subscribed in 120 s')
     end_ns = node.config.duration_ns - 100_000_000
     t0, cpu0, wall0 = session.time_ns, time.thread_time_ns(), time.monotonic_ns()
     wake_ups = 0
@@ -309,7 +312,8 @@ def main(argv=None):
         for label in (parts[0] if parts else ()):
             unit = '' if label in ('steps a wake-up', 'as-fast factor in process') else \
                 'µs CPU a step (main thread)'
-            print(f'        {label:28s} {statistics.median(p[label] for p in parts):8.1f} '
+            value = statistics.median(p.get(label, 0.0) for p in parts)
+            print(f'        {label:28s} {value:8.1f} '
                   f'{unit}')
     print(f'load average {os.getloadavg()}')
     return 0
