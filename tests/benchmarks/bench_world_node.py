@@ -246,7 +246,9 @@ def breakdown(params_file, sim_s, extra):
     """Return the parts of :func:`breakdown_main` for a run of ``sim_s``, in a subprocess."""
     out = subprocess.run(
         [sys.executable, __file__, '--breakdown-child'] + node_command(params_file, sim_s, extra),
-        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, cwd=REPO, check=True)
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=REPO)
+    if out.returncode:
+        raise SystemExit(out.stderr.decode(errors='replace')[-2000:])
     return json.loads(out.stdout.decode().strip().splitlines()[-1])
 
 
