@@ -522,11 +522,11 @@ class RigidBodyNode(Node):
 
     def look_at_subscribers(self, force=False):
         """
-        Note which outputs have subscribers now; at a wake-up of the spin loop.
+        Note which outputs have subscribers now; before a sample is published.
 
         Not at every sample: a ``get_subscription_count`` call costs ~0.5 µs, and a world of
         100 bodies has 400 per-body topics, which at every sample cost as much as 20 % of the
-        physics. The look is taken at a wake-up at least :data:`LOOK_PERIOD_NS` after the
+        physics. The look is taken at a sample at least :data:`LOOK_PERIOD_NS` after the
         last one, and later if the looks would take more than :data:`LOOK_SHARE` of the wall
         time (100 times the last look's wall time: ~20-50 ms for 400 topics, more for
         thousands); ``force``: now. A subscriber that appears gets the samples from the next
@@ -558,6 +558,7 @@ class RigidBodyNode(Node):
         transient-local subscriber that comes later must get this sample, not an older one
         still held by the publisher.
         """
+        self.look_at_subscribers()
         t = self.session.time_ns
         recording = self._recorder is not None
         published = None if self.session.paused else self._listened

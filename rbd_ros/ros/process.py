@@ -75,9 +75,7 @@ def _init_rclpy(args):
 
 def _serve(executor, node, look):
     """
-    One wake-up of the spin loop: a ready callback (or a wait for one), then the steps due.
-
-    Between them, a look at which outputs have subscribers (at most every so often).
+    One wake-up of the spin loop: one ready callback (or a wait for one), then the steps due.
 
     What ``executor.spin_once`` does, with the wait timed apart from the callback: the cost of
     a wake-up is the wait set's, not the callback's (a callback that takes long, or an input
@@ -93,7 +91,6 @@ def _serve(executor, node, look):
             handler, _, _ = executor.wait_for_ready_callbacks(timeout_sec=0)
     except (TimeoutException, ShutdownException):
         handler = None
-    node.look_at_subscribers()  # part of a wake-up's cost
     if timeout_s == 0:  # no waiting in it: what a wake-up costs
         node.note_wake_up(time.monotonic_ns() - start_ns)
     if handler is not None:

@@ -233,7 +233,7 @@ def breakdown_main(args):
     out = {label: ns / steps / 1000 for label, ns in parts.items()}
     out['session'] -= out['core step']
     out['publish'] -= out['sample bytes'] + out.get('markers built', 0.0) \
-        + out.get('recording write', 0.0)
+        + out.get('recording write', 0.0) + out.get('subscriber counts', 0.0)
     out['rest of the loop'] = cpu / steps / 1000 - sum(out.values())
     out['main thread total'] = cpu / steps / 1000
     out['steps a wake-up'] = steps / max(1, wake_ups)
