@@ -124,6 +124,10 @@ class RunRecorder:
         self.writer.write(topic, msg if isinstance(msg, bytes) else self._serialize(msg),
                           time_ns)
 
+    def write_sample(self, messages, time_ns):
+        """Record a sample's ``[(topic, CDR bytes)]`` at ``time_ns`` (one call, in order)."""
+        self.writer.write_many(messages, time_ns)
+
     def record_events(self, events, message_of=None):
         """
         Digest and record the inputs that take effect at a step start (before that step).

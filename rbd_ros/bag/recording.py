@@ -50,14 +50,18 @@ This module does not import rclpy: the node serialises messages with
 
 import dataclasses
 import importlib.metadata
+import itertools
 import os
 import re
 import stat
+import struct
 import time
 from typing import Any, Dict, Mapping, Optional, Union
 
+from mcap._chunk_builder import ChunkBuilder
 from mcap.data_stream import RecordBuilder
-from mcap.records import Channel, Schema
+from mcap.opcode import Opcode
+from mcap.records import Channel, MessageIndex, Schema, Statistics
 from mcap.writer import CompressionType, Writer
 from rbd_ros import __version__
 # The shared constants and the reader, here too under the names this module has always had
@@ -78,6 +82,39 @@ _COMPRESSION = {
     'zstd': CompressionType.ZSTD,
     'lz4': CompressionType.LZ4,
 }
+
+
+# A Message record: opcode, record length, channel id, sequence, log time, publish time (the
+# data follows), as mcap's Message.write packs it.
+_MESSAGE_RECORD = struct.Struct('<BQHIQQ')
+_MESSAGE_OPCODE = int(Opcode.MESSAGE)
+
+
+class _MessageIndex(MessageIndex):
+    """mcap's MessageIndex record, its entries packed at once (the same bytes)."""
+
+    def write(self, stream):
+        entries = self.records
+        stream.start_record(Opcode.MESSAGE_INDEX)
+        stream.write(struct.pack(f'<HI{2 * len(entries)}Q', self.channel_id, 16 * len(entries),
+                                 *itertools.chain.from_iterable(entries)))
+        stream.finish_record()
+
+
+def _mcap_internals(writer):
+    """
+    Return ``(chunk builder, statistics)`` of an mcap ``Writer`` (1.6), or None if it differs.
+
+    :meth:`BagWriter.write_many` adds records to them as ``Writer.add_message`` does.
+    """
+    chunk = getattr(writer, '_Writer__chunk_builder', None)
+    stats = getattr(writer, '_Writer__statistics', None)
+    if not isinstance(chunk, ChunkBuilder) or not isinstance(stats, Statistics) or not all(
+            hasattr(chunk, name) for name in (
+                'record_writer', 'message_indices', 'num_messages', 'message_start_time',
+                'message_end_time')):
+        return None
+    return chunk, stats
 
 
 @dataclasses.dataclass
@@ -153,6 +190,7 @@ class BagWriter:
             # time and size ourselves through its public Writer.flush().
             self._mcap = Writer(
                 self._stream, chunk_size=1 << 62, compression=_COMPRESSION[compression])
+            self._internals = _mcap_internals(self._mcap)
             self._mcap.start(profile='ros2', library=f'rbd_ros-{__version__}')
             self._mcap.add_metadata(CONFIG_METADATA_NAME, self._config_record(extra_metadata))
             self._mcap.add_metadata('rosbag2', self._rosbag2_record())
@@ -302,15 +340,8 @@ class BagWriter:
         """
         if self._failed is not None or self._closed:
             self._check_open()
-        entry = self._topics.get(topic)
-        if entry is None:
-            raise RecordingError(f'topic {topic!r} was not added with add_topic() before write()')
-        if self._chunk_messages and (
-                log_time_ns - self._chunk_start_ns >= self._chunk_ns
-                or self._chunk_bytes >= self._chunk_bytes_max):
-            self._end_chunk()
-        if not self._chunk_messages:
-            self._chunk_start_ns = log_time_ns
+        entry = self._topic(topic)
+        self._chunk_for(log_time_ns)
         self._mcap.add_message(
             entry.channel_id, log_time_ns, data,
             log_time_ns if publish_time_ns is None else publish_time_ns, 0)
@@ -322,6 +353,88 @@ class BagWriter:
             self._start_ns = log_time_ns
         if log_time_ns > self._end_ns:
             self._end_ns = log_time_ns
+
+    def write_many(self, messages, log_time_ns: int) -> None:
+        """
+        Append ``[(topic, CDR bytes)]``, in order, all at ``log_time_ns`` (a sample).
+
+        The same file, byte for byte, as :meth:`write` of each in turn (a test compares
+        them), at ~1 µs a message where the mcap writer's ``add_message`` takes ~15 (a world
+        of 100 bodies records 400 messages a sample): the Message records are packed here and
+        given to the writer's chunk builder in one write, with the message indexes (packed at
+        once when the chunk ends) and statistics its ``add_message`` keeps. An mcap whose
+        writer does not have those
+        internals (:func:`_mcap_internals`) gets :meth:`write` of each.
+        """
+        if self._failed is not None or self._closed:
+            self._check_open()
+        internals = self._internals
+        if internals is None:
+            for topic, data in messages:
+                self.write(topic, data, log_time_ns)
+            return
+        entries = [(self._topic(topic), data) for topic, data in messages]
+        start = 0
+        while start < len(entries):
+            self._chunk_for(log_time_ns)
+            # As many as write() would put in this chunk: up to the first message before
+            # which the chunk holds chunk_bytes (write() ends the chunk there).
+            end, size = start, self._chunk_bytes
+            while end < len(entries) and (end == start or size < self._chunk_bytes_max):
+                size += len(entries[end][1])
+                end += 1
+            self._add_block(internals, entries[start:end], log_time_ns)
+            self._chunk_bytes = size
+            start = end
+
+    def _topic(self, topic):
+        entry = self._topics.get(topic)
+        if entry is None:
+            raise RecordingError(f'topic {topic!r} was not added with add_topic() before write()')
+        return entry
+
+    def _chunk_for(self, log_time_ns):
+        """End the open chunk if a message at ``log_time_ns`` may not go in it; note a start."""
+        if self._chunk_messages and (
+                log_time_ns - self._chunk_start_ns >= self._chunk_ns
+                or self._chunk_bytes >= self._chunk_bytes_max):
+            self._end_chunk()
+        if not self._chunk_messages:
+            self._chunk_start_ns = log_time_ns
+
+    def _add_block(self, internals, entries, time_ns):
+        """Add Message records to the open chunk as mcap's ``Writer.add_message`` does."""
+        chunk, stats = internals
+        records = chunk.record_writer
+        offset = records.count
+        indices, counts = chunk.message_indices, stats.channel_message_counts
+        pack = _MESSAGE_RECORD.pack
+        parts = []
+        for entry, data in entries:
+            channel = entry.channel_id
+            index = indices.get(channel)
+            if not index:
+                index = indices[channel] = _MessageIndex(channel_id=channel, records=[])
+            index.records.append((time_ns, offset))
+            offset += _MESSAGE_RECORD.size + len(data)
+            parts += (pack(_MESSAGE_OPCODE, _MESSAGE_RECORD.size - 9 + len(data), channel, 0,
+                           time_ns, time_ns), data)
+            counts[channel] += 1
+            entry.count += 1
+        records.write(b''.join(parts))
+        n = len(entries)
+        for owner, count in ((chunk, chunk.num_messages), (stats, stats.message_count)):
+            owner.message_start_time = time_ns if count == 0 else \
+                min(owner.message_start_time, time_ns)
+            owner.message_end_time = max(owner.message_end_time, time_ns)
+        chunk.num_messages += n
+        stats.message_count += n
+        self._chunk_messages += n
+        self._message_count += n
+        if self._start_ns is None:
+            self._start_ns = time_ns
+        if time_ns > self._end_ns:
+            self._end_ns = time_ns
 
     def flush(self) -> None:
         """

@@ -73,7 +73,7 @@ __all__ = [
     'BODIES_NS', 'BODY_CAPS_NS', 'BodyMarkers', 'CONTACT_NORMALS_ID', 'CONTACT_POINTS_ID',
     'CONTACTS_NS', 'DEFAULT_ARROW_SCALE_M_PER_N_S', 'GROUND_NS', 'GROUND_THICKNESS_M',
     'LINKS_NS', 'LinkMarkers', 'OBSTACLES_NS', 'body_color', 'body_markers', 'contact_markers',
-    'mesh_uri', 'shape_marker', 'static_markers',
+    'contact_points', 'contact_prototypes', 'mesh_uri', 'shape_marker', 'static_markers',
 ]
 
 GROUND_NS = 'ground'
@@ -413,6 +413,27 @@ class BodyMarkers:
             from the bodies', or ``bodies.<name>.position_w`` / ``quat_wxyz`` when not finite
             (or a zero quaternion).
         """
+        stamp = conv.time_to_msg(stamp_ns)
+        for marker, (px, py, pz, qx, qy, qz, qw) in zip(
+                self._array.markers, self.poses(positions_w, quats_wxyz, normalise).tolist()):
+            marker.header.stamp = stamp
+            point = marker.pose.position
+            point.x, point.y, point.z = px, py, pz
+            conv.quaternion_to_msg((qw, qx, qy, qz), marker.pose.orientation)
+        return self._array
+
+    @property
+    def markers(self) -> List[Marker]:
+        """Return the list of the markers :meth:`array` poses (the same objects), in order."""
+        return list(self._array.markers)
+
+    def poses(self, positions_w: np.ndarray, quats_wxyz: np.ndarray,
+              normalise: bool = True) -> np.ndarray:
+        """
+        Return each marker's pose as :meth:`array` writes it: (M, 7) ``x, y, z, qx, qy, qz, qw``.
+
+        In the order of :attr:`markers`; the arguments and errors are :meth:`array`'s.
+        """
         count = len(self._names)
         positions = np.asarray(positions_w, dtype=np.float64)
         quats = np.asarray(quats_wxyz, dtype=np.float64)
@@ -431,20 +452,13 @@ class BodyMarkers:
                 f'quat_wxyz {quats[index].tolist()}: must be finite, the quaternion non-zero')
         if normalise:
             quats = quats / norm[:, None]
-        stamp = conv.time_to_msg(stamp_ns)
         positions = positions[self._sources]
         quats = quats[self._sources]
         if self._offsets_b.size:
             # x_w = R(q_wb) x_b + p_w at the marker origin x_b (the unshifted rows stay bit
             # for bit the body pose).
             positions[self._shifted] += quat_rotate(quats[self._shifted], self._offsets_b)
-        for marker, position, quat in zip(self._array.markers, positions.tolist(),
-                                          quats.tolist()):
-            marker.header.stamp = stamp
-            point = marker.pose.position
-            point.x, point.y, point.z = position
-            conv.quaternion_to_msg(quat, marker.pose.orientation)
-        return self._array
+        return np.concatenate([positions, quats[:, 1:], quats[:, :1]], axis=1)
 
 
 def body_markers(names: Sequence[str], shapes: Sequence['CollisionShape'],
@@ -512,35 +526,56 @@ def contact_markers(contacts: 'Contacts', frame_id: str, stamp_ns: int,
         To draw forces instead, pass ``k / h`` for ``k`` m per N at the step ``h`` in s.
     :raises InputError: naming ``arrow_scale_m_per_n_s`` and its value.
     """
-    scale = float(arrow_scale_m_per_n_s)
-    if not (math.isfinite(scale) and scale >= 0.0):
-        raise InputError(
-            f'arrow_scale_m_per_n_s: {arrow_scale_m_per_n_s!r} m/(N·s) must be finite and >= 0')
+    points = contact_points(contacts, arrow_scale_m_per_n_s)
+    markers = contact_prototypes(frame_id, stamp_ns)[:len(points)]
+    for marker, array in zip(markers, points):
+        marker.points = _points(array)
+    return MarkerArray(markers=markers)
+
+
+def contact_prototypes(frame_id: str, stamp_ns: int) -> List[Marker]:
+    """
+    Return :func:`contact_markers`' three markers (DELETEALL, points, lines) without points.
+
+    :func:`contact_points` gives their points (the first one's, or all three's).
+    """
     clear = Marker()
     _header(clear, frame_id, stamp_ns)
     clear.ns = CONTACTS_NS
     clear.id = 0
     clear.action = Marker.DELETEALL
-    out = MarkerArray(markers=[clear])
+    points = _contact_list(frame_id, stamp_ns, CONTACT_POINTS_ID, Marker.SPHERE_LIST,
+                           CONTACT_POINT_COLOR, [])
+    points.scale.x = points.scale.y = points.scale.z = CONTACT_POINT_DIAMETER_M
+    # LINE_LIST: only scale.x is used, the line width.
+    lines = _contact_list(frame_id, stamp_ns, CONTACT_NORMALS_ID, Marker.LINE_LIST,
+                          CONTACT_NORMAL_COLOR, [])
+    lines.scale.x = CONTACT_LINE_WIDTH_M
+    return [clear, points, lines]
+
+
+def contact_points(contacts: 'Contacts',
+                   arrow_scale_m_per_n_s: float = DEFAULT_ARROW_SCALE_M_PER_N_S
+                   ) -> List[np.ndarray]:
+    """
+    Return the points of :func:`contact_markers`' markers, (n, 3) float64 arrays.
+
+    One (empty, the DELETEALL's) without contacts; three with: none, the contact points and
+    the normals' ends two by two. Errors as :func:`contact_markers`.
+    """
+    scale = float(arrow_scale_m_per_n_s)
+    if not (math.isfinite(scale) and scale >= 0.0):
+        raise InputError(
+            f'arrow_scale_m_per_n_s: {arrow_scale_m_per_n_s!r} m/(N·s) must be finite and >= 0')
     count = len(contacts)
     if count == 0:
-        return out
+        return [np.zeros((0, 3))]
     point_w = np.asarray(contacts.point_w, dtype=np.float64).reshape(count, 3)
     normal_w = np.asarray(contacts.normal_w, dtype=np.float64).reshape(count, 3)
     impulse_w = np.asarray(contacts.impulse_w, dtype=np.float64).reshape(count, 3)
     normal_impulse = np.einsum('ij,ij->i', impulse_w, normal_w)
     ends = point_w + (scale * normal_impulse)[:, None] * normal_w
-
-    points = _contact_list(frame_id, stamp_ns, CONTACT_POINTS_ID, Marker.SPHERE_LIST,
-                           CONTACT_POINT_COLOR, _points(point_w))
-    points.scale.x = points.scale.y = points.scale.z = CONTACT_POINT_DIAMETER_M
-    # LINE_LIST: only scale.x is used, the line width.
-    lines = _contact_list(frame_id, stamp_ns, CONTACT_NORMALS_ID, Marker.LINE_LIST,
-                          CONTACT_NORMAL_COLOR,
-                          _points(np.stack([point_w, ends], axis=1).reshape(-1, 3)))
-    lines.scale.x = CONTACT_LINE_WIDTH_M
-    out.markers.extend([points, lines])
-    return out
+    return [np.zeros((0, 3)), point_w, np.stack([point_w, ends], axis=1).reshape(-1, 3)]
 
 
 def _link_marker(collision, index, frame, position, orientation, color):

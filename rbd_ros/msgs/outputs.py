@@ -65,6 +65,7 @@ import numpy as np
 from rbd_ros.core import BodyState, layout
 from rbd_ros.msgs import conversions as conv
 from rbd_ros.msgs import type_names as types
+from rbd_ros.msgs.body_bytes import BodiesBytes, twists
 from rbd_ros.msgs.cdr import cdr_string as _cdr_string, layout as _layout
 from rbd_ros.msgs.robot_outputs import JointOutputs, RobotOutputs
 from rbd_ros.sim.params import NS_PER_S
@@ -341,6 +342,9 @@ class SampleBuilder:
                                for prefix, body in zip(self.prefixes, self.bodies))
         self._body_kinds = frozenset(kind for kinds in self._prefixed if kinds
                                      for kind in kinds) if self.per_body else frozenset()
+        self._bodies_bytes = BodiesBytes(self.bodies, [
+            prefixed or body.kinds for prefixed, body in zip(self._prefixed, self.bodies)],
+            _UNIT_NORM_SQ_TOL) if self.bodies else None
 
     def body_index(self, kind):
         """Return the index of the body of a per-body kind (``<prefix>pose``), or None."""
@@ -378,10 +382,9 @@ class SampleBuilder:
         tf = [] if has[1] else None
         sec, nanosec = divmod(time_ns, NS_PER_S)
         world = self._world
-        if has[2] or poses is not None or tf is not None:
-            rows = wrenches.tolist() if wrenches is not None and has[2] else None
-            self._bodies_sample(time_ns, columns, rows, wanted if has[2] else (), out, poses,
-                                tf)
+        if self.bodies and (has[2] or poses is not None or tf is not None):
+            self._bodies_sample(time_ns, columns, wrenches, wanted if has[2] else (), out,
+                                poses, tf)
         for robot in self.robots:
             if wanted is None or robot.kind in wanted:
                 out.append((robot.kind, robot.joint_states(time_ns, robots)))
@@ -403,35 +406,43 @@ class SampleBuilder:
             out.append(('tf', self._tf.pack(_ENCAPSULATION, self._tf_count, *tf)))
         return out
 
-    def _bodies_sample(self, time_ns, columns, rows, wanted, out, poses, tf):
+    def _bodies_sample(self, time_ns, columns, wrenches, wanted, out, poses, tf):
         """
         Append each body's wanted kinds to ``out``, its pose to ``poses`` and its ``tf`` fields.
 
+        All bodies at once (:class:`rbd_ros.msgs.body_bytes.BodiesBytes`).
+
         :param wanted: None (every kind) or the per-body kinds to build (empty: none).
         """
-        sec, nanosec = divmod(time_ns, NS_PER_S)
-        world = self._world
-        wrench = None
-        # One list of 13 floats per body, taken at once (a column view per body costs more).
-        for i, x in enumerate(columns.T.tolist()):
-            builder = self.bodies[i]
-            values = builder.list_values(x)
-            prefixed = self._prefixed[i] or builder.kinds
-            if wanted is None or (wanted and not wanted.isdisjoint(prefixed)):
-                if rows is not None:
-                    row = rows[i]
-                    wrench = (row[:3], row[3:])
-                out += [(kind, data) for kind, (_, data)
-                        in zip(prefixed, builder.serialize(time_ns, values, wrench))
-                        if wanted is None or kind in wanted]
-            if tf is not None or poses is not None:
-                (px, py, pz), (qw, qx, qy, qz) = values[0], values[1]
-                if poses is not None:
-                    poses += (px, py, pz, qx, qy, qz, qw)
-                if tf is not None:
-                    frame = self._frames[i]
-                    tf += (sec, nanosec, len(world), world, len(frame), frame, px, py, pz, qx,
-                           qy, qz, qw)
+        bodies = self._bodies_bytes
+        sample = bodies.values(columns)
+        if wanted is None or wanted:
+            out += bodies.serialize(time_ns, sample, wrenches, wanted)
+        if tf is not None or poses is not None:
+            rows = np.concatenate([sample[0], sample[1][:, [1, 2, 3, 0]]], axis=1).tolist()
+            if poses is not None:
+                poses += [value for row in rows for value in row]
+            if tf is not None:
+                sec, nanosec = divmod(time_ns, NS_PER_S)
+                world = self._world
+                for frame, row in zip(self._frames, rows):
+                    tf += (sec, nanosec, len(world), world, len(frame), frame, *row)
+
+    def poses_wxyz(self, columns):
+        """
+        Return every body's ``(positions (N, 3), quaternions (N, 4) w first)`` as ``poses``.
+
+        The values the pose topics carry (:meth:`BodyOutputs.list_values`), for all bodies at
+        once: a quaternion not unit to round-off goes through its body's values.
+        """
+        positions = np.ascontiguousarray(columns[_POS].T)
+        quats = np.ascontiguousarray(columns[_QUAT].T)
+        qw, qx, qy, qz = columns[_QUAT]
+        off = np.abs(((qw * qw + qx * qx) + qy * qy) + qz * qz - 1.0) > _UNIT_NORM_SQ_TOL
+        for i in np.flatnonzero(off):
+            p, q = self.bodies[i].column_values(columns[:, i])[:2]
+            positions[i], quats[i] = p, q
+        return positions, quats
 
     def robot_message(self, kind, time_ns, robots):
         """
@@ -508,25 +519,5 @@ def _twist(twist, values):
 
 def _values(p, q, v, omega_b, twist_world):
     """Compute the sample's values by the scalar path (module docstring: why each sum so)."""
-    qw, qx, qy, qz = q
-    norm = math.sqrt(((qw * qw + qx * qx) + qy * qy) + qz * qz)
-    s = 2.0 / (norm * norm)
-    # R = quat_to_matrix(q): xx = s x x, xy = s x y, ...
-    sx, sy, sz, sw = s * qx, s * qy, s * qz, s * qw
-    xx, yy, zz = sx * qx, sy * qy, sz * qz
-    xy, xz, yz = sx * qy, sx * qz, sy * qz
-    wx, wy, wz = sw * qx, sw * qy, sw * qz
-    r00, r01, r02 = 1.0 - (yy + zz), xy - wz, xz + wy
-    r10, r11, r12 = xy + wz, 1.0 - (xx + zz), yz - wx
-    r20, r21, r22 = xz - wy, yz + wx, 1.0 - (xx + yy)
-    v0, v1, v2 = v
-    twist_b = (r00 * v0 + r10 * v1 + r20 * v2, r01 * v0 + r11 * v1 + r21 * v2,
-               r02 * v0 + r12 * v1 + r22 * v2, *omega_b)
-    if not twist_world:
-        return p, q, twist_b, twist_b
-    # ω_w = quat_rotate(q, ω_b) = ω + w t + u × t with t = s (u × ω), u = (x, y, z).
-    o0, o1, o2 = omega_b
-    t0, t1, t2 = s * (qy * o2 - qz * o1), s * (qz * o0 - qx * o2), s * (qx * o1 - qy * o0)
-    omega_w = ((o0 + qw * t0) + (qy * t2 - qz * t1), (o1 + qw * t1) + (qz * t0 - qx * t2),
-               (o2 + qw * t2) + (qx * t1 - qy * t0))
-    return p, q, (v0, v1, v2, *omega_w), twist_b
+    twist, twist_b = twists(q, v, omega_b, twist_world, math.sqrt)
+    return p, q, twist, twist_b

@@ -36,12 +36,12 @@ import threading
 import time
 
 from geometry_msgs.msg import PointStamped
-import numpy as np
 from rbd_ros.core import ConfigError, jitcache, NonFiniteError, RbdError, RecordingError
 from rbd_ros.msgs import conversions as conv
 from rbd_ros.msgs import markers
 from rbd_ros.msgs import outputs
 from rbd_ros.msgs import type_names as types
+from rbd_ros.msgs.marker_bytes import MarkerArrayBytes
 from rbd_ros.ros import endpoints
 from rbd_ros.ros import parameters
 from rbd_ros.ros import ros_args
@@ -66,11 +66,17 @@ from std_srvs.srv import SetBool, Trigger
 from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
-#: At most this share of the wall time goes to the executor's wake-ups as fast as possible:
-#: one costs ~4 µs per subscription (a world of 1,000 bodies: 8 ms), so the tick budget grows
-#: to that many wake-ups' worth, up to MAX_TICK_BUDGET_NS (the latency of an input then).
+#: At most this share of the wall time goes to the spin loop's wake-ups as fast as possible:
+#: one costs ~0.6 µs per subscription (rbd_ros.ros.wakeups; a world of 1,000 bodies: ~2.5 ms),
+#: so the tick budget grows to that many wake-ups' worth, up to MAX_TICK_BUDGET_NS (the latency
+#: of an input then). Not less: a wake-up serves one callback, so a tick budget longer than
+#: needed delays a burst of inputs on many topics (tests/ros/test_node_behind.py).
 SPIN_SHARE = 0.1
 MAX_TICK_BUDGET_NS = 100_000_000
+#: The outputs' subscribers are looked at no more often than this (wall ns), and so that the
+#: looks take at most LOOK_SHARE of the wall time (see RigidBodyNode.look_at_subscribers).
+LOOK_PERIOD_NS = 5_000_000
+LOOK_SHARE = 0.01
 #: Set once the node has loaded its meshes and run its first step (see RigidBodyNode).
 PAST_SLOW_START_UP = threading.Event()
 
@@ -194,6 +200,7 @@ class RigidBodyNode(Node):
         if self._compiling is not None:
             # A subscriber that comes during the compile gets t = 0 (_poll_compile).
             self._unpublished = {kind for kind, count in self._subscribed if not count()}
+            self._unpublished_of = None
             self._compiling.start()
 
     def _create_outputs(self):
@@ -217,6 +224,9 @@ class RigidBodyNode(Node):
             self._markers = _world_markers(config)
             self._link_markers = markers.LinkMarkers(config.robots, config.world_frame,
                                                      len(config.bodies))
+            self._markers_cdr = MarkerArrayBytes(
+                self._markers.markers + self._link_markers.stamped(0),
+                len(self._markers.markers), markers.contact_prototypes(config.world_frame, 0))
             self._pubs['markers'] = self._publisher(MarkerArray, 'markers', 10)
             self._pubs['static_markers'] = self._publisher(MarkerArray, 'static_markers',
                                                            endpoints.STATE_QOS)
@@ -231,7 +241,13 @@ class RigidBodyNode(Node):
                              for kind in self._builder.kinds}
         self._subscribed = [(kind, self._pubs[kind].handle.get_subscription_count)
                             for kind in self._builder.kinds]
+        self._counted = self._subscribed + ([
+            ('markers', self._pubs['markers'].handle.get_subscription_count)]
+            if self._markers is not None else [])
+        if self._markers is not None:
+            self._markers_publish = self._pubs['markers'].handle.publish_raw
         self._unpublished = set()  # kinds whose latest sample was not built (nobody listened)
+        self.look_at_subscribers(force=True)
         self._robots = self.session.simulator if config.robots or config.world_joints else None
         # Each robot's URDF as loaded (after xacro), once, transient local: RViz's RobotModel
         # and every late subscriber get it.
@@ -504,63 +520,92 @@ class RigidBodyNode(Node):
                 return
             n_steps -= report.steps
 
+    def look_at_subscribers(self, force=False):
+        """
+        Note which outputs have subscribers now; before a sample is published.
+
+        Not at every sample: a ``get_subscription_count`` call costs ~0.5 µs, and a world of
+        100 bodies has 400 per-body topics, which at every sample cost as much as 20 % of the
+        physics. The look is taken at a sample at least :data:`LOOK_PERIOD_NS` after the
+        last one, and later if the looks would take more than :data:`LOOK_SHARE` of the wall
+        time (100 times the last look's wall time: ~20-50 ms for 400 topics, more for
+        thousands); ``force``: now. A subscriber that appears gets the samples from the next
+        look on.
+        """
+        start_ns = time.monotonic_ns()
+        if start_ns < self._next_look_ns and not force:
+            return
+        listened = {kind for kind, count in self._counted if count()}
+        if listened != self._listened:  # the same set object while nothing changes
+            self._listened = listened
+        now_ns = time.monotonic_ns()
+        self._next_look_ns = start_ns + max(LOOK_PERIOD_NS,
+                                            int((now_ns - start_ns) / LOOK_SHARE))
+
+    _next_look_ns = 0
+
+    _listened = frozenset()
+    _unpublished_of = None  # the set of wanted kinds _unpublished was computed from
+
     def _publish_sample(self):
         """
         Publish the current sample; record the same CDR bytes.
 
-        Not recording, a kind nobody subscribes to is neither built nor published (one
-        ``get_subscription_count`` call, 0.3 µs, where building and publishing cost 2-5 µs):
-        a subscriber that appears gets the next sample, or while paused the current one
-        (:meth:`_publish_late`).
+        A kind nobody subscribed to at the last look (:meth:`look_at_subscribers`) is not
+        published, and not recording, not even built: a subscriber that appears gets the
+        samples from the next look on, or while paused the current one
+        (:meth:`_publish_late`). Paused (a ~/step, a ~/reset) every kind is published: a
+        transient-local subscriber that comes later must get this sample, not an older one
+        still held by the publisher.
         """
+        self.look_at_subscribers()
         t = self.session.time_ns
         recording = self._recorder is not None
-        # Paused (a ~/step, a ~/reset) every kind is built: a transient-local subscriber that
-        # comes later must get this sample, not an older one still held by the publisher.
-        wanted = None if recording or self.session.paused else {
-            kind for kind, count in self._subscribed if count()}
+        published = None if self.session.paused else self._listened
         samples = self._builder.serialize(t, self._columns, self.session.contact_wrenches_w,
-                                          self._robots, wanted)
+                                          self._robots, None if recording else published)
         pubs = self._sample_pubs
         for kind, data in samples:
-            publish, topic = pubs[kind]
-            publish(data)
-            if recording:
-                self._record(topic, data, t)
-        self._unpublished = set() if wanted is None else set(pubs).difference(wanted)
-        if self._markers is not None and (
-                recording or self._pubs['markers'].get_subscription_count()):
-            self._publish('markers', self._marker_array(t), t)
+            if published is None or kind in published:
+                pubs[kind][0](data)
+        if recording:
+            self._guarded(self._recorder.write_sample,
+                          [(pubs[kind][1], data) for kind, data in samples], t)
+        if published is None:
+            self._unpublished, self._unpublished_of = set(), None
+        elif published is not self._unpublished_of:
+            self._unpublished, self._unpublished_of = set(pubs).difference(published), published
+        if self._markers is not None and (recording or 'markers' in self._listened):
+            # Serialised once: the subscribers and the recording get the same bytes.
+            data = self._marker_bytes(t)
+            if 'markers' in self._listened:
+                self._markers_publish(data)
+            self._record(self._pubs['markers'].topic_name, data, t)
 
     def _publish_late(self):
         """While paused: give a subscriber that appeared the sample its topic skipped."""
         late = {kind for kind in self._unpublished if self._pubs[kind].get_subscription_count()}
         if late:
             self._unpublished -= late
+            self._unpublished_of = None
             t = self.session.time_ns
             for kind, data in self._builder.serialize(
                     t, self._columns, self.session.contact_wrenches_w, self._robots, late):
                 self._sample_pubs[kind][0](data)
 
-    def _marker_array(self, t):
-        """Every body at its pose, the robots' links in their frames, the last contacts."""
-        # The poses exactly as the pose topics carry them (the sample builders' values).
-        x = self._columns
-        values = [b.column_values(x[:, i]) for i, b in enumerate(self._builder.bodies)]
-        # (N, 3) and (N, 4) also for N = 0 (robots over a ground, no free bodies)
-        bodies = self._markers.array(np.reshape([v[0] for v in values], (len(values), 3)),
-                                     np.reshape([v[1] for v in values], (len(values), 4)), t,
-                                     normalise=False)
+    def _marker_bytes(self, t):
+        """Return the ``markers`` CDR bytes: the bodies at their poses, the links, the contacts."""
+        # The poses exactly as the pose topics carry them (the sample builder's values).
+        positions, quats = self._builder.poses_wxyz(self._columns)
         contacts = self.session.simulator.contacts
         if len(contacts):
             last = contacts.stage == contacts.stage.max()
             contacts = type(contacts)(*(getattr(contacts, f.name)[last]
                                         for f in dataclasses.fields(contacts)))
         # Lines of 1 cm per N: the last stage's impulse over the step.
-        shown = markers.contact_markers(contacts, self.config.world_frame, t,
-                                        0.01 / (self.config.timestep_ns * 1e-9))
-        return MarkerArray(markers=list(bodies.markers) + self._link_markers.stamped(t)
-                           + list(shown.markers))
+        return self._markers_cdr.serialize(
+            t, self._markers.poses(positions, quats, normalise=False), markers.contact_points(
+                contacts, 0.01 / (self.config.timestep_ns * 1e-9)))
 
     def _publish_diagnostics(self):
         s = self.session

@@ -32,6 +32,7 @@ from rbd_ros.core import numba_target, RbdError
 from rbd_ros.ros import endpoints
 from rbd_ros.ros import participant
 from rbd_ros.ros.node import PAST_SLOW_START_UP, RigidBodyNode, say
+from rbd_ros.ros.wakeups import QuickLook
 from rbd_ros.sim import limits
 import rclpy
 from rclpy.executors import ExternalShutdownException, ShutdownException
@@ -72,18 +73,22 @@ def _init_rclpy(args):
     return f'bad --ros-args: {text}'
 
 
-def _serve(executor, node):
+def _serve(executor, node, look):
     """
     One wake-up of the spin loop: one ready callback (or a wait for one), then the steps due.
 
     What ``executor.spin_once`` does, with the wait timed apart from the callback: the cost of
     a wake-up is the wait set's, not the callback's (a callback that takes long, or an input
-    followed by a tick, would otherwise grow the tick budget, and with it the next wait).
+    followed by a tick, would otherwise grow the tick budget, and with it the next wait). The
+    wait is ``look``'s (a :class:`rbd_ros.ros.wakeups.QuickLook`); the executor is asked only
+    when it finds something ready.
     """
     timeout_s = node.seconds_to_next_step()
     start_ns = time.monotonic_ns()
+    handler = None
     try:
-        handler, _, _ = executor.wait_for_ready_callbacks(timeout_sec=timeout_s)
+        if look.anything_ready(int(timeout_s * 1e9)):
+            handler, _, _ = executor.wait_for_ready_callbacks(timeout_sec=0)
     except (TimeoutException, ShutdownException):
         handler = None
     if timeout_s == 0:  # no waiting in it: what a wake-up costs
@@ -151,9 +156,10 @@ def main(args=None):
     # the loop waits until the next step is due, or a message or request comes, and then ticks.
     executor = SingleThreadedExecutor()
     executor.add_node(node)
+    look = QuickLook(node)
     try:
         while rclpy.ok() and not node.done and not stop:
-            _serve(executor, node)
+            _serve(executor, node, look)
     except ExternalShutdownException:
         pass
     except Exception as exc:  # out of a callback or a step: recorded, then exit 1

@@ -289,6 +289,9 @@ class WorldInputs:
         self._route = {spec.name: i for i, body in enumerate(bodies)
                        for spec in body.wrench_inputs}
         self.unknown = 0  # wrenches on a name that is no body's input
+        # The bodies with a wrench pending or held, the only ones a step start looks at (a
+        # world of 1,000 bodies paid ~0.5 ms a call looking at all of them).
+        self._active = set()
 
     @property
     def received_total(self):
@@ -327,25 +330,36 @@ class WorldInputs:
             self.unknown += 1
             raise WrenchRejected('unknown_input', f'input {input_name!r}: not a wrench input '
                                  f'(inputs: {", ".join(self._route)})')
-        return self._bodies[index].submit(input_name, frame_id, force, torque, tag)
+        wrench = self._bodies[index].submit(input_name, frame_id, force, torque, tag)
+        self._active.add(index)
+        return wrench
+
+    def _idle(self, index):
+        """Forget body ``index`` as active once it holds and awaits nothing."""
+        body = self._bodies[index]
+        if not body.has_pending and not body.loads():
+            self._active.discard(index)
 
     def apply_pending(self, time_ns):
         """Expire and apply on every body; return the events in body order, then input order."""
         events = []
-        for body in self._bodies:
-            events.extend(body.apply_pending(time_ns))
+        for index in sorted(self._active):
+            events.extend(self._bodies[index].apply_pending(time_ns))
+            self._idle(index)
         return events
 
     def expire(self, time_ns):
         """Drop expired held wrenches on every body; True if any did."""
         changed = False
-        for body in self._bodies:
-            changed = body.expire(time_ns) or changed
+        for index in sorted(self._active):
+            changed = self._bodies[index].expire(time_ns) or changed
+            self._idle(index)
         return changed
 
     def next_expiry_ns(self):
         """Sim time at which the next held wrench of any body expires, or None."""
-        times = [t for t in (b.next_expiry_ns() for b in self._bodies) if t is not None]
+        times = [t for t in (self._bodies[i].next_expiry_ns() for i in self._active)
+                 if t is not None]
         return min(times) if times else None
 
     def body_loads(self, index):
@@ -354,9 +368,13 @@ class WorldInputs:
 
     def release_held(self):
         """Drop every body's held wrenches, counted (``'non_finite_step'``); their names."""
-        return [name for body in self._bodies for name in body.release_held()]
+        names = [name for body in self._bodies for name in body.release_held()]
+        for index in list(self._active):
+            self._idle(index)
+        return names
 
     def clear(self):
         """Drop pending and held wrenches of every body (counters are kept)."""
         for body in self._bodies:
             body.clear()
+        self._active.clear()

@@ -526,3 +526,50 @@ def test_an_mcap_without_a_public_writer_flush_is_named(tmp_path, monkeypatch):
     with pytest.raises(RecordingError, match=r'mcap 1\.\d+\.\d+: .*no public flush\(\)') as info:
         BagWriter(str(tmp_path / 'b'))
     assert '\n' not in str(info.value) and not (tmp_path / 'b').exists()
+
+
+@pytest.mark.parametrize('internals', [True, False])
+def test_write_many_writes_the_bytes_of_write_one_by_one(tmp_path, monkeypatch, internals):
+    """
+    A sample written at once (write_many) makes the same file as its messages one by one.
+
+    Chunks end on bytes inside a sample (chunk_bytes 300: a few messages a chunk) and on sim
+    time between samples (chunk_duration 25 ms: every third sample), so the split of a sample
+    across chunks is compared too; without mcap's internals write_many falls back to write.
+    """
+    if not internals:
+        monkeypatch.setattr(recording, '_mcap_internals', lambda writer: None)
+    topics = [('/a/pose', 'geometry_msgs/msg/PoseStamped'),
+              ('/poses', 'geometry_msgs/msg/PoseArray'), ('/clock', 'rosgraph_msgs/msg/Clock')]
+    samples = [(t * 10_000_000, [(topic, bytes([t, i]) * (7 + 13 * i + t))
+                                 for i, (topic, _) in enumerate(topics * 2)])
+               for t in range(12)]
+    files = []
+    for name, many in (('one', False), ('many', True)):
+        writer = BagWriter(str(tmp_path / name / 'bag'), config=CONFIG, chunk_bytes=300,
+                           chunk_duration_ns=25_000_000)
+        for topic, type_name in topics:
+            writer.add_topic(topic, type_name)
+        for time_ns, messages in samples:
+            if many:
+                writer.write_many(messages, time_ns)
+            else:
+                for topic, data in messages:
+                    writer.write(topic, data, time_ns)
+        writer.close()
+        files.append([(tmp_path / name / 'bag' / 'bag_0.mcap').read_bytes(),
+                      (tmp_path / name / 'bag' / 'metadata.yaml').read_text()])
+    assert files[0] == files[1]
+    got = [(m.topic, m.log_time_ns, m.data) for m in open_bag(str(tmp_path / 'many' / 'bag'))
+           .messages()]
+    assert got == [(topic, time_ns, data) for time_ns, messages in samples
+                   for topic, data in messages]
+
+
+def test_write_many_refuses_an_unknown_topic_before_writing(tmp_path):
+    writer = BagWriter(str(tmp_path / 'b'))
+    writer.add_topic('/a', 'rosgraph_msgs/msg/Clock')
+    with pytest.raises(RecordingError, match="'/z' was not added"):
+        writer.write_many([('/a', b'\x00' * 12), ('/z', b'')], 0)
+    writer.close()
+    assert open_bag(str(tmp_path / 'b')).message_count == 0

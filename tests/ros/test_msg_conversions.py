@@ -177,6 +177,47 @@ def test_a_sample_is_the_rclpy_serialisation_of_its_messages(params):
             assert repr(deserialize_message(data[kind], type(msg))) == repr(msg), kind
 
 
+@pytest.mark.parametrize('twist_frame, ground', [('world', True), ('body', False)])
+def test_a_world_sample_is_each_body_s_scalar_sample_bit_for_bit(twist_frame, ground):
+    """
+    A world's per-body messages, all bodies at once (BodiesBytes), are each body's own.
+
+    Bit for bit against :meth:`BodyOutputs.serialize` of :meth:`BodyOutputs.list_values`
+    (the scalar path, the reference bags' arithmetic); names of every length mod 8 move the
+    padding; random states, some quaternions not unit to round-off (the scalar path's
+    normalising branch); ``poses`` and ``/tf`` decode to those values.
+    """
+    names = ['b' * (1 + n % 9) + str(n) for n in range(23)]
+    params = {'body_names': names, 'twist_frame': twist_frame, 'ground.enabled': ground}
+    for i, name in enumerate(names):
+        params[f'bodies.{name}.initial_position'] = [float(i), 0.0, 1.0]
+    config = NodeConfig.from_parameters(params)
+    sample = outputs.SampleBuilder(config)
+    rng = np.random.default_rng(7)
+    for time_ns in (0, 1_999_999_999, 12_345_678_901):
+        columns = rng.normal(size=(13, len(names))) * 3.0
+        columns[3:7] /= np.linalg.norm(columns[3:7], axis=0)
+        columns[3:7, ::5] *= 1.5  # not unit: normalised by the scalar path
+        wrenches = rng.normal(size=(len(names), 6))
+        data = dict(sample.serialize(time_ns, columns, wrenches if config.contact else None))
+        assert list(data) == list(sample.kinds)
+        for i, (name, body) in enumerate(zip(names, sample.bodies)):
+            values = body.list_values(columns[:, i].tolist())
+            wrench = (wrenches[i, :3].tolist(), wrenches[i, 3:].tolist())
+            for kind, expected in body.serialize(time_ns, values, wrench):
+                assert data[f'{name}/{kind}'] == expected, (name, kind)
+            poses = deserialize_message(data['poses'], outputs.type_of('poses')).poses[i]
+            transform = deserialize_message(data['tf'], outputs.type_of('tf')).transforms[i]
+            (px, py, pz), (qw, qx, qy, qz) = values[:2]
+            for got in (poses.position, transform.transform.translation):
+                assert (got.x, got.y, got.z) == (px, py, pz)
+            for got in (poses.orientation, transform.transform.rotation):
+                assert (got.x, got.y, got.z, got.w) == (qx, qy, qz, qw)
+        wanted = {f'{names[3]}/odom', 'poses'}
+        assert dict(sample.serialize(time_ns, columns, wrenches if config.contact else None,
+                                     wanted=wanted)) == {k: data[k] for k in wanted}
+
+
 def _two_link_urdf(root, joint):
     """Return a floating two-link robot's URDF, its root link and joint named as given."""
     return f"""<robot name="r">
