@@ -216,6 +216,25 @@ def _crossings(t, q, qd, upward):
     return out
 
 
+def _hermite_at(states, t):
+    """
+    Return the joint names and positions at ``t`` (ns) of ``{stamp: (names, q, q̇)}``.
+
+    The sample at ``t``, or the cubic Hermite through the positions and rates of the two
+    samples around it.
+    """
+    if t in states:
+        return states[t][0], states[t][1]
+    before = max(s for s in states if s < t)
+    after = min(s for s in states if s > t)
+    (names, q0, v0), (_, q1, v1) = states[before], states[after]
+    dt = (after - before) * 1e-9
+    s = (t - before) / (after - before)
+    h00, h10 = 2 * s ** 3 - 3 * s ** 2 + 1, s ** 3 - 2 * s ** 2 + s
+    h01, h11 = -2 * s ** 3 + 3 * s ** 2, s ** 3 - s ** 2
+    return names, h00 * q0 + h10 * dt * v0 + h01 * q1 + h11 * dt * v1
+
+
 def test_the_robot_pendulum_bag_swings_with_the_closed_form_period():
     """
     The URDF pendulum's period and pivot force, read back from the bag alone.
@@ -314,7 +333,7 @@ def test_the_door_bag_is_pushed_shut_onto_its_post():
     # (measured 1.6e-13 rad/s).
     # On the post the contact's depth settles to round-off (its sweeps' tolerance, 5 h x
     # 1e-12 m/s: 5e-15 m): 1e-12 m at the door's free edge (b = 0.8 m from the hinge) is
-    # 1.25e-12 rad. Measured 2.6e-14 rad.
+    # 1.25e-12 rad. Measured 1.3e-13 rad.
     print(f'door: rate off the closed form by {swing:.3g} rad/s, off the post by {rest:.3g} rad')
     assert swing <= 1e-12 and rest <= 1e-12 / b, (swing, rest)
     assert states[0].position[0] == 0.0 and rate(1_000_000_000) < -1.0
@@ -342,10 +361,13 @@ def test_the_arm_trajectory_bag_follows_its_waypoints_and_knocks_the_box_off():
         stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
         states[stamp] = (list(msg.name), np.array(msg.position), np.array(msg.velocity))
     (t1, first), (t2, last) = points
-    order, q, _ = states[effect + t1]
+    order, q = _hermite_at(states, effect + t1)
     # The arm starts at rest on the trajectory; the position target follows the cubic with its
-    # rate, so the joints lag it by O(h²) (2.3e-7 rad here): 1e-6 rad fails a waypoint reached
-    # a step late (~2e-3 rad at these rates).
+    # rate, so the joints lag it by O(h²) (1.2e-7 rad here): 1e-6 rad fails a waypoint reached
+    # a step late (~2e-3 rad at these rates).  The trajectory takes effect at the step the
+    # node takes it (0.202 s in this recording), so its waypoint may fall between two
+    # samples: the cubic through their positions and rates errs by at most
+    # Δt⁴ max|q⁗| / 384, ~1e-8 rad for 10 ms at these rates.
     assert np.abs(q - [first[n] for n in order]).max() <= 1e-6, q
     # After the sweep, held: the exact critically damped target has no steady-state error
     # under gravity. The sweep's disturbance decays as (1 + t/τ) e^(-t/τ) (τ = 0.05 s: 7.4

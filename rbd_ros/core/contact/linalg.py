@@ -108,7 +108,8 @@ SCR_INV_LOW = SCR_LOW + PATCH_POINTS  # its inverse
 SCR_U = SCR_INV_LOW + PATCH_POINTS  # a null vector (one row)
 SCR_SHIFTED = SCR_U + 1             # K_AA + s u uᵀ
 SCR_BASE = SCR_SHIFTED + PATCH_POINTS  # the normal impulses a collision visit starts from
-SCR_ROWS = SCR_BASE + 1
+SCR_FULL = SCR_BASE + 1             # (K)⁺ of every point, kept through one patch's visit
+SCR_ROWS = SCR_FULL + PATCH_POINTS
 
 
 @_jit

@@ -23,7 +23,7 @@ import math
 
 from rbd_ros.core.contact.friction import _friction, _friction_points, _lambda_sum
 from rbd_ros.core.contact.linalg import (_pinv_small, SCR_ACTIVE, SCR_BASE, SCR_BEST, SCR_FREE,
-                                         SCR_K, SCR_LAM, SCR_PINV, SCR_RHS)
+                                         SCR_FULL, SCR_K, SCR_LAM, SCR_PINV, SCR_RHS)
 from rbd_ros.core.contact.response import (_apply, _cross_response, _flat_response,
                                            _point_velocity, _record)
 from rbd_ros.core.contact.rows import (_inl, _raw, C_BIAS, C_LAMBDA, C_NORMAL, C_POINT, C_RA, C_RB,
@@ -33,9 +33,19 @@ from rbd_ros.core.contact.rows import (_inl, _raw, C_BIAS, C_LAMBDA, C_NORMAL, C
 
 
 @_raw
-def _solve_small(scr, m):
-    """Set SCR_LAM to the least-norm solution of ``K[A, A] λ = rhs[A]`` (others 0)."""
-    _pinv_small(scr, m)
+def _solve_small(scr, m, kept):
+    """
+    Set SCR_LAM to the least-norm solution of ``K[A, A] λ = rhs[A]`` (others 0).
+
+    ``kept``: every point is active and SCR_FULL holds ``K⁺`` already (see
+    :func:`_normal_block`): it is copied, not computed again (the same bits).
+    """
+    if kept:
+        for r in range(m):
+            for c in range(m):
+                scr[SCR_PINV + r, c] = scr[SCR_FULL + r, c]
+    else:
+        _pinv_small(scr, m)
     for r in range(m):
         acc = 0.0
         for c in range(m):
@@ -108,9 +118,9 @@ def _normal_velocities(scr, contacts, vel, a, b, dyn_b, s0, m):
 
 @_inl
 def _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b, dyn_b,
-                  wa, wb, wrench, scr, free_known, fresh):
+                  wa, wb, wrench, scr, free_known, fresh, known):
     """
-    Set the normal impulses of one patch exactly; return the largest Δu (m/s).
+    Set the normal impulses of one patch exactly; return the largest Δu (m/s) and ``known``.
 
     The complementarity problem ``u_n >= bias, λ >= 0, λ (u_n − bias) = 0`` of its (at most
     four) points: the least-norm solution with every point active first (its response ``K``
@@ -118,6 +128,12 @@ def _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, 
     is not feasible, every other active set (:func:`_solve_small` for each).  ``fresh``: a
     collision visit (see :func:`solve_patch`): the impulses solved for are added to SCR_BASE,
     the ones the visit started from, instead of replacing them.
+
+    ``known`` says what an earlier call of the same visit left in ``scr`` (``K``, its lever
+    arms, normals and weights being fixed within the visit): 0 nothing, 1 ``K`` of a pair not
+    in the patch row (a body held: shock propagation) in SCR_K, 2 also ``K⁺`` of every point
+    in SCR_FULL.  Neither is computed again: the same bits, without shock propagation's
+    pseudo-inverses at every one of a visit's friction iterations.
     """
     free_pair = wa == 1.0 and (not dyn_b or wb == 1.0)
     cached = free_pair and patches[q, Q_CACHED] != 0.0
@@ -130,13 +146,13 @@ def _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, 
         scr[SCR_LAM, k] = 0.0
         scr[SCR_BEST, k] = 0.0
     if not held and _idle(scr, contacts, s0, m):
-        return 0.0  # nothing held, nothing to hold
+        return 0.0, known  # nothing held, nothing to hold
     if held and _complementary(scr, contacts, s0, m):
-        return 0.0  # what is held already solves it: keep it (see _complementary)
+        return 0.0, known  # what is held already solves it: keep it (see _complementary)
     if free_pair and not cached:
         cached = _flat_response(patches, q, contacts, s0, m, inv_mass, inv_inertia_w, a, b,
                                 dyn_b, scr)
-    for k in range(m):
+    for k in range(m if cached or known == 0 else 0):
         ck = s0 + k
         nkx = contacts[ck, C_NORMAL]
         nky = contacts[ck, C_NORMAL + 1]
@@ -160,6 +176,8 @@ def _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, 
                         nkx, nky, nkz)
             scr[SCR_K + k, jj] = v
             scr[SCR_K + jj, k] = v
+    if not cached and known == 0:
+        known = 1
     # Velocities without this patch's normal impulses (beyond a visit's base): u0 = u − K λ.
     for k in range(m):
         acc = scr[SCR_FREE, k]
@@ -168,7 +186,7 @@ def _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, 
         scr[SCR_FREE, k] = acc
     if _idle(scr, contacts, s0, m):
         return _apply_normals(scr, SCR_BEST, s0, m, contacts, vel, inv_mass, inv_inertia_w,
-                              a, b, dyn_b, wa, wb, wrench, fresh)
+                              a, b, dyn_b, wa, wb, wrench, fresh), known
     for k in range(m):
         scr[SCR_RHS, k] = contacts[s0 + k, C_BIAS] - scr[SCR_FREE, k]
     if free_pair and not cached:
@@ -193,7 +211,7 @@ def _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, 
                 feasible = False
         if feasible:
             return _apply_normals(scr, SCR_LAM, s0, m, contacts, vel, inv_mass,
-                                  inv_inertia_w, a, b, dyn_b, wa, wb, wrench, fresh)
+                                  inv_inertia_w, a, b, dyn_b, wa, wb, wrench, fresh), known
     # Every active set in a fixed order; of the feasible ones (λ >= 0 on it, u_n >= bias off
     # it) the one with the least |λ| wins.  Where K is singular (coplanar points) several
     # are feasible with the same velocities; the least-norm one spreads the load evenly
@@ -206,10 +224,17 @@ def _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, 
     # solution has the same velocities, so it is the least-norm one of them all).  The empty
     # set (no impulse: nothing approaches) is tried too.
     full = (1 << m) - 1
+    last = -1  # the set SCR_ACTIVE, SCR_PINV and SCR_LAM hold
     for mask in range(full, -1, -1):
         for k in range(m):
             scr[SCR_ACTIVE, k] = 1.0 if (mask >> k & 1) == 1 else 0.0
-        _solve_small(scr, m)
+        _solve_small(scr, m, mask == full and known == 2 and not cached)
+        last = mask
+        if mask == full and known == 1 and not cached:
+            for r in range(m):
+                for c in range(m):
+                    scr[SCR_FULL + r, c] = scr[SCR_PINV + r, c]
+            known = 2
         ok = True
         norm = 0.0
         worst = 0.0
@@ -238,13 +263,14 @@ def _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, 
                 break
     if chosen < 0:
         chosen = closest   # round-off left none feasible: the nearest one, clamped below
-    for k in range(m):
-        scr[SCR_ACTIVE, k] = 1.0 if (chosen >> k & 1) == 1 else 0.0
-    _solve_small(scr, m)
+    if chosen != last:     # (else its λ is in SCR_LAM already, the same bits)
+        for k in range(m):
+            scr[SCR_ACTIVE, k] = 1.0 if (chosen >> k & 1) == 1 else 0.0
+        _solve_small(scr, m, chosen == full and known == 2 and not cached)
     for k in range(m):
         scr[SCR_BEST, k] = max(scr[SCR_LAM, k], 0.0)
     return _apply_normals(scr, SCR_BEST, s0, m, contacts, vel, inv_mass, inv_inertia_w, a, b,
-                          dyn_b, wa, wb, wrench, fresh)
+                          dyn_b, wa, wb, wrench, fresh), known
 
 
 @_raw
@@ -335,13 +361,15 @@ def solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x,
     for k in range(m):
         scr[SCR_BASE, k] = contacts[s0 + k, C_LAMBDA] if fresh else 0.0
     biggest = 0.0
+    known = 0  # what the normal block has kept in scr for the visit's next rounds
     for it in range(PATCH_ITERATIONS):
         # Normal impulses: the patch's small LCP solved exactly (see _normal_block), for the
         # velocities as they are; another round is needed only if friction then changes them
         # by more than the tolerance (solving again would give the same impulses).
-        biggest = max(biggest, _normal_block(patches, q, s0, m, contacts, vel, inv_mass,
-                                             inv_inertia_w, a, b, dyn_b, wa, wb, wrench, scr,
-                                             free_known and it == 0, fresh))
+        change, known = _normal_block(patches, q, s0, m, contacts, vel, inv_mass, inv_inertia_w,
+                                      a, b, dyn_b, wa, wb, wrench, scr, free_known and it == 0,
+                                      fresh, known)
+        biggest = max(biggest, change)
         slip = 0.0
         if per_point:
             if friction and mu > 0.0:

@@ -40,10 +40,10 @@ from rbd_ros.core.contact.patch import (_collision_targets, _held, _idle, _norma
                                         solve_patch)
 from rbd_ros.core.contact.response import _apply, _point_velocity, _record
 from rbd_ros.core.contact.rows import (_inl, _jit, _raw, C_BIAS, C_FRICTION, C_LAMBDA, C_NORMAL,
-                                       C_RA, C_RB, Q_A, Q_B, Q_COUNT, Q_EPS, Q_FT, Q_MU, Q_START,
-                                       ST_COLD, ST_PATCHES, ST_STAGES, ST_SWEEPS, SWEEP_TOL_M_S,
-                                       SWEEPS, VELOCITY_TOL_M_S, W_B, W_COUNT, W_POINTS, W_SLOTS,
-                                       W_STRIDE, WARM_COS_MIN,
+                                       C_RA, C_RB, C_TK_SET, Q_A, Q_B, Q_CACHED, Q_COUNT, Q_EPS,
+                                       Q_FT, Q_MU, Q_START, ST_COLD, ST_PATCHES, ST_STAGES,
+                                       ST_SWEEPS, SWEEP_TOL_M_S, SWEEPS, VELOCITY_TOL_M_S, W_B,
+                                       W_COUNT, W_POINTS, W_SLOTS, W_STRIDE, WARM_COS_MIN,
                                        WARM_LEFT_MAX_M_S, WARM_MATCH_M)
 from rbd_ros.core.layout import P_GRAVITY
 
@@ -177,6 +177,15 @@ def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrenc
         g = math.sqrt(gx * gx + gy * gy + gz * gz)
         if not g > 0.0:
             continue
+        s0 = int(patches[q, Q_START])
+        m = int(patches[q, Q_COUNT])
+        # A patch all of whose points are beside its bodies (neighbours side by side) takes
+        # nothing (each point would be passed over below): not looked up.
+        upright = False
+        for k in range(m):
+            upright = upright or not _beside(contacts, s0 + k, gx, gy, gz, g)
+        if not upright:
+            continue
         row = -1
         for j in range(warm_n[slot, a]):
             if warm[slot, a, j, W_B] == b:
@@ -185,8 +194,6 @@ def _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrenc
         if row < 0:
             continue
         dyn_b = b < n_bodies
-        s0 = int(patches[q, Q_START])
-        m = int(patches[q, Q_COUNT])
         old = int(warm[slot, a, row, W_COUNT])
         # Beside a neighbour, the matched points take the mean of their kept impulses
         # (C_LAMBDA, 0 from the narrow phase, holds each point's own until then): the
@@ -504,36 +511,57 @@ def _scatter(patches, rows, group):
             patches[q, k] = group[j, k]
 
 
+#: The fields a group's solve writes (see _group_rows): of a point, the target through its
+#: friction (C_BIAS, C_LAMBDA, C_PHI, C_FRICTION), then C_TK_SET; of a patch, Q_FT through
+#: Q_CACHED (its friction, couple, normal and whether Q_K and Q_PINV hold its response).
+_SAVED_C = C_FRICTION + 3 - C_BIAS
+_SAVED_Q = Q_CACHED + 1 - Q_FT
+
+
 @_raw
 def _group_rows(patches, contacts, vel, wrench, n_bodies, saved_c, saved_b, restore):
     """
     Copy a group's rows into ``saved_c``, ``saved_b``, or (``restore``) back from them.
 
-    The rows: its patches' points in ``contacts`` (``saved_c``, in patch order), the
-    velocities and wrenches of each patch's bodies (``saved_b`` rows ``2 q`` and ``2 q + 1``:
-    ``vel`` then ``wrench``).  A body of several patches is saved as often, the same values.
+    The rows: what its solve writes of its patches' points in ``contacts`` (``saved_c``, in
+    patch order: the fields from C_BIAS through C_FRICTION, then C_TK_SET; the tangential
+    responses C_TK are computed again once C_TK_SET is 0, the same bits), of its patches
+    (``saved_b`` row ``q``'s columns 24 on: Q_FT through Q_CACHED; Q_K and Q_PINV are
+    computed again once Q_CACHED is 0), and the velocities and wrenches of each patch's
+    bodies (``saved_b`` row ``q``: ``vel`` then ``wrench`` of A, then of B).  A body of
+    several patches is saved as often, the same values.  The rest of the rows no solve
+    writes (a copy of the whole rows was ~12 % of a step of 1000 boxes side by side).
     """
     r = 0
     for q in range(patches.shape[0]):
         s0 = int(patches[q, Q_START])
         for c in range(s0, s0 + int(patches[q, Q_COUNT])):
-            for k in range(contacts.shape[1]):
+            for k in range(_SAVED_C):
                 if restore:
-                    contacts[c, k] = saved_c[r, k]
+                    contacts[c, C_BIAS + k] = saved_c[r, k]
                 else:
-                    saved_c[r, k] = contacts[c, k]
+                    saved_c[r, k] = contacts[c, C_BIAS + k]
+            if restore:
+                contacts[c, C_TK_SET] = saved_c[r, _SAVED_C]
+            else:
+                saved_c[r, _SAVED_C] = contacts[c, C_TK_SET]
             r += 1
+        for k in range(_SAVED_Q):
+            if restore:
+                patches[q, Q_FT + k] = saved_b[q, 24 + k]
+            else:
+                saved_b[q, 24 + k] = patches[q, Q_FT + k]
         for side in range(2):
             i = int(patches[q, Q_A]) if side == 0 else int(patches[q, Q_B])
             if i >= n_bodies:
                 continue
             for k in range(6):
                 if restore:
-                    vel[i, k] = saved_b[2 * q + side, k]
-                    wrench[i, k] = saved_b[2 * q + side, 6 + k]
+                    vel[i, k] = saved_b[q, 12 * side + k]
+                    wrench[i, k] = saved_b[q, 12 * side + 6 + k]
                 else:
-                    saved_b[2 * q + side, k] = vel[i, k]
-                    saved_b[2 * q + side, 6 + k] = wrench[i, k]
+                    saved_b[q, 12 * side + k] = vel[i, k]
+                    saved_b[q, 12 * side + 6 + k] = wrench[i, k]
 
 
 @_jit
@@ -560,10 +588,9 @@ def _solve_group(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, w
         n_rows = 0
         for q in range(patches.shape[0]):
             n_rows += int(patches[q, Q_COUNT])
-        saved_c = np.empty((n_rows, contacts.shape[1]))
-        saved_b = np.empty((2 * patches.shape[0], 12))
-        saved_p = patches.copy()
-        _group_rows(saved_p, contacts, vel, wrench, n_bodies, saved_c, saved_b, False)
+        saved_c = np.empty((n_rows, _SAVED_C + 1))
+        saved_b = np.empty((patches.shape[0], 24 + _SAVED_Q))
+        _group_rows(patches, contacts, vel, wrench, n_bodies, saved_c, saved_b, False)
         started = _warm_start(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, wrench,
                               rot, warm, warm_n, slot, prm, sideways)
         swept = _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, wrench,
@@ -575,8 +602,7 @@ def _solve_group(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x, w
         # (A group no point of which took a kept impulse was solved from zero already: its
         # sweeps were those of the retry, bit for bit.)
         if left > WARM_LEFT_MAX_M_S and started > 0:
-            _group_rows(saved_p, contacts, vel, wrench, n_bodies, saved_c, saved_b, True)
-            patches[:] = saved_p
+            _group_rows(patches, contacts, vel, wrench, n_bodies, saved_c, saved_b, True)
             swept += _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n_bodies, x,
                              wrench, scr, coupled, False, before)
             stats[slot, ST_COLD] += 1.0
