@@ -12,7 +12,18 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The articulated step's active rows: limits, motors and Coulomb friction held or let go."""
+"""
+The articulated step's active rows: which limit, motor and friction rows are held.
+
+A limit row is held at its bound and released when its multiplier would pull
+(:func:`set_limit`, ``_release``); a position or velocity motor's row is on unless a held
+limit pauses it, and switched off when its multiplier exceeds the effort limit (``_saturate``);
+a stuck joint's friction row is held until its multiplier exceeds the friction, and a sliding
+joint sticks when its rate reaches zero (``_friction_*``). Each change rebuilds the joint's
+list of rows (:func:`refresh_rows`). Also the readouts of the motors' and frictions' efforts.
+Called by the dynamics (:mod:`.dynamics`, at each evaluation) and by the events
+(:mod:`.events`); a row's rate comes from :mod:`.rows`.
+"""
 
 from rbd_ros.core import jitcache
 from rbd_ros.core.joints.arrays import (
@@ -80,7 +91,7 @@ def _saturate(model, work):
     """
     Switch off every motor row whose multiplier exceeds the effort limit; return how many.
 
-    A saturated motor pushes with ``±effort_limit`` instead (see :func:`_motor_forces`).
+    A saturated motor pushes with ``±effort_limit`` instead (see :func:`~.dynamics._motor_forces`).
     """
     lam, motor = work.lam, work.motor
     changed = 0
@@ -200,8 +211,8 @@ def _friction_stops(model, x, work):
 
     Its friction row is held, so the velocity projection that follows stops it. Each sliding
     joint's rate here is kept (``F_RATE_END``) and a joint stopped here is marked
-    (``F_STOPPED``): :func:`step` locates a stop that crossed zero inside the step, so what
-    the projection takes out is at most :data:`STOP_RATE_TOL`.
+    (``F_STOPPED``): :func:`~.kernels.step` locates a stop that crossed zero inside the step, so
+    what the projection takes out is at most :data:`~.events.STOP_RATE_TOL`.
     """
     jint, fric = model.jint, work.fric
     for j in range(jint.shape[0]):

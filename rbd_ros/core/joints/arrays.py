@@ -12,7 +12,17 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The articulated step's records: the model and work arrays, their columns and codes."""
+"""
+The articulated step's records: the arrays that describe the system and its work buffers.
+
+:data:`ArtModel` (constant after construction) and :data:`ArtWork` (preallocated: nothing is
+allocated inside a step), and the named columns of their arrays (``prm``, ``jint``, ``jprm``,
+``jlim``, ``work.bd``, ``work.motor``, ``work.fric``, ``work.stats``), the joint kind and row
+kind codes and the motor modes. Every stage reads these names; nothing here is compiled (numba
+folds the module-level ``int`` constants into the kernels as literals). The step's stages, in
+order: :mod:`.rows`, :mod:`.solve`, :mod:`.projection`, :mod:`.active_rows`, :mod:`.dynamics`,
+:mod:`.events`, and the driver :mod:`rbd_ros.core.joints.kernels`.
+"""
 
 from collections import namedtuple
 
@@ -24,7 +34,8 @@ KIND_CODES = {'fixed': 0, 'revolute': 1, 'continuous': 2, 'prismatic': 3, 'spher
 ROW_LIN = 0
 ROW_ANG = 1
 #: A limit row: ``C = q - bound`` (``q`` the revolute angle or prismatic offset on ``axis_b``,
-#: or a spherical joint's angle off ``axis_b``, bounded by its cone; :func:`limit_coordinate`).
+#: or a spherical joint's angle off ``axis_b``, bounded by its cone;
+#: :func:`~.rows.limit_coordinate`).
 ROW_LIMIT = 2
 #: A motor row: the joint rate held at a velocity target, or the critically damped
 #: acceleration toward a position target; absent from the position projection. A planar
@@ -140,10 +151,10 @@ L_HAS_UPPER = 3
 # stats: 0 max |C| after the last projection, 1 projection iterations (max), 2 failure flag,
 # 3 number of stops in the last call, 4 joint of the last stop, 5 the speed it removed
 # (rad/s or m/s, signed), 6 its time from the start of the call (s), 7 the steps of the last
-# call whose event passes ran out (their rest taken by :func:`_clamped_rest`), 8 the sim time
-# (s) of the current sub-step's start, 9 the time (s) of the state being evaluated (an RK4
-# stage's), 10 the steps of the last call split into sub-steps (:func:`substeps`), 11 the most
-# sub-steps one step of the last call took (1 when none was split)
+# call whose event passes ran out (their rest taken by :func:`~.events._clamped_rest`), 8 the
+# sim time (s) of the current sub-step's start, 9 the time (s) of the state being evaluated (an
+# RK4 stage's), 10 the steps of the last call split into sub-steps (:func:`~.kernels.substeps`),
+# 11 the most sub-steps one step of the last call took (1 when none was split)
 S_ERR = 0
 S_ITER = 1
 S_FAIL = 2

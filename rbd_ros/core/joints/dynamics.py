@@ -12,7 +12,18 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The articulated step's dynamics: the forces, accelerations and one RK4 sub-step."""
+"""
+The articulated step's dynamics: forces, accelerations, limits decided, one RK4 sub-step.
+
+``_motor_forces`` is the one sum of each joint's applied force (effort or saturated motor,
+damping, sliding friction); ``_accelerations`` and ``_dynamics_solve`` give ``ẋ`` and ``λ`` at
+a state through :mod:`.rows` and :mod:`.solve`; ``_dynamics_at`` (and
+:func:`refresh_dynamics`) decides the active rows (:mod:`.active_rows`) until none changes;
+``_rk4`` takes one classical RK4 sub-step and the projections (:mod:`.projection`), and
+``_end_of_step`` what follows them (velocity projection, next ``ẋ``). :func:`initialize`
+projects a start state. The events inside a step (:mod:`.events`) and the driver
+(:mod:`rbd_ros.core.joints.kernels`) call these.
+"""
 
 import math
 

@@ -12,7 +12,16 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The articulated step's events inside a step: limit crossings and friction stops."""
+"""
+The articulated step's events inside a sub-step: limit crossings and friction stops.
+
+``_crossing`` finds the free limit crossed deepest after a sub-step; ``_locate`` finds when an
+event happened by the Illinois method, each trial a full RK4 sub-step (:mod:`.dynamics`) from
+the start kept by ``_save_start`` (and put back by ``_restore``); ``_hold_at_bounds`` holds
+the other limits met in the same impact; ``_clamped_rest`` takes the rest of a step whose
+event passes ran out. The driver (:func:`rbd_ros.core.joints.kernels.step`) calls them; the
+rows held come from :mod:`.active_rows`.
+"""
 
 from rbd_ros.core import jitcache
 from rbd_ros.core.joints.active_rows import refresh_rows, set_limit

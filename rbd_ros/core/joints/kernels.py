@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-The articulated step's numba kernels: constraint rows, the direct solve, RK4 and projection.
+The articulated step's entry: the step driver, with the method and a map of its stages.
 
 Bodies are in maximal coordinates, state row ``x[b] = (p_w, q_wb, v_w, ω_b)`` (13 floats). The
 constrained accelerations solve the saddle-point system
@@ -25,8 +25,9 @@ wrench on the bodies is ``Jᵀ λ``, equal and opposite by construction of each 
 gravity, the body damping as a force (``-m c_v v``, ``-c_ω R I_b ω_b``), the gyroscopic
 torque ``-ω × I_w ω`` and each joint's applied force along its coordinate (an effort or
 saturated motor, the joint damping ``-d q̇`` and a sliding joint's friction ``-f s``, summed in
-:func:`_motor_forces`). A stuck joint's Coulomb friction is a row (:data:`ROW_FRICTION`) whose
-multiplier is bounded by the friction, decided at step boundaries. Two solvers, both direct:
+:func:`~.dynamics._motor_forces`). A stuck joint's Coulomb friction is a row
+(:data:`ROW_FRICTION`) whose multiplier is bounded by the friction, decided at step boundaries.
+Two solvers, both direct (:mod:`.solve`):
 
 - **tree** (Baraff 1996): the system's graph with one node a body (6 rows) and one a joint
   (its rows) is a tree when no loop closes; it is factored leaves first by block LDLᵀ, one
@@ -35,8 +36,8 @@ multiplier is bounded by the friction, decided at step boundaries. Two solvers, 
   negative definite.
 - **dense**: with a loop (a body-joint cycle, or two world joints in one component) the
   reduced system ``J M⁻¹ Jᵀ λ = ...`` is built dense and factored by LDLᵀ; a pivot below
-  :data:`DROP_REL` of its diagonal is a redundant row (a planar four-bar's out-of-plane rows)
-  and its multiplier is set to zero.
+  :data:`~.solve.DROP_REL` of its diagonal is a redundant row (a planar four-bar's
+  out-of-plane rows) and its multiplier is set to zero.
 
 The same factorisation serves the projections: positions by Newton with the mass-weighted
 minimal change (right side ``[0; -C]``), velocities by ``[0; -J u]``.
@@ -45,6 +46,21 @@ No kernel here allocates (every buffer is in :data:`ArtWork`), so all are compil
 numba's reference counting (:func:`rbd_ros.core.jitcache.raw_kernel`, as the contact step's
 loops): each call of a function taking ``model`` and ``work`` (some 40 arrays) otherwise paid
 two atomic updates per array.
+
+The stages, one module each, in the order a step runs them:
+
+- :mod:`.arrays`: the records (:data:`ArtModel`, :data:`ArtWork`), their columns and codes;
+- :mod:`.rows`: body frames and each joint's rows (``C``, ``J``, ``J̇ u``, coordinates);
+- :mod:`.solve`: the factorisation and solves (tree and dense);
+- :mod:`.active_rows`: which limit, motor and friction rows are held;
+- :mod:`.dynamics`: the applied forces, the accelerations, one RK4 sub-step;
+- :mod:`.projection`: positions onto the joints, then velocities;
+- :mod:`.events`: limit crossings and friction stops located inside a sub-step;
+- here: :func:`substeps` (how many sub-steps a step takes) and :func:`step`, the driver.
+
+The simulators (:mod:`rbd_ros.core.joints.simulator`, the contact step's joint stages in
+:mod:`rbd_ros.core.contact`) read the kernels and columns as ``kernels.X``: they are imported
+here for that.
 """
 
 import math
@@ -146,7 +162,7 @@ def step(model, x, work, h, n_steps, tol, max_iter):
     same impact (:func:`_hold_at_bounds`).
     A sliding joint whose rate crosses zero inside a step (Coulomb friction) splits it the same
     way: the time its rate reaches zero is found by the Illinois method to
-    :data:`STOP_RATE_TOL`, the joint sticks there (its friction row held, the velocity
+    :data:`~.events.STOP_RATE_TOL`, the joint sticks there (its friction row held, the velocity
     projection taking out what is left of its rate) and the rest of the step is taken from
     there, stuck or, if its load exceeds its friction, sliding the other way.
     A step has ``2 n_joints + 2 + 2 n_friction`` such passes; one whose events outnumber them

@@ -12,7 +12,15 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The articulated step's projections: positions onto the joints, then velocities."""
+"""
+The articulated step's projections: positions onto the joints, then velocities.
+
+After an RK4 sub-step (:mod:`.dynamics`), :func:`_project_positions` moves the state back onto
+``C(x) = 0`` by Newton with the minimal mass-weighted change (right side ``[0; -C]``), and
+:func:`_project_velocities` removes ``J u`` (right side ``[0; -J u]``, a velocity motor's row
+held at its target), both through the factor of :mod:`.solve`. :func:`_unwrap` keeps each
+continuous joint's running angle. Rows come from :mod:`.rows`.
+"""
 
 import math
 

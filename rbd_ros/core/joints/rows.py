@@ -12,7 +12,16 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The articulated step's constraint rows: body frames, joint coordinates, J, C and J̇ u."""
+"""
+The articulated step's constraint rows: body frames, joint coordinates, ``C``, ``J``, ``J̇ u``.
+
+First stage of every evaluation: :func:`body_derived` fills each body's rotation, world inertia,
+free wrench and ``ω_w``; :func:`joint_rows` each joint's rows (position, alignment, limit,
+motor, friction, mimic) at a state; :func:`limit_coordinate` and :func:`_row_rate` read one
+joint's coordinate and one row's rate. The 3×3 helpers (``_mv``, ``_mtv``, ``_rot_of``) serve
+the later stages too. Next: the factorisation and solves (:mod:`.solve`); the records are in
+:mod:`.arrays`.
+"""
 
 import math
 

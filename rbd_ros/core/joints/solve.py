@@ -12,7 +12,18 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The articulated step's factorisation and solves: the tree (block LDLᵀ) and dense ones."""
+"""
+The articulated step's factorisation and solves of ``[[M, Jᵀ], [J, 0]]``: tree and dense.
+
+:func:`factor` at the configuration of ``work.bd`` and ``work.jac`` (filled by :mod:`.rows`),
+then :func:`solve` for any right side: the dynamics (:mod:`.dynamics`) and both projections
+(:mod:`.projection`) reuse one factor. Two direct solvers (see
+:mod:`rbd_ros.core.joints.kernels`): the **tree**, block LDLᵀ leaves first over the body-joint
+graph (``_tree_factor``, with ``_eliminate``, ``_down``, ``_up`` per node, their common block
+sizes unrolled by ``_sized``), and the **dense** LDLᵀ of ``J M⁻¹ Jᵀ`` for a loop
+(``_dense_factor``), dropping a redundant row whose pivot is below :data:`DROP_REL` of its
+diagonal.
+"""
 
 from rbd_ros.core import jitcache
 from rbd_ros.core.joints.arrays import B_IW, B_ROT, J_CHILD, P_INERTIA_INV, P_MASS
