@@ -91,7 +91,8 @@ FINGERPRINT = (S_POS, S_QUAT, S_VEL, S_OMEGA, N_STATE, P_MASS, P_INV_MASS, P_INE
 #: machine code of every function it calls or inlines, but numba checks only the caller's own
 #: file before loading it from its cache: the contact step inlines the integrator's kicks
 #: from ``kernels.py``, so an edit there would otherwise leave a stale step in the cache.
-KERNEL_SOURCES = ('layout.py', 'jitcache.py', 'kernels.py', 'contact/kernels.py',
+KERNEL_SOURCES = ('layout.py', 'jitcache.py', 'kernels.py', 'kernel_rotations.py',
+                  'kernel_forces.py', 'kernel_integrators.py', 'contact/kernels.py',
                   'contact/box_box.py', 'contact/rows.py', 'contact/linalg.py',
                   'contact/bodies.py', 'contact/broad_phase.py', 'contact/points.py',
                   'contact/manifold.py', 'contact/narrow_phase.py', 'contact/response.py',
