@@ -12,7 +12,14 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The free-body kernels' forces: the one sum of every load on a body (net_wrench_w)."""
+"""
+The free-body kernels' forces: every load on a body summed in one place.
+
+:func:`net_wrench_w` is the one sum (gravity, applied wrenches and springs, the formula and
+frames in its docstring; damping is the integrators' exact flow), ``_omega_dot_b`` Euler's
+equations for ``ω̇_b``. Read by the integrators (:mod:`rbd_ros.core.kernel_integrators`) and
+the step (:mod:`rbd_ros.core.kernels`); built on :mod:`rbd_ros.core.kernel_rotations`.
+"""
 
 import math
 

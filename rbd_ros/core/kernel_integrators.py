@@ -12,7 +12,18 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The free-body kernels' integrators: the symplectic Euler family, RK4, midpoint Cayley."""
+"""
+The free-body kernels' integrators: one step of a body by each method, selected by id.
+
+The ids (:data:`SE_MATRIX` ... :data:`MIDPOINT_CAYLEY`; names, orders and what each conserves
+are in :mod:`rbd_ros.core.integrators`); the symplectic Euler family (``se_velocity``,
+``se_position``, the orientation updates of ``_orient_matrix``), classical RK4 with the damping
+as its integrating factor (``_rk4``), and the implicit midpoint with Cayley rotation
+(``midpoint_first_kick``, ``midpoint_drift``, ``midpoint_second_kick``, its Newton solve
+``_free_rotation_midpoint``). Forces come from :mod:`rbd_ros.core.kernel_forces`; the driver
+that picks a method per step is :func:`rbd_ros.core.kernels.step_body`; the contact step
+inlines the kicks and drift.
+"""
 
 import math
 

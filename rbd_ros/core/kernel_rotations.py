@@ -12,7 +12,17 @@
 # See the License for the specific language governing permissions and
 # limitations under the License.
 
-"""The free-body kernels' quaternion and rotation helpers: products, rotations, R(q)."""
+"""
+The free-body kernels' quaternion and rotation helpers (compiled; no state of their own).
+
+Vector and quaternion products (``_cross``, ``_qmul``, ``_rotate``, ``_rotate_inv``), the
+state column's read and write (``_read_state``, ``_write_state``), ``R(q)`` and back
+(``_quat_to_matrix``, ``_matrix_to_quat``, ``_gram_schmidt``), the rotation by ``ω h``
+(``_rotation_about``, ``_quat_exp_half``, their series below :data:`SINC_SERIES_BELOW`).
+Quaternions are ``(w, x, y, z)`` with ``v_w = R(q) v_b``. Used by the forces
+(:mod:`rbd_ros.core.kernel_forces`), the integrators (:mod:`rbd_ros.core.kernel_integrators`),
+the step (:mod:`rbd_ros.core.kernels`) and the contact step (:mod:`rbd_ros.core.contact`).
+"""
 
 import math
 

@@ -22,6 +22,13 @@ The packed arrays it works on (state ``x`` (13, N), parameters ``prm`` (26, N) o
 The single-body simulator, the batch, the node and the replay all go through :func:`advance`
 (or its parallel twin, which calls the same per-body function), so identical inputs give
 bit-identical states. ``fastmath`` is off: IEEE semantics, no reassociation.
+
+This module is the step's entry: :func:`step_body` (one body, ``n`` steps, the method chosen by
+id), :func:`advance` and ``advance_parallel`` over bodies, ``midpoint_solve_check`` and
+``net_wrench_batch``. Its stages, one module each: the rotation helpers
+(:mod:`rbd_ros.core.kernel_rotations`), the forces' one sum (:mod:`rbd_ros.core.kernel_forces`)
+and the integrators (:mod:`rbd_ros.core.kernel_integrators`). What other modules read as
+``kernels.X`` (integrator ids, helpers the contact step inlines) is imported here for them.
 """
 
 import math
