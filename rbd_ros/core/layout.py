@@ -91,13 +91,16 @@ FINGERPRINT = (S_POS, S_QUAT, S_VEL, S_OMEGA, N_STATE, P_MASS, P_INV_MASS, P_INE
 #: machine code of every function it calls or inlines, but numba checks only the caller's own
 #: file before loading it from its cache: the contact step inlines the integrator's kicks
 #: from ``kernels.py``, so an edit there would otherwise leave a stale step in the cache.
-KERNEL_SOURCES = ('layout.py', 'jitcache.py', 'kernels.py', 'contact/kernels.py',
+KERNEL_SOURCES = ('layout.py', 'jitcache.py', 'kernels.py', 'kernel_rotations.py',
+                  'kernel_forces.py', 'kernel_integrators.py', 'contact/kernels.py',
                   'contact/box_box.py', 'contact/rows.py', 'contact/linalg.py',
                   'contact/bodies.py', 'contact/broad_phase.py', 'contact/points.py',
                   'contact/manifold.py', 'contact/narrow_phase.py', 'contact/response.py',
                   'contact/patch.py', 'contact/friction.py', 'contact/sweeps.py',
                   'contact/step.py', 'contact/joints.py', 'contact/motors.py',
-                  'contact/limits.py', 'joints/kernels.py')
+                  'contact/limits.py', 'joints/kernels.py', 'joints/arrays.py',
+                  'joints/rows.py', 'joints/solve.py', 'joints/projection.py',
+                  'joints/active_rows.py', 'joints/dynamics.py', 'joints/events.py')
 
 
 def fingerprint_hash() -> str:

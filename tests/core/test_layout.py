@@ -137,7 +137,8 @@ BARE_INDEX = re.compile(r'\b(?:prm|x|ld|column|row|rows|loads)\[(?:i, k, |:, 0, 
 
 def test_core_modules_address_packed_arrays_by_name_only():
     offenders = []
-    for name in ('kernels.py', 'simulator.py'):
+    for name in ('kernels.py', 'kernel_rotations.py', 'kernel_forces.py',
+                 'kernel_integrators.py', 'simulator.py'):
         for number, line in enumerate((CORE / name).read_text().splitlines(), 1):
             if BARE_INDEX.search(line):
                 offenders.append(f'{name}:{number}: {line.strip()}')
