@@ -56,7 +56,7 @@ import re
 import stat
 import struct
 import time
-from typing import Any, Dict, Mapping, Optional, Union
+from typing import Any, Dict, Iterable, Mapping, Optional, Tuple, Union
 
 from mcap._chunk_builder import ChunkBuilder
 from mcap.data_stream import RecordBuilder
@@ -354,7 +354,7 @@ class BagWriter:
         if log_time_ns > self._end_ns:
             self._end_ns = log_time_ns
 
-    def write_many(self, messages, log_time_ns: int) -> None:
+    def write_many(self, messages: Iterable[Tuple[str, bytes]], log_time_ns: int) -> None:
         """
         Append ``[(topic, CDR bytes)]``, in order, all at ``log_time_ns`` (a sample).
 
@@ -363,8 +363,7 @@ class BagWriter:
         of 100 bodies records 400 messages a sample): the Message records are packed here and
         given to the writer's chunk builder in one write, with the message indexes (packed at
         once when the chunk ends) and statistics its ``add_message`` keeps. An mcap whose
-        writer does not have those
-        internals (:func:`_mcap_internals`) gets :meth:`write` of each.
+        writer does not have those internals (:func:`_mcap_internals`) gets :meth:`write` of each.
         """
         if self._failed is not None or self._closed:
             self._check_open()
