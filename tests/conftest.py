@@ -261,6 +261,8 @@ NOT_FREE_DIRS = ('core/contact/', 'core/joints/')
 #: threaded world's jointed case, robots on the ground.
 WORLD_JOINTS_FILES = ('core/joints/test_joints_contact.py', 'core/joints/test_motors_contact.py',
                       'core/joints/test_joint_friction_contact.py',
+                      'core/joints/test_coordinate_motors_contact.py',
+                      'sim/test_coordinate_joints.py', 'ros/test_node_coordinate_joints.py',
                       'core/joints/test_cone_limit_contact.py', 'core/contact/test_parallel.py',
                       'sim/test_world_joints.py', 'sim/test_robot_contact.py',
                       'sim/test_pacing_diagnostics.py', 'ros/test_node_robot_outputs.py',
