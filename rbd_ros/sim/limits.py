@@ -23,6 +23,10 @@ naming the field, its value and the limit (exit status 2).
 
 The node steps its world in chunks of at most :func:`step_chunk` steps, so a signal is seen
 between chunks (numba's compiled step does not run Python signal handlers).
+
+The parameters' bounds on sizes, positions and counts (:data:`MAX_BODIES`, :data:`MAX_SIZE`,
+:data:`MAX_POSITION_M`, ...) are here too; :mod:`rbd_ros.sim.param_rules` and the configuration
+check values against them (:mod:`rbd_ros.sim.params`, their old home, still gives them).
 """
 
 import os
@@ -39,7 +43,7 @@ MAX_REPLAY_BODY_STEPS = 1_000_000_000
 #: of 1 MiB of message data; 64 MiB leaves room for big worlds' samples).
 MAX_CHUNK_BYTES = 64 << 20
 #: Largest attached mesh, bytes: the largest mesh file the node reads
-#: (:data:`rbd_ros.sim.params.MAX_MESH_FILE_BYTES`; an ASCII STL of 200,000 triangles is ~50 MB),
+#: (:data:`MAX_MESH_FILE_BYTES`; an ASCII STL of 200,000 triangles is ~50 MB),
 #: checked in the attachment's record header before its bytes are read.
 MAX_MESH_BYTES = 64 << 20
 #: Largest number of triangles of a mesh file or an attached mesh, counted in its bytes before
@@ -51,6 +55,47 @@ MAX_MESH_TRIANGLES = 200_000
 TEARDOWN_ENDPOINTS = 1000
 #: Body-steps per compiled call of the node and of replay (~0.1 s at 1 us per body-step).
 STEP_CHUNK_BODY_STEPS = 100_000
+
+# The bounds of the parameters (rbd_ros.sim.params), on sizes, positions and counts.
+
+#: Most bodies a world may have (``bodies``): start-up checks and the contact step are measured
+#: up to 1000 bodies; far more makes start-up take minutes.
+MAX_BODIES = 5000
+
+#: Most threads ``threads`` may ask for.
+MAX_THREADS = 1024
+
+#: Most items an array parameter may hold (10 x MAX_BODIES): more than any list a world needs
+#: (``body_names`` holds at most MAX_BODIES). A recording's configuration is read with the same
+#: bound, so a bag claiming 10^5 bodies is refused while it is parsed.
+MAX_ARRAY_ITEMS = 10 * MAX_BODIES
+
+#: Largest ``dimensions_m`` value and ``mesh_scale`` factor accepted (m, and 1): beyond it the
+#: inertia (``m d²``) and contact tolerances leave double precision's useful range.
+MAX_SIZE = 1e6
+
+#: Smallest ``dimensions_m`` value accepted, m: over 500 times the float64 spacing of
+#: coordinates at :data:`MAX_POSITION_M` (1.9e-9 m), so a body's faces stay apart after
+#: ``R x_b + p``; a size of 1e-300 m would put both faces of a plate on one coordinate.
+MIN_SIZE = 1e-6
+
+#: Largest ``|initial_position|`` and obstacle ``position`` component accepted, m: there
+#: float64 coordinates are 1.9e-9 m apart, six orders below the 1 mm start-overlap tolerance;
+#: at 1e300 m a body's surface points all round to its centre.
+MAX_POSITION_M = 1e7
+
+#: Largest ``|initial joint position|`` of a robot's joint, rad or m: a continuous joint has
+#: no limits to hold it, and at 1e7 rad float64 still resolves 1.9e-9 rad (at 1e300 rad a
+#: whole turn is below its spacing); the same number as :data:`MAX_POSITION_M`.
+MAX_JOINT_POSITION = 1e7
+
+#: Largest ``|initial joint velocity|`` of a robot's joint, rad/s or m/s: a joint at it covers
+#: :data:`MAX_JOINT_POSITION` in 1 s, the longest ``timestep_s``; a rate of 1e200 made the
+#: first step non-finite.
+MAX_JOINT_RATE = 1e7
+
+#: Largest ``*mesh_path`` file accepted (read to build the shape, and embedded in a recording).
+MAX_MESH_FILE_BYTES = 64 * 1024 * 1024
 
 _MAGIC = b'\x89MCAP0\r\n'
 _CHUNK = 0x06

@@ -13,7 +13,7 @@
 # limitations under the License.
 
 """
-The parameter table and the rule of every value: names, types, units, ranges, messages.
+The parameter table: every public parameter's name, type, default, unit, range and rule.
 
 :data:`PARAMETERS` is the one table of the public parameter interface: name, type, default,
 unit, description, allowed range and whether it is read-only. The node declares its ROS
@@ -22,31 +22,28 @@ parameters from it (:mod:`rbd_ros.ros.parameters`),
 that the parameter tables of ``doc/parameters.md`` list exactly these names with these defaults
 and units. The per-body, per-obstacle and
 per-input rows are made by :func:`body_parameter_specs`, :func:`obstacle_parameter_specs` and
-:func:`input_parameter_specs`. :func:`fail` is the one shape of a bad-value message: the
-parameter, its value, its unit and the rule, on one line.
+:func:`input_parameter_specs`.
 
-Times are converted to integer nanoseconds here (:func:`to_ns`), rounded to the nearest
-nanosecond: a time in seconds must be a whole number of nanoseconds (to 0.001 ns, which absorbs
-the binary representation of decimal values such as 0.001), so that sim time is exact. A
-positive time that rounds to 0 ns is refused (it would silently mean "off"), naming the
-parameter.
+Beside it, one module each, all importable from here too: the rule of every value
+(:mod:`rbd_ros.sim.param_rules`: :class:`ParamSpec` and its types, coercion, ranges, seconds to
+ns, :func:`fail`, the one shape of a bad-value message), the bounds on sizes and counts
+(:mod:`rbd_ros.sim.limits`) and the renamed parameters (:mod:`rbd_ros.sim.param_renames`).
 """
 
-from dataclasses import dataclass
-import math
-
-import numpy as np
-
-from rbd_ros.core import ConfigError, DEFAULT_INTEGRATOR, INTEGRATORS, ModelError
+from rbd_ros.core import DEFAULT_INTEGRATOR, INTEGRATORS
 from rbd_ros.core.simulator import usable_cores
-
-# ROS parameter types, by the names rcl_interfaces/ParameterType uses (lower case).
-BOOL = 'bool'
-INTEGER = 'integer'
-DOUBLE = 'double'
-STRING = 'string'
-DOUBLE_ARRAY = 'double_array'
-STRING_ARRAY = 'string_array'
+from rbd_ros.sim.limits import (  # noqa: F401 (importable from here, as before)
+    MAX_ARRAY_ITEMS, MAX_BODIES, MAX_JOINT_POSITION, MAX_JOINT_RATE, MAX_MESH_FILE_BYTES,
+    MAX_POSITION_M, MAX_SIZE, MIN_SIZE)
+from rbd_ros.sim.limits import MAX_THREADS
+from rbd_ros.sim.param_renames import (  # noqa: F401 (importable from here, as before)
+    JOINT_DYNAMICS_PARAMETERS, new_parameter_name, recorded_parameters, refuse_old_names,
+    RENAMED_PARAMETERS)
+from rbd_ros.sim.param_rules import (BOOL, coerce, DOUBLE, DOUBLE_ARRAY, fail, INTEGER,
+                                     ParamSpec, STRING, STRING_ARRAY)
+from rbd_ros.sim.param_rules import (  # noqa: F401 (importable from here, as before)
+    check_min_size, check_range, fmt, frame_id_problem, NS_PER_S, position3, range_rule, to_ns,
+    unit_quaternion, vector3)
 
 #: Frame keywords accepted by ``twist_frame``, ``default_wrench_frame`` and ``.frame``.
 FRAME_KEYWORDS = ('world', 'body')
@@ -54,56 +51,9 @@ FRAME_KEYWORDS = ('world', 'body')
 #: Name of the main wrench input (topic ``wrench``) in :class:`rbd_ros.sim.inputs.WrenchInputs`.
 MAIN_INPUT = 'wrench'
 
-#: Most bodies a world may have (``bodies``): start-up checks and the contact step are measured
-#: up to 1000 bodies; far more makes start-up take minutes.
-MAX_BODIES = 5000
-
-#: Most threads ``threads`` may ask for.
-MAX_THREADS = 1024
-
-#: Most items an array parameter may hold (10 x MAX_BODIES): more than any list a world needs
-#: (``body_names`` holds at most MAX_BODIES). A recording's configuration is read with the same
-#: bound, so a bag claiming 10^5 bodies is refused while it is parsed.
-MAX_ARRAY_ITEMS = 10 * MAX_BODIES
-
-#: Largest ``dimensions_m`` value and ``mesh_scale`` factor accepted (m, and 1): beyond it the
-#: inertia (``m d²``) and contact tolerances leave double precision's useful range.
-MAX_SIZE = 1e6
-
-#: Smallest ``dimensions_m`` value accepted, m: over 500 times the float64 spacing of
-#: coordinates at :data:`MAX_POSITION_M` (1.9e-9 m), so a body's faces stay apart after
-#: ``R x_b + p``; a size of 1e-300 m would put both faces of a plate on one coordinate.
-MIN_SIZE = 1e-6
-
-#: Largest ``|initial_position|`` and obstacle ``position`` component accepted, m: there
-#: float64 coordinates are 1.9e-9 m apart, six orders below the 1 mm start-overlap tolerance;
-#: at 1e300 m a body's surface points all round to its centre.
-MAX_POSITION_M = 1e7
-
-#: Largest ``|initial joint position|`` of a robot's joint, rad or m: a continuous joint has
-#: no limits to hold it, and at 1e7 rad float64 still resolves 1.9e-9 rad (at 1e300 rad a
-#: whole turn is below its spacing); the same number as :data:`MAX_POSITION_M`.
-MAX_JOINT_POSITION = 1e7
-
-#: Largest ``|initial joint velocity|`` of a robot's joint, rad/s or m/s: a joint at it covers
-#: :data:`MAX_JOINT_POSITION` in 1 s, the longest ``timestep_s``; a rate of 1e200 made the
-#: first step non-finite.
-MAX_JOINT_RATE = 1e7
-
-_FMT_ITEMS = 8  # a listed value longer than this is cut in messages (one bounded line)
-_FMT_CHARS = 200
-
-#: Largest ``*mesh_path`` file accepted (read to build the shape, and embedded in a recording).
-MAX_MESH_FILE_BYTES = 64 * 1024 * 1024
-
 #: The box used when neither ``inertia`` nor ``shape`` is given (same as msg_config/default.yaml).
 DEFAULT_SHAPE = 'box'
 DEFAULT_DIMENSIONS_M = (0.2, 0.1, 0.05)
-
-NS_PER_S = 1_000_000_000  # the one ns-per-second constant of rbd_ros
-# A time in seconds must be within this many ns of a whole number of ns: float64 writes decimal
-# steps such as 0.001 s with a relative error <= 2^-53, far below 1e-3 ns for any step < 1e3 s.
-_NS_TOLERANCE = 1e-3
 
 #: ``real_time_factor`` is 0 (as fast as possible) or within these bounds: below 1e-3 a 1 ms step
 #: takes more than 1 s of wall time (a value such as 5e-324 freezes the node), above 1e6 the
@@ -111,33 +61,6 @@ _NS_TOLERANCE = 1e-3
 REAL_TIME_FACTOR_RANGE = (1e-3, 1e6)
 #: The slowest publish rate, Hz: a publish period of at most 1e6 s (about 11.6 days).
 MIN_PUBLISH_RATE_HZ = 1e-6
-
-
-@dataclass(frozen=True)
-class ParamSpec:
-    """
-    One public parameter.
-
-    :param name: the ROS parameter name.
-    :param kind: one of ``bool``, ``integer``, ``double``, ``string``, ``double_array``,
-        ``string_array``.
-    :param default: the default value (a tuple for arrays).
-    :param unit: SI unit ('' for none).
-    :param description: one sentence for ``ros2 param describe`` and ``doc/parameters.md``.
-    :param bounds: ``(low, high)`` closed bounds for numbers (also advertised to ROS as
-        ``FloatingPointRange``/``IntegerRange``), or None.
-    :param read_only: True when a live change would make no sense.
-    :param rule: the rule beyond the range, in words (for doc/parameters.md), or ''.
-    """
-
-    name: str
-    kind: str
-    default: object
-    unit: str
-    description: str
-    bounds: tuple = None
-    read_only: bool = True
-    rule: str = ''
 
 
 _BIG = 1e12  # upper bound advertised for quantities with no natural limit
@@ -283,76 +206,6 @@ PARAMETERS = (
 
 PARAMETERS_BY_NAME = {spec.name: spec for spec in PARAMETERS}
 
-#: The list parameters renamed so that no parameter name is the prefix of another (at a '.'):
-#: ``ros2 param dump`` nests names on '.', and a list cannot hold its items (``bodies`` and
-#: ``bodies.a.mass_kg``). Old name → new name; the items (``bodies.<name>.*``,
-#: ``obstacles.<name>.*``, ``wrench_inputs.<name>.*``) keep their names. Per body,
-#: ``bodies.<name>.wrench_inputs`` became ``bodies.<name>.wrench_input_names``.
-RENAMED_PARAMETERS = {'bodies': 'body_names', 'obstacles': 'obstacle_names',
-                      'wrench_inputs': 'wrench_input_names'}
-
-
-def new_parameter_name(name):
-    """Return the new name of the renamed parameter ``name``, or None if it was not renamed."""
-    if name in RENAMED_PARAMETERS:
-        return RENAMED_PARAMETERS[name]
-    parts = name.split('.')
-    if len(parts) == 3 and parts[0] == 'bodies' and parts[2] == 'wrench_inputs':
-        return f'bodies.{parts[1]}.wrench_input_names'
-    return None
-
-
-#: A robot joint's parameters that recordings made before joint damping and friction were
-#: simulated lack: those runs simulated them as 0, whatever the URDF's ``<dynamics>`` said.
-JOINT_DYNAMICS_PARAMETERS = ('damping', 'friction')
-
-
-def recorded_parameters(params):
-    """
-    Return the parameters of a recording under today's names (the one place that reads old ones).
-
-    A recording stores the node's parameters under the names of the day it was made; a
-    recording made before :data:`RENAMED_PARAMETERS` reads as if made today. Other names pass
-    through unchanged (:meth:`NodeConfig.from_parameters` judges them). Every recording of a
-    robot holds each moving joint's ``robots.<name>.joints.<joint>.position_time_constant_s``;
-    one without that joint's :data:`JOINT_DYNAMICS_PARAMETERS` was made when they were not
-    simulated, so they read as 0 (not the URDF's ``<dynamics>``, which that run ignored).
-
-    :raises ConfigError: an old name and its new one both in ``params`` (no recording holds
-        both; which list would be meant?).
-    """
-    today = {name: new_parameter_name(name) or name for name in params}
-    for name in sorted(params):
-        new = today[name]
-        if new != name and new in params:
-            raise ConfigError(
-                f'parameters {name} = {fmt(params[name])} and {new} = {fmt(params[new])}: one '
-                f'list under its old and its new name ({name} was renamed to {new}); a '
-                'recording holds one of them')
-    out = {today[name]: value for name, value in params.items()}
-    suffix = '.position_time_constant_s'
-    for name in [name for name in out if name.startswith('robots.') and name.endswith(suffix)]:
-        for field in JOINT_DYNAMICS_PARAMETERS:
-            out.setdefault(f'{name[:-len(suffix)]}.{field}', 0.0)
-    return out
-
-
-def refuse_old_names(params):
-    """Refuse a renamed parameter with one line naming its new name (a params file of old)."""
-    for name in sorted(params):
-        new = new_parameter_name(name)
-        if new is not None:
-            raise ConfigError(
-                f'parameter {name} = {fmt(params[name])}: renamed to {new} (a list is never '
-                f'the prefix of its items; the items {name}.<name>.* keep their names)')
-
-
-# Parameters of the body model: their errors are ModelError, the others' ConfigError.
-_MODEL_PARAMETERS = frozenset((
-    'mass_kg', 'inertia', 'shape', 'dimensions_m', 'gravity', 'linear_damping',
-    'angular_damping', 'friction', 'restitution', 'mesh_path', 'mesh_scale', 'ground.friction',
-    'ground.restitution'))
-
 
 def input_parameter_specs(name):
     """
@@ -438,133 +291,6 @@ def obstacle_parameter_specs(name):
     )
 
 
-def fmt(value):
-    """Format a parameter value for a one-line message; a list longer than 8 is cut."""
-    if isinstance(value, (list, tuple, np.ndarray)):
-        if len(value) > _FMT_ITEMS:
-            return ('[' + ', '.join(fmt(v) for v in value[:3])
-                    + f', ... ({len(value)} values)]')
-        return '[' + ', '.join(fmt(v) for v in value) + ']'
-    if isinstance(value, str) and len(value) > _FMT_CHARS:
-        return repr(value[:_FMT_CHARS]) + f'... ({len(value)} characters)'
-    if isinstance(value, float):
-        return repr(value)
-    return repr(value)
-
-
-def fail(spec, value, rule, error=None):
-    """Raise the one-line error of a bad value: parameter, value, unit and rule."""
-    if error is None:  # a body's own parameter (bodies.<name>.mass_kg) is its base's kind
-        base = spec.name.split('.', 2)[2] if spec.name.startswith('bodies.') else spec.name
-        error = ModelError if base in _MODEL_PARAMETERS else ConfigError
-    unit = f' {spec.unit}' if spec.unit else ''
-    raise error(f'parameter {spec.name} = {fmt(value)}{unit}: {rule}', field=spec.name,
-                value=value, unit=spec.unit, detail=f'{fmt(value)}{unit}: {rule}', rule=rule)
-
-
-def coerce(spec, value):
-    """Return ``value`` as the Python type of ``spec`` or raise ConfigError."""
-    kind = spec.kind
-    if kind == BOOL:
-        if isinstance(value, (bool, np.bool_)):
-            return bool(value)
-        fail(spec, value, 'must be true or false')
-    if kind == INTEGER:
-        if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
-            return int(value)
-        fail(spec, value, 'must be an integer')
-    if kind == DOUBLE:
-        if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
-                value, bool):
-            value = float(value)
-            if not math.isfinite(value):
-                fail(spec, value, 'must be finite')
-            return value
-        fail(spec, value, 'must be a number')
-    if kind == STRING:
-        if isinstance(value, str):
-            return value
-        fail(spec, value, 'must be a string')
-    if kind in (DOUBLE_ARRAY, STRING_ARRAY) and value is None:
-        return ()  # an empty array given in YAML or on the command line arrives as NOT_SET
-    if kind in (DOUBLE_ARRAY, STRING_ARRAY) and isinstance(value, (list, tuple, np.ndarray)) \
-            and len(value) > MAX_ARRAY_ITEMS:
-        fail(spec, value, f'more than {MAX_ARRAY_ITEMS} items (rbd_ros.sim.params.'
-             'MAX_ARRAY_ITEMS)')
-    if kind == DOUBLE_ARRAY:
-        if isinstance(value, (list, tuple, np.ndarray)) and all(
-                isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
-                for v in value):
-            out = tuple(float(v) for v in value)
-            if not all(math.isfinite(v) for v in out):
-                fail(spec, value, 'must be finite')
-            return out
-        fail(spec, value, 'must be a list of numbers')
-    if kind == STRING_ARRAY:
-        if isinstance(value, (list, tuple)) and all(isinstance(v, str) for v in value):
-            return tuple(value)
-        fail(spec, value, 'must be a list of strings')
-    raise AssertionError(kind)  # pragma: no cover - the table only uses the kinds above
-
-
-def frame_id_problem(frame):
-    """
-    Return why ``frame`` cannot be a tf2 frame id, or None.
-
-    tf2 refuses an empty id and one starting with ``/`` (``lookupTransform`` raises "frame_ids
-    cannot start with a '/'"); a whitespace or control character (a NUL ends the id in C)
-    would make a frame that no one can name back.
-    """
-    if not frame:
-        return 'must not be empty'
-    if frame.startswith('/'):
-        return "must not start with '/' (tf2 refuses such frame ids)"
-    for index, char in enumerate(frame):
-        if char.isspace() or not char.isprintable():
-            return (f'holds {char!r} at index {index}: a frame id has no whitespace or '
-                    'control characters')
-    return None
-
-
-def check_range(spec, value):
-    """
-    Refuse a number outside ``spec.bounds``: the one home of every range and ``> 0`` rule.
-
-    A rule that starts with ``> `` excludes its lower bound (``mass_kg``, ``timestep_s``, ...).
-    """
-    if spec.bounds is not None:
-        low, high = spec.bounds
-        if spec.rule and (value < low or value == low and spec.rule.startswith('> ')):
-            fail(spec, value, f'must be {spec.rule}')
-        if not low <= value <= high:
-            fail(spec, value, f'must be {range_rule(spec)}')
-
-
-def range_rule(spec):
-    """
-    Return the words of ``spec``'s whole numeric rule: ``> 0 and <= 1e+12``, ``in [0, 1]``.
-
-    A rule that starts with ``> `` or ``>= `` gives the lower side (``mass_kg`` excludes 0,
-    which ``bounds`` cannot say), the bounds the upper.
-    """
-    low, high = spec.bounds
-    if spec.rule.startswith(('> ', '>= ')):
-        return f'{spec.rule.split(",")[0]} and <= {high:g}'
-    return f'in [{low:g}, {high:g}]'
-
-
-def to_ns(spec, seconds):
-    """Return ``seconds`` of ``spec`` as whole ns, or refuse it (not whole, or rounding to 0)."""
-    ns = seconds * NS_PER_S
-    rounded = round(ns)
-    if abs(ns - rounded) > _NS_TOLERANCE:
-        fail(spec, seconds, 'must be a whole number of nanoseconds')
-    if seconds > 0.0 and rounded == 0:
-        zero = '' if spec.name == 'timestep_s' else '0 or '
-        fail(spec, seconds, f'rounds to 0 ns: must be {zero}at least 1 ns (1e-9 s)')
-    return int(rounded)
-
-
 def check_real_time_factor(value):
     """
     Return ``value`` as a float if it is a valid ``real_time_factor``, else raise ConfigError.
@@ -578,43 +304,3 @@ def check_real_time_factor(value):
     if value != 0.0 and not low <= value <= high:
         fail(spec, value, f'must be 0 (as fast as possible) or in [{low:g}, {high:g}]')
     return value
-
-
-def vector3(spec, values):
-    """Return ``values`` if it holds 3 values, else refuse it naming ``spec``."""
-    if len(values) != 3:
-        fail(spec, list(values), 'must have 3 values')
-    return values
-
-
-def position3(spec, values):
-    """Return ``values`` if it is a position of 3 values within :data:`MAX_POSITION_M`."""
-    vector3(spec, values)
-    if any(not abs(v) <= MAX_POSITION_M for v in values):
-        fail(spec, list(values), f'every component must be within ±{MAX_POSITION_M:g} m '
-             '(float64 coordinates keep sub-micrometre resolution there)')
-    return values
-
-
-def unit_quaternion(spec, q_xyzw):
-    """
-    Return ``q_xyzw`` ([x, y, z, w], norm within 1e-3 of 1) as a unit ``(w, x, y, z)`` tuple.
-
-    The one check of every orientation parameter (bodies, obstacles, robots' roots).
-    """
-    if len(q_xyzw) != 4:
-        fail(spec, list(q_xyzw), 'must have 4 values [x, y, z, w]')
-    norm = math.hypot(*q_xyzw)  # scaled: the norm of [1e300, 0, 0, 1e300] is not inf
-    if abs(norm - 1.0) > 1e-3:
-        fail(spec, list(q_xyzw),
-             f'norm {norm:.6g} must be within 1e-3 of 1 ([x, y, z, w] order)')
-    x, y, z, w = (float(v) / norm for v in q_xyzw)
-    return (w, x, y, z)
-
-
-def check_min_size(spec, dims):
-    """Refuse a ``dimensions_m`` value below :data:`MIN_SIZE` (finite, > 0 is the core's)."""
-    small = [v for v in dims if 0.0 < v < MIN_SIZE]
-    if small:
-        fail(spec, list(dims), f'{small[0]!r} m is below the smallest size {MIN_SIZE:g} m '
-             '(faces closer than float64 resolves at the largest positions)', ModelError)
