@@ -17,7 +17,7 @@
 
 The node and the replay tool drive exactly this class, so a replay of recorded wrench events
 reproduces the live run bit for bit. A single-body params file is a world of one body; which
-core simulator steps it is :func:`rbd_ros.sim.config.make_simulator`'s choice. Usage::
+core simulator steps it is :func:`rbd_ros.sim.build.make_simulator`'s choice. Usage::
 
     session = SimSession(NodeConfig.from_parameters(params))
     session.submit('wrench', 'world', (1.0, 0.0, 0.0), (0.0, 0.0, 0.0))  # next step start
