@@ -15,8 +15,10 @@
 """
 The run's settings: integrator and times, frames, wrench limits and recording; motor constants.
 
-A stage of :meth:`rbd_ros.sim.config.NodeConfig.from_parameters`: each function checks its
-values and returns the :class:`~rbd_ros.sim.config.NodeConfig` fields they become.
+A stage of :meth:`rbd_ros.sim.config.NodeConfig.from_parameters`: :func:`_time_settings`,
+:func:`_frame_settings` and :func:`_limits_and_recording` check their values and return the
+:class:`~rbd_ros.sim.config.NodeConfig` fields they become; :func:`_check_contact_integrator`
+and :func:`_check_time_constants` refuse an integrator or a motor the step cannot take.
 
 Times are converted to integer nanoseconds here, rounded to the nearest nanosecond:
 ``timestep_s`` must be a whole number of nanoseconds (to 0.001 ns, which absorbs the binary
