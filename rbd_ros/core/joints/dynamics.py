@@ -35,7 +35,7 @@ from rbd_ros.core.joints.arrays import (
     B_FORCE, B_ROT, F_SIGN, J_CHILD, J_DAMPING, J_FRICROW, J_FRICTION, J_PARENT, M_EFFORT, M_LIMIT,
     M_MODE, M_SAT, MOTOR_EFFORT, MOTOR_OFF, S_ITER, S_TIME, S_TSTAGE)
 from rbd_ros.core.joints.projection import _project_positions, _project_velocities, _unwrap
-from rbd_ros.core.joints.rows import _mtv, _row_rate, body_derived, joint_rows
+from rbd_ros.core.joints.rows import _mtv, _row_rate, body_derived, body_rates, joint_rows
 from rbd_ros.core.joints.solve import factor, solve
 
 _jit = jitcache.raw_kernel()
@@ -136,13 +136,16 @@ def _wrenches(model, work):
 @_jit
 def refresh_dynamics(model, x, work):
     """Recompute ``ẋ`` (k1), ``λ``, wrenches and efforts at ``x`` after a change of motors."""
-    _dynamics_at(model, x, work, True)
+    _dynamics_at(model, x, work, True, False)
 
 
 @_jit
-def _dynamics_at(model, x, work, refactor):
+def _dynamics_at(model, x, work, refactor, frames):
     """
     ``ẋ`` into ``work.k[0]`` and ``λ`` at ``x``, deciding limits and saturation.
+
+    ``frames``: ``work.bd``'s rotations and world inertias are already ``x``'s (only the
+    velocities changed since :func:`body_derived`), so only the rates are refreshed.
 
     Held limits whose multiplier would pull are released; motor rows are tried on and a
     motor whose multiplier exceeds its effort limit is saturated; a stuck joint's friction row
@@ -156,7 +159,12 @@ def _dynamics_at(model, x, work, refactor):
         if model.jint[j, J_FRICROW] >= 0:
             n_friction += 1
     for it in range(2 * model.jint.shape[0] + 2 + 2 * n_friction):
-        body_derived(model, x, work)   # f and ω_w at the current velocities
+        # f and ω_w at the current velocities (the positions stay: later passes and fresh
+        # frames need the rates alone, the same bits)
+        if frames or it > 0:
+            body_rates(model, x, work)
+        else:
+            body_derived(model, x, work)
         joint_rows(model, x, work, True)   # J̇ u at the current velocities
         if it == 0 and n_friction > 0 and _friction_rows(model, x, work, True) > 0:
             refactor = True
@@ -182,13 +190,17 @@ def _dynamics_at(model, x, work, refactor):
 
 @_jit
 def _end_of_step(model, x, work):
-    """Factor at the projected positions, project velocities, then ``ẋ`` (next k1) and ``λ``."""
+    """
+    Factor at the projected positions, project velocities, then ``ẋ`` (next k1) and ``λ``.
+
+    Right after a :func:`~.projection._project_positions` that converged: it left every row
+    (``C``, ``J``, ``J̇ u``) at ``x``.
+    """
     body_derived(model, x, work)
-    joint_rows(model, x, work, True)
     _friction_stops(model, x, work)
     factor(model, work)
     _project_velocities(model, x, work)
-    _dynamics_at(model, x, work, False)
+    _dynamics_at(model, x, work, False, True)
     _unwrap(model, x, work)
 
 

@@ -242,6 +242,7 @@ def step(model, x, work, h, n_steps, tol, max_iter):
                     work.fric[jf, F_SIGN] = 0.0
                     work.active[model.jint[jf, J_FRICROW]] = 1
                     refresh_rows(model, work, jf)
+                    joint_rows(model, x, work, True)   # _end_of_step takes the rows as x's
                     _end_of_step(model, x, work)
                 work.stats[S_TIME] += tau
                 work.stats[S_TSTAGE] = work.stats[S_TIME]

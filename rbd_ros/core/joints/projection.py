@@ -74,23 +74,28 @@ def _project_positions(model, x, work, tol, max_iter, refactor_after):
 
     The first ``refactor_after`` iterations reuse the factor already in ``work`` (a chord
     step: the last RK4 stage's, O(h) away); later ones refactor at the current ``x``.
-    Return the iterations taken, or -1 when ``max|C| <= tol`` was not reached.
+    Return the iterations taken, or -1 when ``max|C| <= tol`` was not reached. On success
+    every row (``C``, ``J``, ``J̇ u``) is left at the final ``x``, for
+    :func:`~.dynamics._end_of_step`: the checks after an iteration, and one that refactors,
+    fill them whole (the first check of a chord step only ``C``).
     """
     zero = work.xs[:, 0:6]
     for b in range(zero.shape[0]):
         for k in range(6):
             zero[b, k] = 0.0
     for it in range(max_iter + 1):
-        joint_rows(model, x, work, False)
+        full = it > 0 or refactor_after == 0
+        joint_rows(model, x, work, full)
         err = _max_abs(work.con)
         work.stats[S_ERR] = err
         if err <= tol:
+            if not full:
+                joint_rows(model, x, work, True)
             return it
         if it == max_iter:
             break
         if it >= refactor_after:
-            body_derived(model, x, work)
-            joint_rows(model, x, work, True)
+            body_derived(model, x, work)   # the rows are x's (full: it > 0 or refactor_after 0)
             factor(model, work)
         for r in range(work.con.shape[0]):
             work.bias[r] = -work.con[r]

@@ -107,15 +107,38 @@ def body_derived(model, x, work):
     prm, bd = model.prm, work.bd
     for b in range(x.shape[0]):
         _rot_from_q(x[b, 3], x[b, 4], x[b, 5], x[b, 6], bd, b, B_ROT)
-        # I_w = R I_b Rᵀ
+        # I_w = R I_b Rᵀ; a diagonal I_b (principal axes, as most bodies) skips the products
+        # with its zeros: a finite x + (±0) is x, and a sum from +0 never turns -0, so the
+        # entries are the same bits as the full sum's
+        diagonal = (prm[b, P_INERTIA + 1] == 0.0 and prm[b, P_INERTIA + 2] == 0.0
+                    and prm[b, P_INERTIA + 3] == 0.0 and prm[b, P_INERTIA + 5] == 0.0
+                    and prm[b, P_INERTIA + 6] == 0.0 and prm[b, P_INERTIA + 7] == 0.0)
         for r in range(3):
             for c in range(3):
                 s = 0.0
-                for k in range(3):
-                    for m in range(3):
-                        s += (bd[b, B_ROT + 3 * r + k] * prm[b, P_INERTIA + 3 * k + m]
-                              * bd[b, B_ROT + 3 * c + m])
+                if diagonal:
+                    for k in range(3):
+                        s += (bd[b, B_ROT + 3 * r + k] * prm[b, P_INERTIA + 4 * k]
+                              * bd[b, B_ROT + 3 * c + k])
+                else:
+                    for k in range(3):
+                        for m in range(3):
+                            s += (bd[b, B_ROT + 3 * r + k] * prm[b, P_INERTIA + 3 * k + m]
+                                  * bd[b, B_ROT + 3 * c + m])
                 bd[b, B_IW + 3 * r + c] = s
+    body_rates(model, x, work)
+
+
+@_jit
+def body_rates(model, x, work):
+    """
+    Fill ``work.bd``'s free wrench ``f`` (world) and ``ω_w`` from ``x``'s velocities.
+
+    The part of :func:`body_derived` that the velocities change: the rotations in ``work.bd``
+    must be ``x``'s (a velocity projection, or a change of the held rows, keeps them).
+    """
+    prm, bd = model.prm, work.bd
+    for b in range(x.shape[0]):
         mass = prm[b, P_MASS]
         cv = prm[b, P_LIN_DAMP]
         for k in range(3):
