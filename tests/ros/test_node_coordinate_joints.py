@@ -187,8 +187,8 @@ def test_a_ball_rod_follows_its_orientation_target_and_replays(tmp_path):
                          {'unknown_joint': 2, 'non_finite': 1})
     worst = _check_closed_form(states, ['ball/rx', 'ball/ry', 'ball/rz'], target, 10.0, 1e-10)
     print(f'ball rod: worst {worst:.3g}')
-    # the motors carry gravity's torque about the pivot, world axes; at 1 s e ~ 5e-4 of the
-    # move, ω² e: 1e-2
+    # the motors carry gravity's torque about the pivot, world axes; at 1 s the response still
+    # accelerates the rod: I ω² |e| ~ 0.33 kg m² 100/s² 5e-4 rad = 1.7e-2 N m (measured 7.6e-3)
     phi = np.array(states[DURATION_NS].position)
     angle = float(np.linalg.norm(phi))
     axis = phi / angle
@@ -196,7 +196,8 @@ def test_a_ball_rod_follows_its_orientation_target_and_replays(tmp_path):
                   [-axis[1], axis[0], 0.0]])
     rot = np.eye(3) + math.sin(angle) * k + (1.0 - math.cos(angle)) * k @ k
     torque = np.cross(rot @ [0.0, 0.0, -0.5], [0.0, 0.0, -G])
-    assert np.allclose(states[DURATION_NS].effort, -torque, rtol=1e-2, atol=1e-3), torque
+    assert np.abs(np.array(states[DURATION_NS].effort) + torque).max() <= 2e-2, (
+        torque, states[DURATION_NS].effort)
     result = replay_bag(bag)
     assert result.match, (result.problems, {k: r.first_mismatch
                                             for k, r in result.topics.items()})
