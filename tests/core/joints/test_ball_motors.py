@@ -29,7 +29,7 @@ import numpy as np
 import pytest
 
 from rbd_ros.core import BodyModel, BodyState, ConfigError
-from rbd_ros.core.joints import ArticulatedSimulator, Joint
+from rbd_ros.core.joints import ArticulatedSimulator, cone_angle, Joint
 from rbd_ros.core.rotations import quat_conjugate, quat_multiply, quat_to_matrix
 from tests.core.joints.closed_forms import critically_damped, G
 from tests.core.joints.stepping import JOINT_TOL
@@ -204,3 +204,20 @@ def test_bad_ball_motor_commands_name_the_coordinate(kwargs, message):
     with pytest.raises(ConfigError) as err:
         sim.set_motor(0, **kwargs)
     assert message in str(err.value)
+
+
+def test_a_target_beyond_the_cone_stops_on_its_rim():
+    # the cone 0.3 rad about the hanging rod, rx driven to 0.6: the cone stop holds the rod on
+    # its rim (a held cone pauses the three motor rows until the next step boundary), never
+    # past it by more than the crossing tolerance, and the rod ends on the rim (measured
+    # 0.30000000000000004 rad)
+    model = BodyModel(MASS, ROD_INERTIA, gravity_w=(0.0, 0.0, -G))
+    joint = Joint('ball', 'spherical', None, 0, origin_child_b=(0.0, 0.0, 0.5 * LENGTH),
+                  axis_b=(0.0, 0.0, -1.0), cone_rad=0.3)
+    sim = ArticulatedSimulator([model], [BodyState((0.0, 0.0, -0.5 * LENGTH))], [joint])
+    set_orientation(sim, (0.6, 0.0, 0.0), 10.0)
+    for _ in range(1000):
+        sim.step()
+        assert cone_angle(joint, None, sim.states[0].orientation_wb) <= 0.3 + 1e-12
+        assert max(sim.joint_error()) <= JOINT_TOL
+    assert np.abs(sim.joint_positions()[0] - (0.3, 0.0, 0.0)).max() <= 1e-12
