@@ -180,9 +180,10 @@ def state_entries(world_joints):
     """
     Return the ``joint_states`` entries of ``world_joints``: ``(name, joint index, coordinate)``.
 
-    In ``joint_names`` order, a planar joint's three (``<joint>/x``, ``/y``, ``/theta``) and a
-    universal joint's two (``<joint>/theta1``, ``/theta2``) together; fixed and spherical joints
-    have none.
+    In ``joint_names`` order, a planar joint's three (``<joint>/x``, ``/y``, ``/theta``), a
+    universal joint's two (``<joint>/theta1``, ``/theta2``) and a spherical joint's three
+    (``<joint>/rx``, ``/ry``, ``/rz``: the rotation vector of its turn in the parent's axes)
+    together; fixed joints have none.
     """
     return tuple((entry, k, coordinate) for k, joint in enumerate(world_joints)
                  for entry, coordinate in joint.entries)
@@ -458,8 +459,9 @@ class JointedWorldSimulator(WorldSimulator):
         """
         Return ``(positions, rates)`` of the joints ``indices``, plain floats.
 
-        ``coordinates``: one per index, None for a one-coordinate joint, a planar or universal
-        joint's coordinate (:meth:`~rbd_ros.core.joints.ArticulatedSimulator.joint_coordinates`).
+        ``coordinates``: one per index, None for a one-coordinate joint, a planar, universal
+        or spherical joint's coordinate
+        (:meth:`~rbd_ros.core.joints.ArticulatedSimulator.joint_coordinates`).
         """
         rows = self._x.T.tolist()
         read = self._readout.read
@@ -475,7 +477,7 @@ class JointedWorldSimulator(WorldSimulator):
         """
         Return ``(positions, rates, efforts)`` of the ``joint_states`` entries, plain floats.
 
-        One a one-coordinate joint, one a coordinate of a planar or universal joint
+        One a one-coordinate joint, one a coordinate of a planar, universal or spherical joint
         (:func:`state_entries`); a coordinate's effort its motor's (``coordinate_efforts``).
         """
         positions, rates = self.joint_coordinates(self._moving, self._coordinates)

@@ -64,6 +64,26 @@ def rod_params(**more):
     return params
 
 
+def ball_params(**more):
+    """Return :func:`rod_params`' rod on a ball (``spherical``) joint at (0, 0, 2) m instead."""
+    params = rod_params(**{'joints.cardan.type': 'spherical'})
+    params = {k.replace('cardan', 'ball'): v for k, v in params.items()
+              if k not in ('joints.cardan.axis', 'joints.cardan.axis2')}
+    params['joint_names'] = ['ball']
+    params.update(more)
+    return params
+
+
+def test_a_ball_joint_is_three_rotation_vector_coordinates():
+    # a rotation vector (UR's rx, ry, rz of a pose): three coordinates whose rates and efforts
+    # are the angular velocity and torque on the same axes (a quaternion's four are not)
+    assert coordinate_entries('ball', 'spherical') == (('ball/rx', 0), ('ball/ry', 1),
+                                                       ('ball/rz', 2))
+    config = NodeConfig.from_parameters(ball_params())
+    assert [entry for entry, _ in config.world_joints[0].entries] == ['ball/rx', 'ball/ry',
+                                                                      'ball/rz']
+
+
 def test_entries_are_moveits_variable_names():
     assert coordinate_entries('plane', 'planar') == (('plane/x', 0), ('plane/y', 1),
                                                      ('plane/theta', 2))

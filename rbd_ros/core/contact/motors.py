@@ -79,6 +79,7 @@ import math
 
 from rbd_ros.core.contact.rows import _inl, _jit
 from rbd_ros.core.joints import kernels as jk
+from rbd_ros.core.joints.rows import _joint_turn
 
 #: ``drive`` columns, one row a motor slot (slot ``j`` is joint ``j``'s): the motor row's
 #: generalized impulse over the step so far (N m s or N s, on the child along q), the
@@ -98,7 +99,10 @@ D_RATE0 = 5
 D_STOP = 6
 D_FRICTION = 7
 D_REST = 8
-D_SIZE = 9
+#: A ball joint's turn ``e = q_pc q_rest⁻¹`` at the step's start (w, x, y, z; its first slot's
+#: row), from which its velocity motors' goal turns (:func:`_ball_rows`).
+D_TURN = 9
+D_SIZE = 13
 
 
 @_jit
@@ -180,8 +184,15 @@ def start(joints, attempt, h):
         row = mrows[m]
         if row < 0 or work.active[row] == 0:
             continue
+        j = model.rows[row, 0]
+        ball = jint[j, jk.J_KIND] == _BALL
+        if ball:   # its turn now, what its goal turn starts from (_ball_rows)
+            drive[j, D_TURN], drive[j, D_TURN + 1], drive[j, D_TURN + 2], \
+                drive[j, D_TURN + 3] = _joint_turn(model, jx, j)
         if motor[m, jk.M_MODE] == jk.MOTOR_VELOCITY:
-            drive[m, D_GOAL] = work.axial[m, 0] + motor[m, jk.M_VELOCITY] * h
+            # a ball joint's goal: the turn ω* h from the step's start (_ball_rows)
+            drive[m, D_GOAL] = (0.0 if ball else work.axial[m, 0]) \
+                + motor[m, jk.M_VELOCITY] * h
             continue
         w = motor[m, jk.M_OMEGA]
         vr, ar = motor[m, jk.M_VREF], motor[m, jk.M_AREF]
@@ -217,12 +228,123 @@ def motor_rows(joints):
     for m in range(model.mrows.shape[0]):
         row = model.mrows[m]
         if row >= 0 and work.active[row] != 0:
-            work.con[row] = _turn(model, model.rows[row, 0], row,
-                                  work.axial[m, 0] - drive[m, D_GOAL])
+            j = model.rows[row, 0]
+            if model.jint[j, jk.J_KIND] == _BALL:
+                if m == j:   # its three rows at once, from its first slot
+                    _ball_rows(joints, j)
+                continue
+            work.con[row] = _turn(model, j, row, work.axial[m, 0] - drive[m, D_GOAL])
     for j in range(model.jint.shape[0]):
         row = model.jint[j, jk.J_FRICROW]
         if row >= 0 and work.active[row] != 0:   # a stuck joint stays where it started
             work.con[row] = _turn(model, j, row, work.axial[j, 0] - drive[j, D_REST])
+
+
+@_inl
+def _qmul(aw, ax, ay, az, bw, bx, by, bz):
+    """Return the Hamilton product ``a ⊗ b`` of two quaternions (w, x, y, z)."""
+    return (aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+            aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw)
+
+
+@_inl
+def _qexp(v0, v1, v2):
+    """Return ``exp(v)``, the unit quaternion of the rotation vector ``v``."""
+    n = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+    if n == 0.0:
+        return 1.0, 0.0, 0.0, 0.0
+    s = math.sin(0.5 * n) / n
+    return math.cos(0.5 * n), s * v0, s * v1, s * v2
+
+
+@_inl
+def _qlog(w, x, y, z):
+    """Return the rotation vector of the unit quaternion ``(w, x, y, z)``, ``|v| <= π``."""
+    if w < 0.0:
+        w, x, y, z = -w, -x, -y, -z
+    sv = math.sqrt(x * x + y * y + z * z)
+    scale = 2.0 * math.atan2(sv, w) / sv if sv > 0.0 else 2.0
+    return scale * x, scale * y, scale * z
+
+
+@_inl
+def _ball_slot(model, j, axis):
+    """Return ``(row, slot)`` of ball joint ``j``'s motor row about the parent's ``axis``."""
+    row0 = model.jint[j, jk.J_ROW0]
+    for r in range(model.jint[j, jk.J_NROWS]):
+        row = row0 + r
+        if model.rows[row, 1] == jk.ROW_MOTOR and model.rows[row, 2] == axis:
+            return row, model.rows[row, 3]
+    return -1, -1
+
+
+@_inl
+def _ball_goal(work, drive, row, m, mode, fallback):
+    """Return slot ``m``'s part of a ball joint's goal (``fallback``: its row not of ``mode``)."""
+    if work.active[row] != 0 and work.motor[m, jk.M_MODE] == mode:
+        return drive[m, D_GOAL]
+    return fallback
+
+
+@_jit
+def _ball_rows(joints, j):
+    """
+    Pre-stabilization: ball joint ``j``'s motor rows' ``C``, its turn's error at the drift.
+
+    ``C = log(e g⁻¹)`` on the parent's axes, ``e`` the turn at the drifted pose (``xt``) and
+    ``g`` the goal turn, so near the goal ``C`` moves with the rows' own rates (``ω_rel`` on
+    those axes) and Newton converges as on any row (``ψ − γ`` in the target's chart would
+    not: its rate is ``J_l⁻¹(ψ) ω_rel``, a chord that stalls past ``|ψ|`` ~ 1.9 rad):
+
+    - position targets (no velocity motor on): ``g = exp(γ) q*``, ``γ_k`` the exact
+      response's error at the step's end (``D_GOAL − φ*_k``, :func:`start`), or, for a
+      coordinate without a row, its error at the drift (it is left where the drift takes it);
+    - with a velocity motor on: ``g = exp(δ) e₀`` from the turn at the step's start ``e₀``,
+      ``δ_k = ω*_k h`` (the exact turn at a constant ``ω_rel``), a position target's
+      coordinate change ``γ_k − ψ₀_k`` (exact when alone on the axis of its error), or the
+      drift's own turn for a coordinate without a row.
+    """
+    model, work, drive, xt = joints.model, joints.work, joints.drive, joints.xt
+    motor = work.motor
+    r0, m0 = _ball_slot(model, j, 0)
+    r1, m1 = _ball_slot(model, j, 1)
+    r2, m2 = _ball_slot(model, j, 2)
+    t0, t1, t2 = motor[m0, jk.M_POSITION], motor[m1, jk.M_POSITION], motor[m2, jk.M_POSITION]
+    sw, sx, sy, sz = _qexp(t0, t1, t2)   # q*
+    ew, ex, ey, ez = _joint_turn(model, xt, j)
+    spin = False
+    for r, m in ((r0, m0), (r1, m1), (r2, m2)):
+        if work.active[r] != 0 and motor[m, jk.M_MODE] == jk.MOTOR_VELOCITY:
+            spin = True
+    pos = jk.MOTOR_POSITION
+    if not spin:
+        qw, qx, qy, qz = _qmul(ew, ex, ey, ez, sw, -sx, -sy, -sz)
+        p0, p1, p2 = _qlog(qw, qx, qy, qz)
+        qw, qx, qy, qz = _qexp(_ball_goal(work, drive, r0, m0, pos, p0 + t0) - t0,
+                               _ball_goal(work, drive, r1, m1, pos, p1 + t1) - t1,
+                               _ball_goal(work, drive, r2, m2, pos, p2 + t2) - t2)
+        gw, gx, gy, gz = _qmul(qw, qx, qy, qz, sw, sx, sy, sz)
+    else:
+        aw, ax, ay, az = (drive[j, D_TURN], drive[j, D_TURN + 1], drive[j, D_TURN + 2],
+                          drive[j, D_TURN + 3])
+        qw, qx, qy, qz = _qmul(ew, ex, ey, ez, aw, -ax, -ay, -az)
+        d0, d1, d2 = _qlog(qw, qx, qy, qz)   # the drift's turn
+        qw, qx, qy, qz = _qmul(aw, ax, ay, az, sw, -sx, -sy, -sz)
+        s0, s1, s2 = _qlog(qw, qx, qy, qz)   # ψ₀
+        vel = jk.MOTOR_VELOCITY
+        d0 = _ball_goal(work, drive, r0, m0, vel, _ball_goal(work, drive, r0, m0, pos,
+                                                             d0 + t0 + s0) - t0 - s0)
+        d1 = _ball_goal(work, drive, r1, m1, vel, _ball_goal(work, drive, r1, m1, pos,
+                                                             d1 + t1 + s1) - t1 - s1)
+        d2 = _ball_goal(work, drive, r2, m2, vel, _ball_goal(work, drive, r2, m2, pos,
+                                                             d2 + t2 + s2) - t2 - s2)
+        qw, qx, qy, qz = _qexp(d0, d1, d2)
+        gw, gx, gy, gz = _qmul(qw, qx, qy, qz, aw, ax, ay, az)
+    qw, qx, qy, qz = _qmul(ew, ex, ey, ez, gw, -gx, -gy, -gz)
+    c0, c1, c2 = _qlog(qw, qx, qy, qz)
+    for r, c in ((r0, c0), (r1, c1), (r2, c2)):
+        if work.active[r] != 0:
+            work.con[r] = c
 
 
 #: The kind codes of the joints whose angles are measured in (−π, π]: a revolute joint's,
@@ -230,6 +352,7 @@ def motor_rows(joints):
 _REVOLUTE = jk.KIND_CODES['revolute']
 _UNIVERSAL = jk.KIND_CODES['universal']
 _PLANAR = jk.KIND_CODES['planar']
+_BALL = jk.KIND_CODES['spherical']
 
 
 @_inl

@@ -491,8 +491,8 @@ class WorldSimulator(BatchSimulator):
 
         An effort motor: its clipped effort; a position or velocity motor: its row's impulses
         over the step divided by ``h`` (the step's average force along the joint coordinate
-        on the child), or ``±effort_limit`` when saturated. A planar or universal joint: NaN,
-        it has one effort a coordinate (:meth:`coordinate_efforts`).
+        on the child), or ``±effort_limit`` when saturated. A planar, universal or spherical
+        joint: NaN, it has one effort a coordinate (:meth:`coordinate_efforts`).
         """
         articulated = self._articulated_or_refuse()
         out = self._joint_stage.work.motor[:len(self._joints), jk.M_APPLIED].copy()
@@ -506,7 +506,8 @@ class WorldSimulator(BatchSimulator):
         Return joint ``joint_index``'s motor effort over the last step per motor coordinate.
 
         A planar joint: ``(x N, y N, theta N m)``; a universal joint: ``(θ1, θ2)`` N m; a
-        one-coordinate joint: its one effort; others: empty. Each as :meth:`joint_efforts`
+        spherical joint ``(rx, ry, rz)`` N m (about the parent's axes); a one-coordinate
+        joint: its one effort; others: empty. Each as :meth:`joint_efforts`
         gives a one-coordinate joint's.
         """
         articulated = self._articulated_or_refuse()

@@ -27,9 +27,9 @@ Called by the dynamics (:mod:`.dynamics`, at each evaluation) and by the events
 
 from rbd_ros.core import jitcache
 from rbd_ros.core.joints.arrays import (
-    F_APPLIED, F_RATE0, F_RATE_END, F_SIGN, F_SIGN0, F_STOPPED, J_FRICROW, J_FRICTION, J_LIMROW,
-    J_MOTROW, J_NROWS, J_ROW0, M_APPLIED, M_EFFORT, M_LIMIT, M_MODE, M_SAT, MOTOR_EFFORT,
-    MOTOR_OFF, MOTOR_POSITION, MOTOR_VELOCITY)
+    F_APPLIED, F_RATE0, F_RATE_END, F_SIGN, F_SIGN0, F_STOPPED, J_FRICROW, J_FRICTION, J_KIND,
+    J_LIMROW, J_MOTROW, J_NROWS, J_ROW0, M_APPLIED, M_EFFORT, M_LIMIT, M_MODE, M_SAT,
+    MOTOR_EFFORT, MOTOR_OFF, MOTOR_POSITION, MOTOR_VELOCITY, ROW_MOTOR)
 from rbd_ros.core.joints.rows import _row_rate
 
 _jit = jitcache.raw_kernel()
@@ -63,6 +63,12 @@ def set_limit(model, work, j, state):
     motor_row = model.jint[j, J_MOTROW]
     if motor_row >= 0 and state != 0:
         work.active[motor_row] = 0   # a held limit pauses the joint's motor
+    if model.jint[j, J_KIND] == 4 and state != 0:
+        # and a ball joint's three (its cone limit held): they are back at the next boundary
+        row0 = model.jint[j, J_ROW0]
+        for r in range(model.jint[j, J_NROWS]):
+            if model.rows[row0 + r, 1] == ROW_MOTOR:
+                work.active[row0 + r] = 0
     friction_row = model.jint[j, J_FRICROW]
     if friction_row >= 0 and state != 0:
         work.active[friction_row] = 0   # and its friction: the stop holds it

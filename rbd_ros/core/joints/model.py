@@ -42,9 +42,12 @@ MOTOR_KINDS = ('revolute', 'continuous', 'prismatic')
 #: coordinate (``''`` the one coordinate of a one-coordinate joint). A planar joint's are its
 #: in-plane offsets along ``axis2_b`` and ``axis_b × axis2_b`` (m) and its angle about
 #: ``axis_b`` (rad); a universal joint's its angles about ``axis_b`` and about ``axis2_b``
-#: (rad): the coordinates of :func:`joint_position`.
+#: (rad); a spherical (ball) joint's the rotation vector of its turn in parent coordinates
+#: (rad; their rates the relative angular velocity, rad/s): the coordinates of
+#: :func:`joint_position`.
 MOTOR_COORDINATES = {'revolute': ('',), 'continuous': ('',), 'prismatic': ('',),
-                     'planar': ('x', 'y', 'theta'), 'universal': ('theta1', 'theta2')}
+                     'planar': ('x', 'y', 'theta'), 'universal': ('theta1', 'theta2'),
+                     'spherical': ('rx', 'ry', 'rz')}
 _TWO_AXES = ('universal', 'planar')
 
 
@@ -334,10 +337,10 @@ def coordinate_units(joint: Joint, coordinate: int = 0):
     """
     Return ``(position, velocity, effort)`` units of motor coordinate ``coordinate``.
 
-    Rotary (``rad``, ``rad/s``, ``N m``) for revolute, continuous and universal joints and a
-    planar joint's theta (coordinate 2); linear (``m``, ``m/s``, ``N``) otherwise.
+    Rotary (``rad``, ``rad/s``, ``N m``) for revolute, continuous, universal and spherical
+    joints and a planar joint's theta (coordinate 2); linear (``m``, ``m/s``, ``N``) otherwise.
     """
-    rotary = joint.kind in ('revolute', 'continuous', 'universal') or (
+    rotary = joint.kind in ('revolute', 'continuous', 'universal', 'spherical') or (
         joint.kind == 'planar' and coordinate == 2)
     return ('rad', 'rad/s', 'N m') if rotary else ('m', 'm/s', 'N')
 
@@ -349,7 +352,8 @@ def check_position_target(joint: Joint, value: float, error=ModelError,
 
     A revolute angle must be in ``(-π, π]``, and so must a planar joint's theta (coordinate
     2; its x and y take any value) and both angles of a universal joint; a continuous joint
-    takes any angle.
+    takes any angle, and so does a spherical joint's each coordinate (the target orientation
+    is ``exp`` of the three's rotation vector, whatever its length).
 
     The one rule of a position target:
     :meth:`~rbd_ros.core.joints.ArticulatedSimulator.set_motor` applies it, and
@@ -359,6 +363,8 @@ def check_position_target(joint: Joint, value: float, error=ModelError,
     """
     unit = coordinate_units(joint, coordinate)[0]
     who = f'joint {joint.name!r}'
+    if joint.kind == 'spherical':
+        return
     if joint.kind in ('planar', 'universal'):
         name = MOTOR_COORDINATES[joint.kind][coordinate]
         if (joint.kind == 'universal' or coordinate == 2) and not -math.pi < value <= math.pi:

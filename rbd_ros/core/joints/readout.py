@@ -32,6 +32,9 @@ joint_velocity`) took ~0.5 ms. The same definitions as those, equal to them to r
   rate as a revolute joint's;
 - universal: ``θ1 = 2 atan2(e_v · a, e_w)``, ``θ2 = 2 atan2(e_v · b, e_w)`` (``b = axis2_b``),
   ``θ̇1 = ω_rel · a``, ``θ̇2 = ω_rel · R_pc R_restᵀ b`` (the child's cross axis);
+- spherical: ``(rx, ry, rz) = 2 atan2(|e_v|, e_w) e_v / |e_v|`` (the rotation vector of ``e``),
+  their rates the relative angular velocity ``ω_rel = R_pc ω_c − ω_p`` (not the rotation
+  vector's rate: the two agree while the joint turns about a fixed axis through its rest pose);
 
 with ``a`` the joint axis in parent coordinates and a world parent the identity at the origin.
 A row is a body's packed state ``(p, q_wb, v_w, ω_b)``, 13 floats.
@@ -41,9 +44,10 @@ import math
 
 #: The joint kinds with one coordinate.
 KINDS = ('revolute', 'continuous', 'prismatic')
-#: The kinds read here: those, and the planar (x, y, theta) and universal (θ1, θ2) joints' each
-#: coordinate.
-READ_KINDS = KINDS + ('planar', 'universal')
+#: The kinds read here: those, and the planar (x, y, theta), universal (θ1, θ2) and spherical
+#: (rx, ry, rz) joints' each coordinate.
+READ_KINDS = KINDS + ('planar', 'universal', 'spherical')
+_COUNTS = {'planar': 3, 'universal': 2, 'spherical': 3}
 
 
 def multiply(a, b):
@@ -98,8 +102,8 @@ class JointReadout:
         Return joint ``j``'s ``(position, rate)``, plain floats, from the bodies' ``rows``.
 
         :param rows: every body's packed state, 13 floats each (a list of lists).
-        :param coordinate: a planar joint's (0 x, 1 y, 2 theta) or a universal joint's (0 θ1,
-            1 θ2); None for a one-coordinate joint.
+        :param coordinate: a planar joint's (0 x, 1 y, 2 theta), a universal joint's (0 θ1,
+            1 θ2) or a spherical joint's (0 rx, 1 ry, 2 rz); None for a one-coordinate joint.
         :raises ValueError: joint ``j`` is not of a kind in :data:`READ_KINDS`, or a
             coordinate it does not have.
         """
@@ -110,7 +114,7 @@ class JointReadout:
         if coordinate is None and kind not in KINDS:
             raise ValueError(f'joint {j}: a {kind} joint has no single coordinate')
         if coordinate is not None and (kind not in READ_KINDS[len(KINDS):] or not (
-                0 <= coordinate < (3 if kind == 'planar' else 2))):
+                0 <= coordinate < _COUNTS[kind])):
             raise ValueError(f'joint {j}: a {kind} joint has no coordinate {coordinate!r}')
         if kind == 'planar' and coordinate < 2:
             d, u = self._offset(rows, parent, c, op, oc)
@@ -129,6 +133,11 @@ class JointReadout:
         if ew < 0.0:
             ew, ex, ey, ez = -ew, -ex, -ey, -ez
         wx, wy, wz = rotate(*q_pc, c[10], c[11], c[12])
+        if kind == 'spherical':
+            sv = math.sqrt(ex * ex + ey * ey + ez * ez)
+            scale = 2.0 * math.atan2(sv, ew) / sv if sv > 0.0 else 2.0
+            return ((ex, ey, ez)[coordinate] * scale,
+                    (wx - wpx, wy - wpy, wz - wpz)[coordinate])
         if kind == 'universal' and coordinate == 1:
             b0, b1, b2 = self._second[j][0]
             f0, f1, f2 = rotate(*q_pc, *self._second[j][2])   # the child's cross axis, parent

@@ -168,6 +168,17 @@ def _twist_on(model, x, j, off):
     ``u = u3 = axis_b``: a revolute angle; ``u = u1 = axis2_b`` of a universal joint: its second
     angle (``e = q_a(θ1) q_b(θ2)`` with ``a ⊥ b``: ``e_w = c1 c2``, ``e_v · b = c1 s2``).
     """
+    jprm = model.jprm
+    ew, ex, ey, ez = _joint_turn(model, x, j)
+    if ew < 0.0:
+        ew, ex, ey, ez = -ew, -ex, -ey, -ez
+    u = ex * jprm[j, off] + ey * jprm[j, off + 1] + ez * jprm[j, off + 2]
+    return 2.0 * math.atan2(u, ew)
+
+
+@_inl
+def _joint_turn(model, x, j):
+    """Return ``e = q_pc q_rest⁻¹`` of joint ``j`` (parent coordinates; either sign)."""
     jint, jprm = model.jint, model.jprm
     par, c = jint[j, J_PARENT], jint[j, J_CHILD]
     if par >= 0:
@@ -181,14 +192,54 @@ def _twist_on(model, x, j, off):
     az = pw * cz + px * cy - py * cx + pz * cw
     rw, rx, ry, rz = (jprm[j, J_QREST], -jprm[j, J_QREST + 1], -jprm[j, J_QREST + 2],
                       -jprm[j, J_QREST + 3])
-    ew = aw * rw - ax * rx - ay * ry - az * rz
-    ex = aw * rx + ax * rw + ay * rz - az * ry
-    ey = aw * ry - ax * rz + ay * rw + az * rx
-    ez = aw * rz + ax * ry - ay * rx + az * rw
+    return (aw * rw - ax * rx - ay * ry - az * rz, aw * rx + ax * rw + ay * rz - az * ry,
+            aw * ry - ax * rz + ay * rw + az * rx, aw * rz + ax * ry - ay * rx + az * rw)
+
+
+@_inl
+def _ball_coordinate(model, x, work, j, k):
+    """
+    Return a ball joint's motor coordinate ``k`` (0 rx, 1 ry, 2 rz): ``φ*_k + ψ_k``.
+
+    ``φ*`` the rotation vector of its three motor slots' position targets (parent
+    coordinates; 0 for a slot with none), ``q* = exp(φ*)``, and ``ψ = log(e q*⁻¹)`` the
+    rotation vector of the error (``e = q_pc q_rest⁻¹``, the shorter way round, ``|ψ| <= π``),
+    whose spatial rate is the relative angular velocity in parent coordinates: a rotation about
+    a fixed axis through ``q*`` has ``ψ̇ = ω_rel``, so its motor rows (``ω_rel`` on the parent's
+    axes) follow ``ψ̈ = −2ω ψ̇ − ω² ψ`` exactly there.
+    """
+    jint, rows, motor = model.jint, model.rows, work.motor
+    t0 = t1 = t2 = 0.0
+    row0 = jint[j, J_ROW0]
+    for r in range(jint[j, J_NROWS]):
+        if rows[row0 + r, 1] == ROW_MOTOR:
+            a = rows[row0 + r, 2]
+            v = motor[rows[row0 + r, 3], M_POSITION]
+            if a == 0:
+                t0 = v
+            elif a == 1:
+                t1 = v
+            else:
+                t2 = v
+    n = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+    tw, s = 1.0, 0.0
+    if n > 0.0:
+        tw, s = math.cos(0.5 * n), math.sin(0.5 * n) / n
+    tx, ty, tz = -s * t0, -s * t1, -s * t2   # q*⁻¹
+    aw, ax, ay, az = _joint_turn(model, x, j)
+    ew = aw * tw - ax * tx - ay * ty - az * tz
+    ex = aw * tx + ax * tw + ay * tz - az * ty
+    ey = aw * ty - ax * tz + ay * tw + az * tx
+    ez = aw * tz + ax * ty - ay * tx + az * tw
     if ew < 0.0:
         ew, ex, ey, ez = -ew, -ex, -ey, -ez
-    u = ex * jprm[j, off] + ey * jprm[j, off + 1] + ez * jprm[j, off + 2]
-    return 2.0 * math.atan2(u, ew)
+    sv = math.sqrt(ex * ex + ey * ey + ez * ez)
+    scale = 2.0 * math.atan2(sv, ew) / sv if sv > 0.0 else 2.0
+    if k == 0:
+        return t0 + scale * ex
+    if k == 1:
+        return t1 + scale * ey
+    return t2 + scale * ez
 
 
 @_inl
@@ -346,6 +397,13 @@ def joint_rows(model, x, work, full):
             k = rows[row, 2]
             m0, m1, m2 = (jprm[j, J_BASIS_P + 3 * k], jprm[j, J_BASIS_P + 3 * k + 1],
                           jprm[j, J_BASIS_P + 3 * k + 2])
+            ball = jint[j, J_KIND] == 4
+            if ball and rows[row, 1] == ROW_MOTOR:
+                # a ball joint's motor rows turn about the parent's own axes x, y, z: its
+                # coordinates rx, ry, rz are a rotation vector's in parent coordinates
+                m0 = 1.0 if k == 0 else 0.0
+                m1 = 1.0 if k == 1 else 0.0
+                m2 = 1.0 if k == 2 else 0.0
             e0 = p00 * m0 + p01 * m1 + p02 * m2
             e1 = p10 * m0 + p11 * m1 + p12 * m2
             e2 = p20 * m0 + p21 * m1 + p22 * m2
@@ -357,7 +415,7 @@ def joint_rows(model, x, work, full):
                 kind == ROW_MOTOR and keep_axial)
             # a planar joint's x and y motor rows are position rows along u1, u2
             in_plane = jint[j, J_KIND] == 6 and k != 2
-            if axial and jint[j, J_KIND] == 4:
+            if kind == ROW_LIMIT and ball:
                 # a spherical joint's cone limit, C = θ - cone, θ the angle between e = R_P u3
                 # and f = R_c w3: θ̇ = ω_rel · n, n = p / |p|, p = e × f (the swing axis), so
                 # J has ω_c: n, ω_P: -n (a torque pair); J̇ u = ω_rel · ṅ with
@@ -421,8 +479,8 @@ def joint_rows(model, x, work, full):
                 if need:
                     coord = _twist_on(model, x, j, J_BASIS_P)
             elif axial and jint[j, J_KIND] != 3 and not in_plane:
-                # revolute / continuous (and a planar joint's theta): the relative rotation
-                # rate about e = R_P axis_b
+                # revolute / continuous (and a planar joint's theta, a ball joint's motor
+                # rows): the relative rotation rate about e = R_P axis_b (R_P x, y, z)
                 if full:
                     for i in range(12):
                         jac[row, i] = 0.0
@@ -431,14 +489,18 @@ def joint_rows(model, x, work, full):
                     h0, h1, h2 = _cross(wp0, wp1, wp2, e0, e1, e2)
                     bias[row] = (wc0 - wp0) * h0 + (wc1 - wp1) * h1 + (wc2 - wp2) * h2
                     rate = (wc0 - wp0) * e0 + (wc1 - wp1) * e1 + (wc2 - wp2) * e2
-                if need and not have_coord:
-                    coord_j = _twist(model, x, j)
-                    if jint[j, J_KIND] == 2:
-                        delta = coord_j - work.angle[j]
-                        coord_j = work.angle[j] + delta - 2.0 * math.pi * math.floor(
-                            delta / (2.0 * math.pi) + 0.5)
-                    have_coord = True
-                coord = coord_j
+                if ball:
+                    if need:
+                        coord = _ball_coordinate(model, x, work, j, k)
+                else:
+                    if need and not have_coord:
+                        coord_j = _twist(model, x, j)
+                        if jint[j, J_KIND] == 2:
+                            delta = coord_j - work.angle[j]
+                            coord_j = work.angle[j] + delta - 2.0 * math.pi * math.floor(
+                                delta / (2.0 * math.pi) + 0.5)
+                        have_coord = True
+                    coord = coord_j
             elif kind == ROW_LIN or axial:
                 coord = e0 * d0 + e1 * d1 + e2 * d2
                 con[row] = coord

@@ -58,7 +58,7 @@ ROWS = {
     'planar': (('lin', 2), ('ang', 0, 2), ('ang', 1, 2)),
 }
 #: The axis ``k`` (:data:`ROWS`) of each motor coordinate's row, by kind with several.
-_MOTOR_AXES = {'planar': (0, 1, 2), 'universal': (2, 0)}
+_MOTOR_AXES = {'planar': (0, 1, 2), 'universal': (2, 0), 'spherical': (0, 1, 2)}
 #: Largest row error left by the projection after every step, m (position rows) or the
 #: cosine of the angle between two axes that must be perpendicular (alignment rows).
 PROJECTION_TOL = 1e-13
@@ -434,7 +434,8 @@ class ArticulatedSimulator:
                 spec = spec + (('motor', 2, j),)
             elif joint.kind in MOTOR_COORDINATES:
                 # planar: x and y along u1 and u2, theta about u3; universal: θ1 about u3,
-                # θ2 about the child's w1; J_MOTROW stays -1 (the one-row-a-joint paths, the
+                # θ2 about the child's w1; spherical: rx, ry, rz about the parent's own x, y,
+                # z (not its u_k); J_MOTROW stays -1 (the one-row-a-joint paths, the
                 # contact step's, leave them alone)
                 for axis, slot in zip(_MOTOR_AXES[joint.kind], slots[j]):
                     mrows[slot] = len(rows) + len(spec)
@@ -591,7 +592,12 @@ class ArticulatedSimulator:
         ``'theta'``: the in-plane offsets along ``axis2_b`` and ``axis_b × axis2_b``, m, N,
         and the angle about ``axis_b``, rad, N m), a universal joint two (0, 1 or
         ``'theta1'``, ``'theta2'``: its angles about ``axis_b`` and about its child's
-        ``axis2_b``, rad, N m, each in ``(-π, π]``), each as a one-coordinate joint's,
+        ``axis2_b``, rad, N m, each in ``(-π, π]``), a spherical joint three (0, 1, 2 or
+        ``'rx'``, ``'ry'``, ``'rz'``: the rotation vector of its turn on the parent's axes,
+        rad, its relative angular velocity on them, rad/s, and a torque pair about them,
+        N m; the three position targets make one target orientation ``q* = exp(φ*)``, and
+        each coordinate's error is that of ``ψ = log(e q*⁻¹)``, which follows the response
+        below exactly about a fixed axis, as from rest), each as a one-coordinate joint's,
         clipped by the joint's one ``effort_limit`` (N for x and y, N m for the angles);
         other joints have coordinate 0 only.
 

@@ -620,9 +620,10 @@ def test_bad_motor_commands_name_the_field(kwargs, message):
     assert message in str(err.value)
 
 
-def test_no_motor_on_a_ball_joint():
-    sim = ArticulatedSimulator(*two_body_case('spherical'))
-    with pytest.raises(ConfigError, match="joint 'a': a spherical joint takes no motor"):
+def test_no_motor_on_a_fixed_joint():
+    # a ball joint takes three (test_ball_motors.py); a fixed joint has no coordinate
+    sim = ArticulatedSimulator(*two_body_case('fixed'))
+    with pytest.raises(ConfigError, match="joint 'a': a fixed joint takes no motor"):
         sim.set_motor(0, effort=1.0)
 
 
