@@ -446,7 +446,9 @@ def _stack(world_cls, h_s, bodies, quick):
 
     The top's drift is taken from where it was placed (it includes the settling of the
     contacts) and, separately, from t = 1 s to the end; the wall time is that of the steps
-    alone, over the whole run (the first step, which may compile, excluded).  A world with a
+    alone, over the whole run (the first step, which may compile, excluded), and apart over
+    the first second (the settling) and the rest; the CPU time (``time.process_time``: not
+    the waits of a shared machine) over the whole run likewise.  A world with a
     ``breakdown()`` adds its figures (ours: sweeps per stage, cold restarts).
     """
     duration = 2.0 if quick else 10.0
@@ -454,20 +456,23 @@ def _stack(world_cls, h_s, bodies, quick):
     try:
         p0 = world.state()[0][-1]
         world.step(1)
-        t = time.perf_counter()
+        t, cpu = time.perf_counter(), time.process_time()
         world.step(steps(1.0, h_s) - 1)
-        wall = time.perf_counter() - t
+        wall = wall_1s = time.perf_counter() - t
+        cpu = time.process_time() - cpu
         pen_1s = world.penetration_m()
         p_1s = world.state()[0][-1]
         if duration > 2.0:
-            t = time.perf_counter()
+            t, c = time.perf_counter(), time.process_time()
             world.step(steps(duration - 2.0, h_s))
             wall += time.perf_counter() - t
+            cpu += time.process_time() - c
         ke_max = 0.0
         for _ in range(steps(1.0, h_s)):
-            t = time.perf_counter()
+            t, c = time.perf_counter(), time.process_time()
             world.step(1)
             wall += time.perf_counter() - t
+            cpu += time.process_time() - c
             _, vel, omega = world.state()
             ke_max = max(ke_max, kinetic_energy(bodies, vel, omega))
         p1 = world.state()[0][-1]
@@ -481,7 +486,10 @@ def _stack(world_cls, h_s, bodies, quick):
             'top_drift_after_1s_m': float(np.linalg.norm(p1 - p_1s)),
             'ke_max_last_s_J': ke_max, 'penetration_1s_m': pen_1s,
             'penetration_end_m': pen_end,
-            'ms_per_step': 1e3 * wall / (steps(duration, h_s) - 1)}
+            'ms_per_step': 1e3 * wall / (steps(duration, h_s) - 1),
+            'ms_per_step_first_1s': 1e3 * wall_1s / (steps(1.0, h_s) - 1),
+            'ms_per_step_after_1s': 1e3 * (wall - wall_1s) / steps(duration - 1.0, h_s),
+            'cpu_ms_per_step': 1e3 * cpu / (steps(duration, h_s) - 1)}
 
 
 def stack_column(world_cls, h_s, quick=False):
