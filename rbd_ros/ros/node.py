@@ -67,10 +67,11 @@ from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
 #: At most this share of the wall time goes to the spin loop's wake-ups as fast as possible:
-#: one costs ~0.6 µs per subscription (rbd_ros.ros.wakeups; a world of 1,000 bodies: ~2.5 ms),
-#: so the tick budget grows to that many wake-ups' worth, up to MAX_TICK_BUDGET_NS (the latency
-#: of an input then). Not less: a wake-up serves one callback, so a tick budget longer than
-#: needed delays a burst of inputs on many topics (tests/ros/test_node_behind.py).
+#: one costs ~0.6 µs per subscription it waits on (rbd_ros.ros.wakeups: those with a publisher,
+#: and every one at a census; a census of 1,000 bodies' 2,000: ~3 ms), so the tick budget grows
+#: to that many wake-ups' worth, up to MAX_TICK_BUDGET_NS (the latency of an input then). Not
+#: less: a wake-up serves one callback, so a tick budget longer than needed delays a burst of
+#: inputs on many topics (tests/ros/test_node_behind.py).
 SPIN_SHARE = 0.1
 MAX_TICK_BUDGET_NS = 100_000_000
 #: The outputs' subscribers are looked at no more often than this (wall ns), and so that the
@@ -475,8 +476,14 @@ class RigidBodyNode(Node):
         Take ``n_steps`` (one when ``manual``), publishing the samples that fall due.
 
         With ``deadline_ns`` (monotonic), stop once it has passed; each call into the session
-        asks for as many steps as the last call's wall time per step says still fit.
+        asks for as many steps as the last call's wall time per step says still fit. While no
+        sample would be built (nobody listens to any output, nothing is recorded), the steps
+        up to the sample time at or after those go in as few compiled calls as the session
+        allows (:meth:`SimSession.advance` ``through_samples``: the same bits; each call has a
+        cost of its own, the threads' hand-off and the parts' check among it), and the samples
+        before it are skipped, as they would be anyway; the subscribers are looked at there.
         """
+        session = self.session
         while n_steps > 0 and not self.done:
             ask = n_steps
             if deadline_ns is not None:
@@ -484,8 +491,13 @@ class RigidBodyNode(Node):
                 if start_ns >= deadline_ns:
                     return
                 ask = self._pacer.steps_that_fit(n_steps, start_ns, deadline_ns)
+            quiet = not (manual or self._listened or self._recorder is not None)
+            if quiet:  # to the sample time at or after the steps asked for
+                ask = min(n_steps, ask - 1 + session.steps_to_next_sample(
+                    session.time_ns + (ask - 1) * session.timestep_ns))
             try:
-                report = self.session.step() if manual else self.session.advance(ask)
+                report = session.step() if manual else session.advance(
+                    ask, through_samples=quiet)
             except NonFiniteError as exc:
                 self._warn_releases()
                 # The inputs of the failing step, the one that caused it included, are in the

@@ -222,6 +222,32 @@ def test_same_wrenches_at_the_same_steps_give_bit_identical_states_whatever_the_
     assert isinstance(one[-1], BodyState) and one[-1].time_ns == 2500 * H_NS
 
 
+def test_through_samples_takes_the_same_steps_to_the_same_bits_and_ends_at_a_sample():
+    # What the node does while nobody listens: no stop at the sample times between, so the
+    # steps go in longer compiled calls. The stack (contact, 4 bodies, resting and sliding) at
+    # every 10th sample must be bit for bit the stack stepped sample by sample, the wrench
+    # timeout still cut where it falls, and the duration end there as a due sample.
+    def run(through):
+        s = _stack_session(duration_s=0.4055, wrench_timeout_s=0.0333, publish_rate_hz=100.0)
+        s.submit('striker/wrench', 'world', (30.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        ends = []
+        while not s.finished:
+            report = s.advance(100 if through else 10, through_samples=through)
+            ends.append((s.time_ns, report.steps, report.sample_due))
+        return s, ends
+    (by_sample, ends_a), (through, ends_b) = run(False), run(True)
+    for i in range(4):
+        assert by_sample.body_state(i) == through.body_state(i)
+    assert np.array_equal(by_sample.contact_wrenches_w, through.contact_wrenches_w)
+    assert all(due for _, _, due in ends_a[:-1])  # each call stopped at its sample
+    # 100 steps a call (the compiled calls inside cut at the timeout, 34 ms: the states
+    # above), each ending at a sample; the last at the duration (406 ms, the step end at or
+    # past 405.5 ms: no sample there).
+    assert [(t // H_NS, steps) for t, steps, _ in ends_b] == [
+        (100, 100), (200, 100), (300, 100), (400, 100), (406, 6)]
+    assert [due for _, _, due in ends_b] == [True, True, True, True, False]
+
+
 def test_non_finite_step_pauses_the_session_with_a_message():
     # Inputs are bounded by max_force_n, but the model may still overflow: g = 1e308 m/s².
     s = session(gravity=[1e308, 0.0, 0.0], timestep_s=1.0)
