@@ -68,7 +68,8 @@ class Bag:
     present and ``metadata.yaml`` present), ``notes`` (why it is not finalised, or what was
     cut off), ``profile``, ``library``, ``topics`` (name -> :class:`TopicInfo`), ``config``
     (the node parameters as recorded, under the names of the day: read them through
-    :func:`rbd_ros.sim.config.recorded_parameters`; None for a bag without our configuration),
+    :func:`rbd_ros.sim.param_renames.recorded_parameters`; None for a bag without our
+    configuration),
     ``rbd_metadata`` (the ``rbd_ros`` record), ``run_metadata`` (the ``rbd_ros.run`` record
     written at close: how the run ended and the digest of the wrenches it applied; None if not
     finalised),

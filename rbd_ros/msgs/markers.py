@@ -269,7 +269,7 @@ def mesh_uri(mesh_path: str, file_path: str) -> str:
 
     ``mesh_path`` is the parameter as given: a ``package://`` URI is kept, since RViz and
     Foxglove resolve it against the package's share directory as
-    :func:`rbd_ros.sim.config.resolve_mesh_path` does; any other path becomes the ``file://`` URI
+    :func:`rbd_ros.sim.meshes.resolve_mesh_path` does; any other path becomes the ``file://`` URI
     of ``file_path`` (the file the node loaded), made absolute against the working directory.
 
     :raises InputError: naming ``mesh_path`` when it is empty or not a string.

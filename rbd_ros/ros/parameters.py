@@ -15,7 +15,7 @@
 """
 The node's parameters as ROS parameters: which names are ours, their descriptors, declaration.
 
-The table itself (names, types, units, ranges, rules) is :data:`rbd_ros.sim.config.PARAMETERS`;
+The table itself (names, types, units, ranges, rules) is :data:`rbd_ros.sim.params.PARAMETERS`;
 this module only says how a row of it becomes an rclpy parameter, so that ``ros2 param
 describe`` shows the unit, the range and the rule the node enforces.
 """
@@ -55,7 +55,7 @@ def is_rclpys(name):
 
 
 def descriptor(spec):
-    """Return the :class:`ParameterDescriptor` of a :class:`rbd_ros.sim.config.ParamSpec`."""
+    """Return the :class:`ParameterDescriptor` of a :class:`rbd_ros.sim.params.ParamSpec`."""
     result = ParameterDescriptor(
         name=spec.name, type=_TYPES[spec.kind], read_only=spec.read_only,
         description=spec.description + (f' [{spec.unit}]' if spec.unit else ''),
