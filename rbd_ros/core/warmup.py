@@ -131,6 +131,7 @@ def main(argv=None):
     status = 1
     try:
         numba_target.skip_blas_probe()
+        numba_target.load_without_refresh()
         compile_kernels(args.only or (KINDS if args.batch else KINDS[:-1]))
         status = 0
     finally:
