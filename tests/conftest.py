@@ -206,18 +206,20 @@ def module_tmp(tmp_path_factory):
 
 # --- The kernels compile once, in the background, while tests that need none run -----------
 #
-# A fresh clone's first contact test compiles the contact step for ~2 min of one core, a joints
+# A fresh clone's first contact test compiles the contact step for ~1.5 min of one core, a joints
 # test the joints step for ~1.5 min, a world with joints its own specialisation of the contact
 # step and the batch test the threaded kernel for ~1 min, while the other core idles. So the
 # session starts `python -m rbd_ros.core.warmup --batch` in a background process (it fills the
 # same per-user cache the tests and their nodes read; free, contact, joints, world_joints, then
 # batch) and runs the tests in tiers: first those that compile nothing, then those that need only
-# the free-body step (compiled first, ~20 s), then, once the free, contact and joints kinds are
-# marked on disk (jitcache.kernels_on_disk), the rest but the jointed worlds' and the batch
-# tests; the jointed worlds' once their kind is marked too, and the batch tests last, once the
-# warm-up has ended. A test that waited for its kinds never compiles them again
-# beside the warm-up. Nothing is skipped: a warm-up that fails only means the tests compile the
-# kernels themselves, as they would without it. With a warm cache the process ends in ~2 s.
+# the free-body step (compiled first, ~15 s), then, once the free and contact kinds are marked on
+# disk (jitcache.kernels_on_disk), those that need no more (the contact step: ~1.5 min before
+# the joints step is ready, which both workers spent waiting), then, with the joints kind, the
+# rest but the jointed worlds' and the batch tests; the jointed worlds' once their kind is
+# marked too, and the batch tests last, once the warm-up has ended. A test that waited for its
+# kinds never compiles them again beside the warm-up. Nothing is skipped: a warm-up that fails
+# only means the tests compile the kernels themselves, as they would without it. With a warm
+# cache the process ends in ~2 s.
 
 #: Test files that compile no physics kernel (run first, beside the warm-up).
 NO_KERNEL_FILES = ('test_lint.py', 'test_docs.py', 'test_import_boundaries.py', 'test_warm_up.py',
@@ -253,6 +255,27 @@ FREE_KERNEL_FILES = ('ros/test_node_physics.py',
                      'recording/test_replay_integrity.py', 'recording/test_bag_limits.py')
 #: Below FREE_KERNEL_DIR, what needs more than the free-body step.
 NOT_FREE_DIRS = ('core/contact/', 'core/joints/')
+#: Test files that need the contact step (worlds without joints, no robot) and at most the
+#: free-body step besides: everything below CONTACT_KERNEL_DIR (but the files of a later tier
+#: listed below), and these, which run worlds and free bodies only (nodes, recordings, replays
+#: and plots of them, bags of worlds). Each was read for joints, robots, URDF and the msg_config/
+#: files with joints, and run with a kernel cache holding only the free and contact kinds:
+#: nothing compiled the joints step. A file listed here by mistake compiles the joints step
+#: beside the warm-up's own compile of it (~100 s of CPU).
+CONTACT_KERNEL_DIR = 'core/contact/'
+CONTACT_KERNEL_FILES = ('recording/test_animate.py', 'recording/test_hostile_bags.py',
+                        'recording/test_node_recording.py',
+                        'recording/test_node_recording_faults.py',
+                        'recording/test_run_endings.py', 'recording/test_world_sigkill.py',
+                        'ros/test_demo.py', 'ros/test_marker_bytes.py', 'ros/test_node_behind.py',
+                        'ros/test_node_big_world.py', 'ros/test_node_cli.py',
+                        'ros/test_node_contact.py', 'ros/test_node_drag_limits.py',
+                        'ros/test_node_flood.py', 'ros/test_node_overrides.py',
+                        'ros/test_node_signals.py', 'ros/test_node_small_things.py',
+                        'ros/test_node_threads.py', 'ros/test_node_world.py',
+                        'ros/test_node_world_hard_push.py', 'ros/test_participant.py',
+                        'ros/test_readme_tour.py', 'ros/test_sim_session.py', 'ros/test_tf.py',
+                        'sim/test_hostile_meshes.py', 'test_package.py')
 #: Test files that step worlds with joints (their own specialisation of the contact step:
 #: a world's joints, or URDF robots among bodies), replay bags of them, or start a node on every
 #: file of msg_config/ (``pendulum_world.yaml``, ``door_world.yaml`` and ``arm_table.yaml``
@@ -275,23 +298,27 @@ WORLD_JOINTS_FILES = ('core/joints/test_joints_contact.py', 'core/joints/test_mo
 BATCH_KERNEL_FILES = ('core/test_batch.py',)
 #: The kernel kinds (jitcache.KIND_MODULES) each tier waits for; the last tier waits for the
 #: warm-up's end.
-TIER_KINDS = {1: ('free',), 2: ('free', 'contact', 'joints'),
-              3: ('free', 'contact', 'joints', 'world_joints')}
+TIER_KINDS = {1: ('free',), 2: ('free', 'contact'), 3: ('free', 'contact', 'joints'),
+              4: ('free', 'contact', 'joints', 'world_joints')}
+#: The tier of a test that needs every kind but the jointed worlds' and the batch kernel.
+JOINTS_TIER = 3
 _WARM_UP = {}
 
 
 def _tier_of(path, name):
-    """Return the tier (0 to 4) of test ``name`` in ``path`` (relative to tests/, posix)."""
+    """Return the tier (0 to 5) of test ``name`` in ``path`` (relative to tests/, posix)."""
     if path in NO_KERNEL_FILES or f'{path}::{name}' in NO_KERNEL_TESTS:
         return 0
     if path in BATCH_KERNEL_FILES:
-        return 4
+        return 5
     if path in WORLD_JOINTS_FILES:
-        return 3
+        return 4
     if path in FREE_KERNEL_FILES or path.startswith(FREE_KERNEL_DIR) and not path.startswith(
             NOT_FREE_DIRS):
         return 1
-    return 2
+    if path in CONTACT_KERNEL_FILES or path.startswith(CONTACT_KERNEL_DIR):
+        return 2
+    return JOINTS_TIER
 
 
 def _tier(item):
@@ -440,7 +467,7 @@ def _nodeid_tier(root, nodeid):
     try:
         path = (root / path).relative_to(REPO / 'tests').as_posix()
     except ValueError:  # not below tests/: treat as needing every kernel
-        return 2
+        return JOINTS_TIER
     return _tier_of(path, rest.rsplit('::', 1)[-1])
 
 
