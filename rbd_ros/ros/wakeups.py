@@ -18,17 +18,17 @@ The spin loop's quick look: is any of the node's callbacks ready, at a fraction 
 rclpy's executor rebuilds its wait set at every wake-up, entering each entity's handle and
 filtering it through its callback group in Python: ~3.5 µs a subscription (a world of 100
 bodies, 201 subscriptions: ~0.7 ms a wake-up; of 1,000 bodies: 4-9 ms). :class:`QuickLook`
-waits on the same entities with their handles gathered once (~0.6 µs a subscription), and most
-of the time not on every subscription: a message can only come from a publisher the
+waits on the same entities with their handles gathered once (~0.6 µs a subscription), and
+most of the time not on every subscription: a message can only come from a publisher the
 subscription has matched, and a world's inputs (a wrench and a drag topic a body) mostly have
-none. So a wake-up waits on the services, clients, timers and waitables, and on the *watched*
-subscriptions: those that had a publisher, or a message, at a census. A census waits on every
-subscription and counts each one's publishers (~1.5-3.5 µs a subscription), at most every
-:data:`CENSUS_PERIOD_NS` and so that the censuses take at most :data:`CENSUS_SHARE` of the wall
-time: at load 12, a world of 100 bodies every ~30 ms, of 1,000 bodies every ~0.7 s. A
-subscription stays watched once it is. So a message on a topic that had a publisher at the last
-census is seen at the next wake-up; the first messages from a publisher that appeared since are
-seen at the next census.
+none. So a wake-up waits on the services, clients, timers and waitables, and on the
+*watched* subscriptions: those that had a publisher, or a message, at a census. A census
+waits on every subscription and counts each one's publishers (~1.5 µs a subscription), at
+most every :data:`CENSUS_PERIOD_NS` and so that the censuses take at most
+:data:`CENSUS_SHARE` of the wall time: a world of 100 bodies every ~50 ms, of 1,000 bodies
+every ~0.3 s. A subscription stays watched once it is. So a message on a topic that had a
+publisher at the last census is seen at the next wake-up; the first messages from a publisher
+that appeared since are seen at the next census.
 
 When the look finds something, the executor's own wait (which finds it again, without
 waiting) serves it, so callbacks run exactly as rclpy runs them. The look takes nothing: a
