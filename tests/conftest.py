@@ -224,7 +224,7 @@ def module_tmp(tmp_path_factory):
 #: Test files that compile no physics kernel (run first, beside the warm-up).
 NO_KERNEL_FILES = ('test_lint.py', 'test_docs.py', 'test_import_boundaries.py', 'test_warm_up.py',
                    'core/test_rotations.py', 'core/test_inertia.py', 'core/test_layout.py',
-                   'core/test_validators.py', 'ros/test_wakeups.py')
+                   'core/test_validators.py')
 #: Single tests (file::name) that compile no physics kernel: the clean-venv install (~1 min of
 #: pip), the package metadata checks, the colcon-installed launch file, the RViz config and the
 #: mesh loader's one-line error (each run with an empty kernel cache: nothing compiled). Under

@@ -67,11 +67,10 @@ from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
 #: At most this share of the wall time goes to the spin loop's wake-ups as fast as possible:
-#: one costs ~0.6 µs per subscription it waits on (rbd_ros.ros.wakeups: those with a publisher,
-#: and every one at a census; a census of 1,000 bodies' 2,000: ~3 ms), so the tick budget grows
-#: to that many wake-ups' worth, up to MAX_TICK_BUDGET_NS (the latency of an input then). Not
-#: less: a wake-up serves one callback, so a tick budget longer than needed delays a burst of
-#: inputs on many topics (tests/ros/test_node_behind.py).
+#: one costs ~0.6 µs per subscription (rbd_ros.ros.wakeups; a world of 1,000 bodies: ~2.5 ms),
+#: so the tick budget grows to that many wake-ups' worth, up to MAX_TICK_BUDGET_NS (the latency
+#: of an input then). Not less: a wake-up serves one callback, so a tick budget longer than
+#: needed delays a burst of inputs on many topics (tests/ros/test_node_behind.py).
 SPIN_SHARE = 0.1
 MAX_TICK_BUDGET_NS = 100_000_000
 #: The outputs' subscribers are looked at no more often than this (wall ns), and so that the

@@ -18,19 +18,9 @@ The spin loop's quick look: is any of the node's callbacks ready, at a fraction 
 rclpy's executor rebuilds its wait set at every wake-up, entering each entity's handle and
 filtering it through its callback group in Python: ~3.5 µs a subscription (a world of 100
 bodies, 201 subscriptions: ~0.7 ms a wake-up; of 1,000 bodies: 4-9 ms). :class:`QuickLook`
-waits on the same entities with their handles gathered once (~0.6 µs a subscription), and
-most of the time not on every subscription: a message can only come from a publisher the
-subscription has matched, and a world's inputs (a wrench and a drag topic a body) mostly have
-none. So a wake-up waits on the services, clients, timers and waitables, and on the
-*watched* subscriptions: those that had a publisher, or a message, at a census. A census
-waits on every subscription and counts each one's publishers (~1.5 µs a subscription), at
-most every :data:`CENSUS_PERIOD_NS` and so that the censuses take at most
-:data:`CENSUS_SHARE` of the wall time: a world of 100 bodies every ~50 ms, of 1,000 bodies
-every ~0.3 s. A subscription stays watched once it is. So a message on a topic that had a
-publisher at the last census is seen at the next wake-up; the first messages from a publisher
-that appeared since are seen at the next census.
-
-When the look finds something, the executor's own wait (which finds it again, without
+waits on the same entities (subscriptions, services, clients, timers, waitables) with their
+handles gathered once: ~0.6 µs a subscription. When it finds nothing ready the executor is
+not asked; when it finds something, the executor's own wait (which finds it again, without
 waiting) serves it, so callbacks run exactly as rclpy runs them. The look takes nothing: a
 message, a request or an event stays where it is until the executor takes it. Guard
 conditions are different (a wait that sees a trigger resets it), so a node with guard
@@ -38,35 +28,24 @@ conditions of its own (this one has none) is always handed to the executor.
 
 The handles are not guarded against destruction during the wait as rclpy guards them: the node
 destroys its endpoints only after its last wake-up. A change in the node's entities rebuilds
-the look at the next census (the node makes none after its start).
+the look.
 """
-
-import time
 
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 
-#: At most this share of the wall time goes to censuses (see the module).
-CENSUS_SHARE = 0.01
-#: A census is taken no more often than this (wall ns).
-CENSUS_PERIOD_NS = 5_000_000
-
 
 class QuickLook:
-    """A wait set over ``node``'s entities, their handles taken once; see the module."""
+    """A wait set over ``node``'s entities, their handles taken once."""
 
-    def __init__(self, node, clock=time.monotonic_ns):
+    def __init__(self, node):
         self._node = node
-        self._clock = clock
         self._entities = None
         self._wait_set = None
-        self._next_census_ns = 0
 
     def _build(self, entities):
         subs, services, clients, timers, waitables = entities
         self._entities = entities
         self._subs = [sub.handle for sub in subs]
-        self._watched = []
-        self._unwatched = list(self._subs)
         self._services = [srv.handle for srv in services]
         self._clients = [cli.handle for cli in clients]
         self._timers = [tmr.handle for tmr in timers]
@@ -74,12 +53,6 @@ class QuickLook:
         events = sum(w.get_num_entities().num_events for w in waitables)
         self._wait_set = _rclpy.WaitSet(len(subs), 0, len(timers), len(clients), len(services),
                                         events, self._node.context.handle)
-        self._next_census_ns = 0
-
-    @property
-    def watched(self):
-        """Return how many subscriptions every wake-up waits on (of all the node's)."""
-        return len(self._watched)
 
     def anything_ready(self, timeout_ns):
         """
@@ -90,40 +63,14 @@ class QuickLook:
         node = self._node
         if not node.context.ok() or any(True for _ in node.guards):
             return True
-        start_ns = self._clock()
-        if start_ns >= self._next_census_ns:
-            entities = (tuple(node.subscriptions), tuple(node.services), tuple(node.clients),
-                        tuple(node.timers), tuple(node.waitables))
-            if entities != self._entities:
-                self._build(entities)
-            ready = self._census()
-            self._next_census_ns = start_ns + max(
-                CENSUS_PERIOD_NS, int((self._clock() - start_ns) / CENSUS_SHARE))
-            if ready:
-                return True
-        return self._wait(self._watched, timeout_ns)
-
-    def _census(self):
-        """Wait on every subscription, not at all; watch those with a publisher or a message."""
-        if not self._unwatched:
-            return False
-        ws = self._wait_set
-        ready = self._wait(self._unwatched, 0)
-        ready_subs = set(ws.get_ready_entities('subscription')) if ready else ()
-        watched = [h for h in self._unwatched
-                   if h.pointer in ready_subs or h.get_publisher_count() > 0]
-        if watched:
-            self._watched += watched
-            taken = {h.pointer for h in watched}
-            self._unwatched = [h for h in self._unwatched if h.pointer not in taken]
-        return ready
-
-    def _wait(self, subs, timeout_ns):
-        """Wait on ``subs`` and every other entity; return whether one is ready."""
+        entities = (tuple(node.subscriptions), tuple(node.services), tuple(node.clients),
+                    tuple(node.timers), tuple(node.waitables))
+        if entities != self._entities:
+            self._build(entities)
         ws = self._wait_set
         ws.clear_entities()
         add = ws.add_subscription
-        for handle in subs:
+        for handle in self._subs:
             add(handle)
         for handle in self._services:
             ws.add_service(handle)

@@ -37,8 +37,7 @@ publishing (every body's pose, twist, odom and contact wrench, ``poses``, ``/tf`
   not count): the core step, the session around it (inputs, schedule), building and
   publishing the sample, the executor's wake-ups and the rest of the loop; and the CPU time
   of the whole process (``time.process_time``: the core's island threads and the
-  middleware's too), the fairer figure on a loaded machine; with ``--subscribe``, the
-  subscriber process's CPU time over the same steps (``/proc``): it runs on the same cores.
+  middleware's too), the fairer figure on a loaded machine.
 
 Prints medians over ``--runs`` runs and the machine's load average.
 """
@@ -232,15 +231,12 @@ def breakdown_main(args):
     end_ns = node.config.duration_ns - 100_000_000
     t0, cpu0, wall0 = session.time_ns, time.thread_time_ns(), time.monotonic_ns()
     process0 = time.process_time_ns()
-    subscriber = os.environ.get('BENCH_WORLD_SUBSCRIBER_PID')
-    subscriber0 = _cpu_ns(subscriber) if subscriber else 0
     wake_ups = 0
     while rclpy.ok() and not node.done and session.time_ns < end_ns:
         serve()
         wake_ups += 1
     cpu, wall = time.thread_time_ns() - cpu0, time.monotonic_ns() - wall0
     process = time.process_time_ns() - process0
-    subscriber_cpu = _cpu_ns(subscriber) - subscriber0 if subscriber else None
     steps = (session.time_ns - t0) // session.timestep_ns
     out = {label: ns / steps / 1000 for label, ns in parts.items()}
     out['session'] -= out['core step']
@@ -249,29 +245,17 @@ def breakdown_main(args):
     out['rest of the loop'] = cpu / steps / 1000 - sum(out.values())
     out['main thread total'] = cpu / steps / 1000
     out['process total (every thread)'] = process / steps / 1000
-    if subscriber_cpu is not None:
-        out['process: the subscriber (another)'] = subscriber_cpu / steps / 1000
     out['steps a wake-up'] = steps / max(1, wake_ups)
     out['as-fast factor in process'] = (session.time_ns - t0) / wall
     print(json.dumps(out), flush=True)
     os._exit(0)
 
 
-def _cpu_ns(pid):
-    """Return the CPU time (user + system, ns) process ``pid`` has taken so far."""
-    with open(f'/proc/{pid}/stat') as f:
-        fields = f.read().rsplit(')', 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) * 1_000_000_000 // os.sysconf('SC_CLK_TCK')
-
-
-def breakdown(params_file, sim_s, extra, subscriber=None):
+def breakdown(params_file, sim_s, extra):
     """Return the parts of :func:`breakdown_main` for a run of ``sim_s``, in a subprocess."""
-    env = dict(os.environ)
-    if subscriber is not None:  # its CPU time over the same steps
-        env['BENCH_WORLD_SUBSCRIBER_PID'] = str(subscriber.pid)
     out = subprocess.run(
         [sys.executable, __file__, '--breakdown-child'] + node_command(params_file, sim_s, extra),
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=REPO, env=env)
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=REPO)
     if out.returncode:
         raise SystemExit(out.stderr.decode(errors='replace')[-2000:])
     return json.loads(out.stdout.decode().strip().splitlines()[-1])
@@ -313,8 +297,7 @@ def main(argv=None):
         try:
             for _ in range(args.runs):
                 if args.subscribe:  # in process, from when every output has its subscriber
-                    parts.append(breakdown(f.name, args.long_s, extra + ['start_paused:=true'],
-                                           subscriber))
+                    parts.append(breakdown(f.name, args.long_s, extra + ['start_paused:=true']))
                     factors.append(parts[-1]['as-fast factor in process'])
                     node_us.append(1e3 / factors[-1])
                 else:
