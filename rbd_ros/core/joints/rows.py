@@ -32,14 +32,10 @@ from rbd_ros.core.joints.arrays import (
     L_LOWER, L_UPPER, M_AREF, M_MODE, M_OMEGA, M_POSITION, M_TREF, M_VREF, MOTOR_POSITION,
     P_ANG_DAMP, P_GRAVITY, P_INERTIA, P_LIN_DAMP, P_MASS, ROW_FRICTION, ROW_LIMIT, ROW_LIN,
     ROW_MIMIC, ROW_MOTOR, S_TSTAGE)
+from rbd_ros.core.kernel_rotations import _cross, _qmul
 
 _jit = jitcache.raw_kernel()
 _inl = jitcache.kernel(inline='always')
-
-
-@_inl
-def _cross(a0, a1, a2, b0, b1, b2):
-    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
 
 
 @_inl
@@ -185,15 +181,9 @@ def _joint_turn(model, x, j):
         pw, px, py, pz = x[par, 3], -x[par, 4], -x[par, 5], -x[par, 6]
     else:
         pw, px, py, pz = 1.0, 0.0, 0.0, 0.0
-    cw, cx, cy, cz = x[c, 3], x[c, 4], x[c, 5], x[c, 6]
-    aw = pw * cw - px * cx - py * cy - pz * cz
-    ax = pw * cx + px * cw + py * cz - pz * cy
-    ay = pw * cy - px * cz + py * cw + pz * cx
-    az = pw * cz + px * cy - py * cx + pz * cw
-    rw, rx, ry, rz = (jprm[j, J_QREST], -jprm[j, J_QREST + 1], -jprm[j, J_QREST + 2],
-                      -jprm[j, J_QREST + 3])
-    return (aw * rw - ax * rx - ay * ry - az * rz, aw * rx + ax * rw + ay * rz - az * ry,
-            aw * ry - ax * rz + ay * rw + az * rx, aw * rz + ax * ry - ay * rx + az * rw)
+    aw, ax, ay, az = _qmul(pw, px, py, pz, x[c, 3], x[c, 4], x[c, 5], x[c, 6])
+    return _qmul(aw, ax, ay, az, jprm[j, J_QREST], -jprm[j, J_QREST + 1],
+                 -jprm[j, J_QREST + 2], -jprm[j, J_QREST + 3])
 
 
 @_inl
@@ -227,10 +217,7 @@ def _ball_coordinate(model, x, work, j, k):
         tw, s = math.cos(0.5 * n), math.sin(0.5 * n) / n
     tx, ty, tz = -s * t0, -s * t1, -s * t2   # q*⁻¹
     aw, ax, ay, az = _joint_turn(model, x, j)
-    ew = aw * tw - ax * tx - ay * ty - az * tz
-    ex = aw * tx + ax * tw + ay * tz - az * ty
-    ey = aw * ty - ax * tz + ay * tw + az * tx
-    ez = aw * tz + ax * ty - ay * tx + az * tw
+    ew, ex, ey, ez = _qmul(aw, ax, ay, az, tw, tx, ty, tz)
     if ew < 0.0:
         ew, ex, ey, ez = -ew, -ex, -ey, -ez
     sv = math.sqrt(ex * ex + ey * ey + ez * ez)
