@@ -50,20 +50,18 @@ This module does not import rclpy: the node serialises messages with
 
 import dataclasses
 import importlib.metadata
-import itertools
 import os
 import re
 import stat
-import struct
 import time
 from typing import Any, Dict, Iterable, Mapping, Optional, Tuple, Union
 
-from mcap._chunk_builder import ChunkBuilder
 from mcap.data_stream import RecordBuilder
-from mcap.opcode import Opcode
-from mcap.records import Channel, MessageIndex, Schema, Statistics
+from mcap.records import Channel, Schema
 from mcap.writer import CompressionType, Writer
+import numpy as np
 from rbd_ros import __version__
+from rbd_ros.bag import blocks
 # The shared constants and the reader, here too under the names this module has always had
 # (rbd_ros.bag.recording.open_bag, ...): the documented paths.
 from rbd_ros.bag.format import (  # noqa: F401
@@ -84,37 +82,8 @@ _COMPRESSION = {
 }
 
 
-# A Message record: opcode, record length, channel id, sequence, log time, publish time (the
-# data follows), as mcap's Message.write packs it.
-_MESSAGE_RECORD = struct.Struct('<BQHIQQ')
-_MESSAGE_OPCODE = int(Opcode.MESSAGE)
-
-
-class _MessageIndex(MessageIndex):
-    """mcap's MessageIndex record, its entries packed at once (the same bytes)."""
-
-    def write(self, stream):
-        entries = self.records
-        stream.start_record(Opcode.MESSAGE_INDEX)
-        stream.write(struct.pack(f'<HI{2 * len(entries)}Q', self.channel_id, 16 * len(entries),
-                                 *itertools.chain.from_iterable(entries)))
-        stream.finish_record()
-
-
-def _mcap_internals(writer):
-    """
-    Return ``(chunk builder, statistics)`` of an mcap ``Writer`` (1.6), or None if it differs.
-
-    :meth:`BagWriter.write_many` adds records to them as ``Writer.add_message`` does.
-    """
-    chunk = getattr(writer, '_Writer__chunk_builder', None)
-    stats = getattr(writer, '_Writer__statistics', None)
-    if not isinstance(chunk, ChunkBuilder) or not isinstance(stats, Statistics) or not all(
-            hasattr(chunk, name) for name in (
-                'record_writer', 'message_indices', 'num_messages', 'message_start_time',
-                'message_end_time')):
-        return None
-    return chunk, stats
+# mcap's writer internals that write_many uses (here, so a test can take them away).
+_mcap_internals = blocks.mcap_internals
 
 
 @dataclasses.dataclass
@@ -179,6 +148,9 @@ class BagWriter:
         self._end_ns = 0
         self._stream = None
         self._defs_in_chunk_only = []  # Schema/Channel records not yet on disk
+        self._internals = None  # mcap internals for write_many (blocks.mcap_internals)
+        self._layouts = {}  # write_many's topics -> their blocks.Layout
+        self._chunk_entries = None  # write_many's message-index entries in the open chunk
         if not callable(getattr(Writer, 'flush', None)):
             raise RecordingError(
                 f'mcap {importlib.metadata.version("mcap")}: its Writer has no public flush() '
@@ -359,11 +331,10 @@ class BagWriter:
         Append ``[(topic, CDR bytes)]``, in order, all at ``log_time_ns`` (a sample).
 
         The same file, byte for byte, as :meth:`write` of each in turn (a test compares
-        them), at ~1 µs a message where the mcap writer's ``add_message`` takes ~15 (a world
-        of 100 bodies records 400 messages a sample): the Message records are packed here and
-        given to the writer's chunk builder in one write, with the message indexes (packed at
-        once when the chunk ends) and statistics its ``add_message`` keeps. An mcap whose
-        writer does not have those internals (:func:`_mcap_internals`) gets :meth:`write` of each.
+        them), at a few numpy operations a sample where the mcap writer's ``add_message``
+        takes ~15 µs a message (a world of 100 bodies records ~400 messages a sample):
+        :mod:`rbd_ros.bag.blocks`. An mcap whose writer does not have the internals it uses
+        (:func:`rbd_ros.bag.blocks.mcap_internals`) gets :meth:`write` of each.
         """
         if self._failed is not None or self._closed:
             self._check_open()
@@ -372,19 +343,39 @@ class BagWriter:
             for topic, data in messages:
                 self.write(topic, data, log_time_ns)
             return
-        entries = [(self._topic(topic), data) for topic, data in messages]
+        topics = tuple(topic for topic, _ in messages)
+        layout = self._layouts.get(topics)
+        if layout is None:  # every topic checked before anything is written
+            layout = self._layouts[topics] = blocks.Layout([self._topic(t) for t in topics])
+        datas = [data for _, data in messages]
+        lengths = np.fromiter(map(len, datas), dtype=np.int64, count=len(datas))
         start = 0
-        while start < len(entries):
+        while start < len(datas):
             self._chunk_for(log_time_ns)
             # As many as write() would put in this chunk: up to the first message before
             # which the chunk holds chunk_bytes (write() ends the chunk there).
-            end, size = start, self._chunk_bytes
-            while end < len(entries) and (end == start or size < self._chunk_bytes_max):
-                size += len(entries[end][1])
-                end += 1
-            self._add_block(internals, entries[start:end], log_time_ns)
-            self._chunk_bytes = size
+            before = np.cumsum(lengths[start:]) - lengths[start:]
+            end = start + max(1, int(np.searchsorted(
+                before, self._chunk_bytes_max - self._chunk_bytes, side='left')))
+            if self._chunk_entries is None:
+                self._chunk_entries = blocks.ChunkEntries()
+            blocks.add_block(internals, self._chunk_entries, layout, start, end,
+                             datas[start:end], lengths[start:end], log_time_ns)
+            n = end - start
+            self._chunk_bytes += int(before[n - 1] + lengths[end - 1])
+            self._chunk_messages += n
+            self._message_count += n
+            if self._start_ns is None:
+                self._start_ns = log_time_ns
+            if log_time_ns > self._end_ns:
+                self._end_ns = log_time_ns
             start = end
+
+    def _settle(self):
+        """Add the counts of write_many's blocks to the statistics and the topics."""
+        if self._internals is not None:
+            for layout in self._layouts.values():
+                layout.settle(self._internals[1])
 
     def _topic(self, topic):
         entry = self._topics.get(topic)
@@ -400,40 +391,6 @@ class BagWriter:
             self._end_chunk()
         if not self._chunk_messages:
             self._chunk_start_ns = log_time_ns
-
-    def _add_block(self, internals, entries, time_ns):
-        """Add Message records to the open chunk as mcap's ``Writer.add_message`` does."""
-        chunk, stats = internals
-        records = chunk.record_writer
-        offset = records.count
-        indices, counts = chunk.message_indices, stats.channel_message_counts
-        pack = _MESSAGE_RECORD.pack
-        parts = []
-        for entry, data in entries:
-            channel = entry.channel_id
-            index = indices.get(channel)
-            if not index:
-                index = indices[channel] = _MessageIndex(channel_id=channel, records=[])
-            index.records.append((time_ns, offset))
-            offset += _MESSAGE_RECORD.size + len(data)
-            parts += (pack(_MESSAGE_OPCODE, _MESSAGE_RECORD.size - 9 + len(data), channel, 0,
-                           time_ns, time_ns), data)
-            counts[channel] += 1
-            entry.count += 1
-        records.write(b''.join(parts))
-        n = len(entries)
-        for owner, count in ((chunk, chunk.num_messages), (stats, stats.message_count)):
-            owner.message_start_time = time_ns if count == 0 else \
-                min(owner.message_start_time, time_ns)
-            owner.message_end_time = max(owner.message_end_time, time_ns)
-        chunk.num_messages += n
-        stats.message_count += n
-        self._chunk_messages += n
-        self._message_count += n
-        if self._start_ns is None:
-            self._start_ns = time_ns
-        if time_ns > self._end_ns:
-            self._end_ns = time_ns
 
     def flush(self) -> None:
         """
@@ -524,6 +481,7 @@ class BagWriter:
     def _end_chunk(self, fsync=True):
         """Write the open chunk with its message indexes and hand it to the OS (mcap's flush)."""
         self._defs_in_chunk_only = []  # the chunk carries them
+        self._chunk_entries = None
         try:
             self._mcap.flush()
             if fsync and self._fsync:
@@ -542,6 +500,7 @@ class BagWriter:
         ``metadata.yaml`` wraps the same map in ``rosbag2_bagfile_information``.  Before the
         first message ``starting_time`` is int64 max ns, as rosbag2 writes it at open.
         """
+        self._settle()
         if self._message_count:
             start, duration = self._start_ns, self._end_ns - self._start_ns
         else:

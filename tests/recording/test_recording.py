@@ -529,32 +529,47 @@ def test_an_mcap_without_a_public_writer_flush_is_named(tmp_path, monkeypatch):
 
 
 @pytest.mark.parametrize('internals', [True, False])
-def test_write_many_writes_the_bytes_of_write_one_by_one(tmp_path, monkeypatch, internals):
+@pytest.mark.parametrize('chunk_bytes', [300, 1 << 20])
+def test_write_many_writes_the_bytes_of_write_one_by_one(tmp_path, monkeypatch, internals,
+                                                          chunk_bytes):
     """
     A sample written at once (write_many) makes the same file as its messages one by one.
 
-    Chunks end on bytes inside a sample (chunk_bytes 300: a few messages a chunk) and on sim
-    time between samples (chunk_duration 25 ms: every third sample), so the split of a sample
-    across chunks is compared too; without mcap's internals write_many falls back to write.
+    Chunks end on bytes inside a sample (chunk_bytes 300: a few messages a chunk) or not
+    (1 MiB), and on sim time between samples (chunk_duration 25 ms: every third sample), so
+    the split of a sample across chunks is compared too; samples of two sets of topics (a
+    topic twice in one), with messages written one by one between them, on their topics and
+    another, so each channel's message index and count mixes both; without mcap's internals
+    write_many falls back to write.
     """
     if not internals:
         monkeypatch.setattr(recording, '_mcap_internals', lambda writer: None)
     topics = [('/a/pose', 'geometry_msgs/msg/PoseStamped'),
-              ('/poses', 'geometry_msgs/msg/PoseArray'), ('/clock', 'rosgraph_msgs/msg/Clock')]
+              ('/poses', 'geometry_msgs/msg/PoseArray'), ('/clock', 'rosgraph_msgs/msg/Clock'),
+              ('/markers', 'visualization_msgs/msg/MarkerArray')]
     samples = [(t * 10_000_000, [(topic, bytes([t, i]) * (7 + 13 * i + t))
-                                 for i, (topic, _) in enumerate(topics * 2)])
+                                 for i, (topic, _) in enumerate(
+                                     topics[:3] * 2 if t % 4 else topics[1:3])])
                for t in range(12)]
+    singles = {t * 10_000_000: [('/markers', bytes([t]) * (5 + t))]
+               + ([('/poses', b'p' * t)] if t % 3 else []) for t in range(12)}
     files = []
     for name, many in (('one', False), ('many', True)):
-        writer = BagWriter(str(tmp_path / name / 'bag'), config=CONFIG, chunk_bytes=300,
+        writer = BagWriter(str(tmp_path / name / 'bag'), config=CONFIG, chunk_bytes=chunk_bytes,
                            chunk_duration_ns=25_000_000)
         for topic, type_name in topics:
             writer.add_topic(topic, type_name)
         for time_ns, messages in samples:
+            if time_ns % 20_000_000:  # one by one before the sample at odd times
+                for topic, data in singles[time_ns]:
+                    writer.write(topic, data, time_ns)
             if many:
                 writer.write_many(messages, time_ns)
             else:
                 for topic, data in messages:
+                    writer.write(topic, data, time_ns)
+            if not time_ns % 20_000_000:
+                for topic, data in singles[time_ns]:
                     writer.write(topic, data, time_ns)
         writer.close()
         files.append([(tmp_path / name / 'bag' / 'bag_0.mcap').read_bytes(),
@@ -563,7 +578,9 @@ def test_write_many_writes_the_bytes_of_write_one_by_one(tmp_path, monkeypatch, 
     got = [(m.topic, m.log_time_ns, m.data) for m in open_bag(str(tmp_path / 'many' / 'bag'))
            .messages()]
     assert got == [(topic, time_ns, data) for time_ns, messages in samples
-                   for topic, data in messages]
+                   for topic, data in [
+                       *(singles[time_ns] if time_ns % 20_000_000 else []), *messages,
+                       *([] if time_ns % 20_000_000 else singles[time_ns])]]
 
 
 def test_write_many_refuses_an_unknown_topic_before_writing(tmp_path):
