@@ -530,8 +530,8 @@ def test_an_mcap_without_a_public_writer_flush_is_named(tmp_path, monkeypatch):
 
 @pytest.mark.parametrize('internals', [True, False])
 @pytest.mark.parametrize('chunk_bytes', [300, 1 << 20])
-def test_write_many_writes_the_bytes_of_write_one_by_one(tmp_path, monkeypatch, internals,
-                                                          chunk_bytes):
+def test_write_many_writes_the_bytes_of_write_one_by_one(
+        tmp_path, monkeypatch, internals, chunk_bytes):
     """
     A sample written at once (write_many) makes the same file as its messages one by one.
 
