@@ -102,6 +102,36 @@ def values(columns, twist_world):
             ((qw * qw + qx * qx) + qy * qy) + qz * qz)
 
 
+class FixedLayout:
+    """
+    A message whose layout is fixed (its strings and lengths): a template, stamps and doubles.
+
+    :param packer: the message's ``struct`` format (:func:`rbd_ros.msgs.cdr.layout`: each
+        ``i`` a header's ``sec``, its ``nanosec`` right after it).
+    :param args: any arguments of that format with its strings (the doubles are written over).
+
+    :meth:`serialize` writes every stamp and every double, in the order of the format, into a
+    copy of the template: the bytes of ``packer.pack`` with those values.
+    """
+
+    def __init__(self, packer, args):
+        self._template = packer.pack(*args)
+        offsets = _argument_offsets(packer.format)
+        self._stamps = np.array([o for o, code in offsets if code == 'i'],
+                                dtype=np.int64).reshape(-1, 1) + np.arange(8)
+        self._doubles = np.array([o for o, code in offsets if code == 'd'],
+                                 dtype=np.int64).reshape(-1, 1) + np.arange(8)
+
+    def serialize(self, time_ns, doubles):
+        """Return the bytes at ``time_ns`` with ``doubles`` (float64, as many as the format's)."""
+        buf = bytearray(self._template)
+        view = np.frombuffer(buf, dtype=_U8)
+        view[self._stamps] = np.frombuffer(struct.pack('<iI', *divmod(time_ns, 1_000_000_000)),
+                                           dtype=_U8)
+        view[self._doubles] = np.ascontiguousarray(doubles, dtype='<f8').view(_U8).reshape(-1, 8)
+        return bytes(buf)
+
+
 class BodiesBytes:
     """
     The per-body messages of every body, written at once.

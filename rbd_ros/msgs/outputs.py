@@ -65,7 +65,7 @@ import numpy as np
 from rbd_ros.core import BodyState, layout
 from rbd_ros.msgs import conversions as conv
 from rbd_ros.msgs import type_names as types
-from rbd_ros.msgs.body_bytes import BodiesBytes, twists
+from rbd_ros.msgs.body_bytes import BodiesBytes, FixedLayout, twists
 from rbd_ros.msgs.cdr import cdr_string as _cdr_string, layout as _layout
 from rbd_ros.msgs.robot_outputs import JointOutputs, RobotOutputs
 from rbd_ros.sim.params import NS_PER_S
@@ -325,6 +325,14 @@ class SampleBuilder:
             for robot in self.robots if robot.odom_kind}
         self._world = world
         self._frames = [_cdr_string(body.body_frame) for body in config.bodies]
+        # poses and (without robots) /tf as templates whose stamps and doubles each sample
+        # writes, every body's at once; with robots, /tf is packed field by field.
+        zero = (0.0,) * 7
+        self._poses_bytes = FixedLayout(self._poses, (
+            _ENCAPSULATION, 0, 0, len(world), world, n, *zero * n)) if n else None
+        self._tf_bytes = FixedLayout(self._tf, (_ENCAPSULATION, n, *(
+            v for frame in self._frames for v in (0, 0, len(world), world, len(frame), frame,
+                                                  *zero)))) if n and not self.robots else None
         # What serialize needs on its hot path, decided once.
         self._has_poses, self._has_clock, self._has_tf = (
             kind in self.kinds for kind in ('poses', 'clock', 'tf'))
@@ -378,13 +386,17 @@ class SampleBuilder:
         if wanted is not None:
             has = ('poses' in wanted and has[0], 'tf' in wanted and has[1],
                    has[2] and not wanted.isdisjoint(self._body_kinds))
-        poses = [] if has[0] else None
-        tf = [] if has[1] else None
         sec, nanosec = divmod(time_ns, NS_PER_S)
         world = self._world
-        if self.bodies and (has[2] or poses is not None or tf is not None):
-            self._bodies_sample(time_ns, columns, wrenches, wanted if has[2] else (), out,
-                                poses, tf)
+        rows = None  # every body's x, y, z, qx, qy, qz, qw, for poses and tf
+        if self.bodies and (has[2] or has[0] or has[1]):
+            rows = self._bodies_sample(time_ns, columns, wrenches, wanted if has[2] else (),
+                                       out, has[0] or has[1])
+        tf = None  # with robots: the fields of tf, packed at once
+        if has[1] and self._tf_bytes is None:
+            tf = []
+            for frame, row in zip(self._frames, () if rows is None else rows.tolist()):
+                tf += (sec, nanosec, len(world), world, len(frame), frame, *row)
         for robot in self.robots:
             if wanted is None or robot.kind in wanted:
                 out.append((robot.kind, robot.joint_states(time_ns, robots)))
@@ -397,20 +409,23 @@ class SampleBuilder:
                 out.append((robot.wrench_kind, robot.joint_wrenches(time_ns, robots)))
             if tf is not None:
                 tf += robot.tf_values(sec, nanosec, robots.link_poses(robot.index))
-        if poses is not None:
+        if has[0]:
             out.append(('poses', self._poses.pack(_ENCAPSULATION, sec, nanosec, len(world),
-                                                  world, len(self.bodies), *poses)))
+                                                  world, 0) if rows is None
+                        else self._poses_bytes.serialize(time_ns, rows)))
         if self._has_clock and (wanted is None or 'clock' in wanted):
             out.append(('clock', self._clock.pack(_ENCAPSULATION, sec, nanosec)))
-        if tf is not None:
-            out.append(('tf', self._tf.pack(_ENCAPSULATION, self._tf_count, *tf)))
+        if has[1]:
+            out.append(('tf', self._tf_bytes.serialize(time_ns, rows) if tf is None
+                        else self._tf.pack(_ENCAPSULATION, self._tf_count, *tf)))
         return out
 
-    def _bodies_sample(self, time_ns, columns, wrenches, wanted, out, poses, tf):
+    def _bodies_sample(self, time_ns, columns, wrenches, wanted, out, poses):
         """
-        Append each body's wanted kinds to ``out``, its pose to ``poses`` and its ``tf`` fields.
+        Append each body's wanted kinds to ``out``; with ``poses``, return the poses' rows.
 
-        All bodies at once (:class:`rbd_ros.msgs.body_bytes.BodiesBytes`).
+        All bodies at once (:class:`rbd_ros.msgs.body_bytes.BodiesBytes`); the rows are
+        (N, 7) ``x, y, z, qx, qy, qz, qw``, as ``poses`` and ``/tf`` carry them.
 
         :param wanted: None (every kind) or the per-body kinds to build (empty: none).
         """
@@ -418,15 +433,9 @@ class SampleBuilder:
         sample = bodies.values(columns)
         if wanted is None or wanted:
             out += bodies.serialize(time_ns, sample, wrenches, wanted)
-        if tf is not None or poses is not None:
-            rows = np.concatenate([sample[0], sample[1][:, [1, 2, 3, 0]]], axis=1).tolist()
-            if poses is not None:
-                poses += [value for row in rows for value in row]
-            if tf is not None:
-                sec, nanosec = divmod(time_ns, NS_PER_S)
-                world = self._world
-                for frame, row in zip(self._frames, rows):
-                    tf += (sec, nanosec, len(world), world, len(frame), frame, *row)
+        if poses:
+            return np.concatenate([sample[0], sample[1][:, [1, 2, 3, 0]]], axis=1)
+        return None
 
     def poses_wxyz(self, columns):
         """

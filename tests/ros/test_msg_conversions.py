@@ -218,6 +218,72 @@ def test_a_world_sample_is_each_body_s_scalar_sample_bit_for_bit(twist_frame, gr
                                      wanted=wanted)) == {k: data[k] for k in wanted}
 
 
+def _padding(fmt):
+    """Return the offsets of the padding bytes (``x``) of a ``struct`` format."""
+    import struct
+    pads, offset = [], 0
+    for count, code in __import__('re').findall(r'(\d*)([a-zA-Z?])', fmt.lstrip('<')):
+        size = (int(count) if count else 1) * (1 if code in 'xs' else struct.calcsize(code))
+        if code == 'x':
+            pads += range(offset, offset + size)
+        offset += size
+    return pads
+
+
+@pytest.mark.parametrize('frames', [1, 8])
+def test_poses_and_tf_are_rclpy_s_serialisations_with_odd_values(frames):
+    """
+    A world's ``poses`` and ``/tf`` (templates written at once) are rclpy's bytes of them.
+
+    Every byte but the alignment padding (rclpy's serialiser leaves it uninitialised; ours are
+    zeros) against ``serialize_message`` of the PoseArray and TFMessage built from each body's
+    values; names of every length mod 8 move that padding; odd values: -0.0, huge, tiny
+    (subnormal) and negative coordinates, a quaternion of -0.0 components, stamps of 0, of
+    a whole second and just under one.
+    """
+    from geometry_msgs.msg import Pose, PoseArray, TransformStamped
+    from tf2_msgs.msg import TFMessage
+    names = ['b' * (frames * n % 9 + 1) + str(n) for n in range(11)]
+    params = {'body_names': names, 'world_frame': 'w' * frames}
+    for i, name in enumerate(names):
+        params[f'bodies.{name}.initial_position'] = [float(i), 0.0, 1.0]
+    sample = outputs.SampleBuilder(NodeConfig.from_parameters(params))
+    columns = np.zeros((13, len(names)))
+    columns[0:3] = np.array([[-0.0, 1e300, -5e-324], [1.5e-310, -1e308, 2.0 ** 70],
+                             [np.pi, -0.0, 0.0]]).repeat(4, axis=1)[:, :len(names)]
+    columns[0, 5:] = -np.arange(len(names) - 5) * 1e-17
+    columns[3:7] = np.array([[1.0, 0.0, 0.0, 0.0], [-0.0, -0.0, -0.0, 1.0],
+                             [0.5, -0.5, 0.5, -0.5]]).T.repeat(4, axis=1)[:, :len(names)]
+    for time_ns in (0, 1_000_000_000, 1_999_999_999):
+        data = dict(sample.serialize(time_ns, columns, np.zeros((len(names), 6))))
+        stamp = conv.time_to_msg(time_ns)
+        values = [body.list_values(columns[:, i].tolist()) for i, body in enumerate(
+            sample.bodies)]
+        poses = PoseArray(poses=[Pose() for _ in names])
+        poses.header.stamp, poses.header.frame_id = stamp, 'w' * frames
+        tf = TFMessage()
+        for pose, name, ((px, py, pz), (qw, qx, qy, qz), _, _) in zip(poses.poses, names,
+                                                                      values):
+            pose.position.x, pose.position.y, pose.position.z = px, py, pz
+            o = pose.orientation
+            o.x, o.y, o.z, o.w = qx, qy, qz, qw
+            t = TransformStamped(child_frame_id=name)
+            t.header.stamp, t.header.frame_id = stamp, 'w' * frames
+            t.transform.translation.x, t.transform.translation.y = px, py
+            t.transform.translation.z = pz
+            r = t.transform.rotation
+            r.x, r.y, r.z, r.w = qx, qy, qz, qw
+            tf.transforms.append(t)
+        for kind, msg, packer in (('poses', poses, sample._poses), ('tf', tf, sample._tf)):
+            expected, got = bytearray(serialize_message(msg)), bytearray(data[kind])
+            assert len(got) == len(expected) == packer.size, kind
+            for offset in _padding(packer.format):
+                assert got[offset] == 0, (kind, offset)
+                expected[offset] = 0
+            assert got == expected, kind
+            assert repr(deserialize_message(data[kind], type(msg))) == repr(msg), kind
+
+
 def _two_link_urdf(root, joint):
     """Return a floating two-link robot's URDF, its root link and joint named as given."""
     return f"""<robot name="r">
