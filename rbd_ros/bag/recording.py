@@ -50,6 +50,7 @@ This module does not import rclpy: the node serialises messages with
 
 import dataclasses
 import importlib.metadata
+from operator import itemgetter
 import os
 import re
 import stat
@@ -343,11 +344,12 @@ class BagWriter:
             for topic, data in messages:
                 self.write(topic, data, log_time_ns)
             return
-        topics = tuple(topic for topic, _ in messages)
+        messages = messages if isinstance(messages, list) else list(messages)
+        topics = tuple(map(itemgetter(0), messages))
         layout = self._layouts.get(topics)
         if layout is None:  # every topic checked before anything is written
             layout = self._layouts[topics] = blocks.Layout([self._topic(t) for t in topics])
-        datas = [data for _, data in messages]
+        datas = list(map(itemgetter(1), messages))
         lengths = np.fromiter(map(len, datas), dtype=np.int64, count=len(datas))
         start = 0
         while start < len(datas):

@@ -163,6 +163,8 @@ class BodiesBytes:
                 template += built[kind]
                 self._spans.append((name, base, len(template)))
         self._template = bytes(template)
+        self._names = [name for name, _, _ in self._spans]
+        self._slices = [slice(start, end) for _, start, end in self._spans]
         self._stamps = np.array(stamps, dtype=np.int64).reshape(-1, 1) + np.arange(8)
         self._doubles = np.array(doubles, dtype=np.int64).reshape(-1, 1) + np.arange(8)
 
@@ -192,5 +194,6 @@ class BodiesBytes:
                                            dtype=_U8)
         view[self._doubles] = np.ascontiguousarray(rows, dtype='<f8').view(_U8).reshape(-1, 8)
         data = bytes(buf)
-        return [(name, data[start:end]) for name, start, end in self._spans
-                if wanted is None or name in wanted]
+        if wanted is None:  # zip and map: no Python frame a message
+            return list(zip(self._names, map(data.__getitem__, self._slices)))
+        return [(name, data[start:end]) for name, start, end in self._spans if name in wanted]

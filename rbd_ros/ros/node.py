@@ -31,6 +31,7 @@ node: its stamps are always its own sim time.
 """
 
 import dataclasses
+from operator import itemgetter
 import sys
 import threading
 import time
@@ -239,6 +240,7 @@ class RigidBodyNode(Node):
         self._sample_pubs = {kind: (self._pubs[kind].handle.publish_raw,
                                     self._pubs[kind].topic_name)
                              for kind in self._builder.kinds}
+        self._sample_topics = [self._sample_pubs[kind][1] for kind in self._builder.kinds]
         self._subscribed = [(kind, self._pubs[kind].handle.get_subscription_count)
                             for kind in self._builder.kinds]
         self._counted = self._subscribed + ([
@@ -579,9 +581,9 @@ class RigidBodyNode(Node):
         for kind, data in samples:
             if published is None or kind in published:
                 pubs[kind][0](data)
-        if recording:
+        if recording:  # every kind, in the builder's kinds order (serialize's)
             self._guarded(self._recorder.write_sample,
-                          [(pubs[kind][1], data) for kind, data in samples], t)
+                          list(zip(self._sample_topics, map(itemgetter(1), samples))), t)
         if published is None:
             self._unpublished, self._unpublished_of = set(), None
         elif published is not self._unpublished_of:
