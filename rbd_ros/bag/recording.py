@@ -150,6 +150,7 @@ class BagWriter:
         self._stream = None
         self._defs_in_chunk_only = []  # Schema/Channel records not yet on disk
         self._internals = None  # mcap internals for write_many (blocks.mcap_internals)
+        self._chunk_ends = None
         self._layouts = {}  # write_many's topics -> their blocks.Layout
         self._chunk_entries = None  # write_many's message-index entries in the open chunk
         if not callable(getattr(Writer, 'flush', None)):
@@ -164,6 +165,9 @@ class BagWriter:
             self._mcap = Writer(
                 self._stream, chunk_size=1 << 62, compression=_COMPRESSION[compression])
             self._internals = _mcap_internals(self._mcap)
+            # Chunks compressed and written on a thread (blocks.ChunkEnds), else by mcap.
+            self._chunk_ends = blocks.ChunkEnds.of(self._mcap, self._stream, self._internals,
+                                                   fsync)
             self._mcap.start(profile='ros2', library=f'rbd_ros-{__version__}')
             self._mcap.add_metadata(CONFIG_METADATA_NAME, self._config_record(extra_metadata))
             self._mcap.add_metadata('rosbag2', self._rosbag2_record())
@@ -261,6 +265,7 @@ class BagWriter:
         """
         self._check_open()
         try:
+            self._drain()
             self._mcap.add_attachment(0, 0, name, media_type, bytes(data))
             self._stream.flush()
         except OSError as exc:
@@ -387,6 +392,8 @@ class BagWriter:
 
     def _chunk_for(self, log_time_ns):
         """End the open chunk if a message at ``log_time_ns`` may not go in it; note a start."""
+        if self._chunk_ends is not None and self._chunk_ends.error is not None:
+            self._fail(self._chunk_ends.error)  # a chunk's write failed on its thread
         if self._chunk_messages and (
                 log_time_ns - self._chunk_start_ns >= self._chunk_ns
                 or self._chunk_bytes >= self._chunk_bytes_max):
@@ -403,8 +410,8 @@ class BagWriter:
         self._check_open()
         if self._chunk_messages:
             self._end_chunk()
-            return
         try:
+            self._drain()
             if self._defs_in_chunk_only:
                 # The mcap writer keeps schemas and channels for the next chunk, written when it
                 # holds a message; write them now too, outside any chunk (MCAP allows identical
@@ -435,6 +442,7 @@ class BagWriter:
         try:
             if self._chunk_messages:
                 self._end_chunk(fsync=False)
+            self._drain()
             if run_metadata is not None:
                 self._mcap.add_metadata(
                     RUN_METADATA_NAME, {str(k): str(v) for k, v in run_metadata.items()})
@@ -442,6 +450,8 @@ class BagWriter:
             self._mcap.finish()
             self._stream.flush()
             os.fsync(self._stream.fileno())
+            if self._chunk_ends is not None:
+                self._chunk_ends.close()
             self._stream.close()
             tmp = os.path.join(self.path, '.metadata.yaml.tmp')
             with open(tmp, 'w', encoding='utf-8') as f:
@@ -473,7 +483,14 @@ class BagWriter:
             f'recording to {self.mcap_path!r} failed: {os_error_text(exc)}')
         raise self._failed from None
 
+    def _drain(self):
+        """Wait for the chunks on their thread (the file's writes in order); raise their error."""
+        if self._chunk_ends is not None:
+            self._chunk_ends.drain()
+
     def _release(self):
+        if self._chunk_ends is not None:  # before the file closes under its thread
+            self._chunk_ends.close()
         if self._stream is not None:
             try:
                 self._stream.close()
@@ -485,9 +502,14 @@ class BagWriter:
         self._defs_in_chunk_only = []  # the chunk carries them
         self._chunk_entries = None
         try:
-            self._mcap.flush()
-            if fsync and self._fsync:
-                os.fsync(self._stream.fileno())
+            if self._chunk_ends is not None:  # compressed and written on their thread
+                self._chunk_ends.end()
+                if self._chunk_ends.error is not None:
+                    raise self._chunk_ends.error
+            else:
+                self._mcap.flush()
+                if fsync and self._fsync:
+                    os.fsync(self._stream.fileno())
         except OSError as exc:
             self._fail(exc)
         self._chunk_messages = 0

@@ -539,11 +539,11 @@ def test_write_many_writes_the_bytes_of_write_one_by_one(
     (1 MiB), and on sim time between samples (chunk_duration 25 ms: every third sample), so
     the split of a sample across chunks is compared too; samples of two sets of topics (a
     topic twice in one), with messages written one by one between them, on their topics and
-    another, so each channel's message index and count mixes both; without mcap's internals
-    write_many falls back to write.
+    another, so each channel's message index and count mixes both. The reference is mcap's
+    own writer (``add_message`` of each, ``Writer.flush`` at each chunk's end: without the
+    internals write_many and the chunk ends on a thread use, which it falls back to).
     """
-    if not internals:
-        monkeypatch.setattr(recording, '_mcap_internals', lambda writer: None)
+    with_internals = recording._mcap_internals
     topics = [('/a/pose', 'geometry_msgs/msg/PoseStamped'),
               ('/poses', 'geometry_msgs/msg/PoseArray'), ('/clock', 'rosgraph_msgs/msg/Clock'),
               ('/markers', 'visualization_msgs/msg/MarkerArray')]
@@ -554,7 +554,10 @@ def test_write_many_writes_the_bytes_of_write_one_by_one(
     singles = {t * 10_000_000: [('/markers', bytes([t]) * (5 + t))]
                + ([('/poses', b'p' * t)] if t % 3 else []) for t in range(12)}
     files = []
-    for name, many in (('one', False), ('many', True)):
+    for name, many, plain in (('mcap', False, True), ('one', False, not internals),
+                              ('many', True, not internals)):
+        monkeypatch.setattr(recording, '_mcap_internals',
+                            (lambda writer: None) if plain else with_internals)
         writer = BagWriter(str(tmp_path / name / 'bag'), config=CONFIG, chunk_bytes=chunk_bytes,
                            chunk_duration_ns=25_000_000)
         for topic, type_name in topics:
@@ -571,10 +574,11 @@ def test_write_many_writes_the_bytes_of_write_one_by_one(
             if not time_ns % 20_000_000:
                 for topic, data in singles[time_ns]:
                     writer.write(topic, data, time_ns)
+        assert (writer._chunk_ends is None) == plain
         writer.close()
         files.append([(tmp_path / name / 'bag' / 'bag_0.mcap').read_bytes(),
                       (tmp_path / name / 'bag' / 'metadata.yaml').read_text()])
-    assert files[0] == files[1]
+    assert files[0] == files[1] == files[2]
     got = [(m.topic, m.log_time_ns, m.data) for m in open_bag(str(tmp_path / 'many' / 'bag'))
            .messages()]
     assert got == [(topic, time_ns, data) for time_ns, messages in samples
