@@ -103,39 +103,51 @@ def values(columns, twist_world):
             ((qw * qw + qx * qx) + qy * qy) + qz * qz)
 
 
-class _Words:
+class Scatter:
     """
-    Where a template's stamps (8 bytes: ``sec``, ``nanosec``) and doubles are written.
+    8-byte values written at fixed offsets of a buffer (stamps, doubles): a template's slots.
 
-    Where every one of them starts at the same offset mod 8 (the templates below are laid out
-    so), as 8-byte words of the buffer: an index a value, not a byte; else byte by byte.
+    Where every offset is the same mod 8 (the templates here are laid out so), as 8-byte
+    words of the buffer, one index a value; else byte by byte.
+
+    :param dtype: the values' type (``'<f8'`` doubles, ``'<u8'`` a stamp's 8 bytes).
     """
+
+    def __init__(self, offsets, dtype):
+        offsets = np.array(offsets, dtype=np.int64)
+        shifts = set((offsets % 8).tolist())
+        self._dtype = np.dtype(dtype)
+        self._shift = shifts.pop() if len(shifts) == 1 else None
+        self._index = offsets.reshape(-1, 1) + np.arange(8) if self._shift is None \
+            else (offsets - self._shift) // 8
+
+    def write(self, buf, values):
+        """Write ``values`` (one for all, or one an offset) in ``buf`` (a bytearray)."""
+        values = np.asarray(values, dtype=self._dtype)
+        shift = self._shift
+        if shift is None:
+            np.frombuffer(buf, dtype=_U8)[self._index] = values.reshape(-1).view(_U8) \
+                .reshape(-1, 8)
+        else:
+            np.frombuffer(buf, dtype=self._dtype, count=(len(buf) - shift) // 8,
+                          offset=shift)[self._index] = values.reshape(-1)
+
+
+def stamp_word(time_ns):
+    """Return a header stamp's 8 bytes (``sec``, ``nanosec``) at ``time_ns`` as one ``<u8``."""
+    return np.frombuffer(struct.pack('<iI', *divmod(time_ns, 1_000_000_000)), dtype='<u8')[0]
+
+
+class _Words:
+    """A template's stamps and doubles (:class:`Scatter` each)."""
 
     def __init__(self, stamps, doubles):
-        stamps, doubles = (np.array(v, dtype=np.int64) for v in (stamps, doubles))
-        shifts = set((np.concatenate([stamps, doubles]) % 8).tolist())
-        self._shift = shifts.pop() if len(shifts) == 1 else None
-        if self._shift is None:
-            self._stamps, self._doubles = (v.reshape(-1, 1) + np.arange(8)
-                                           for v in (stamps, doubles))
-        else:
-            self._stamps, self._doubles = ((v - self._shift) // 8 for v in (stamps, doubles))
+        self._stamps, self._doubles = Scatter(stamps, '<u8'), Scatter(doubles, '<f8')
 
     def write(self, buf, time_ns, doubles):
         """Write the stamp of ``time_ns`` and ``doubles`` (the template's count) in ``buf``."""
-        stamp = np.frombuffer(struct.pack('<iI', *divmod(time_ns, 1_000_000_000)), dtype=_U8)
-        doubles = np.ascontiguousarray(doubles, dtype='<f8')
-        shift = self._shift
-        if shift is None:
-            view = np.frombuffer(buf, dtype=_U8)
-            view[self._stamps] = stamp
-            view[self._doubles] = doubles.view(_U8).reshape(-1, 8)
-            return
-        count = (len(buf) - shift) // 8
-        np.frombuffer(buf, dtype='<u8', count=count, offset=shift)[self._stamps] = \
-            stamp.view('<u8')[0]
-        np.frombuffer(buf, dtype='<f8', count=count, offset=shift)[self._doubles] = \
-            doubles.ravel()
+        self._stamps.write(buf, stamp_word(time_ns))
+        self._doubles.write(buf, doubles)
 
 
 class FixedLayout:

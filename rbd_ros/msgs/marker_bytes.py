@@ -33,9 +33,9 @@ alignment counted after it): ``visualization_msgs/Marker`` field by field, in it
 import struct
 
 import numpy as np
+from rbd_ros.msgs.body_bytes import Scatter, stamp_word
 
 _ENCAPSULATION = b'\x00\x01\x00\x00'
-_U8 = np.uint8
 _STAMP = struct.Struct('<iI')
 _POSE_BYTES = 7 * 8
 
@@ -138,11 +138,10 @@ class MarkerArrayBytes:
         self._template = bytes(writer.buf)
         self._count = len(fixed)
         self._posed = int(posed)
-        # Byte indexes of every stamp (n, 8) and of the posed markers' poses (posed, 56).
-        self._stamps = np.array([s for s, _, _ in offsets], dtype=np.int64).reshape(-1, 1) \
-            + np.arange(_STAMP.size)
-        self._poses = np.array([p for _, p, _ in offsets[:posed]],
-                               dtype=np.int64).reshape(-1, 1) + np.arange(_POSE_BYTES)
+        # Where every stamp goes, and the posed markers' poses (7 doubles, 8-aligned each).
+        self._stamps = Scatter([s for s, _, _ in offsets], '<u8')
+        self._poses = Scatter([p + 8 * k for _, p, _ in offsets[:posed]
+                               for k in range(_POSE_BYTES // 8)], '<f8')
         # Each tail marker as (bytes up to and with its points' count, the rest, offset of its
         # stamp). Points are 24 bytes each and start 8-aligned, so a marker's points move
         # nothing after them off their alignment.
@@ -164,14 +163,11 @@ class MarkerArrayBytes:
         :param points: for each of the first tail markers sent, its points, (n, 3) float64.
         """
         buf = bytearray(self._template)
-        view = np.frombuffer(buf, dtype=_U8)
         stamp = _STAMP.pack(*divmod(int(stamp_ns), 1_000_000_000))
-        if len(self._stamps):
-            view[self._stamps] = np.frombuffer(stamp, dtype=_U8)
+        if self._count:
+            self._stamps.write(buf, stamp_word(int(stamp_ns)))
         if self._posed:
-            view[self._poses] = np.ascontiguousarray(poses, dtype='<f8').view(_U8) \
-                .reshape(self._posed, _POSE_BYTES)
-        del view  # the buffer grows below
+            self._poses.write(buf, np.ascontiguousarray(poses, dtype='<f8').reshape(-1))
         struct.pack_into('<I', buf, 4, self._count + len(points))
         for (head, rest, at), array in zip(self._tail, points):
             array = np.ascontiguousarray(array, dtype='<f8')
