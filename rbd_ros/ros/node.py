@@ -578,9 +578,13 @@ class RigidBodyNode(Node):
         samples = self._builder.serialize(t, self._columns, self.session.contact_wrenches_w,
                                           self._robots, None if recording else published)
         pubs = self._sample_pubs
-        for kind, data in samples:
-            if published is None or kind in published:
+        if published is None:
+            for kind, data in samples:
                 pubs[kind][0](data)
+        elif published:  # (none while nobody listens, as when only recording)
+            for kind, data in samples:
+                if kind in published:
+                    pubs[kind][0](data)
         if recording:  # every kind, in the builder's kinds order (serialize's)
             self._guarded(self._recorder.write_sample,
                           list(zip(self._sample_topics, map(itemgetter(1), samples))), t)
