@@ -529,9 +529,10 @@ def test_an_mcap_without_a_public_writer_flush_is_named(tmp_path, monkeypatch):
 
 
 @pytest.mark.parametrize('internals', [True, False])
-@pytest.mark.parametrize('chunk_bytes', [300, 1 << 20])
+@pytest.mark.parametrize('chunk_bytes, compression', [
+    (300, 'zstd'), (1 << 20, 'zstd'), (300, 'lz4'), (300, 'none')])
 def test_write_many_writes_the_bytes_of_write_one_by_one(
-        tmp_path, monkeypatch, internals, chunk_bytes):
+        tmp_path, monkeypatch, internals, chunk_bytes, compression):
     """
     A sample written at once (write_many) makes the same file as its messages one by one.
 
@@ -541,7 +542,8 @@ def test_write_many_writes_the_bytes_of_write_one_by_one(
     topic twice in one), with messages written one by one between them, on their topics and
     another, so each channel's message index and count mixes both. The reference is mcap's
     own writer (``add_message`` of each, ``Writer.flush`` at each chunk's end: without the
-    internals write_many and the chunk ends on a thread use, which it falls back to).
+    internals write_many and the chunk ends on a thread use, which it falls back to), with
+    each compression.
     """
     with_internals = recording._mcap_internals
     topics = [('/a/pose', 'geometry_msgs/msg/PoseStamped'),
@@ -559,7 +561,7 @@ def test_write_many_writes_the_bytes_of_write_one_by_one(
         monkeypatch.setattr(recording, '_mcap_internals',
                             (lambda writer: None) if plain else with_internals)
         writer = BagWriter(str(tmp_path / name / 'bag'), config=CONFIG, chunk_bytes=chunk_bytes,
-                           chunk_duration_ns=25_000_000)
+                           chunk_duration_ns=25_000_000, compression=compression)
         for topic, type_name in topics:
             writer.add_topic(topic, type_name)
         for time_ns, messages in samples:
