@@ -37,6 +37,7 @@ import threading
 import time
 
 from geometry_msgs.msg import PointStamped
+import numpy as np
 from rbd_ros.core import ConfigError, jitcache, NonFiniteError, RbdError, RecordingError
 from rbd_ros.msgs import conversions as conv
 from rbd_ros.msgs import markers
@@ -617,6 +618,9 @@ class RigidBodyNode(Node):
         contacts = self.session.simulator.contacts
         if len(contacts):
             last = contacts.stage == contacts.stage.max()
+            count = int(np.count_nonzero(last))
+            if last[-count:].all():  # the last stage's rows are the tail (they are sorted so)
+                last = slice(-count, None)  # views, not copies
             contacts = type(contacts)(*(getattr(contacts, f.name)[last]
                                         for f in dataclasses.fields(contacts)))
         # Lines of 1 cm per N: the last stage's impulse over the step.
