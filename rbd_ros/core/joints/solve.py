@@ -20,7 +20,7 @@ then :func:`solve` for any right side: the dynamics (:mod:`.dynamics`) and both 
 (:mod:`.projection`) reuse one factor. Two direct solvers (see
 :mod:`rbd_ros.core.joints.kernels`): the **tree**, block LDLᵀ leaves first over the body-joint
 graph (``_tree_factor``, with ``_eliminate``, ``_down``, ``_up`` per node, their common block
-sizes unrolled by ``_sized``), and the **dense** LDLᵀ of ``J M⁻¹ Jᵀ`` for a loop
+sizes unrolled by ``_unrolled``), and the **dense** LDLᵀ of ``J M⁻¹ Jᵀ`` for a loop
 (``_dense_factor``), dropping a redundant row whose pivot is below :data:`DROP_REL` of its
 diagonal.
 """
@@ -129,66 +129,54 @@ def _tree_factor(model, work):
     for t in range(model.order.shape[0]):
         i = model.order[t]
         p = par[i]
-        _sized(D, Hp, W, work.y, work.rhs, i, dim[i], p, dim[p] if p >= 0 else 0,
-               OP_ELIMINATE)
+        _sized_eliminate(D, Hp, W, W, i, dim[i], p, dim[p] if p >= 0 else 0)
 
 
-#: What :func:`_sized` does at a node: factor it, or its forward or backward solve step.
-OP_ELIMINATE = 0
-OP_DOWN = 1
-OP_UP = 2
-
-
-@_inl
-def _block(D, Hp, W, y, rhs, i, di, p, dp, op):
-    """Node ``i``'s :func:`_eliminate` (``W``), :func:`_down` or :func:`_up` (``y``, ``rhs``)."""
-    if op == OP_ELIMINATE:
-        _eliminate(D, Hp, W, i, di, p, dp)
-    elif op == OP_DOWN:
-        _down(D, Hp, y, rhs, i, di, p, dp)
-    else:
-        _up(D, Hp, y, rhs, i, di, p, dp)
-
-
-@_inl
-def _sized(D, Hp, W, y, rhs, i, di, p, dp, op):
+def _unrolled(block):
     """
-    :func:`_block` with the common block sizes as constants, so that its loops unroll.
+    Return ``block`` (:func:`_eliminate`, :func:`_down` or :func:`_up`) with the common block
+    sizes as constants, so that its loops unroll.
 
     A body (6) next to a joint of 3 to 6 rows, either way round; other sizes take the loops.
-    The arithmetic is the same in every branch: only the loop bounds become constants. ``op``
-    is a constant at every call, so each call keeps one operation.
+    The arithmetic is the same in every branch: only the loop bounds become constants. One
+    function per operation: numba inlines a helper's IR before it prunes branches, so one
+    function taking the operation as an argument compiled all three operations' code at each
+    of its call sites (three times the joint kinds' IR, ~60 CPU-s of a cold compile).
     """
-    if di == 6:
-        if dp == 5:
-            _block(D, Hp, W, y, rhs, i, 6, p, 5, op)
+    @_inl
+    def sized(D, Hp, u, v, i, di, p, dp):
+        if di == 6:
+            if dp == 5:
+                block(D, Hp, u, v, i, 6, p, 5)
+            elif dp == 6:
+                block(D, Hp, u, v, i, 6, p, 6)
+            elif dp == 4:
+                block(D, Hp, u, v, i, 6, p, 4)
+            elif dp == 3:
+                block(D, Hp, u, v, i, 6, p, 3)
+            else:
+                block(D, Hp, u, v, i, 6, p, dp)
         elif dp == 6:
-            _block(D, Hp, W, y, rhs, i, 6, p, 6, op)
-        elif dp == 4:
-            _block(D, Hp, W, y, rhs, i, 6, p, 4, op)
-        elif dp == 3:
-            _block(D, Hp, W, y, rhs, i, 6, p, 3, op)
+            if di == 5:
+                block(D, Hp, u, v, i, 5, p, 6)
+            elif di == 4:
+                block(D, Hp, u, v, i, 4, p, 6)
+            elif di == 3:
+                block(D, Hp, u, v, i, 3, p, 6)
+            else:
+                block(D, Hp, u, v, i, di, p, 6)
         else:
-            _block(D, Hp, W, y, rhs, i, 6, p, dp, op)
-    elif dp == 6:
-        if di == 5:
-            _block(D, Hp, W, y, rhs, i, 5, p, 6, op)
-        elif di == 4:
-            _block(D, Hp, W, y, rhs, i, 4, p, 6, op)
-        elif di == 3:
-            _block(D, Hp, W, y, rhs, i, 3, p, 6, op)
-        else:
-            _block(D, Hp, W, y, rhs, i, di, p, 6, op)
-    else:
-        _block(D, Hp, W, y, rhs, i, di, p, dp, op)
+            block(D, Hp, u, v, i, di, p, dp)
+    return sized
 
 
 @_inl
-def _eliminate(D, Hp, W, i, di, p, dp):
+def _eliminate(D, Hp, W, _, i, di, p, dp):
     """
     Factor node ``i`` (LDLᵀ of its ``di`` block) and subtract its Schur complement from ``p``'s.
 
-    ``dp`` is the size of parent ``p``'s block (unused when ``p < 0``, a root).
+    ``dp`` is the size of parent ``p``'s block (unused when ``p < 0``, a root). The fourth
+    argument is unused: the same arguments as :func:`_down` and :func:`_up` (:func:`_unrolled`).
     """
     _ldl(D, i, di)
     if p < 0:
@@ -295,6 +283,11 @@ def _up(D, Hp, y, rhs, i, di, p, dp):
         y[i, k] -= rhs[i, k]
 
 
+_sized_eliminate = _unrolled(_eliminate)
+_sized_down = _unrolled(_down)
+_sized_up = _unrolled(_up)
+
+
 @_jit
 def solve(model, work, rb, rj, yb, yj):
     """
@@ -319,13 +312,13 @@ def solve(model, work, rb, rj, yb, yj):
         for t in range(order.shape[0]):
             i = order[t]
             p = par[i]
-            _sized(D, Hp, work.W, y, rhs, i, dim[i], p, dim[p] if p >= 0 else 0, OP_DOWN)
+            _sized_down(D, Hp, y, rhs, i, dim[i], p, dim[p] if p >= 0 else 0)
         # backward, root first: y_i = D_i⁻¹ (rhs_i - H y_p) = z_i - D_i⁻¹ H y_p
         for t in range(order.shape[0] - 1, -1, -1):
             i = order[t]
             p = par[i]
             if p >= 0:
-                _sized(D, Hp, work.W, y, rhs, i, dim[i], p, dim[p], OP_UP)
+                _sized_up(D, Hp, y, rhs, i, dim[i], p, dim[p])
         for b in range(n_b):
             for k in range(6):
                 yb[b, k] = y[b, k]
