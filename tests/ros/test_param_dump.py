@@ -35,6 +35,7 @@ from rbd_ros.sim import params as sim_params
 from rclpy.parameter import parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
 from ros_probe import Probe
+from std_srvs.srv import SetBool
 import yaml
 
 REPO = Path(__file__).resolve().parents[2]
@@ -94,7 +95,7 @@ def _answered(probe, call, what, tries=6, wait_s=10.0):
                 raise
 
 
-def dump(namespace):
+def dump(namespace, unpause=False):
     """
     Return ``{node full name: {'ros__parameters': nested}}`` as ``ros2 param dump`` builds it.
 
@@ -102,7 +103,8 @@ def dump(namespace):
     __init__.py: an ``AsyncParameterClient``'s ``list_parameters()``, no prefixes, depth
     unlimited, i.e. recursive), the names sorted, ``call_get_parameters`` for all of them,
     ``get_value`` (``parameter_value_to_python``) of each, then :func:`insert_dict` in that order.
-    Also returns the flat ``{name: value}`` read.
+    Also returns the flat ``{name: value}`` read. With ``unpause``, then calls ``~/pause``
+    with ``false`` (asked again as the queries are: unpausing twice is unpausing once).
     """
     probe = Probe(namespace, inputs=(), outputs=())
     try:
@@ -113,6 +115,12 @@ def dump(namespace):
         future = _answered(probe, lambda: client.get_parameters(parameter_names),
                            'the get_parameters response')
         parameter_values = [parameter_value_to_python(v) for v in future.result().values]
+        if unpause:
+            pause = probe.clients['pause']
+            probe.wait(pause.service_is_ready, 60.0, 'the pause service')
+            future = _answered(probe, lambda: pause.call_async(SetBool.Request(data=False)),
+                               'the pause response')
+            assert future.result().success, future.result().message
     finally:
         probe.close()
     assert len(parameter_values) == len(parameter_names)
@@ -206,11 +214,17 @@ def test_an_old_params_file_stops_the_node_with_one_line(start_node, tmp_path):
     assert len(node.stderr.strip().splitlines()) == 1, node.stderr
 
 
+#: Each file also runs: started paused (its parameters are read while nothing moves), then let
+#: go, it steps 0.05 s of sim as fast as it can and exits 0 by its duration. (That was
+#: test_node_lifecycle.py's check that every msg_config/ file is valid, a start of its own.)
+RUN = {'start_paused': True, 'duration_s': 0.05, 'real_time_factor': 0.0}
+
+
 @pytest.mark.parametrize('path', FILES, ids=[p.stem for p in FILES])
 def test_ros2_param_dump_nests_every_file_and_the_dump_loads_back(start_node, tmp_path, path):
-    first = start_node(params_file=path, namespace=True)
-    dumped, flat = dump(first.namespace)
-    assert first.stop() == 0, first.stderr
+    first = start_node(RUN, params_file=path, namespace=True)
+    dumped, flat = dump(first.namespace, unpause=True)
+    assert first.wait(60) == 0, (path.name, first.stderr)
     assert prefix_clashes(flat) == [], f'{path.name}: a name is the prefix of another'
     assert any(isinstance(v, dict) for v in next(iter(dumped.values()))['ros__parameters']
                .values()), 'nothing nested: the check would be vacuous'
