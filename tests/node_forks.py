@@ -13,16 +13,18 @@
 # limitations under the License.
 
 """
-Node processes forked from a server that has numpy and numba imported already.
+Node processes forked from a server that has numpy, numba and rbd_ros's core imported.
 
 The suite starts ~270 nodes, and each ``python -m rbd_ros.node`` spent ~0.35 CPU-s importing
 numpy and numba before it did anything of its own (a whole start: ~0.9 CPU-s). This server
 (one per test process, started on first use) imports them once; each node is a fork of it
 that then runs ``rbd_ros.node`` as ``python -m`` would: ``__main__``, ``sys.argv``, its working
 directory first on ``sys.path``, its stdout and stderr files, the test process's environment,
-Python's default signal handlers. Everything else (rclpy, the messages, rbd_ros) is imported
-after the fork, as in a fresh process: rclpy's extension starts threads when it loads, and a
-fork keeps only the thread that forks, so it must not be loaded before.
+Python's default signal handlers. The server also imports rbd_ros's core and parameter modules
+(~0.2 CPU-s more a start, see :func:`_preload`); everything else (rclpy, the messages, the rest
+of rbd_ros) is imported after the fork, as in a fresh process: rclpy's extension starts
+threads when it loads, and a fork keeps only the thread that forks, so it must not be loaded
+before.
 
 :class:`conftest.NodeProcess` forks only when its environment is the one the server started
 with (a test that changed ``PYTHONPATH``, ``XDG_CACHE_HOME`` or anything else execs a fresh
@@ -153,7 +155,13 @@ def fork_node(args, cwd, stdout_path, stderr_path):
 
 
 def _preload():
-    """Import what every node imports first and what is safe to fork: numpy and numba."""
+    """
+    Import what every node imports first and what is safe to fork.
+
+    numpy, numba, PyYAML and rbd_ros's core and parameter modules (none starts a thread or
+    reads the environment when imported: ``rbd_ros.core.jitcache`` chooses its cache when a
+    simulator is built): ~0.55 CPU-s of a start, of which rbd_ros's ~0.2.
+    """
     # As rbd_ros.node imports numba: without coverage.py (see its _import_numba_without_coverage)
     if 'coverage' not in sys.modules:
         sys.modules['coverage'] = None
@@ -164,6 +172,8 @@ def _preload():
                 del sys.modules['coverage']
     import numpy  # noqa: F401
     import yaml  # noqa: F401
+    import rbd_ros.core  # noqa: F401
+    import rbd_ros.sim.config  # noqa: F401
 
 
 def _serve():

@@ -134,10 +134,10 @@ def _tree_factor(model, work):
 
 def _unrolled(block):
     """
-    Return ``block`` (:func:`_eliminate`, :func:`_down` or :func:`_up`) with the common block
-    sizes as constants, so that its loops unroll.
+    Return ``block`` with the common block sizes as constants, so that its loops unroll.
 
-    A body (6) next to a joint of 3 to 6 rows, either way round; other sizes take the loops.
+    ``block`` is :func:`_eliminate`, :func:`_down` or :func:`_up`. A body (6) next to a joint of
+    3 to 6 rows, either way round; other sizes take the loops.
     The arithmetic is the same in every branch: only the loop bounds become constants. One
     function per operation: numba inlines a helper's IR before it prunes branches, so one
     function taking the operation as an argument compiled all three operations' code at each
