@@ -53,7 +53,8 @@ taking the difference back, and the loop stalled with the plank sinking (1.1e-7 
 with the joints to the loop's tolerance. **The shock pass** (levels with the joints as
 edges; a joint to the world grounds a body only where nothing below it does) holds the
 bodies under a jointed body while it is solved, so a stack under it takes none of the
-loop's alternation. What is still not done: a patch is solved as if its bodies were free,
+loop's alternation; only a patch that bears weight holds (a box squeezed between a
+gripper's fingers is not pushed from one held finger onto the other). What is still not done: a patch is solved as if its bodies were free,
 not with the joints' effective mass, so the loop converges at the rate the two levers
 allow (a factor of ~28 a visit for a plank on a box), and the joints are visited all at
 once, not per level with the bodies below held.
@@ -68,6 +69,7 @@ the state's (``x``: ``v_w``, ``ω_b``) or a stage's (``vel``: ``v_w``, ``ω_w``)
 """
 
 from collections import namedtuple
+import math
 
 import numpy as np
 
@@ -78,10 +80,11 @@ from rbd_ros.core.contact.linalg import patch_scratch
 from rbd_ros.core.contact.rows import (_inl, _jit, _raw, C_BIAS, C_NORMAL, C_PHI, C_RA, C_RB,
                                        C_TARGET, PUSH_FRACTION, PUSH_MAX_M_S, Q_A, Q_B, Q_COUNT,
                                        Q_START, SWEEP_TOL_M_S)
-from rbd_ros.core.contact.sweeps import _residual, _shock, _sweeps
+from rbd_ros.core.contact.patch import solve_patch
+from rbd_ros.core.contact.sweeps import _beside, _residual, _sweeps
 from rbd_ros.core.joints import kernels as jk
 from rbd_ros.core.joints.simulator import PROJECTION_MAX_ITER, PROJECTION_TOL
-from rbd_ros.core.layout import P_INERTIA, S_OMEGA, S_POS, S_QUAT, S_VEL
+from rbd_ros.core.layout import P_GRAVITY, P_INERTIA, S_OMEGA, S_POS, S_QUAT, S_VEL
 
 #: What a jointed world's step carries: the joints' ``model`` and ``work``
 #: (:data:`rbd_ros.core.joints.kernels.ArtModel`, ``ArtWork``), the state in the joints'
@@ -491,14 +494,40 @@ def joint_levels(patches, jint, n_bodies, level):
         _relax(patches, jint, n_bodies, level)
 
 
+@_raw
+def _bears(patches, q, contacts, prm):
+    """
+    Tell whether patch ``q`` bears weight: a point's normal within 60° of its A's gravity.
+
+    (:func:`~rbd_ros.core.contact.sweeps._beside`'s rule, as the warm start's.) None does
+    without gravity.
+    """
+    a = int(patches[q, Q_A])
+    j = 0 if prm.shape[1] == 1 else a
+    gx, gy, gz = prm[P_GRAVITY, j], prm[P_GRAVITY + 1, j], prm[P_GRAVITY + 2, j]
+    g = math.sqrt(gx * gx + gy * gy + gz * gz)
+    if not g > 0.0:
+        return False
+    s0 = int(patches[q, Q_START])
+    for c in range(s0, s0 + int(patches[q, Q_COUNT])):
+        if not _beside(contacts, c, gx, gy, gz, g):
+            return True
+    return False
+
+
 @_jit
-def _joint_shock(joints, patches, contacts, vel, inv_mass, inv_inertia_w, x, wrench, scr, level):
+def _joint_shock(joints, patches, contacts, vel, inv_mass, inv_inertia_w, x, wrench, scr, level,
+                 prm):
     """
     Shock propagation over the stage's patches by :func:`joint_levels`, the lower body held.
 
-    The pass :func:`~rbd_ros.core.contact.sweeps._solve_group` ends a stage with, its levels
-    seeing the joints: so a stack under a jointed body is solved from the ground up, each
-    box held under the one above it, and the loop's next visit moves the jointed bodies alone.
+    The pass :func:`~rbd_ros.core.contact.sweeps._solve_group` ends a stage with
+    (:func:`~rbd_ros.core.contact.sweeps._shock`), its levels seeing the joints: so a stack
+    under a jointed body is solved from the ground up, each box held under the one above it,
+    and the loop's next visit moves the jointed bodies alone. Only a patch that bears weight
+    (:func:`_bears`) holds its lower body: a box squeezed sideways between two fingers of a
+    gripper (each a level below it through its joints) is solved with both free, not pushed
+    from one held finger onto the other.
     """
     n = x.shape[1]
     joint_levels(patches, joints.model.jint, n, level)
@@ -507,8 +536,18 @@ def _joint_shock(joints, patches, contacts, vel, inv_mass, inv_inertia_w, x, wre
         a = int(patches[q, Q_A])
         b = int(patches[q, Q_B])
         low[q] = level[a] if b >= n else min(level[a], level[b])
-    _shock(np.argsort(low, kind='mergesort'), level, patches, contacts, vel, inv_mass,
-           inv_inertia_w, n, x, wrench, scr)
+    for q in np.argsort(low, kind='mergesort'):
+        a = int(patches[q, Q_A])
+        b = int(patches[q, Q_B])
+        wa = 1.0
+        wb = 1.0
+        if b < n and _bears(patches, q, contacts, prm):
+            if level[a] < level[b]:
+                wa = 0.0
+            elif level[b] < level[a]:
+                wb = 0.0
+        solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n, x, wa, wb, wrench,
+                    True, scr, True, False)
 
 
 @_jit
@@ -544,7 +583,7 @@ def joint_sweeps(joints, kind, patches, contacts, vel, vel0, radius, inv_mass, i
                 True, before)
         if shock and coupled:
             _joint_shock(joints, patches, contacts, vel, inv_mass, inv_inertia_w, x, wrench,
-                         scr, level)
+                         scr, level, prm)
     stats = joints.stats
     stats[J_LOOPS] = max(stats[J_LOOPS], loops)
     stats[J_LEFT] = max(stats[J_LEFT], _residual(patches, contacts, vel, n, scr))
