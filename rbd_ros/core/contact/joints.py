@@ -54,10 +54,11 @@ with the joints to the loop's tolerance. **The shock pass** (levels with the joi
 edges; a joint to the world grounds a body only where nothing below it does) holds the
 bodies under a jointed body while it is solved, so a stack under it takes none of the
 loop's alternation; only a patch that bears weight holds (a box squeezed between a
-gripper's fingers is not pushed from one held finger onto the other). What is still not done: a patch is solved as if its bodies were free,
-not with the joints' effective mass, so the loop converges at the rate the two levers
-allow (a factor of ~28 a visit for a plank on a box), and the joints are visited all at
-once, not per level with the bodies below held.
+gripper's fingers is not pushed from one held finger onto the other). What is still not
+done: a patch is solved as if its bodies were free, not with the joints' effective mass, so
+the loop converges at the rate the two levers allow (a factor of ~28 a visit for a plank
+on a box), and the joints are visited all at once, not per level with the bodies below
+held.
 
 A joint's motor row and limit row take part in both visits: the motors' as
 :mod:`rbd_ros.core.contact.motors` says (a velocity row, or a position motor's goal for the
@@ -434,32 +435,30 @@ def retarget(patches, contacts, vel, vel0, radius, n_bodies, h):
             contacts[c, C_TARGET] = bias
 
 
+@_inl
+def _below(level, a, b):
+    """Put whichever of bodies ``a``, ``b`` is two levels above the other one above it."""
+    if level[a] + 1 < level[b]:
+        level[b] = level[a] + 1
+        return True
+    if level[b] + 1 < level[a]:
+        level[a] = level[b] + 1
+        return True
+    return False
+
+
 @_raw
 def _relax(patches, jint, n_bodies, level):
     """Lower ``level`` along every patch and every joint between bodies until it holds still."""
     for _ in range(n_bodies):
         moved = False
         for q in range(patches.shape[0]):
-            a = int(patches[q, Q_A])
             b = int(patches[q, Q_B])
-            if b >= n_bodies:
-                continue
-            if level[a] + 1 < level[b]:
-                level[b] = level[a] + 1
-                moved = True
-            elif level[b] + 1 < level[a]:
-                level[a] = level[b] + 1
+            if b < n_bodies and _below(level, int(patches[q, Q_A]), b):
                 moved = True
         for j in range(jint.shape[0]):
             a = jint[j, jk.J_PARENT]
-            b = jint[j, jk.J_CHILD]
-            if a < 0:
-                continue
-            if level[a] + 1 < level[b]:
-                level[b] = level[a] + 1
-                moved = True
-            elif level[b] + 1 < level[a]:
-                level[a] = level[b] + 1
+            if a >= 0 and _below(level, a, jint[j, jk.J_CHILD]):
                 moved = True
         if not moved:
             break
