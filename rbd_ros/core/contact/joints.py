@@ -78,10 +78,10 @@ from rbd_ros.core import kernels as kk
 from rbd_ros.core.contact import limits as cl
 from rbd_ros.core.contact import motors as cm
 from rbd_ros.core.contact.linalg import patch_scratch
+from rbd_ros.core.contact.patch import solve_patch
 from rbd_ros.core.contact.rows import (_inl, _jit, _raw, C_BIAS, C_NORMAL, C_PHI, C_RA, C_RB,
                                        C_TARGET, PUSH_FRACTION, PUSH_MAX_M_S, Q_A, Q_B, Q_COUNT,
                                        Q_START, SWEEP_TOL_M_S)
-from rbd_ros.core.contact.patch import solve_patch
 from rbd_ros.core.contact.sweeps import _beside, _residual, _sweeps
 from rbd_ros.core.joints import kernels as jk
 from rbd_ros.core.joints.simulator import PROJECTION_MAX_ITER, PROJECTION_TOL

@@ -424,7 +424,9 @@ def test_a_deferred_projection_gives_the_same_bits_and_the_same_refusals():
 
 def _hinged_plank(under, h_ns, top_z):
     """
-    A 1 m plank (2 kg, 5 cm thick) hinged to the world at one end (axis y), lying flat.
+    Return a world of a 1 m plank (2 kg, 5 cm thick) hinged at one end (axis y), and its start.
+
+    The plank lies flat, hinged to the world.
 
     ``under``: ``(name, side_m, mass_kg, x_m)`` of the boxes of one column under it, from the
     floor up (the plank's other end on the top one); ``top_z`` the plank's centre height.
