@@ -31,22 +31,34 @@ free jointed system keeps its momentum.
   satisfy the joints to that tolerance with no projection of positions afterwards.
 - :func:`joint_sweeps` interleaves either visit with a contact stage's Gauss–Seidel sweeps
   (:func:`rbd_ros.core.contact.sweeps._sweeps`): a visit of all joints (one direct solve),
-  then a sweep of the patches from the impulses they hold, until a visit changes no velocity
-  by more than :data:`~rbd_ros.core.contact.rows.SWEEP_TOL_M_S`, or the velocities after two
-  visits differ by no more (impulses circulating between a patch and a joint, see below),
-  at most :data:`JOINT_LOOPS` visits. It ends on a visit, so the joints hold to their
-  tolerance; the contacts hold to what the loop converged to (``stats[J_LEFT]``).
+  then the points' targets taken again about the velocities the visit left
+  (:func:`retarget`), a sweep of the patches from the impulses they hold and a shock pass
+  whose contact graph has the joints as edges (:func:`joint_levels`), until a visit changes
+  no velocity by more than :data:`~rbd_ros.core.contact.rows.SWEEP_TOL_M_S`, or the
+  velocities after two visits differ by no more (impulses circulating between a patch and a
+  joint, see below), at most :data:`JOINT_LOOPS` visits. It ends on a visit, so the joints
+  hold to their tolerance; the contacts hold to what the loop converged to
+  (``stats[J_LEFT]``).
 
-**Where the loop stalls.** A patch is solved as if its bodies were free. Where a joint and a
-patch both hold a motion the contact's linear prediction and the joint's drift disagree about
-at O((ω h)²) (a door landing flush on a post: two levers of one face, each allowed its own
-approach by the contact, one hinge angle), the patch keeps putting impulse on both levers and
-the joint keeps taking the difference back: the velocities are still while the impulses drift
-towards the one answer that loads a single lever, at a constant rate. The loop then stops on
-the still velocities, and the contact is left approaching by what the two disagree about
-(``stats[J_LEFT]``: 1.1e-8 m/s for the door at 1 ms, 2.5e-7 m/s at 10 ms), taken out by the
-contacts' push-out at the next steps. A solve of the patch with the joints' effective mass
-would not stall.
+**Why the targets are taken again.** The contacts' linear prediction is taken about the
+candidate pose, the drift at the stage's starting velocities. A jointed body's starting
+velocities are the joints' projection of the velocity update: a plank hinged to the world
+and lying on a box turns about its hinge at ``ω0 = (m g h/2)(L/2)/I`` when the stage starts,
+however still it ends. The linear prediction then misses the second-order part of that turn,
+``|r_⊥| (h ω0)²/2`` at a point ``r_⊥`` off the hinge's axis along the normal, the same for
+every point of the plank's face: the patch allowed the face a sinking the hinge could not
+give it at both of its levers, the patch kept putting impulse on both and the joint kept
+taking the difference back, and the loop stalled with the plank sinking (1.1e-7 m/s at
+10 ms after 2 s; it fell as h⁴). Taken again about the loop's velocities, the targets agree
+with the joints to the loop's tolerance. **The shock pass** (levels with the joints as
+edges; a joint to the world grounds a body only where nothing below it does) holds the
+bodies under a jointed body while it is solved, so a stack under it takes none of the
+loop's alternation; only a patch that bears weight holds (a box squeezed between a
+gripper's fingers is not pushed from one held finger onto the other). What is still not
+done: a patch is solved as if its bodies were free, not with the joints' effective mass, so
+the loop converges at the rate the two levers allow (a factor of ~28 a visit for a plank
+on a box), and the joints are visited all at once, not per level with the bodies below
+held.
 
 A joint's motor row and limit row take part in both visits: the motors' as
 :mod:`rbd_ros.core.contact.motors` says (a velocity row, or a position motor's goal for the
@@ -58,6 +70,7 @@ the state's (``x``: ``v_w``, ``ω_b``) or a stage's (``vel``: ``v_w``, ``ω_w``)
 """
 
 from collections import namedtuple
+import math
 
 import numpy as np
 
@@ -65,11 +78,14 @@ from rbd_ros.core import kernels as kk
 from rbd_ros.core.contact import limits as cl
 from rbd_ros.core.contact import motors as cm
 from rbd_ros.core.contact.linalg import patch_scratch
-from rbd_ros.core.contact.rows import _inl, _jit, SWEEP_TOL_M_S
-from rbd_ros.core.contact.sweeps import _residual, _sweeps
+from rbd_ros.core.contact.patch import solve_patch
+from rbd_ros.core.contact.rows import (_inl, _jit, _raw, C_BIAS, C_NORMAL, C_PHI, C_RA, C_RB,
+                                       C_TARGET, PUSH_FRACTION, PUSH_MAX_M_S, Q_A, Q_B, Q_COUNT,
+                                       Q_START, SWEEP_TOL_M_S)
+from rbd_ros.core.contact.sweeps import _beside, _residual, _sweeps
 from rbd_ros.core.joints import kernels as jk
 from rbd_ros.core.joints.simulator import PROJECTION_MAX_ITER, PROJECTION_TOL
-from rbd_ros.core.layout import P_INERTIA, S_OMEGA, S_POS, S_QUAT, S_VEL
+from rbd_ros.core.layout import P_GRAVITY, P_INERTIA, S_OMEGA, S_POS, S_QUAT, S_VEL
 
 #: What a jointed world's step carries: the joints' ``model`` and ``work``
 #: (:data:`rbd_ros.core.joints.kernels.ArtModel`, ``ArtWork``), the state in the joints'
@@ -336,19 +352,222 @@ def _moved(vel, last):
     return m
 
 
+@_inl
+def _moved_by(vx, vy, vz, wx, wy, wz, rx, ry, rz, h):
+    """
+    Return how far the candidate drift at ``(v, ω)`` (world) moves the point at lever ``r``.
+
+    ``h v + (Rot(h ω) − I) r``, the rotation exact as :func:`~rbd_ros.core.contact.bodies.
+    prepare_bodies` turns a candidate: ``2 w (u × r) + 2 u × (u × r)`` of its half-angle
+    quaternion ``(w, u)``, with no cancellation of ``r`` against itself.
+    """
+    qw, qx, qy, qz = kk._quat_exp_half(wx, wy, wz, h)
+    tx, ty, tz = kk._cross(qx, qy, qz, rx, ry, rz)
+    tx, ty, tz = 2.0 * tx, 2.0 * ty, 2.0 * tz
+    cx, cy, cz = kk._cross(qx, qy, qz, tx, ty, tz)
+    return h * vx + qw * tx + cx, h * vy + qw * ty + cy, h * vz + qw * tz + cz
+
+
+@_raw
+def retarget(patches, contacts, vel, vel0, radius, n_bodies, h):
+    """
+    Take every point's target again, linearised about the velocities ``vel`` instead of ``vel0``.
+
+    The narrow phase predicts a point's gap after the drift linearly about the candidate pose
+    (the drift at the stage's velocities ``vel0``): ``φ_next = φ_cand + h (u_n − u_n0)``. The
+    turn the candidate took is not linear in ``ω``: a point at a lever ``r`` off the axis it
+    turns about moves by ``(Rot(h ω) − I) r``, not ``h ω × r``. A jointed body's rates at the
+    stage's start are the joints' projection of the velocity update (a plank hinged to the
+    world turns about its hinge at ``ω0``, however still it ends), so its contacts saw a gap
+    that is not there, ``|r_⊥| (h ω0)²/2``, which the joints, solved exactly, could not give
+    them: the two disagreed and the loop stalled with the contact creeping. Here, with the
+    drift's displacement ``D(u) = h v + (Rot(h ω) − I) r`` of each body's point (A's less B's):
+    the gap now ``φ_now = φ_cand − D(u0)·n``, and about ``u1 = vel``
+    ``φ_next = φ_now + D(u1)·n + h (u_n − u_n1)``; the target ``u_n >= u_n1 − (φ_now +
+    D(u1)·n)/h``, or, inside (``φ_now < 0``), the push-out ``−PUSH_FRACTION φ_now / h`` (at
+    most ``PUSH_MAX_M_S``), as the narrow phase sets them. At ``vel = vel0`` the speculative
+    target is the narrow phase's. The point is taken as a material point of each body; a
+    sphere's or capsule's (``radius`` (N,), the bodies' ``Shapes.pt_radius``) is its centre or
+    axis point, ``radius`` inside along the normal, whose turn does not move its surface
+    (a cylinder's rim point and an ellipsoid's support point are not material points: their
+    targets keep an error of the order of ``(h Δω)²`` times their size). ``vel``, ``vel0``
+    (N, 6): ``v_w``, ``ω_w``.
+    """
+    for q in range(patches.shape[0]):
+        a = int(patches[q, Q_A])
+        b = int(patches[q, Q_B])
+        s0 = int(patches[q, Q_START])
+        for c in range(s0, s0 + int(patches[q, Q_COUNT])):
+            nx = contacts[c, C_NORMAL]
+            ny = contacts[c, C_NORMAL + 1]
+            nz = contacts[c, C_NORMAL + 2]
+            k = radius[a]   # A's surface point is its centre's less k n (n points from B to A)
+            rx = contacts[c, C_RA] + k * nx
+            ry = contacts[c, C_RA + 1] + k * ny
+            rz = contacts[c, C_RA + 2] + k * nz
+            dx, dy, dz = _moved_by(vel0[a, 0], vel0[a, 1], vel0[a, 2], vel0[a, 3], vel0[a, 4],
+                                   vel0[a, 5], rx, ry, rz, h)
+            d0 = dx * nx + dy * ny + dz * nz
+            dx, dy, dz = _moved_by(vel[a, 0], vel[a, 1], vel[a, 2], vel[a, 3], vel[a, 4],
+                                   vel[a, 5], rx, ry, rz, h)
+            d1 = dx * nx + dy * ny + dz * nz
+            ux, uy, uz = kk._cross(vel[a, 3], vel[a, 4], vel[a, 5], rx, ry, rz)
+            un = (vel[a, 0] + ux) * nx + (vel[a, 1] + uy) * ny + (vel[a, 2] + uz) * nz
+            if b < n_bodies:
+                k = radius[b]
+                rx = contacts[c, C_RB] - k * nx
+                ry = contacts[c, C_RB + 1] - k * ny
+                rz = contacts[c, C_RB + 2] - k * nz
+                dx, dy, dz = _moved_by(vel0[b, 0], vel0[b, 1], vel0[b, 2], vel0[b, 3],
+                                       vel0[b, 4], vel0[b, 5], rx, ry, rz, h)
+                d0 -= dx * nx + dy * ny + dz * nz
+                dx, dy, dz = _moved_by(vel[b, 0], vel[b, 1], vel[b, 2], vel[b, 3], vel[b, 4],
+                                       vel[b, 5], rx, ry, rz, h)
+                d1 -= dx * nx + dy * ny + dz * nz
+                ux, uy, uz = kk._cross(vel[b, 3], vel[b, 4], vel[b, 5], rx, ry, rz)
+                un -= (vel[b, 0] + ux) * nx + (vel[b, 1] + uy) * ny + (vel[b, 2] + uz) * nz
+            gap = contacts[c, C_PHI] - d0
+            if gap >= 0.0:
+                bias = un - (gap + d1) / h
+            else:
+                bias = min(-PUSH_FRACTION * gap / h, PUSH_MAX_M_S)
+            contacts[c, C_BIAS] = bias
+            contacts[c, C_TARGET] = bias
+
+
+@_inl
+def _below(level, a, b):
+    """Put whichever of bodies ``a``, ``b`` is two levels above the other one above it."""
+    if level[a] + 1 < level[b]:
+        level[b] = level[a] + 1
+        return True
+    if level[b] + 1 < level[a]:
+        level[a] = level[b] + 1
+        return True
+    return False
+
+
+@_raw
+def _relax(patches, jint, n_bodies, level):
+    """Lower ``level`` along every patch and every joint between bodies until it holds still."""
+    for _ in range(n_bodies):
+        moved = False
+        for q in range(patches.shape[0]):
+            b = int(patches[q, Q_B])
+            if b < n_bodies and _below(level, int(patches[q, Q_A]), b):
+                moved = True
+        for j in range(jint.shape[0]):
+            a = jint[j, jk.J_PARENT]
+            if a >= 0 and _below(level, a, jint[j, jk.J_CHILD]):
+                moved = True
+        if not moved:
+            break
+
+
+@_raw
+def joint_levels(patches, jint, n_bodies, level):
+    """
+    Store in ``level`` (N,) every body's level in the contact graph with the joints as edges.
+
+    As :func:`~rbd_ros.core.contact.sweeps._levels`: 1 on a static object, k + 1 next to
+    level k, through a patch or a joint between two bodies; else ``N + 1``. A body that no
+    chain of patches and joints joins to a static object stands on its joints to the world
+    (level 1; a shelf hinged to a wall, and what lies on it, above): a joint to the world
+    does not pull a body that rests on something below it down to the ground level (a
+    plank hinged at one end and lying on a box is above the box, and the box held under it).
+    """
+    big = n_bodies + 1
+    for i in range(n_bodies):
+        level[i] = big
+    for q in range(patches.shape[0]):
+        if patches[q, Q_B] >= n_bodies:
+            level[int(patches[q, Q_A])] = 1
+    _relax(patches, jint, n_bodies, level)
+    hung = False
+    for j in range(jint.shape[0]):
+        b = jint[j, jk.J_CHILD]
+        if jint[j, jk.J_PARENT] < 0 and level[b] == big:
+            level[b] = 1
+            hung = True
+    if hung:
+        _relax(patches, jint, n_bodies, level)
+
+
+@_raw
+def _bears(patches, q, contacts, prm):
+    """
+    Tell whether patch ``q`` bears weight: a point's normal within 60° of its A's gravity.
+
+    (:func:`~rbd_ros.core.contact.sweeps._beside`'s rule, as the warm start's.) None does
+    without gravity.
+    """
+    a = int(patches[q, Q_A])
+    j = 0 if prm.shape[1] == 1 else a
+    gx, gy, gz = prm[P_GRAVITY, j], prm[P_GRAVITY + 1, j], prm[P_GRAVITY + 2, j]
+    g = math.sqrt(gx * gx + gy * gy + gz * gz)
+    if not g > 0.0:
+        return False
+    s0 = int(patches[q, Q_START])
+    for c in range(s0, s0 + int(patches[q, Q_COUNT])):
+        if not _beside(contacts, c, gx, gy, gz, g):
+            return True
+    return False
+
+
 @_jit
-def joint_sweeps(joints, kind, patches, contacts, vel, inv_mass, inv_inertia_w, x, wrench,
-                 coupled, prm, method, h):
+def _joint_shock(joints, patches, contacts, vel, inv_mass, inv_inertia_w, x, wrench, scr, level,
+                 prm):
+    """
+    Shock propagation over the stage's patches by :func:`joint_levels`, the lower body held.
+
+    The pass :func:`~rbd_ros.core.contact.sweeps._solve_group` ends a stage with
+    (:func:`~rbd_ros.core.contact.sweeps._shock`), its levels seeing the joints: so a stack
+    under a jointed body is solved from the ground up, each box held under the one above it,
+    and the loop's next visit moves the jointed bodies alone. Only a patch that bears weight
+    (:func:`_bears`) holds its lower body: a box squeezed sideways between two fingers of a
+    gripper (each a level below it through its joints) is solved with both free, not pushed
+    from one held finger onto the other.
+    """
+    n = x.shape[1]
+    joint_levels(patches, joints.model.jint, n, level)
+    low = np.empty(patches.shape[0], dtype=np.int64)
+    for q in range(patches.shape[0]):
+        a = int(patches[q, Q_A])
+        b = int(patches[q, Q_B])
+        low[q] = level[a] if b >= n else min(level[a], level[b])
+    for q in np.argsort(low, kind='mergesort'):
+        a = int(patches[q, Q_A])
+        b = int(patches[q, Q_B])
+        wa = 1.0
+        wb = 1.0
+        if b < n and _bears(patches, q, contacts, prm):
+            if level[a] < level[b]:
+                wa = 0.0
+            elif level[b] < level[a]:
+                wb = 0.0
+        solve_patch(q, patches, contacts, vel, inv_mass, inv_inertia_w, n, x, wa, wb, wrench,
+                    True, scr, True, False)
+
+
+@_jit
+def joint_sweeps(joints, kind, patches, contacts, vel, vel0, radius, inv_mass, inv_inertia_w,
+                 x, wrench, coupled, shock, prm, method, h):
     """
     Alternate joint visits and sweeps of a stage's patches; end on a visit (see the module).
 
     The patches hold the impulses of the stage's own sweeps already (and go on from them,
-    clamped in total, as a warm start does).
+    clamped in total, as a warm start does). Before each sweep the points' targets are taken
+    again about the velocities the visit left (:func:`retarget`; ``vel0``: the stage's
+    velocities at its start, which its candidates drifted with; ``radius``: the bodies'
+    ``Shapes.pt_radius``); after it, with ``shock``
+    and patches that share bodies (``coupled``), a shock pass with the joints in the
+    contact graph's levels (:func:`_joint_shock`).
     """
     n = x.shape[1]
     scr = patch_scratch()
     before = np.empty((contacts.shape[0], 3))
     last = np.empty_like(vel)   # the velocities after the last visit
+    level = np.empty(n, dtype=np.int64)
     loops = 0
     for loop in range(JOINT_LOOPS):
         loops = loop + 1
@@ -358,8 +577,12 @@ def joint_sweeps(joints, kind, patches, contacts, vel, inv_mass, inv_inertia_w, 
         if loop > 0 and _moved(vel, last) <= SWEEP_TOL_M_S:
             break   # the velocities are still: the impulses only circulate (see the module)
         last[:] = vel
+        retarget(patches, contacts, vel, vel0, radius, n, h)
         _sweeps(patches, contacts, vel, inv_mass, inv_inertia_w, n, x, wrench, scr, coupled,
                 True, before)
+        if shock and coupled:
+            _joint_shock(joints, patches, contacts, vel, inv_mass, inv_inertia_w, x, wrench,
+                         scr, level, prm)
     stats = joints.stats
     stats[J_LOOPS] = max(stats[J_LOOPS], loops)
     stats[J_LEFT] = max(stats[J_LEFT], _residual(patches, contacts, vel, n, scr))

@@ -44,7 +44,8 @@ One step, in the paper's order (:func:`world_step`):
 
 A world with joints (:mod:`rbd_ros.core.contact.joints`) also post-stabilizes them after 1 and
 2, and pre-stabilizes them (post-stabilizes, in the second contact stage) alternating with the
-sweeps of 3.
+sweeps of 3, each sweep with the points' targets taken again about the velocities reached and
+followed by a shock pass whose levels see the joints (``joint_sweeps``).
 
 **Detection.** Every stage maps each body's contact points (its surface points; a sphere's
 centre and a capsule's axis with their radius) to the candidate pose of the other shape and
@@ -168,13 +169,14 @@ def contact_stage(x, prm, shapes, statics, h, phase, stage, shock, wrench, work,
         solve_islands(patches, contacts, vel, inv_mass, inv_inertia_w, n, x, wrench, shock, rot,
                       warm, warm_n, slot, prm, work.stats)
     else:
+        vel0 = vel.copy()   # the velocities the candidates drifted with (see retarget)
         coupled = solve_stage(patches, contacts, vel, inv_mass, inv_inertia_w, n, x, wrench,
                               shock, rot, warm, warm_n, slot, prm, work.stats)
         if kind != VISIT_NONE:
             for i in range(n):
                 touched[i] = touched[i] or joints.jointed[i]
-            joint_sweeps(joints, kind, patches, contacts, vel, inv_mass, inv_inertia_w, x,
-                         wrench, coupled, prm, method, h)
+            joint_sweeps(joints, kind, patches, contacts, vel, vel0, shapes.pt_radius, inv_mass,
+                         inv_inertia_w, x, wrench, coupled, shock, prm, method, h)
         if not coupled:
             finish_contacts(contacts, patches)
     keep_responses(responses, patches, contacts, n, inv_mass, inv_inertia_w)

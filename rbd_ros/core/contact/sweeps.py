@@ -25,10 +25,11 @@ are solved by equal and opposite impulses like a patch, in :mod:`rbd_ros.core.co
 post-stabilization in :func:`rbd_ros.core.contact.step.world_step` after the collision stage
 and after the velocity update; pre-stabilization alternating with :func:`_sweeps` after
 :func:`solve_stage` (``joint_sweeps``: a visit of all joints, a sweep of the patches, again).
-Not here yet: a joint as an edge of :func:`_levels` (a body hanging from a joint one level
-above its parent) and a visit per joint inside :func:`_sweeps` and :func:`_shock` with the
-lower body held; limits as a clamp inside the joint's visit, as the normal impulses'
-``λ >= 0``.
+Each sweep of that loop is followed by a shock pass (:func:`_shock`) whose levels have the
+joints as edges (:func:`rbd_ros.core.contact.joints.joint_levels`). Not here yet: a visit
+per joint inside :func:`_sweeps` and :func:`_shock` with the lower body held (the joints are
+visited all at once between them); limits as a clamp inside the joint's visit, as the normal
+impulses' ``λ >= 0``.
 """
 
 import math

@@ -244,11 +244,12 @@ def test_rod_sliding_on_the_floor_into_a_tilted_cone_stays_finite_and_inside_it(
     stop's; bound: the integrator's error, O((ω h)²) m g L/2 ~ 6e-3 J at 10 ms; measured
     none). It comes to rest on the rim: the floor, the rim and the pivot hold it in a corner
     where the contact step's joint loop stalls (``rbd_ros/core/contact/joints.py``: the
-    patch is solved as if the rod were free), so the floor's contact is left approaching by up
-    to 5.8e-5 m/s at the stop and pushed out at the next step, which moves the rod 1.5e-7 rad
-    off the rim at 1 ms; the rest then creeps at ~3e-7 rad/s (the stall's residual). Bounds:
-    1e-6 rad off the rim and 1e-5 rad/s after 3 s (measured 3.8e-7 rad and 2.4e-7 rad/s at
-    1 ms, 1.0e-7 rad and 8.6e-7 rad/s at 10 ms).
+    patch is solved as if the rod were free), so the floor's contact is left approaching
+    (6.6e-5 m/s at 1 ms, 2.6e-4 m/s at 10 ms) and pushed out at the next step, which moves
+    the rod off the rim; the rest then creeps (the stall's residual). Bounds: 1e-6 rad off
+    the rim and 1e-5 rad/s after 3 s (measured 3.5e-9 rad and 1.4e-7 rad/s at 1 ms,
+    8.8e-7 rad and 2.8e-6 rad/s at 10 ms; 3.8e-7, 2.4e-7, 1.0e-7 and 8.6e-7 before the
+    contacts' targets were taken again about the joint loop's velocities).
     """
     pivot = np.array([0.0, 0.0, 0.85])
     alpha, tilt = 0.7, 0.3
