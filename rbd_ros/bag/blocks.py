@@ -116,8 +116,11 @@ class ChunkEnds:
     :param fsync: ``os.fsync`` the file after each chunk.
     """
 
-    #: Chunks handed over and not yet written at most (then :meth:`end` waits for the oldest).
-    MAX_PENDING = 2
+    #: Chunks handed over and not yet written at most (then :meth:`end` waits for the oldest):
+    #: one, so that a SIGKILL loses at most the chunk being written besides the open one (a
+    #: chunk covers up to 1 s of sim time, hundreds of ms of wall time; its compression takes
+    #: milliseconds, so the wait costs nothing).
+    MAX_PENDING = 1
 
     def __init__(self, writer, stream, internals, fsync=False):
         self._stream, self._internals, self._fsync = stream, internals, fsync
