@@ -285,6 +285,20 @@ def _ldl6_solve(a, i, v, vi):
         v[vi, r] = s
 
 
+@_inl
+def _times_y(D, y, b):
+    """Return ``D[b] y[b]`` (6 × 6 times 6)."""
+    s0 = s1 = s2 = s3 = s4 = s5 = 0.0
+    for k in range(6):
+        s0 += D[b, 0, k] * y[b, k]
+        s1 += D[b, 1, k] * y[b, k]
+        s2 += D[b, 2, k] * y[b, k]
+        s3 += D[b, 3, k] * y[b, k]
+        s4 += D[b, 4, k] * y[b, k]
+        s5 += D[b, 5, k] * y[b, k]
+    return s0, s1, s2, s3, s4, s5
+
+
 @_jit
 def articulated_solve(model, work, rb, rj, yb, yj):
     """:func:`~.solve.solve` with the factor of :func:`articulated_factor`."""
@@ -321,14 +335,7 @@ def articulated_solve(model, work, rb, rj, yb, yj):
             for k in range(6):
                 s += W[b, 0, k] * rhs[b, k] - W[b, 1, k] * y[b, k]
             s *= q
-        u0 = u1 = u2 = u3 = u4 = u5 = 0.0
-        for k in range(6):
-            u0 += D[b, 0, k] * y[b, k]
-            u1 += D[b, 1, k] * y[b, k]
-            u2 += D[b, 2, k] * y[b, k]
-            u3 += D[b, 3, k] * y[b, k]
-            u4 += D[b, 4, k] * y[b, k]
-            u5 += D[b, 5, k] * y[b, k]
+        u0, u1, u2, u3, u4, u5 = _times_y(D, y, b)
         u0 = rhs[b, 0] - u0 - s * W[b, 1, 0]
         u1 = rhs[b, 1] - u1 - s * W[b, 1, 1]
         u2 = rhs[b, 2] - u2 - s * W[b, 1, 2]
@@ -375,14 +382,7 @@ def articulated_solve(model, work, rb, rj, yb, yj):
                 y[b, k] += s * W[b, 0, k]
         for k in range(6):
             yb[b, k] = y[b, k]
-        f0 = f1 = f2 = f3 = f4 = f5 = 0.0
-        for k in range(6):
-            f0 += D[b, 0, k] * y[b, k]
-            f1 += D[b, 1, k] * y[b, k]
-            f2 += D[b, 2, k] * y[b, k]
-            f3 += D[b, 3, k] * y[b, k]
-            f4 += D[b, 4, k] * y[b, k]
-            f5 += D[b, 5, k] * y[b, k]
+        f0, f1, f2, f3, f4, f5 = _times_y(D, y, b)
         f0, f1, f2 = rhs[b, 0] - f0, rhs[b, 1] - f1, rhs[b, 2] - f2
         f3, f4, f5 = rhs[b, 3] - f3, rhs[b, 4] - f4, rhs[b, 5] - f5
         l0, l1, l2 = _mul3t(Hp, b, 0, 0, f0, f1, f2)

@@ -27,9 +27,9 @@ diagonal.
 """
 
 from rbd_ros.core import jitcache
+from rbd_ros.core.joints.arrays import B_IW, B_ROT, J_CHILD, P_INERTIA_INV, P_MASS
 from rbd_ros.core.joints.articulated import (
     articulated_factor, articulated_ok, articulated_solve)
-from rbd_ros.core.joints.arrays import B_IW, B_ROT, J_CHILD, P_INERTIA_INV, P_MASS
 from rbd_ros.core.joints.rows import _mtv, _mv, _n_sides, _side_body
 
 _jit = jitcache.raw_kernel()

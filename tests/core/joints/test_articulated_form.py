@@ -50,7 +50,7 @@ def _dense_solution(model, work, rb, rj):
 
 
 def _free_base():
-    """A free box (no joint above it) carrying a hinged rod, a fixed block and a slider."""
+    """Return a free box (no joint above it) carrying a hinged rod, a weld and a slider."""
     box = BodyModel(2.0, np.diag([0.05, 0.08, 0.1]), gravity_w=(0.0, 0.0, -9.81))
     models = [box, rod_model(0.4), BodyModel(0.3, np.diag([1e-3, 2e-3, 3e-3])),
               BodyModel(0.5, np.diag([2e-3, 2e-3, 1e-3]), gravity_w=(0.0, 0.0, -9.81))]
@@ -66,20 +66,20 @@ def _free_base():
 
 
 def _cart_pole():
-    """A cart on a rail (prismatic, to the world) with a thin pole hinged on it."""
+    """Return a cart on a rail (prismatic, to the world) with a thin pole hinged on it."""
     models = [BodyModel(1.0, np.diag([0.1, 0.1, 0.1]), gravity_w=(0.0, 0.0, -9.81)),
               rod_model(1.0, 0.5)]
     states = [BodyState((0.0, 0.0, 0.0)), BodyState((0.0, 0.0, 0.5))]
     joints = [Joint('rail', 'prismatic', None, 0, axis_b=(1.0, 0.0, 0.0)),
               Joint('pole', 'continuous', 0, 1, origin_child_b=(0.0, 0.0, -0.5),
                     axis_b=(0.0, 1.0, 0.0))]
-    states[1] = BodyState((0.05, 0.0, 0.497), orientation_wb=(0.9987502603949663, 0.0,
-                                                               0.04997916927067833, 0.0))
+    tilt = (0.9987502603949663, 0.0, 0.04997916927067833, 0.0)   # 0.1 rad about y
+    states[1] = BodyState((0.05, 0.0, 0.497), orientation_wb=tilt)
     return models, states, joints
 
 
 def _arm_held():
-    """A 4-link arm whose joint 3 is at its upper limit (pushed onto it by its motor)."""
+    """Return a 4-link arm whose joint 3 is at its upper limit (pushed onto it by its motor)."""
     models, states, joints = hanging_arm(4)
     joints[3] = Joint('j3', 'revolute', 2, 3, origin_parent_b=(0.0, 0.0, -0.15),
                       origin_child_b=(0.0, 0.0, 0.15), axis_b=(0.0, 1.0, 0.0), upper=0.0)
@@ -88,7 +88,7 @@ def _arm_held():
 
 
 def _ball():
-    """A rod on a ball joint under a hinged rod: the block LDLᵀ's case, not articulated."""
+    """Return a rod on a ball joint under a hinged rod: the block LDLᵀ's case."""
     models = [rod_model(0.5), rod_model(0.5)]
     states = [BodyState((0.0, 0.0, -0.25)), BodyState((0.0, 0.0, -0.75))]
     joints = [Joint('top', 'revolute', None, 0, origin_child_b=(0.0, 0.0, 0.25),
