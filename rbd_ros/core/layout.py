@@ -99,8 +99,9 @@ KERNEL_SOURCES = ('layout.py', 'jitcache.py', 'kernels.py', 'kernel_rotations.py
                   'contact/patch.py', 'contact/friction.py', 'contact/sweeps.py',
                   'contact/step.py', 'contact/joints.py', 'contact/motors.py',
                   'contact/limits.py', 'joints/kernels.py', 'joints/arrays.py',
-                  'joints/rows.py', 'joints/solve.py', 'joints/projection.py',
-                  'joints/active_rows.py', 'joints/dynamics.py', 'joints/events.py')
+                  'joints/rows.py', 'joints/solve.py', 'joints/articulated.py',
+                  'joints/projection.py', 'joints/active_rows.py', 'joints/dynamics.py',
+                  'joints/events.py')
 
 
 def fingerprint_hash() -> str:

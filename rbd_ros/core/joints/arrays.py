@@ -114,7 +114,8 @@ B_ROT = 0
 B_IW = 9
 B_FORCE = 18
 B_OMEGA_W = 24
-B_SIZE = 27
+B_POS = 27       # the body's position p_w (the articulated form's lever arms)
+B_SIZE = 30
 
 #: The arrays that describe the system (constant after construction). ``mrows``: the motor
 #: row of each motor slot (a row of ``work.motor``), -1 for none: slot ``j`` is joint ``j``'s
@@ -125,7 +126,9 @@ ArtModel = namedtuple('ArtModel', 'prm jint jprm jlim rows order node_par node_d
 #: Preallocated work arrays (nothing is allocated inside a step).
 ArtWork = namedtuple('ArtWork', 'bd jac con bias D Hp W rhs y A mj drop k xs yb yj lam '
                      'wrench angle stats nrow dim active lim_state lim0 x0 k0 jrows motor fric '
-                     'axial')
+                     'axial arows form')
+# work.arows: each joint's held rows in the articulated form's order (:mod:`.articulated`);
+# work.form[0]: 1 when the last factor was in that form, 0 in the block LDLᵀ (or dense)
 # work.axial columns: each one-coordinate joint's coordinate (rad, running for continuous
 # joints; m) and its axial row's J̇ u, from the last joint_rows (the mimic rows' parts)
 # work.fric columns: the friction state (the sliding direction s = ±1, the friction force

@@ -27,9 +27,9 @@ import math
 
 from rbd_ros.core import jitcache
 from rbd_ros.core.joints.arrays import (
-    B_FORCE, B_IW, B_OMEGA_W, B_ROT, J_BASIS_C, J_BASIS_P, J_CHILD, J_FRICROW, J_KIND, J_MIMIC_C,
-    J_MIMIC_K, J_MIMROW, J_MOTROW, J_NROWS, J_ORIGIN_C, J_ORIGIN_P, J_PARENT, J_QREST, J_ROW0,
-    L_LOWER, L_UPPER, M_AREF, M_MODE, M_OMEGA, M_POSITION, M_TREF, M_VREF, MOTOR_POSITION,
+    B_FORCE, B_IW, B_OMEGA_W, B_POS, B_ROT, J_BASIS_C, J_BASIS_P, J_CHILD, J_FRICROW, J_KIND,
+    J_MIMIC_C, J_MIMIC_K, J_MIMROW, J_MOTROW, J_NROWS, J_ORIGIN_C, J_ORIGIN_P, J_PARENT, J_QREST,
+    J_ROW0, L_LOWER, L_UPPER, M_AREF, M_MODE, M_OMEGA, M_POSITION, M_TREF, M_VREF, MOTOR_POSITION,
     P_ANG_DAMP, P_GRAVITY, P_INERTIA, P_LIN_DAMP, P_MASS, ROW_FRICTION, ROW_LIMIT, ROW_LIN,
     ROW_MIMIC, ROW_MOTOR, S_TSTAGE)
 from rbd_ros.core.kernel_rotations import _cross, _qmul
@@ -99,9 +99,10 @@ def _n_sides(model, row):
 
 @_jit
 def body_derived(model, x, work):
-    """Fill ``work.bd``: rotation, world inertia, free wrench ``f`` (world) and ``ω_w``."""
+    """Fill ``work.bd``: rotation, world inertia, position, free wrench ``f`` (world), ``ω_w``."""
     prm, bd = model.prm, work.bd
     for b in range(x.shape[0]):
+        bd[b, B_POS], bd[b, B_POS + 1], bd[b, B_POS + 2] = x[b, 0], x[b, 1], x[b, 2]
         _rot_from_q(x[b, 3], x[b, 4], x[b, 5], x[b, 6], bd, b, B_ROT)
         # I_w = R I_b Rᵀ; a diagonal I_b (principal axes, as most bodies) skips the products
         # with its zeros: a finite x + (±0) is x, and a sum from +0 never turns -0, so the

@@ -502,7 +502,8 @@ class ArticulatedSimulator:
             lim0=np.zeros(max(n_j, 1), dtype=np.int64), x0=np.zeros((n_b, 13)),
             k0=np.zeros((n_b, 13)), jrows=np.zeros((max(n_j, 1), 9), dtype=np.int64),
             motor=np.zeros((mrows.shape[0], jk.M_SIZE)),
-            fric=np.zeros((max(n_j, 1), jk.F_SIZE)), axial=np.zeros((mrows.shape[0], 2)))
+            fric=np.zeros((max(n_j, 1), jk.F_SIZE)), axial=np.zeros((mrows.shape[0], 2)),
+            arows=np.zeros((max(n_j, 1), 6), dtype=np.int64), form=np.zeros(1, dtype=np.int64))
         work.fric[:, jk.F_SIGN] = 2.0   # each joint's friction state: decided at the start
         work.stats[jk.S_SUBSTEPS] = 1.0   # no step taken, none split
         for j, joint in enumerate(joints):

@@ -17,7 +17,8 @@ The articulated step's factorisation and solves of ``[[M, Jᵀ], [J, 0]]``: tree
 
 :func:`factor` at the configuration of ``work.bd`` and ``work.jac`` (filled by :mod:`.rows`),
 then :func:`solve` for any right side: the dynamics (:mod:`.dynamics`) and both projections
-(:mod:`.projection`) reuse one factor. Two direct solvers (see
+(:mod:`.projection`) reuse one factor. A tree of one-coordinate (and fixed) joints is
+factored in articulated form (:mod:`.articulated`); otherwise two direct solvers (see
 :mod:`rbd_ros.core.joints.kernels`): the **tree**, block LDLᵀ leaves first over the body-joint
 graph (``_tree_factor``, with ``_eliminate``, ``_down``, ``_up`` per node, their common block
 sizes unrolled by ``_unrolled``), and the **dense** LDLᵀ of ``J M⁻¹ Jᵀ`` for a loop
@@ -27,6 +28,8 @@ diagonal.
 
 from rbd_ros.core import jitcache
 from rbd_ros.core.joints.arrays import B_IW, B_ROT, J_CHILD, P_INERTIA_INV, P_MASS
+from rbd_ros.core.joints.articulated import (
+    articulated_factor, articulated_ok, articulated_solve)
 from rbd_ros.core.joints.rows import _mtv, _mv, _n_sides, _side_body
 
 _jit = jitcache.raw_kernel()
@@ -87,9 +90,18 @@ def _ldl_solve_vec(a, i, n, v, vi):
 
 @_jit
 def factor(model, work):
-    """Factor the saddle-point system at the configuration of ``work.bd`` and ``work.jac``."""
+    """
+    Factor the saddle-point system at the configuration of ``work.bd`` and ``work.jac``.
+
+    A tree of fixed, revolute, continuous and prismatic joints is factored in articulated form
+    (:mod:`.articulated`, ``work.form[0] = 1``); another tree by block LDLᵀ; a loop dense.
+    """
+    work.form[0] = 0
     if model.dense:
         _dense_factor(model, work)
+    elif articulated_ok(model, work):
+        work.form[0] = 1
+        articulated_factor(model, work)
     else:
         _tree_factor(model, work)
 
@@ -295,6 +307,9 @@ def solve(model, work, rb, rj, yb, yj):
 
     ``rb`` (n_b, 6) body rows (force, torque; world), ``rj`` (n_rows) joint rows.
     """
+    if work.form[0] == 1:
+        articulated_solve(model, work, rb, rj, yb, yj)
+        return
     n_b = model.prm.shape[0]
     jint, rows = model.jint, model.rows
     if not model.dense:
