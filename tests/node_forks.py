@@ -162,7 +162,9 @@ def _preload():
     reads the environment when imported: ``rbd_ros.core.jitcache`` chooses its cache when a
     simulator is built): ~0.55 CPU-s of a start, of which rbd_ros's ~0.2.
     """
-    # As rbd_ros.node imports numba: without coverage.py (see its _import_numba_without_coverage)
+    # As rbd_ros.node imports numba: without coverage.py (its _import_numba_without_coverage,
+    # written again here: importing rbd_ros.node before runpy runs it as __main__ makes runpy
+    # warn on the node's stderr, which the tests read)
     if 'coverage' not in sys.modules:
         sys.modules['coverage'] = None
         try:
